@@ -1,0 +1,25 @@
+"""Fixed-step classical Runge-Kutta (RK4) with sub-steps, on plain Python floats."""
+
+from __future__ import annotations
+
+
+def rk4(f, t, x, h, n_sub=1, args=()):
+    """Advance ``x' = f(t, x, *args)`` from ``t`` over ``h`` [s] in ``n_sub`` RK4 sub-steps.
+
+    ``x`` is a sequence of floats, ``f`` returns a sequence of the same length.
+    Sub-step times are ``t + j h / n_sub`` (never accumulated).  Returns a tuple.
+    """
+    dt = h / n_sub
+    half = 0.5 * dt
+    sixth = dt / 6.0
+    x = tuple(x)
+    for j in range(n_sub):
+        tj = t + j * dt
+        k1 = f(tj, x, *args)
+        k2 = f(tj + half, [xi + half * ki for xi, ki in zip(x, k1)], *args)
+        k3 = f(tj + half, [xi + half * ki for xi, ki in zip(x, k2)], *args)
+        k4 = f(tj + dt, [xi + dt * ki for xi, ki in zip(x, k3)], *args)
+        x = tuple(
+            xi + sixth * (a + 2.0 * b + 2.0 * c + d) for xi, a, b, c, d in zip(x, k1, k2, k3, k4)
+        )
+    return x

@@ -1,0 +1,392 @@
+"""Main-flux magnetizing characteristics psi_m = f(i_mu) and the dynamic inductances.
+
+Every curve maps the magnitude ``I = |i_mu|`` [A] (I >= 0) of the magnetizing
+current ``i_mu = i_s + k i_r`` to the main flux linkage ``psi_m`` [Wb] seen by the
+stator (seed eqs 4 and 16-17: ``k_s n_s Phi = m(I) i_mu``).  The vector relation is
+``lambda(i_mu) = m(I) i_mu`` with the static inductance ``m = psi_m / I`` [H].
+
+Each curve gives, all finite and smooth at ``I = 0``:
+
+* ``psi(I)``      main flux linkage [Wb]
+* ``m(I)``        static inductance psi/I [H] (``m(0)`` is the initial slope)
+* ``dm_dI(I)``    derivative of m [H/A]
+* ``L_dyn(I)``    incremental inductance dpsi/dI = m + I dm/dI [H]
+* ``current(psi)``  the inverse I(psi) [A]
+* ``coenergy(I)`` integral of psi dI from 0 to I [J per unit of the space-vector scaling]
+* ``energy(I)``   integral of I dpsi, i.e. I psi - coenergy [J, same scaling]
+* ``solve(a, c)`` the root I >= 0 of ``a I + psi(I) = c`` (a >= 0), with psi(I)
+
+The dynamic inductance matrix ``M = d lambda / d i_mu`` (seed eqs 20-22, eq 21
+corrected per ``shared/design/errata.md``: no ``m`` term in M_dq) is returned by
+:func:`dynamic_inductances`.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from .errors import ParameterError
+
+_REL_TOL = 4.0e-16
+_MAX_ITER = 200
+
+
+def _positive(field, value):
+    if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
+        raise ParameterError(field, value, "must be a finite number > 0")
+
+
+class _Curve:
+    """Shared algorithms: root solve, inverse, energy.  Subclasses give
+    ``_psi_dpsi(I) -> (psi, dpsi/dI)``, ``m``, ``dm_dI``, ``coenergy`` and ``m0``."""
+
+    name = "curve"
+
+    def psi(self, I):
+        return self._psi_dpsi(I)[0]
+
+    def L_dyn(self, I):
+        return self._psi_dpsi(I)[1]
+
+    def energy(self, I):
+        """Stored main-field energy ``int_0^psi I dpsi`` for current magnitude I."""
+        return I * self.psi(I) - self.coenergy(I)
+
+    def evaluate(self, I):
+        """Return ``(psi, m, dm_dI, L_dyn)`` at the magnitude I [A]."""
+        psi, ldyn = self._psi_dpsi(I)
+        return psi, self.m(I), self.dm_dI(I), ldyn
+
+    def current(self, psi):
+        """Inverse characteristic: the magnitude I [A] with ``psi(I) = psi`` (psi >= 0)."""
+        return self.solve(0.0, psi)[0]
+
+    def solve(self, a, c):
+        """Root ``I >= 0`` of ``a I + psi(I) = c`` for ``a >= 0``, ``c >= 0``.
+
+        Safeguarded Newton iteration started from the lower bound ``c / (a + m(0))``;
+        returns ``(I, psi(I))``.  For the concave curves the iterates increase
+        monotonically to the root; bisection guards the table curve.
+        """
+        if c <= 0.0:
+            return 0.0, 0.0
+        lo = 0.0
+        x = c / (a + self.m0)
+        hi = math.inf
+        psi, dpsi = self._psi_dpsi(x)
+        for _ in range(_MAX_ITER):
+            g = a * x + psi - c
+            if g > 0.0:
+                hi = x
+            elif g < 0.0:
+                lo = x
+            else:
+                return x, psi
+            x_new = x - g / (a + dpsi)
+            if not (lo < x_new < hi):
+                x_new = 0.5 * (lo + hi) if hi < math.inf else 2.0 * x
+            step = x_new - x
+            x = x_new
+            psi, dpsi = self._psi_dpsi(x)
+            if abs(step) <= _REL_TOL * x:
+                return x, psi
+        raise ArithmeticError(f"{self.name}: no convergence solving a I + psi(I) = c (a={a}, c={c})")
+
+
+@dataclass(frozen=True)
+class LinearCurve(_Curve):
+    """Unsaturated characteristic ``psi = L_m0 I``.
+
+    Parameters
+    ----------
+    L_m0 : float
+        Magnetizing inductance [H].
+    """
+
+    L_m0: float = 0.1722
+    name = "linear"
+
+    def __post_init__(self):
+        _positive("L_m0", self.L_m0)
+
+    @property
+    def m0(self):
+        return self.L_m0
+
+    def _psi_dpsi(self, I):
+        return self.L_m0 * I, self.L_m0
+
+    def m(self, I):
+        return self.L_m0
+
+    def dm_dI(self, I):
+        return 0.0
+
+    def coenergy(self, I):
+        return 0.5 * self.L_m0 * I * I
+
+    def solve(self, a, c):
+        if c <= 0.0:
+            return 0.0, 0.0
+        I = c / (a + self.L_m0)
+        return I, self.L_m0 * I
+
+
+def _check_saturating(L_m0, L_m_inf, I_par):
+    _positive("L_m0", L_m0)
+    _positive("L_m_inf", L_m_inf)
+    _positive("I_par", I_par)
+    if L_m_inf >= L_m0:
+        raise ParameterError(
+            "L_m_inf", L_m_inf, f"must be < L_m0 = {L_m0!r} for a saturating curve"
+        )
+
+
+@dataclass(frozen=True)
+class ArctanCurve(_Curve):
+    """``psi = L_m_inf I + (L_m0 - L_m_inf) I_par atan(I / I_par)``.
+
+    The form of the Modelica Standard Library's
+    ``Modelica.Electrical.Analog.Basic.SaturatingInductor``.  Slope ``L_m0`` at
+    the origin, ``L_m_inf`` far in saturation, knee near ``I_par``.
+
+    Parameters
+    ----------
+    L_m0 : float
+        Unsaturated (initial) inductance [H].
+    L_m_inf : float
+        Fully saturated incremental inductance [H], 0 < L_m_inf < L_m0.
+    I_par : float
+        Knee current scale [A].
+    """
+
+    L_m0: float = 0.2772
+    L_m_inf: float = 0.01
+    I_par: float = 3.31
+    name = "arctan"
+
+    def __post_init__(self):
+        _check_saturating(self.L_m0, self.L_m_inf, self.I_par)
+
+    @property
+    def m0(self):
+        return self.L_m0
+
+    def _psi_dpsi(self, I):
+        x = I / self.I_par
+        d = self.L_m0 - self.L_m_inf
+        return (self.L_m_inf * I + d * self.I_par * math.atan(x), self.L_m_inf + d / (1.0 + x * x))
+
+    def m(self, I):
+        x = I / self.I_par
+        if x < 1e-2:
+            x2 = x * x
+            g = 1.0 - x2 * (1.0 / 3.0 - x2 * (1.0 / 5.0 - x2 * (1.0 / 7.0 - x2 / 9.0)))
+        else:
+            g = math.atan(x) / x
+        return self.L_m_inf + (self.L_m0 - self.L_m_inf) * g
+
+    def dm_dI(self, I):
+        x = I / self.I_par
+        if x < 1e-2:
+            x2 = x * x
+            dg = -x * (2.0 / 3.0 - x2 * (4.0 / 5.0 - x2 * (6.0 / 7.0 - x2 * 8.0 / 9.0)))
+        else:
+            dg = (x / (1.0 + x * x) - math.atan(x)) / (x * x)
+        return (self.L_m0 - self.L_m_inf) * dg / self.I_par
+
+    def coenergy(self, I):
+        x = I / self.I_par
+        d = self.L_m0 - self.L_m_inf
+        return 0.5 * self.L_m_inf * I * I + d * self.I_par**2 * (
+            x * math.atan(x) - 0.5 * math.log1p(x * x)
+        )
+
+
+@dataclass(frozen=True)
+class ExponentialCurve(_Curve):
+    """``psi = L_m_inf I + (L_m0 - L_m_inf) I_par (1 - exp(-I / I_par))``.
+
+    The saturating-exponential magnetization curve (an exponential knee added to
+    a linear asymptote), one of the closed forms fitted to no-load test data in
+    the main-flux saturation literature (e.g. the curve fits surveyed by E. Levi,
+    IEEE Trans. Energy Conversion 10(3), 1995).  Slope ``L_m0`` at the origin,
+    ``L_m_inf`` in saturation.
+
+    Parameters
+    ----------
+    L_m0 : float
+        Unsaturated inductance [H].
+    L_m_inf : float
+        Saturated incremental inductance [H], 0 < L_m_inf < L_m0.
+    I_par : float
+        Current scale of the exponential [A].
+    """
+
+    L_m0: float = 0.330
+    L_m_inf: float = 0.01
+    I_par: float = 3.66
+    name = "exponential"
+
+    def __post_init__(self):
+        _check_saturating(self.L_m0, self.L_m_inf, self.I_par)
+
+    @property
+    def m0(self):
+        return self.L_m0
+
+    def _psi_dpsi(self, I):
+        x = I / self.I_par
+        d = self.L_m0 - self.L_m_inf
+        return (
+            self.L_m_inf * I - d * self.I_par * math.expm1(-x),
+            self.L_m_inf + d * math.exp(-x),
+        )
+
+    def m(self, I):
+        x = I / self.I_par
+        g = 1.0 - x / 2.0 if x == 0.0 else -math.expm1(-x) / x
+        return self.L_m_inf + (self.L_m0 - self.L_m_inf) * g
+
+    def dm_dI(self, I):
+        x = I / self.I_par
+        if x < 2e-2:
+            dg = -0.5 + x * (1 / 3 - x * (1 / 8 - x * (1 / 30 - x * (1 / 144 - x * (1 / 840 - x / 5760)))))
+        else:
+            dg = (math.exp(-x) * (1.0 + x) - 1.0) / (x * x)
+        return (self.L_m0 - self.L_m_inf) * dg / self.I_par
+
+    def coenergy(self, I):
+        x = I / self.I_par
+        d = self.L_m0 - self.L_m_inf
+        return 0.5 * self.L_m_inf * I * I + d * self.I_par**2 * (x + math.expm1(-x))
+
+
+@dataclass(frozen=True)
+class PolynomialCurve(_Curve):
+    """Inverse-polynomial characteristic ``I = psi / L_m0 + poly_b psi**poly_n``.
+
+    The classical single-valued approximation of a magnetization curve by a
+    polynomial in the flux (a linear term plus one odd power, typically n = 7 to
+    13), written for the current so that psi(I) is strictly increasing for every
+    ``poly_b >= 0``.  Then ``m = 1 / (1/L_m0 + poly_b psi**(n-1))``.
+
+    Parameters
+    ----------
+    L_m0 : float
+        Unsaturated inductance [H].
+    poly_b : float
+        Coefficient of the saturating term [A / Wb**poly_n], >= 0.
+    poly_n : int
+        Odd exponent >= 3.
+    """
+
+    L_m0: float = 0.2772
+    poly_b: float = 2.46
+    poly_n: int = 7
+    name = "polynomial"
+
+    def __post_init__(self):
+        _positive("L_m0", self.L_m0)
+        b = self.poly_b
+        if not (isinstance(b, (int, float)) and math.isfinite(b) and b >= 0):
+            raise ParameterError("poly_b", b, "must be a finite number >= 0")
+        n = self.poly_n
+        if not (isinstance(n, int) and n >= 3 and n % 2 == 1):
+            raise ParameterError("poly_n", n, "must be an odd integer >= 3")
+
+    @property
+    def m0(self):
+        return self.L_m0
+
+    def current(self, psi):
+        return psi / self.L_m0 + self.poly_b * psi**self.poly_n
+
+    def _flux(self, a, c):
+        """Root psi of ``a I(psi) + psi = c`` (convex in psi; Newton from above)."""
+        if c <= 0.0:
+            return 0.0
+        inv_l, b, n = 1.0 / self.L_m0, self.poly_b, self.poly_n
+        y = c / (1.0 + a * inv_l)
+        for _ in range(_MAX_ITER):
+            yn1 = y ** (n - 1)
+            h = a * (y * inv_l + b * yn1 * y) + y - c
+            step = h / (a * (inv_l + n * b * yn1) + 1.0)
+            y -= step
+            if abs(step) <= _REL_TOL * y:
+                return y
+        raise ArithmeticError(f"polynomial: no convergence (a={a}, c={c})")
+
+    def solve(self, a, c):
+        y = self._flux(a, c)
+        return self.current(y), y
+
+    def psi(self, I):
+        return self._psi_of_current(I)
+
+    def _psi_of_current(self, I):
+        """Root psi of ``psi / L_m0 + b psi^n = I`` (convex; Newton from psi = L_m0 I above)."""
+        if I <= 0.0:
+            return 0.0
+        inv_l, b, n = 1.0 / self.L_m0, self.poly_b, self.poly_n
+        y = self.L_m0 * I
+        for _ in range(_MAX_ITER):
+            yn1 = y ** (n - 1)
+            step = (y * inv_l + b * yn1 * y - I) / (inv_l + n * b * yn1)
+            y -= step
+            if abs(step) <= _REL_TOL * y:
+                return y
+        raise ArithmeticError(f"polynomial: no convergence for psi(I={I})")
+
+    def _psi_dpsi(self, I):
+        y = self._psi_of_current(I)
+        return y, 1.0 / (1.0 / self.L_m0 + self.poly_n * self.poly_b * y ** (self.poly_n - 1))
+
+    def _m_of_psi(self, y):
+        return 1.0 / (1.0 / self.L_m0 + self.poly_b * y ** (self.poly_n - 1))
+
+    def m(self, I):
+        return self._m_of_psi(self._psi_of_current(I))
+
+    def dm_dI(self, I):
+        y = self._psi_of_current(I)
+        n, b = self.poly_n, self.poly_b
+        m = self._m_of_psi(y)
+        ldyn = 1.0 / (1.0 / self.L_m0 + n * b * y ** (n - 1))
+        return -m * m * b * (n - 1) * y ** (n - 2) * ldyn
+
+    def evaluate(self, I):
+        y = self._psi_of_current(I)
+        n, b = self.poly_n, self.poly_b
+        m = self._m_of_psi(y)
+        ldyn = 1.0 / (1.0 / self.L_m0 + n * b * y ** (n - 1))
+        return y, m, -m * m * b * (n - 1) * y ** (n - 2) * ldyn, ldyn
+
+    def energy(self, I):
+        y = self._psi_of_current(I)
+        n = self.poly_n
+        return 0.5 * y * y / self.L_m0 + self.poly_b * y ** (n + 1) / (n + 1)
+
+    def coenergy(self, I):
+        return I * self._psi_of_current(I) - self.energy(I)
+
+
+def dynamic_inductances(curve, i_mu_d, i_mu_q):
+    """Dynamic inductances of the main field at ``i_mu = (i_mu_d, i_mu_q)`` [A].
+
+    ``M = d(m(I) i_mu)/d i_mu = m I2 + (dm/dI / I) i_mu i_mu^T`` (seed eqs 20-22;
+    eq 21 corrected: ``M_dq = dm/dI i_mu_d i_mu_q / I`` has no ``m`` term).
+    Its eigenvalues are ``m`` (across i_mu) and ``L_dyn`` (along i_mu).
+
+    Returns
+    -------
+    tuple
+        ``(M_d, M_q, M_dq, m, dm_dI, L_dyn)`` in [H], [H], [H], [H], [H/A], [H].
+    """
+    I = math.hypot(i_mu_d, i_mu_q)
+    _, m, dm, ldyn = curve.evaluate(I)
+    if I == 0.0:
+        return m, m, 0.0, m, dm, ldyn
+    s = dm / I
+    return m + s * i_mu_d * i_mu_d, m + s * i_mu_q * i_mu_q, s * i_mu_d * i_mu_q, m, dm, ldyn

@@ -1,0 +1,155 @@
+"""The saturated induction motor in the stationary alpha-beta frame, flux states.
+
+Conventions
+-----------
+* Amplitude-invariant Clarke transform: a balanced set of phase quantities of
+  amplitude A gives a space vector of magnitude A; powers carry the factor 3/2.
+* State ``x = [psi_s_alpha, psi_s_beta, psi_r_alpha, psi_r_beta, omega_m, theta_m]``
+  (fluxes [Wb], mechanical speed [rad/s], mechanical angle [rad]); indices are the
+  constants ``PSI_S_A`` ... ``THETA_M``.
+* Inputs: stator voltages ``v_s_alpha``, ``v_s_beta`` [V], load torque ``T_load`` [N m].
+
+Equations (seed eqs 1, 4, 10-13 with the factor k of the errata)::
+
+    psi_s = l_s i_s + m(I) i_mu,  psi_r = l_r i_r + k m(I) i_mu,  i_mu = i_s + k i_r
+    d psi_s/dt = v_s - R_s i_s
+    d psi_r/dt = -R_r i_r + n_p omega_m J2 psi_r          (J2 = rotation by +90 deg)
+    J d omega_m/dt = T_e - T_load - B omega_m,   d theta_m/dt = omega_m
+    T_e = 3/2 n_p (psi_s_alpha i_s_beta - psi_s_beta i_s_alpha)
+
+Currents from fluxes: eliminating i_s and i_r gives
+``(l_e + m(I)) i_mu = l_e (psi_s/l_s + k psi_r/l_r)`` with ``1/l_e = 1/l_s + k^2/l_r``,
+so i_mu is collinear with ``u = psi_s/l_s + k psi_r/l_r`` and its magnitude is the
+scalar root of ``l_e I + psi_m(I) = l_e |u|`` (unique: the left side increases).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import NamedTuple
+
+from .integrate import rk4
+
+PSI_S_A, PSI_S_B, PSI_R_A, PSI_R_B, OMEGA_M, THETA_M = range(6)
+N_STATES = 6
+STATE_NAMES = ("psi_s_alpha", "psi_s_beta", "psi_r_alpha", "psi_r_beta", "omega_m", "theta_m")
+
+
+class PlantOutputs(NamedTuple):
+    """Algebraic outputs of the plant at one state (SI units)."""
+
+    i_s_alpha: float  # [A]
+    i_s_beta: float  # [A]
+    i_r_alpha: float  # [A] (rotor side, not referred)
+    i_r_beta: float  # [A]
+    i_mu_alpha: float  # [A]
+    i_mu_beta: float  # [A]
+    i_mu: float  # [A] magnitude of the magnetizing current
+    psi_m: float  # [Wb] main flux linkage magnitude
+    m: float  # [H] static magnetizing inductance psi_m / i_mu
+    T_e: float  # [N m] electromagnetic torque
+
+
+class Plant:
+    """Stationary-frame saturated induction motor bound to one parameter set.
+
+    Parameters
+    ----------
+    params : satmotor.params.MotorParams
+    """
+
+    __slots__ = ("p", "_curve", "_inv_ls", "_k_lr", "_le", "_k", "_ls", "_lr", "_Rs", "_Rr",
+                 "_np", "_kappa", "_inv_J", "_B", "_m0")
+
+    def __init__(self, params):
+        self.p = params
+        self._curve = params.curve
+        self._inv_ls = 1.0 / params.l_s
+        self._k_lr = params.k / params.l_r
+        self._le = params.l_e
+        self._k = params.k
+        self._ls = params.l_s
+        self._lr = params.l_r
+        self._Rs = params.R_s
+        self._Rr = params.R_r
+        self._np = params.n_p
+        self._kappa = 1.5 * params.n_p
+        self._inv_J = 1.0 / params.J
+        self._B = params.B
+        self._m0 = params.curve.m0
+
+    def magnetizing(self, psa, psb, pra, prb):
+        """Return ``(i_mu_alpha, i_mu_beta, I, psi_m, m)`` from the four fluxes [Wb]."""
+        ua = psa * self._inv_ls + self._k_lr * pra
+        ub = psb * self._inv_ls + self._k_lr * prb
+        un = math.hypot(ua, ub)
+        le = self._le
+        I, psi = self._curve.solve(le, le * un)
+        if I == 0.0:
+            return 0.0, 0.0, 0.0, 0.0, self._m0
+        s = I / un
+        return s * ua, s * ub, I, psi, psi / I
+
+    def derivatives(self, t, x, v_a, v_b, T_load):
+        """Right-hand side ``dx/dt`` [SI per s] for constant inputs over the call."""
+        psa, psb, pra, prb, w = x[0], x[1], x[2], x[3], x[4]
+        ima, imb, _, _, m = self.magnetizing(psa, psb, pra, prb)
+        isa = (psa - m * ima) * self._inv_ls
+        isb = (psb - m * imb) * self._inv_ls
+        km = self._k * m
+        ira = (pra - km * ima) / self._lr
+        irb = (prb - km * imb) / self._lr
+        we = self._np * w
+        te = self._kappa * (psa * isb - psb * isa)
+        return (
+            v_a - self._Rs * isa,
+            v_b - self._Rs * isb,
+            -self._Rr * ira - we * prb,
+            -self._Rr * irb + we * pra,
+            (te - T_load - self._B * w) * self._inv_J,
+            w,
+        )
+
+    def outputs(self, x):
+        """Currents, magnetizing state and torque at state ``x``."""
+        psa, psb, pra, prb = x[0], x[1], x[2], x[3]
+        ima, imb, I, psi, m = self.magnetizing(psa, psb, pra, prb)
+        isa = (psa - m * ima) * self._inv_ls
+        isb = (psb - m * imb) * self._inv_ls
+        km = self._k * m
+        ira = (pra - km * ima) / self._lr
+        irb = (prb - km * imb) / self._lr
+        te = self._kappa * (psa * isb - psb * isa)
+        return PlantOutputs(isa, isb, ira, irb, ima, imb, I, psi, m, te)
+
+    def step(self, t, x, v_a, v_b, T_load, h, n_sub=1):
+        """Advance the state over ``h`` [s] with inputs held (zero-order hold), RK4."""
+        return rk4(self.derivatives, t, x, h, n_sub, (v_a, v_b, T_load))
+
+    def magnetic_energy(self, x):
+        """Stored magnetic energy [J]: 3/2 (l_s|i_s|^2/2 + l_r|i_r|^2/2 + int_0^psi_m I dpsi)."""
+        o = self.outputs(x)
+        return 1.5 * (
+            0.5 * self._ls * (o.i_s_alpha**2 + o.i_s_beta**2)
+            + 0.5 * self._lr * (o.i_r_alpha**2 + o.i_r_beta**2)
+            + self._curve.energy(o.i_mu)
+        )
+
+
+def initial_state(params, omega_m=0.0, theta_m=0.0, psi_r_alpha=0.0, psi_r_beta=0.0):
+    """State with the given speed and a steady (DC) rotor flux [Wb]: i_r = 0, i_s = i_mu.
+
+    With i_r = 0 the rotor flux is ``k psi_m(I)`` along i_mu and the stator flux is
+    ``(l_s + m) i_mu``.  A zero rotor flux gives the zero electrical state.
+    """
+    phi = math.hypot(psi_r_alpha, psi_r_beta)
+    x = [0.0] * N_STATES
+    x[OMEGA_M], x[THETA_M] = float(omega_m), float(theta_m)
+    if phi == 0.0:
+        return tuple(x)
+    I = params.curve.current(phi / params.k)
+    m = params.curve.m(I)
+    ca, sb = psi_r_alpha / phi, psi_r_beta / phi
+    x[PSI_S_A], x[PSI_S_B] = (params.l_s + m) * I * ca, (params.l_s + m) * I * sb
+    x[PSI_R_A], x[PSI_R_B] = float(psi_r_alpha), float(psi_r_beta)
+    return tuple(x)
