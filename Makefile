@@ -13,7 +13,7 @@ $(STAMP): pyproject.toml
 	touch $(STAMP)
 
 demo: $(STAMP)
-	$(PY) -m satmotor.demo --out results
+	$(PY) demos/dol_start.py --out results
 
 test: $(STAMP)
 	$(PY) -m ruff check .

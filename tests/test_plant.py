@@ -168,3 +168,14 @@ def test_initial_state_is_a_dc_equilibrium():
     assert math.hypot(x[2], x[3]) == pytest.approx(math.hypot(0.6, -0.5), rel=1e-14)
     d = plant.derivatives(0.0, x, p.R_s * o.i_s_alpha, p.R_s * o.i_s_beta, 0.0)
     assert max(abs(v) for v in d) < 1e-10  # rounding of i_r = (psi_r - k m i_mu) / l_r ~ 1e-14 A
+
+
+def test_open_loop_start_reaches_the_mechanical_balance():
+    """The demo's DOL start: at steady no load the torque only covers friction, T_e = B omega_m."""
+    from satmotor.simulate_open_loop import dol_start
+
+    r = dol_start(t_end=0.5, t_load=10.0)
+    p = MotorParams()
+    assert r["T_e"][-1] == pytest.approx(p.B * r["omega_m"][-1], rel=1e-3)
+    assert r["omega_m"][-1] == pytest.approx(W / p.n_p, rel=2e-3)
+    assert len(r["t"]) == 5001 and r["t"][-1] == pytest.approx(0.5, abs=1e-15)
