@@ -1,0 +1,315 @@
+"""Backstepping speed and rotor-flux controller for the saturated motor (seed section 4, corrected).
+
+Control model: :mod:`satmotor.fo_model`, ``x = [Phi_rd, i_mu_d, i_mu_q, omega_m]``,
+``x' = F(x) + G(x) v``.  Notation: ``a = R_r/l_r``, ``K = kappa k / (J l_r)``,
+``kappa = 3/2 n_p``, ``b = B/J``, ``theta = T_L/J`` (or its estimate ``theta_hat``)::
+
+    e1 = Phi_rd - Phi_ref,   alpha1 = -c1 e1 + a Phi_rd + Phi_ref',   e2 = a k m i_mu_d - alpha1
+    z1 = omega_m - omega_ref, gamma1 = -d1 z1 + theta + b omega_m + omega_ref',
+    z2 = K m Phi_rd i_mu_q - gamma1
+    =>  e1' = -c1 e1 + e2,    z1' = -d1 z1 + z2 (+ theta_hat - theta in the estimated mode)
+
+Gradients (``M = [[M_d, M_dq], [M_dq, M_q]] = d(m i_mu)/d i_mu``)::
+
+    de2/dx = (c1 - a,   a k M_d,        a k M_dq,       0     )
+    dz2/dx = (K m i_mu_q, K Phi_rd M_dq, K Phi_rd M_q,  d1 - b)
+    de2/dt = -c1 Phi_ref' - Phi_ref''
+    dz2/dt = -d1 omega_ref' - omega_ref'' - theta'
+
+with ``theta' = (dT_L/dt)/J`` (known load) or ``theta_hat'`` of the update law (estimated).
+``beta = (de/dx) F + de/dt`` and ``Lambda = (de/dx) G = diag(a k, K Phi_rd) M L^-1``, i.e.::
+
+    beta1 = (c1 - a) Phi_rd' + a k (M_d F_d + M_dq F_q) - c1 Phi_ref' - Phi_ref''
+    beta2 = K m i_mu_q Phi_rd' + K Phi_rd (M_dq F_d + M_q F_q) + (d1 - b) F_w
+            - d1 omega_ref' - omega_ref'' - theta'
+    W = det Lambda = a k K Phi_rd m L_dyn / det L
+
+(F_d, F_q, F_w the drift of i_mu_d, i_mu_q, omega_m; F_w uses theta or theta_hat.)  The law
+(seed eq 67) ``v = Lambda^-1 (-c2 e2 - e1 - beta1, -d2 z2 - z1 - beta2)`` gives
+``V' = -c1 e1^2 - c2 e2^2 - d1 z1^2 - d2 z2^2`` for ``V = (e1^2 + e2^2 + z1^2 + z2^2)/2``.
+
+Estimated load: with theta constant and ``theta_t = theta_hat - theta``, the estimated-mode
+closed loop has ``z1' = -d1 z1 + z2 + theta_t`` and ``z2' = -d2 z2 - z1 + (d1 - b) theta_t``, so
+``V' = -c1 e1^2 - ... - d2 z2^2 + theta_t (z1 + (d1 - b) z2)``.  The update
+``theta_hat' = -g_theta (z1 + (d1 - b) z2)`` cancels the cross term:
+``d/dt [V + theta_t^2 / (2 g_theta)] = -c1 e1^2 - c2 e2^2 - d1 z1^2 - d2 z2^2``.  Projection onto
+``|theta_hat| <= theta_max`` (update zeroed at a bound when pushing outward) only adds
+``theta_t (theta_hat'_proj - theta_hat'_nom) / g_theta <= 0`` when ``|theta| <= theta_max``.
+
+Singularity: W = 0 only where Phi_rd = 0.  Below ``phi_min`` the controller uses
+``max(Phi_rd, phi_min)`` in Lambda's second row and in omega_s (never a division by ~0), and a
+W that is tiny relative to its terms is floored; both set ``singular_limited``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import NamedTuple
+
+from .errors import ParameterError
+from .measurements import from_rotor_flux, from_stator_flux
+
+_SQRT3 = math.sqrt(3.0)
+_W_REL_FLOOR = 1e-12
+LOAD_MODES = ("known", "estimated")
+
+
+def _finite_positive(name, v, allow_zero=False):
+    ok = not isinstance(v, bool) and isinstance(v, (int, float)) and math.isfinite(v)
+    if not ok or v < 0 or (v == 0 and not allow_zero):
+        raise ParameterError(name, v, "must be a finite number " + (">= 0" if allow_zero else "> 0"))
+
+
+@dataclass(frozen=True)
+class BacksteppingGains:
+    """Backstepping gains [1/s] for the default motor.
+
+    c1 = 200 is close to the natural flux rate R_r/l_r = 239 1/s of this (i_mu-state) model, so
+    the flux loop asks little more than the rotor circuit gives; d1 = 100 makes a 10 rad/s speed
+    error demand about 1000 rad/s^2, i.e. J * 1000 = 13 N m, half the rated torque.  c2 = 1000
+    and d2 = 500 put the inner (current) loops 5x above the outer ones and keep c2 Ts = 0.1 at a
+    10 kHz sample rate; faster inner loops mostly buy voltage saturation.
+    """
+
+    c1: float = 200.0
+    c2: float = 1000.0
+    d1: float = 100.0
+    d2: float = 500.0
+
+    def __post_init__(self):
+        for name in ("c1", "c2", "d1", "d2"):
+            _finite_positive(name, getattr(self, name))
+
+
+@dataclass(frozen=True)
+class ControllerConfig:
+    """Controller settings.
+
+    V_dc [V] (voltage vector limited to V_dc/sqrt(3)); Ts [s] sample period of the zero-order
+    hold (0: continuous, no mid-sample compensation); phi_min [Wb] flux floor of the
+    singularity guard; load_mode 'known' (uses T_L, dT_L/dt) or 'estimated' (adaptive theta_hat);
+    g_theta [1/s^2] adaptation gain; theta_max [rad/s^2] bound on theta_hat = T_L/J;
+    use_stator_flux: magnetizing state from psi_s as well (seed H1) instead of the curve.
+
+    g_theta = 5 1/s^2: with the default gains the linear (z1, z2, theta_t) error system then has
+    real eigenvalues (about -100, -137, -363 1/s); larger g_theta only adds an oscillation
+    (g_theta = 100: -250 +- 970j) and more noise from z2 into theta_hat.  theta_max = 1e4 rad/s^2
+    is about 130 N m with the default inertia (5x rated torque).
+    """
+
+    V_dc: float = 540.0
+    Ts: float = 1e-4
+    phi_min: float = 0.05
+    load_mode: str = "known"
+    g_theta: float = 5.0
+    theta_max: float = 1.0e4
+    use_stator_flux: bool = False
+
+    def __post_init__(self):
+        _finite_positive("V_dc", self.V_dc)
+        _finite_positive("Ts", self.Ts, allow_zero=True)
+        _finite_positive("phi_min", self.phi_min)
+        if self.load_mode not in LOAD_MODES:
+            raise ParameterError("load_mode", self.load_mode, f"must be one of {LOAD_MODES}")
+        _finite_positive("g_theta", self.g_theta)
+        _finite_positive("theta_max", self.theta_max)
+        if not isinstance(self.use_stator_flux, bool):
+            raise ParameterError("use_stator_flux", self.use_stator_flux, "must be a bool")
+
+
+class ErrorSystem(NamedTuple):
+    """Backstepping error system at one state (see the module docstring)."""
+
+    e1: float
+    e2: float
+    z1: float
+    z2: float
+    grad_e2: tuple  # de2/dx
+    grad_z2: tuple  # dz2/dx
+    dt_e2: float  # explicit de2/dt
+    dt_z2: float  # explicit dz2/dt
+    beta1: float
+    beta2: float
+    Lambda: tuple  # ((l1, l2), (l3, l4)) as used (Phi_rd floored at phi_min)
+    W: float  # det Lambda with the true Phi_rd (0 at Phi_rd = 0; Lambda itself is floored)
+    omega_s: float  # [rad/s]
+    theta_dot: float  # theta' used in dz2/dt
+    singular_limited: bool
+
+
+class ControlOutput(NamedTuple):
+    """Result of one :func:`control` call (SI units)."""
+
+    v_s_alpha: float
+    v_s_beta: float
+    v_sd: float
+    v_sq: float
+    e1: float
+    e2: float
+    z1: float
+    z2: float
+    V: float
+    W: float
+    m: float
+    i_mu: float
+    Phi_rd: float
+    rho: float
+    omega_s: float
+    theta_hat_dot: float
+    voltage_limited: bool
+    singular_limited: bool
+
+
+def _core(p, g, phi_min, phi, imd, imq, w, m, dm, I, ref, theta, theta_dot, adapt):
+    """Error system at ``x = (phi, imd, imq, w)`` with the static m and dm/dI at I = |i_mu|.
+
+    ``adapt`` is None (theta' = theta_dot given) or ``(g_theta, theta_max)`` (theta = theta_hat,
+    theta' from the projected update law).  Returns an :class:`ErrorSystem`.
+    """
+    pr, dpr, ddpr, wr, dwr, ddwr = ref
+    c1, d1 = g.c1, g.d1
+    k, lr, ls = p.k, p.l_r, p.l_s
+    a = p.R_r / lr
+    ak = a * k
+    K = 1.5 * p.n_p * k / (p.J * lr)
+    b = p.B / p.J
+    # dynamic inductances (M = m I2 + (dm/I) i_mu i_mu^T)
+    s = dm / I if I > 0.0 else 0.0
+    Md, Mq, Mdq = m + s * imd * imd, m + s * imq * imq, s * imd * imq
+    # errors
+    e1 = phi - pr
+    e2 = ak * m * imd + c1 * e1 - a * phi - dpr
+    z1 = w - wr
+    z2 = K * m * phi * imq + d1 * z1 - theta - b * w - dwr
+    limited = phi < phi_min
+    phe = phi_min if limited else phi
+    # drift F (fo_model, Phi_rd floored in omega_s)
+    sg = 1.0 + k * k * ls / lr
+    l11, l22, l12 = ls + sg * Md, ls + sg * Mq, sg * Mdq
+    detL = l11 * l22 - l12 * l12
+    a11, a22, a12 = l22 / detL, l11 / detL, -l12 / detL
+    k_lr = k / lr
+    cc = 1.0 + k * k_lr * m
+    ls_sm = ls + sg * m
+    kls_lr = ls * k_lr
+    dphi = a * (k * m * imd - phi)
+    ws = p.n_p * w + ak * m * imq / phe
+    r1 = -p.R_s * (cc * imd - k_lr * phi) + ws * ls_sm * imq + kls_lr * dphi
+    r2 = -p.R_s * cc * imq - ws * (ls_sm * imd - kls_lr * phi)
+    Fd = a11 * r1 + a12 * r2
+    Fq = a12 * r1 + a22 * r2
+    Fw = K * m * phi * imq - theta - b * w
+    if adapt is not None:
+        g_theta, theta_max = adapt
+        theta_dot = -g_theta * (z1 + (d1 - b) * z2)
+        if (theta >= theta_max and theta_dot > 0.0) or (theta <= -theta_max and theta_dot < 0.0):
+            theta_dot = 0.0
+    ge2 = (c1 - a, ak * Md, ak * Mdq, 0.0)
+    gz2 = (K * m * imq, K * phi * Mdq, K * phi * Mq, d1 - b)
+    dt_e2 = -c1 * dpr - ddpr
+    dt_z2 = -d1 * dwr - ddwr - theta_dot
+    beta1 = ge2[0] * dphi + ge2[1] * Fd + ge2[2] * Fq + dt_e2
+    beta2 = gz2[0] * dphi + gz2[1] * Fd + gz2[2] * Fq + gz2[3] * Fw + dt_z2
+    # Lambda = diag(a k, K Phi_rd) M L^-1
+    Kp = K * phe
+    L11 = ak * (Md * a11 + Mdq * a12)
+    L12 = ak * (Md * a12 + Mdq * a22)
+    L21 = Kp * (Mdq * a11 + Mq * a12)
+    L22 = Kp * (Mdq * a12 + Mq * a22)
+    W = L11 * L22 - L12 * L21
+    floor = _W_REL_FLOOR * (abs(L11 * L22) + abs(L12 * L21))
+    if not abs(W) > floor:
+        limited = True
+    return ErrorSystem(e1, e2, z1, z2, ge2, gz2, dt_e2, dt_z2, beta1, beta2,
+                       ((L11, L12), (L21, L22)), W * (phi / phe), ws, theta_dot, limited)
+
+
+def error_system(x, ref, params, gains, theta=0.0, theta_dot=0.0, phi_min=0.05, adapt=None):
+    """Error system at the flux-oriented state ``x = (Phi_rd, i_mu_d, i_mu_q, omega_m)``.
+
+    ``ref = (Phi_ref, Phi_ref', Phi_ref'', omega_ref, omega_ref', omega_ref'')``; theta [rad/s^2]
+    the (estimated) T_L/J and theta_dot its derivative; ``adapt = (g_theta, theta_max)`` switches
+    to the update law for theta'.  m and dm/dI come from ``params.curve`` at ``|i_mu|``.
+    """
+    phi, imd, imq, w = (float(v) for v in x)
+    I = math.hypot(imd, imq)
+    _, m, dm, _ = params.curve.evaluate(I)
+    return _core(params, gains, phi_min, phi, imd, imq, w, m, dm, I, ref, theta, theta_dot, adapt)
+
+
+def control(meas, ref, load, params, gains, cfg, theta_hat=0.0):
+    """One backstepping control step (pure function).
+
+    Parameters
+    ----------
+    meas : tuple
+        ``(i_s_alpha, i_s_beta, psi_r_alpha, psi_r_beta, omega_m[, psi_s_alpha, psi_s_beta])``
+        [A, A, Wb, Wb, rad/s, Wb, Wb]; psi_s is needed only with ``cfg.use_stator_flux``.
+    ref : tuple
+        ``(Phi_ref, Phi_ref', Phi_ref'', omega_ref, omega_ref', omega_ref'')`` [Wb, Wb/s, Wb/s^2,
+        rad/s, rad/s^2, rad/s^3] (mechanical speed).
+    load : tuple
+        ``(T_L, dT_L/dt)`` [N m, N m/s]; used in the 'known' load mode only.
+    params : MotorParams
+        The controller's model (its curve need not be the plant's).  With ``use_stator_flux``
+        the measured m = |psi_s - l_s i_s| / |i_mu| is used and only dm/dI comes from the curve.
+    gains : BacksteppingGains
+    cfg : ControllerConfig
+    theta_hat : float
+        Estimated T_L/J [rad/s^2] ('estimated' mode); clipped to ``+-cfg.theta_max``.  The caller
+        integrates ``theta_hat_dot`` over the sample period (and clips to the bound).
+
+    Returns
+    -------
+    ControlOutput
+        Voltages (v_s rotated by ``rho + omega_s Ts / 2``), errors, V, W, the magnetizing state,
+        theta_hat_dot (0 in the known mode) and the limiter flags.
+    """
+    if cfg.use_stator_flux:
+        ms = from_stator_flux(meas[0], meas[1], meas[2], meas[3], meas[5], meas[6], params)
+    else:
+        ms = from_rotor_flux(meas[0], meas[1], meas[2], meas[3], params)
+    I = ms.I
+    dm = params.curve.dm_dI(I)
+    if cfg.load_mode == "known":
+        es = _core(params, gains, cfg.phi_min, ms.Phi_rd, ms.i_mu_d, ms.i_mu_q, meas[4], ms.m, dm, I,
+                   ref, load[0] / params.J, load[1] / params.J, None)
+        theta_hat_dot = 0.0
+    else:
+        tm = cfg.theta_max
+        theta = min(max(theta_hat, -tm), tm)
+        es = _core(params, gains, cfg.phi_min, ms.Phi_rd, ms.i_mu_d, ms.i_mu_q, meas[4], ms.m, dm, I,
+                   ref, theta, 0.0, (cfg.g_theta, tm))
+        theta_hat_dot = es.theta_dot
+    e1, e2, z1, z2 = es.e1, es.e2, es.z1, es.z2
+    (L11, L12), (L21, L22) = es.Lambda
+    W = L11 * L22 - L12 * L21
+    singular = es.singular_limited
+    if singular:
+        floor = max(_W_REL_FLOOR * (abs(L11 * L22) + abs(L12 * L21)), 1e-300)
+        if not abs(W) > floor:
+            W = math.copysign(floor, W) if W == W else floor
+    q1 = -gains.c2 * e2 - e1 - es.beta1
+    q2 = -gains.d2 * z2 - z1 - es.beta2
+    vd = (L22 * q1 - L12 * q2) / W
+    vq = (L11 * q2 - L21 * q1) / W
+    vmax = cfg.V_dc / _SQRT3
+    vn = math.hypot(vd, vq)
+    vlim = not vn <= vmax
+    if vlim:
+        if math.isfinite(vn):
+            f = vmax / vn
+            vd, vq = vd * f, vq * f
+        else:  # overflow: keep the direction where it is defined
+            vd, vq = (math.copysign(vmax, vd), 0.0) if abs(vd) >= abs(vq) else (0.0, math.copysign(vmax, vq))
+    ws = es.omega_s
+    rho_out = ms.rho + 0.5 * ws * cfg.Ts
+    c, s = math.cos(rho_out), math.sin(rho_out)
+    V = 0.5 * (e1 * e1 + e2 * e2 + z1 * z1 + z2 * z2)
+    return ControlOutput(c * vd - s * vq, s * vd + c * vq, vd, vq, e1, e2, z1, z2, V, es.W, ms.m, I,
+                         ms.Phi_rd, ms.rho, ws, theta_hat_dot, vlim, singular)
+
+
+__all__ = ["BacksteppingGains", "ControllerConfig", "ControlOutput", "ErrorSystem", "control",
+           "error_system", "LOAD_MODES"]
