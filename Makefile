@@ -13,7 +13,8 @@ $(STAMP): pyproject.toml
 	touch $(STAMP)
 
 demo: $(STAMP)
-	$(PY) demos/dol_start.py --out results
+	$(PY) demos/closed_loop.py --out results
+	$(PY) demos/compare_controllers.py --out results
 
 test: $(STAMP)
 	$(PY) -m ruff check .

@@ -1,0 +1,261 @@
+"""Sampled speed-and-flux drives: the state machine around a control law.
+
+A drive is called once per sample period ``Ts`` with the measurements and the raw
+set-points, and returns the stator voltages to hold over the next period (zero-order
+hold).  It owns every internal state (phase, reference shapers, load estimate, the
+baseline's integrators), all exposed by ``get_state``/``set_state`` for FMU rollback.
+
+Start from standstill (the backstepping law is singular at Phi_rd = 0):
+
+1. *Pre-magnetization*: a proportional current loop with resistive feed-forward holds the
+   stator current on the alpha axis at ``premag_boost`` times the magnetizing current of the
+   flux set-point (``i_ref = min(boost I(psi_set/k), I_max)``)::
+
+       v_s_alpha = R_s i_ref + K_pm (i_ref - i_s_alpha),   v_s_beta = -K_pm i_s_beta
+
+2. *Switch* when ``|psi_r| >= premag_fraction psi_set`` (or after ``premag_time_max``): the
+   flux shaper is put at the measured state ``(Phi_rd, Phi_rd', 0)`` with
+   ``Phi_rd' = (R_r/l_r)(k m i_mu_d - Phi_rd)`` and the speed shaper at ``(omega_m, 0, 0)``, so
+   that ``e1 = e2 = z1 = 0`` at the switch: the law takes over without a jump.
+
+3. *Run*: references from the shapers (third-order, exact derivatives), the control law, and
+   in the estimated-load mode ``theta_hat <- clip(theta_hat + Ts theta_hat', +-theta_max)``
+   (forward Euler over the hold).  In the known-load mode the load torque input is taken as
+   piecewise constant (dT_L/dt = 0: a difference quotient would turn a load step into a
+   voltage spike).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import NamedTuple
+
+from .backstepping import BacksteppingGains, ControllerConfig, control
+from .errors import ParameterError
+from .ifoc import IFOCController, IFOCGains
+from .measurements import from_rotor_flux
+from .references import ReferenceShaper
+
+PREMAG, RUN = 0, 1
+_SQRT3 = math.sqrt(3.0)
+
+
+def _finite(name, v, lo=None, lo_open=True):
+    ok = not isinstance(v, bool) and isinstance(v, (int, float)) and math.isfinite(v)
+    if ok and lo is not None:
+        ok = v > lo if lo_open else v >= lo
+    if not ok:
+        rel = "" if lo is None else (f" > {lo}" if lo_open else f" >= {lo}")
+        raise ParameterError(name, v, f"must be a finite number{rel}")
+
+
+@dataclass(frozen=True)
+class DriveConfig:
+    """Settings of the drive around the control law (SI units).
+
+    ref_bandwidth [rad/s] of both reference shapers (10-90 % rise 4.22/ref_bandwidth);
+    I_max [A] current limit (pre-magnetization current, flux set-points it allows);
+    premag_fraction [1] of the flux set-point at which the law takes over; premag_boost [1];
+    premag_gain [Ohm] K_pm of the pre-magnetization current loop; premag_time_max [s].
+    """
+
+    ref_bandwidth: float = 40.0
+    I_max: float = 30.0
+    premag_fraction: float = 0.9
+    premag_boost: float = 1.5
+    premag_gain: float = 20.0
+    premag_time_max: float = 0.4
+
+    def __post_init__(self):
+        _finite("ref_bandwidth", self.ref_bandwidth, 0.0)
+        _finite("I_max", self.I_max, 0.0)
+        _finite("premag_fraction", self.premag_fraction, 0.0)
+        if self.premag_fraction > 1.0:
+            raise ParameterError("premag_fraction", self.premag_fraction, "must be <= 1")
+        _finite("premag_boost", self.premag_boost, 1.0, lo_open=False)
+        _finite("premag_gain", self.premag_gain, 0.0)
+        _finite("premag_time_max", self.premag_time_max, 0.0)
+
+
+class DriveOutput(NamedTuple):
+    """One sample of a drive (SI units); errors are 0 during pre-magnetization."""
+
+    v_s_alpha: float  # [V]
+    v_s_beta: float  # [V]
+    v_sd: float  # [V] flux frame
+    v_sq: float  # [V]
+    e1: float  # [Wb]
+    e2: float  # [Wb/s]
+    z1: float  # [rad/s]
+    z2: float  # [rad/s^2]
+    V: float  # Lyapunov function
+    W: float  # det Lambda (0 where not defined)
+    T_load_est: float  # [N m] load used by the law (estimate in the estimated mode)
+    omega_ref: float  # [rad/s] shaped speed reference
+    psi_ref: float  # [Wb] shaped flux reference
+    phase: int  # PREMAG or RUN
+    voltage_limited: bool
+    singular_limited: bool
+
+
+class _Drive:
+    """Pre-magnetization, set-point checks and shapers, shared by every law."""
+
+    def __init__(self, params, Ts, V_dc, drive_cfg):
+        self.params = params
+        self.dcfg = drive_cfg = DriveConfig() if drive_cfg is None else drive_cfg
+        _finite("Ts", Ts, 0.0)
+        self.Ts = Ts
+        self._V_max = V_dc / _SQRT3
+        self._flux = ReferenceShaper(drive_cfg.ref_bandwidth)
+        self._speed = ReferenceShaper(drive_cfg.ref_bandwidth)
+        self._checked = (None, 0.0)  # last flux set-point checked, its magnetizing current
+        self._n_switch = round(drive_cfg.premag_time_max / Ts)
+        self.reset()
+
+    def reset(self):
+        self._phase = PREMAG
+        self._n = 0
+        self._flux.reset(0.0)
+        self._speed.reset(0.0)
+        self._reset_law()
+
+    def magnetizing_current(self, psi_set):
+        """Steady magnetizing current [A] for a rotor flux set-point [Wb]; error beyond I_max."""
+        if psi_set == self._checked[0]:
+            return self._checked[1]
+        _finite("psi_ref", psi_set, 0.0)
+        p = self.params
+        I = p.curve.current(psi_set / p.k)
+        if I > self.dcfg.I_max:
+            raise ParameterError(
+                "psi_ref", psi_set,
+                f"needs a magnetizing current of {I:.4g} A on the '{p.curve.name}' curve, "
+                f"more than I_max = {self.dcfg.I_max!r} A",
+            )
+        self._checked = (psi_set, I)
+        return I
+
+    def step(self, meas, omega_set, psi_set, T_load):
+        """One sample: ``meas = (i_s_alpha, i_s_beta, psi_r_alpha, psi_r_beta, omega_m,
+        psi_s_alpha, psi_s_beta)`` [A, A, Wb, Wb, rad/s, Wb, Wb]; set-points [rad/s], [Wb];
+        load torque [N m].  Returns a :class:`DriveOutput`."""
+        I_set = self.magnetizing_current(psi_set)
+        _finite("omega_ref", omega_set)
+        if self._phase == PREMAG:
+            phi = math.hypot(meas[2], meas[3])
+            if phi < self.dcfg.premag_fraction * psi_set and self._n < self._n_switch:
+                self._n += 1
+                return self._premag(meas, I_set, phi, psi_set)
+            self._switch(meas)
+        out = self._run(meas, self._flux.value, self._speed.value, T_load)
+        self._flux.step(psi_set, self.Ts)
+        self._speed.step(omega_set, self.Ts)
+        return out
+
+    def _premag(self, meas, I_set, phi, psi_set):
+        p, K = self.params, self.dcfg.premag_gain
+        i_ref = min(self.dcfg.premag_boost * I_set, self.dcfg.I_max)
+        va = p.R_s * i_ref + K * (i_ref - meas[0])
+        vb = -K * meas[1]
+        vn = math.hypot(va, vb)
+        lim = vn > self._V_max
+        if lim:
+            va, vb = va * self._V_max / vn, vb * self._V_max / vn
+        return DriveOutput(va, vb, va, vb, phi - psi_set, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+                           meas[4], phi, PREMAG, lim, False)
+
+    def _switch(self, meas):
+        p = self.params
+        ms = from_rotor_flux(meas[0], meas[1], meas[2], meas[3], p)
+        dphi = p.R_r / p.l_r * (p.k * ms.m * ms.i_mu_d - ms.Phi_rd)
+        self._flux.set_state((ms.Phi_rd, dphi, 0.0))
+        self._speed.reset(meas[4])
+        self._phase = RUN
+        self._on_switch(ms)
+
+    def get_state(self):
+        """Every internal state as a flat tuple of floats."""
+        return (float(self._phase), float(self._n)) + self._flux.get_state() + \
+            self._speed.get_state() + self._law_state()
+
+    def set_state(self, state):
+        """Restore a tuple from :meth:`get_state`."""
+        s = tuple(float(v) for v in state)
+        self._phase, self._n = int(s[0]), int(s[1])
+        self._flux.set_state(s[2:5])
+        self._speed.set_state(s[5:8])
+        self._set_law_state(s[8:])
+
+
+class BacksteppingDrive(_Drive):
+    """The seed's backstepping law (eq 67, corrected) in a sampled drive.
+
+    Parameters
+    ----------
+    params : MotorParams
+        The controller's model; a ``LinearCurve`` gives the constant-m baseline.
+    gains : BacksteppingGains
+    cfg : ControllerConfig
+        Sample period, V_dc, load mode (known/estimated) and the adaptation settings.
+    drive_cfg : DriveConfig
+    """
+
+    def __init__(self, params, gains=None, cfg=None, drive_cfg=None):
+        self.gains = BacksteppingGains() if gains is None else gains
+        self.cfg = ControllerConfig() if cfg is None else cfg
+        if self.cfg.Ts <= 0:
+            raise ParameterError("Ts", self.cfg.Ts, "must be > 0 for a sampled drive")
+        super().__init__(params, self.cfg.Ts, self.cfg.V_dc, drive_cfg)
+
+    def _reset_law(self):
+        self._theta_hat = 0.0
+
+    def _on_switch(self, ms):
+        pass
+
+    def _law_state(self):
+        return (self._theta_hat,)
+
+    def _set_law_state(self, s):
+        (self._theta_hat,) = s
+
+    def _run(self, meas, rf, rw, T_load):
+        cfg, p = self.cfg, self.params
+        o = control(meas, rf + rw, (T_load, 0.0), p, self.gains, cfg, self._theta_hat)
+        if cfg.load_mode == "estimated":
+            t_load = self._theta_hat * p.J
+            th = self._theta_hat + cfg.Ts * o.theta_hat_dot
+            self._theta_hat = min(max(th, -cfg.theta_max), cfg.theta_max)
+        else:
+            t_load = T_load
+        return DriveOutput(o.v_s_alpha, o.v_s_beta, o.v_sd, o.v_sq, o.e1, o.e2, o.z1, o.z2, o.V, o.W,
+                           t_load, rw[0], rf[0], RUN, o.voltage_limited, o.singular_limited)
+
+
+class IFOCDrive(_Drive):
+    """The indirect field-oriented PI baseline (:mod:`satmotor.ifoc`) in the same drive frame:
+    same pre-magnetization and shaped references; the PI loops see only currents and speed."""
+
+    def __init__(self, params, gains=None, Ts=1e-4, L_m=None, drive_cfg=None):
+        self.ifoc = IFOCController(params, IFOCGains() if gains is None else gains, Ts, L_m)
+        super().__init__(params, Ts, self.ifoc.gains.V_dc, drive_cfg)
+
+    def _reset_law(self):
+        self.ifoc.reset()
+
+    def _on_switch(self, ms):
+        self.ifoc.reset(theta_f=ms.rho, phi_r=ms.Phi_rd)
+
+    def _law_state(self):
+        return self.ifoc.get_state()
+
+    def _set_law_state(self, s):
+        self.ifoc.set_state(s)
+
+    def _run(self, meas, rf, rw, T_load):
+        va, vb, d = self.ifoc(meas[0], meas[1], meas[4], rw[0], rf[0])
+        e1 = math.hypot(meas[2], meas[3]) - rf[0]  # diagnostics only: the PI loops never see the flux
+        return DriveOutput(va, vb, d.v_sd, d.v_sq, e1, 0.0, meas[4] - rw[0], 0.0, 0.0, 0.0, 0.0,
+                           rw[0], rf[0], RUN, d.voltage_limited, False)
