@@ -1,0 +1,109 @@
+"""FMI glue shared by the two slaves: registration from the satmotor interface tables, the bundle
+check, initialization, stepping and the full FMU state.  No equations here.
+
+Bundled into each FMU next to ``satmotor/``.  pythonfmu imports every FMU's modules into one shared
+interpreter, caching them by name; the slaves therefore check, at instantiation, that the
+``satmotor`` and glue modules they got hash to the fingerprint baked in at build time.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import math
+from pathlib import Path
+
+from pythonfmu import Boolean, Fmi2Causality, Fmi2Initial, Fmi2Slave, Fmi2Variability, Integer, Real, String
+from pythonfmu.enums import Fmi2Status
+
+import satmotor
+
+_TYPES = {"Real": Real, "Integer": Integer, "Boolean": Boolean, "String": String}
+_CAUSALITY = {"input": Fmi2Causality.input, "output": Fmi2Causality.output,
+              "parameter": Fmi2Causality.parameter}
+
+
+def fingerprint():
+    """SHA-256 over the sources of the loaded ``satmotor`` package and of this module."""
+    h = hashlib.sha256()
+    root = Path(satmotor.__file__).resolve().parent
+    files = sorted(root.rglob("*.py"))
+    for f in files:
+        h.update(f.relative_to(root).as_posix().encode() + b"\0" + f.read_bytes() + b"\0")
+    h.update(Path(__file__).resolve().read_bytes())
+    return h.hexdigest()
+
+
+def _describe(var):
+    return f"{var.description} [{var.unit}]" if var.unit else var.description
+
+
+class UnitSlave(Fmi2Slave):
+    """Base of the two slaves.  Subclasses set VARIABLES (interface tables), UNIT (a satmotor
+    interface unit class taking ``{parameter: value}``) and FINGERPRINT (filled in by the build)."""
+
+    VARIABLES = ()
+    UNIT = None
+    FINGERPRINT = ""
+
+    def __init__(self, **kwargs):
+        super().__init__(**kwargs)
+        got = fingerprint()
+        if self.FINGERPRINT and got != self.FINGERPRINT:
+            raise ImportError(
+                f"{type(self).__name__}: the loaded satmotor ({satmotor.__file__}, version "
+                f"{satmotor.__version__}) is not the one this FMU was built with (fingerprint {got[:12]} "
+                f"!= {self.FINGERPRINT[:12]}); another FMU of a different build is loaded in this process")
+        self._params = tuple(v.name for v in self.VARIABLES if v.causality == "parameter")
+        self._inputs = tuple(v.name for v in self.VARIABLES if v.causality == "input")
+        self._outputs = tuple(v.name for v in self.VARIABLES if v.causality == "output")
+        self._unit = None
+        for var in self.VARIABLES:
+            setattr(self, var.name, var.start)
+            kw = {"causality": _CAUSALITY[var.causality], "description": _describe(var)}
+            if var.causality == "parameter":
+                kw["variability"] = Fmi2Variability.fixed
+            elif var.type == "Real":
+                kw["variability"] = Fmi2Variability.continuous
+            else:
+                kw["variability"] = Fmi2Variability.discrete
+            if var.causality == "output":
+                kw["initial"] = Fmi2Initial.exact
+            self.register_variable(_TYPES[var.type](var.name, **kw))
+
+    def exit_initialization_mode(self):
+        """Build the unit from the parameters; a bad value is logged (naming it) and refused."""
+        try:
+            self._unit = self.UNIT({name: getattr(self, name) for name in self._params})
+        except Exception as exc:  # ParameterError, or a table file that cannot be read
+            self.log(f"{type(self).__name__}: bad parameter: {exc}", Fmi2Status.error)
+            raise
+        self._publish()
+
+    def do_step(self, current_time, step_size):
+        """Advance the unit; a bad input or a failed step is logged and discarded, never raised."""
+        try:
+            self._unit.step(current_time, step_size, tuple(getattr(self, n) for n in self._inputs))
+        except Exception as exc:
+            self.log(f"{type(self).__name__} at t = {current_time!r} s: {exc}", Fmi2Status.discard)
+            return False
+        self._publish()
+        return True
+
+    def _publish(self):
+        for name, value in zip(self._outputs, self._unit.outputs()):
+            setattr(self, name, value)
+
+    def _get_fmu_state(self):
+        state = super()._get_fmu_state()
+        state["_unit"] = None if self._unit is None else list(self._unit.get_state())
+        return state
+
+    def _set_fmu_state(self, state):
+        state = dict(state)
+        unit_state = state.pop("_unit", None)
+        super()._set_fmu_state(state)
+        if unit_state is not None:
+            if self._unit is None:
+                self._unit = self.UNIT({name: getattr(self, name) for name in self._params})
+            self._unit.set_state(tuple(float(v) if isinstance(v, (int, float)) else math.nan
+                                       for v in unit_state))

@@ -1,0 +1,17 @@
+"""FMI 2.0 co-simulation slave: the saturated induction motor (glue around satmotor.interface.PlantUnit).
+
+Variables, units and defaults: satmotor.interface (PLANT_*).  Equations: satmotor.plant.
+"""
+
+from satmotor_fmu_glue import UnitSlave
+
+from satmotor.interface import PLANT_INPUTS, PLANT_OUTPUTS, PLANT_PARAMETERS, PlantUnit
+
+
+class SaturatedInductionMotor(UnitSlave):
+    author = "satmotor"
+    description = ("Induction motor with main-flux saturation and cross-saturation, stationary alpha-beta "
+                   "frame, flux states, RK4 (Ouadi, Giri, Ikhouane model, corrected)")
+    VARIABLES = PLANT_INPUTS + PLANT_OUTPUTS + PLANT_PARAMETERS
+    UNIT = PlantUnit
+    FINGERPRINT = "@SATMOTOR_FINGERPRINT@"

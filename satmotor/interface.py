@@ -1,0 +1,245 @@
+"""The two co-simulation units, FMI-agnostic: variable tables, flat parameters, step and state.
+
+The tables below are the single source of the units' interfaces: the FMU slaves register their
+variables from them, the FMU documentation is generated from them, and the plain-Python
+reference uses the same units.  Defaults come from the parameter dataclasses (no number is
+written twice).  Units are in the descriptions (pythonfmu cannot write a unit attribute).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from typing import NamedTuple
+
+from .backstepping import BacksteppingGains, ControllerConfig
+from .drive import BacksteppingDrive, DriveConfig, IFOCDrive
+from .errors import ParameterError
+from .ifoc import IFOCGains
+from .magnetics import ArctanCurve, LinearCurve, PolynomialCurve
+from .params import CURVE_NAMES, MotorParams, make_curve
+from .plant import Plant, initial_state
+
+
+class Variable(NamedTuple):
+    """One exposed variable: name, causality (input/output/parameter), type (Real, Integer,
+    String), start value, unit and description."""
+
+    name: str
+    causality: str
+    type: str
+    start: object
+    unit: str
+    description: str
+
+
+def _v(name, causality, start, unit, description, type_="Real"):
+    return Variable(name, causality, type_, start, unit, description)
+
+
+_M, _A, _P = MotorParams(), ArctanCurve(), PolynomialCurve()
+MOTOR_PARAMETERS = (
+    _v("R_s", "parameter", _M.R_s, "Ohm", "stator resistance"),
+    _v("R_r", "parameter", _M.R_r, "Ohm", "rotor resistance (rotor side; k = 1: referred)"),
+    _v("l_s", "parameter", _M.l_s, "H", "stator leakage inductance"),
+    _v("l_r", "parameter", _M.l_r, "H", "rotor leakage inductance"),
+    _v("k", "parameter", _M.k, "1", "turns ratio k = k_r n_r / (k_s n_s), i_mu = i_s + k i_r"),
+    _v("n_p", "parameter", _M.n_p, "1", "pole pairs", "Integer"),
+    _v("J", "parameter", _M.J, "kg m2", "rotor and load inertia"),
+    _v("B", "parameter", _M.B, "N m s", "viscous friction"),
+    _v("curve", "parameter", "arctan", "", "magnetizing curve: " + ", ".join(CURVE_NAMES), "String"),
+    _v("L_m0", "parameter", _A.L_m0, "H", "unsaturated magnetizing inductance (all curves)"),
+    _v("L_m_inf", "parameter", _A.L_m_inf, "H", "saturated slope (arctan, exponential)"),
+    _v("I_par", "parameter", _A.I_par, "A", "knee current scale (arctan, exponential)"),
+    _v("poly_b", "parameter", _P.poly_b, "A/Wb^n", "polynomial: i = psi/L_m0 + poly_b psi^poly_n"),
+    _v("poly_n", "parameter", _P.poly_n, "1", "polynomial: odd exponent >= 3", "Integer"),
+    _v("table_file", "parameter", "", "", "table: CSV file of no-load points i_mu [A], psi_m [Wb]",
+       "String"),
+)
+
+PLANT_INPUTS = (
+    _v("v_s_alpha", "input", 0.0, "V", "stator voltage, alpha axis (amplitude-invariant Clarke)"),
+    _v("v_s_beta", "input", 0.0, "V", "stator voltage, beta axis"),
+    _v("T_load", "input", 0.0, "N m", "load torque (opposes positive speed)"),
+)
+PLANT_OUTPUTS = (
+    _v("i_s_alpha", "output", 0.0, "A", "stator current, alpha axis"),
+    _v("i_s_beta", "output", 0.0, "A", "stator current, beta axis"),
+    _v("psi_s_alpha", "output", 0.0, "Wb", "stator flux linkage, alpha axis"),
+    _v("psi_s_beta", "output", 0.0, "Wb", "stator flux linkage, beta axis"),
+    _v("psi_r_alpha", "output", 0.0, "Wb", "rotor flux linkage, alpha axis"),
+    _v("psi_r_beta", "output", 0.0, "Wb", "rotor flux linkage, beta axis"),
+    _v("omega_m", "output", 0.0, "rad/s", "mechanical speed"),
+    _v("theta_m", "output", 0.0, "rad", "mechanical angle"),
+    _v("T_e", "output", 0.0, "N m", "electromagnetic torque 3/2 n_p (psi_s x i_s)"),
+    _v("i_mu", "output", 0.0, "A", "magnitude of the magnetizing current i_s + k i_r"),
+)
+PLANT_PARAMETERS = MOTOR_PARAMETERS + (
+    _v("omega_m0", "parameter", 0.0, "rad/s", "initial mechanical speed"),
+    _v("psi_r0", "parameter", 0.0, "Wb", "initial rotor flux (DC, on the alpha axis; 0: unmagnetized)"),
+    _v("h_int", "parameter", 1e-4, "s", "largest internal RK4 step; a communication step dt uses "
+       "ceil(dt/h_int) equal sub-steps"),
+)
+
+_G, _C, _D, _I = BacksteppingGains(), ControllerConfig(), DriveConfig(), IFOCGains()
+CONTROLLER_MODES = ("saturated", "constant_m", "pi")
+CONTROLLER_INPUTS = (
+    _v("i_s_alpha", "input", 0.0, "A", "measured stator current, alpha axis"),
+    _v("i_s_beta", "input", 0.0, "A", "measured stator current, beta axis"),
+    _v("psi_r_alpha", "input", 0.0, "Wb", "measured rotor flux, alpha axis"),
+    _v("psi_r_beta", "input", 0.0, "Wb", "measured rotor flux, beta axis"),
+    _v("psi_s_alpha", "input", 0.0, "Wb", "measured stator flux, alpha axis (used with use_stator_flux)"),
+    _v("psi_s_beta", "input", 0.0, "Wb", "measured stator flux, beta axis (used with use_stator_flux)"),
+    _v("omega_m", "input", 0.0, "rad/s", "measured mechanical speed"),
+    _v("omega_ref", "input", 0.0, "rad/s", "speed set-point (shaped inside)"),
+    _v("psi_ref", "input", 0.9, "Wb", "rotor flux set-point (shaped inside), > 0"),
+    _v("T_load", "input", 0.0, "N m", "load torque, used in load_mode = known"),
+)
+CONTROLLER_OUTPUTS = (
+    _v("v_s_alpha", "output", 0.0, "V", "stator voltage command, alpha axis (held over Ts)"),
+    _v("v_s_beta", "output", 0.0, "V", "stator voltage command, beta axis"),
+    _v("v_sd", "output", 0.0, "V", "stator voltage command, rotor-flux d axis"),
+    _v("v_sq", "output", 0.0, "V", "stator voltage command, rotor-flux q axis"),
+    _v("e1", "output", 0.0, "Wb", "flux error Phi_rd - Phi_ref"),
+    _v("e2", "output", 0.0, "Wb/s", "flux virtual-control error"),
+    _v("z1", "output", 0.0, "rad/s", "speed error omega_m - omega_ref"),
+    _v("z2", "output", 0.0, "rad/s2", "speed virtual-control error"),
+    _v("W", "output", 0.0, "1", "det Lambda of the law (0: not running)"),
+    _v("T_load_est", "output", 0.0, "N m", "load torque used by the law (estimate if estimated)"),
+)
+CONTROLLER_PARAMETERS = (
+    _v("c1", "parameter", _G.c1, "1/s", "flux error gain"),
+    _v("c2", "parameter", _G.c2, "1/s", "flux virtual-control gain"),
+    _v("d1", "parameter", _G.d1, "1/s", "speed error gain"),
+    _v("d2", "parameter", _G.d2, "1/s", "speed virtual-control gain"),
+    _v("Ts", "parameter", _C.Ts, "s", "sample period; one sample per doStep (dt must equal Ts)"),
+    _v("mode", "parameter", "saturated", "", "law: saturated (backstepping with the curve), "
+       "constant_m (same law, m = L_m0), pi (indirect field-oriented PI baseline)", "String"),
+    _v("load_mode", "parameter", "known", "", "load torque: known (input T_load) or estimated", "String"),
+    _v("V_dc", "parameter", _C.V_dc, "V", "DC-link voltage; |v_s| <= V_dc / sqrt(3)"),
+    _v("ref_bandwidth", "parameter", _D.ref_bandwidth, "rad/s", "reference shaper bandwidth"),
+    _v("g_theta", "parameter", _C.g_theta, "1/s2", "adaptation gain of the load estimate"),
+    _v("theta_max", "parameter", _C.theta_max, "rad/s2", "bound of the estimate of T_load/J"),
+    _v("I_max", "parameter", _D.I_max, "A", "current limit (pre-magnetization, flux set-points)"),
+) + MOTOR_PARAMETERS
+
+
+def _number(values, var):
+    v = values.get(var.name, var.start)
+    if var.type == "Integer":
+        if isinstance(v, float) and v.is_integer():
+            v = int(v)
+        if isinstance(v, bool) or not isinstance(v, int):
+            raise ParameterError(var.name, v, "must be an integer")
+    elif var.type == "Real":
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+            raise ParameterError(var.name, v, "must be a finite number")
+        v = float(v)
+    return v
+
+
+def motor_params(values):
+    """:class:`MotorParams` from flat values ``{name: value}`` (missing names take the defaults)."""
+    f = {var.name: _number(values, var) for var in MOTOR_PARAMETERS}
+    curve = make_curve(f["curve"], f["L_m0"], f["L_m_inf"], f["I_par"], f["poly_b"], f["poly_n"],
+                       f["table_file"])
+    return MotorParams(f["R_s"], f["R_r"], f["l_s"], f["l_r"], f["k"], f["n_p"], f["J"], f["B"], curve)
+
+
+def _finite_inputs(names, values):
+    for name, v in zip(names, values):
+        if not math.isfinite(v):
+            raise ParameterError(name, v, "input must be finite")
+
+
+class PlantUnit:
+    """The plant as a co-simulation unit: inputs held over each communication step."""
+
+    INPUTS = tuple(v.name for v in PLANT_INPUTS)
+    OUTPUTS = tuple(v.name for v in PLANT_OUTPUTS)
+
+    def __init__(self, values):
+        self.params = motor_params(values)
+        w0, psi0, h = (_number(values, v) for v in PLANT_PARAMETERS[-3:])
+        if psi0 < 0:
+            raise ParameterError("psi_r0", psi0, "must be >= 0")
+        if not h > 0:
+            raise ParameterError("h_int", h, "must be > 0")
+        self.h_int = h
+        self.plant = Plant(self.params)
+        self.x0 = initial_state(self.params, omega_m=w0, psi_r_alpha=psi0)
+        self.x = self.x0
+
+    def step(self, t, dt, inputs):
+        """Advance over ``dt`` [s] with the inputs ``(v_s_alpha, v_s_beta, T_load)`` held;
+        raises ParameterError on a bad input."""
+        _finite_inputs(self.INPUTS, inputs)
+        v_a, v_b, T_load = inputs
+        if not dt > 0:
+            raise ParameterError("communicationStepSize", dt, "must be > 0")
+        n_sub = max(1, math.ceil(dt / self.h_int - 1e-9))
+        x = self.plant.step(t, self.x, v_a, v_b, T_load, dt, n_sub)
+        if not all(math.isfinite(v) for v in x):
+            raise ArithmeticError(f"the plant state became non-finite over [{t}, {t + dt}] s: {x}")
+        self.x = x
+
+    def outputs(self):
+        """Output values in the order of :attr:`OUTPUTS`."""
+        x, o = self.x, self.plant.outputs(self.x)
+        return (o.i_s_alpha, o.i_s_beta, x[0], x[1], x[2], x[3], x[4], x[5], o.T_e, o.i_mu)
+
+    def get_state(self):
+        return tuple(self.x)
+
+    def set_state(self, state):
+        self.x = tuple(float(v) for v in state)
+
+
+class ControllerUnit:
+    """The drive controller as a co-simulation unit: one sample per step of length Ts."""
+
+    INPUTS = tuple(v.name for v in CONTROLLER_INPUTS)
+    OUTPUTS = tuple(v.name for v in CONTROLLER_OUTPUTS)
+
+    def __init__(self, values):
+        p = motor_params(values)
+        f = {v.name: _number(values, v) for v in CONTROLLER_PARAMETERS}
+        mode = f["mode"]
+        if mode not in CONTROLLER_MODES:
+            raise ParameterError("mode", mode, f"must be one of {', '.join(CONTROLLER_MODES)}")
+        dcfg = DriveConfig(ref_bandwidth=f["ref_bandwidth"], I_max=f["I_max"])
+        if mode == "pi":
+            gains = dataclasses.replace(IFOCGains(), V_dc=f["V_dc"], I_max=f["I_max"])
+            self.drive = IFOCDrive(p, gains, f["Ts"], drive_cfg=dcfg)
+        else:
+            if mode == "constant_m":
+                p = dataclasses.replace(p, curve=LinearCurve(p.curve.m0))
+            gains = BacksteppingGains(f["c1"], f["c2"], f["d1"], f["d2"])
+            cfg = ControllerConfig(V_dc=f["V_dc"], Ts=f["Ts"], load_mode=f["load_mode"],
+                                   g_theta=f["g_theta"], theta_max=f["theta_max"])
+            self.drive = BacksteppingDrive(p, gains, cfg, dcfg)
+        self.Ts = f["Ts"]
+        self._out = (0.0,) * len(self.OUTPUTS)
+
+    def step(self, t, dt, inputs):
+        """One sample at ``t`` from the inputs (order of :attr:`INPUTS`); ``dt`` must equal Ts.
+        The outputs are the voltages to hold over ``[t, t + Ts)``."""
+        if abs(dt - self.Ts) > 1e-9 * self.Ts:
+            raise ParameterError("communicationStepSize", dt,
+                                 f"must equal the sample period Ts = {self.Ts!r} s")
+        _finite_inputs(self.INPUTS, inputs)
+        i_a, i_b, pr_a, pr_b, ps_a, ps_b, w, w_set, psi_set, T_load = inputs
+        d = self.drive.step((i_a, i_b, pr_a, pr_b, w, ps_a, ps_b), w_set, psi_set, T_load)
+        self._out = (d.v_s_alpha, d.v_s_beta, d.v_sd, d.v_sq, d.e1, d.e2, d.z1, d.z2, d.W, d.T_load_est)
+
+    def outputs(self):
+        """Output values in the order of :attr:`OUTPUTS` (zeros before the first sample)."""
+        return self._out
+
+    def get_state(self):
+        return self._out + self.drive.get_state()
+
+    def set_state(self, state):
+        n = len(self.OUTPUTS)
+        self._out = tuple(float(v) for v in state[:n])
+        self.drive.set_state(state[n:])
