@@ -22,6 +22,7 @@ test: $(STAMP)
 
 bench: $(STAMP)
 	$(PY) bench/bench_plant.py
+	$(PY) bench/bench_controller.py
 
 clean:
 	rm -rf $(VENV) results build

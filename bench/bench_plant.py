@@ -1,6 +1,7 @@
 """Benchmark of the plant: right-hand-side throughput and fixed-step RK4 vs scipy solve_ivp.
 
-Run ``python bench/bench_plant.py``; prints the numbers and rewrites ``bench/RESULTS.md``.
+Run ``python bench/bench_plant.py``; prints the numbers and replaces its own section of ``bench/RESULTS.md``
+(the block between ``<!-- plant:start -->`` and ``<!-- plant:end -->``; see :func:`write_section`).
 
 (a) ``Plant.derivatives`` calls per second on a running, loaded state of the default motor.
 (b) One simulated second of a DOL start (rated smooth voltage ``V cos(w t), V sin(w t)`` inside
@@ -155,7 +156,7 @@ def write_results(env, rate, ref_nfev, ivp, rk, t_step, ratio, scan):
     t_ivp, nfev_ivp, err_ivp = ivp
     n, t_rk4, nfev_rk4, err_rk4 = rk
     scan_txt = ", ".join(f"{k}: {e:.1e}" for k, e in scan)
-    text = f"""# Plant benchmark
+    text = f"""## Plant benchmark
 
 Measured {env}.
 
@@ -184,11 +185,31 @@ exceed that of RK45, so both solvers are timed at (at least) equal accuracy; tim
 keeps internally). RK4 is `satmotor.integrate.rk4` with the voltages computed at the stage times; the
 `Plant.step` row is the per-step loop used by the simulations (voltage held at its mid-step value),
 timed for the per-call overhead only. Rerun with `python bench/bench_plant.py` (or `make bench`);
-it prints the same numbers and rewrites this file.
+it prints the same numbers and rewrites this section.
 """
+    write_section("plant", text)
+
+
+def write_section(name, text):
+    """Put ``text`` between ``<!-- name:start -->`` and ``<!-- name:end -->`` in RESULTS.md.
+
+    Each benchmark script owns one such block: an existing block is replaced in place, a missing one
+    is appended, and the rest of the file is kept.  A file without any block (the old single-section
+    format) is started afresh.
+    """
     path = Path(__file__).with_name("RESULTS.md")
-    path.write_text(text)
-    print(f"wrote {path}")
+    start, end = f"<!-- {name}:start -->", f"<!-- {name}:end -->"
+    block = f"{start}\n{text.strip()}\n{end}"
+    old = path.read_text() if path.exists() else ""
+    if ":start -->" not in old:
+        old = "# Benchmarks\n"
+    i, j = old.find(start), old.find(end)
+    if 0 <= i < j:
+        new = old[:i] + block + old[j + len(end):]
+    else:
+        new = old.rstrip("\n") + "\n\n" + block + "\n"
+    path.write_text(new)
+    print(f"wrote section '{name}' of {path}")
 
 
 if __name__ == "__main__":
