@@ -27,7 +27,7 @@ def _as_profile(v):
 
 
 def closed_loop(plant_params, drive, t_end, omega_set, psi_set, T_load=0.0, n_sub=1, x0=None,
-                t0=0.0, record_every=1):
+                t0=0.0, record_every=1, plant_steps=1):
     """Simulate the plant under a sampled drive.
 
     Parameters
@@ -41,7 +41,11 @@ def closed_loop(plant_params, drive, t_end, omega_set, psi_set, T_load=0.0, n_su
     omega_set, psi_set, T_load : float or callable t -> float
         Raw speed set-point [rad/s], rotor flux set-point [Wb], load torque [N m].
     n_sub : int
-        RK4 sub-steps of the plant per sample.
+        RK4 sub-steps of each plant step.
+    plant_steps : int
+        Plant steps per sample (the co-simulation master's ``controller_every``): the plant is
+        stepped ``plant_steps`` times by ``h = Ts / plant_steps`` with the load torque sampled
+        at each plant step ``t0 + j h``; the set-points are sampled with the controller.
     x0 : tuple, optional
         Initial plant state (default: at rest, unmagnetized).
 
@@ -53,6 +57,7 @@ def closed_loop(plant_params, drive, t_end, omega_set, psi_set, T_load=0.0, n_su
     plant = Plant(plant_params)
     w_set, p_set, load = _as_profile(omega_set), _as_profile(psi_set), _as_profile(T_load)
     Ts = drive.Ts
+    h = Ts / plant_steps
     n = round((t_end - t0) / Ts)
     rows = n // record_every + 1
     rec = {k: np.empty(rows) for k in RECORDED}
@@ -73,7 +78,12 @@ def closed_loop(plant_params, drive, t_end, omega_set, psi_set, T_load=0.0, n_su
                 rec[key][r] = v
             r += 1
         if k < n:
-            x = plant.step(t, x, d.v_s_alpha, d.v_s_beta, tl, Ts, n_sub)
+            if plant_steps == 1:
+                x = plant.step(t, x, d.v_s_alpha, d.v_s_beta, tl, Ts, n_sub)
+            else:
+                for j in range(plant_steps):
+                    tj = t0 + (k * plant_steps + j) * h
+                    x = plant.step(tj, x, d.v_s_alpha, d.v_s_beta, load(tj), h, n_sub)
     rec["x_end"] = x
     return rec
 

@@ -8,7 +8,6 @@ interpreter, caching them by name; the slaves therefore check, at instantiation,
 
 from __future__ import annotations
 
-import hashlib
 import math
 from pathlib import Path
 
@@ -24,13 +23,7 @@ _CAUSALITY = {"input": Fmi2Causality.input, "output": Fmi2Causality.output,
 
 def fingerprint():
     """SHA-256 over the sources of the loaded ``satmotor`` package and of this module."""
-    h = hashlib.sha256()
-    root = Path(satmotor.__file__).resolve().parent
-    files = sorted(root.rglob("*.py"))
-    for f in files:
-        h.update(f.relative_to(root).as_posix().encode() + b"\0" + f.read_bytes() + b"\0")
-    h.update(Path(__file__).resolve().read_bytes())
-    return h.hexdigest()
+    return satmotor.source_fingerprint(Path(__file__).resolve())
 
 
 def _describe(var):

@@ -1,0 +1,138 @@
+"""Command line: ``python -m orchestration {build,run,batch,validate}`` (also ``satmotor-cosim``).
+
+Exit codes: 0 success; 1 a run failed (FMI discard/error/fatal, or setup); 2 a scenario file is
+invalid; 3 a run completed but missed its acceptance bounds.  ``batch`` exits with the largest
+code of its scenarios.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from . import fmus
+
+OK, RUN_FAILED, INVALID, NOT_ACCEPTED = 0, 1, 2, 3
+
+
+def model_variables(fmu_dir):
+    """``{"plant": {name: (causality, type)}, "controller": ...}`` from the built FMUs, or None."""
+    plant, ctrl = fmus.paths(fmu_dir)
+    if not (plant.exists() and ctrl.exists()):
+        return None
+    from fmpy import read_model_description
+
+    out = {}
+    for unit, path in (("plant", plant), ("controller", ctrl)):
+        md = read_model_description(str(path))
+        out[unit] = {v.name: (v.causality, v.type) for v in md.modelVariables}
+    return out
+
+
+def cmd_build(args):
+    for p in fmus.build(args.out):
+        print(p)
+    return OK
+
+
+def cmd_validate(args):
+    from .scenario import validate_scenario_file
+
+    worst = OK
+    for path in args.scenario:
+        problems = validate_scenario_file(path, model_variables(args.fmus))
+        for p in problems:
+            print(p, file=sys.stderr)
+        print(f"{path}: {'valid' if not problems else f'{len(problems)} problem(s)'}")
+        worst = max(worst, INVALID if problems else OK)
+    return worst
+
+
+def run_file(path, out, fmu_dir, algorithm=None, build=True, plot=True):
+    """Load, run and write one scenario; returns (exit code, summary dict)."""
+    from .master import run
+    from .results import write_results
+    from .scenario import ScenarioError, load_scenario
+
+    try:
+        if build:
+            fmus.ensure(fmu_dir, quiet=True)
+        sc = load_scenario(path, model_variables(fmu_dir))
+    except ScenarioError as exc:
+        return INVALID, {"scenario": Path(path).stem, "file": str(path), "status": "invalid",
+                         "message": str(exc)}
+    plant, ctrl = fmus.paths(fmu_dir)
+    result = run(sc, str(plant), str(ctrl), algorithm=algorithm)
+    summary = write_results(result, out, plot=plot)
+    if not result.ok:
+        return RUN_FAILED, summary
+    return (NOT_ACCEPTED if summary["accepted"] is False else OK), summary
+
+
+def cmd_run(args):
+    code, s = run_file(args.scenario, args.out, args.fmus, args.algorithm, build=not args.no_build,
+                       plot=not args.no_plot)
+    if s.get("status") == "invalid":
+        print(s["message"], file=sys.stderr)
+        return code
+    print(f"{s['scenario']}: {s['status']}" + (f" ({s['message']})" if s["message"] else "")
+          + f", {s['rows']} rows, {s['wall_time']:.2f} s wall, results in {Path(args.out) / s['scenario']}")
+    for key, v in (s.get("metrics") or {}).items():
+        print(f"  {key:22s} {v:.6g}")
+    for key, v in (s.get("acceptance") or {}).items():
+        print(f"  accept {key:15s} {v['value']:.4g} <= {v['limit']:.4g}: {'pass' if v['pass'] else 'FAIL'}")
+    return code
+
+
+def cmd_batch(args):
+    from .batch import run_batch
+
+    return run_batch(args.scenarios, args.out, args.fmus, jobs=args.jobs, scheduler=args.scheduler,
+                     algorithm=args.algorithm)
+
+
+def parser():
+    ap = argparse.ArgumentParser(prog="python -m orchestration",
+                                 description="Co-simulate the saturated induction motor FMU with the "
+                                 "backstepping controller FMU over YAML scenarios (fmpy master).")
+    sub = ap.add_subparsers(dest="command", required=True)
+    b = sub.add_parser("build", help="build both FMUs", description="Build SaturatedInductionMotor.fmu and "
+                       "BacksteppingController.fmu with build_fmus.py.")
+    b.add_argument("--out", default=str(fmus.DEFAULT_DIR), help="output directory (default build/fmus)")
+    b.set_defaults(func=cmd_build)
+
+    def common(p):
+        p.add_argument("--out", default="results", help="results directory (default results)")
+        p.add_argument("--fmus", default=str(fmus.DEFAULT_DIR),
+                       help="FMU directory, built there when missing or stale (default build/fmus)")
+        p.add_argument("--algorithm", choices=("gauss-seidel", "jacobi"),
+                       help="override the scenario's coupling algorithm")
+
+    r = sub.add_parser("run", help="run one scenario", description="Run one scenario; write timeseries "
+                       "(CSV, Parquet), metrics.json and figure.png under OUT/<scenario name>/.")
+    r.add_argument("scenario", help="scenario YAML file")
+    common(r)
+    r.add_argument("--no-build", action="store_true", help="do not build the FMUs, use them as they are")
+    r.add_argument("--no-plot", action="store_true", help="skip the figure")
+    r.set_defaults(func=cmd_run)
+    ba = sub.add_parser("batch", help="run many scenarios in parallel", description="Run every scenario "
+                        "(files, or the *.yaml of directories), one process each; a summary table of the "
+                        "metrics goes to OUT/summary.csv and the screen.")
+    ba.add_argument("scenarios", nargs="+", help="scenario files or directories")
+    common(ba)
+    ba.add_argument("--jobs", type=int, default=2, help="parallel processes (default 2)")
+    ba.add_argument("--scheduler", help="address of a Dask distributed scheduler (e.g. tcp://host:8786); "
+                    "the workers must see the same files")
+    ba.set_defaults(func=cmd_batch)
+    v = sub.add_parser("validate", help="check scenario files", description="Check scenario files against "
+                       "the schema and the FMUs' variables; list every problem.")
+    v.add_argument("scenario", nargs="+", help="scenario YAML file(s)")
+    v.add_argument("--fmus", default=str(fmus.DEFAULT_DIR), help="FMU directory whose variables to check")
+    v.set_defaults(func=cmd_validate)
+    return ap
+
+
+def main(argv=None):
+    args = parser().parse_args(argv)
+    return args.func(args)

@@ -1,0 +1,48 @@
+"""The figure of a run: references against responses (speed, flux), torque, currents, voltages, i_mu."""
+
+from __future__ import annotations
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+
+def figure(df, path, title):
+    """Write a PNG of a recorded run (a DataFrame with ``unit.variable`` columns) to ``path``."""
+    t = df["time"]
+    phi = np.hypot(df["plant.psi_r_alpha"], df["plant.psi_r_beta"])
+    running = df["controller.W"] > 0
+    fig, ax = plt.subplots(6, 1, sharex=True, figsize=(9, 13), constrained_layout=True)
+    ax[0].plot(t, df["profile.omega_ref"], "k:", label="set-point omega_ref")
+    ax[0].plot(t, (df["plant.omega_m"] - df["controller.z1"]).where(running), "k--", lw=0.8,
+               label="shaped reference")
+    ax[0].plot(t, df["plant.omega_m"], label="omega_m")
+    ax[0].set_ylabel("speed [rad/s]")
+    ax[1].plot(t, df["profile.psi_ref"], "k:", label="set-point psi_ref")
+    ax[1].plot(t, (phi - df["controller.e1"]).where(running), "k--", lw=0.8, label="shaped reference")
+    ax[1].plot(t, phi, label="|psi_r|")
+    ax[1].set_ylabel("rotor flux [Wb]")
+    ax[2].plot(t, df["plant.T_e"], label="T_e")
+    ax[2].plot(t, df["profile.T_load"], label="T_load")
+    ax[2].plot(t, df["controller.T_load_est"], "--", label="T_load_est")
+    ax[2].set_ylabel("torque [N m]")
+    ax[3].plot(t, df["plant.i_s_alpha"], lw=0.6, label="i_s_alpha")
+    ax[3].plot(t, df["plant.i_s_beta"], lw=0.6, label="i_s_beta")
+    ax[3].plot(t, np.hypot(df["plant.i_s_alpha"], df["plant.i_s_beta"]), "k", lw=0.9, label="|i_s|")
+    ax[3].set_ylabel("stator current [A]")
+    ax[4].plot(t, df["controller.v_sd"].where(running), label="v_sd")
+    ax[4].plot(t, df["controller.v_sq"].where(running), label="v_sq")
+    ax[4].plot(t, np.hypot(df["controller.v_s_alpha"], df["controller.v_s_beta"]), "k", lw=0.9,
+               label="|v_s|")
+    ax[4].set_ylabel("stator voltage [V]")
+    ax[5].plot(t, df["plant.i_mu"], label="|i_mu|")
+    ax[5].set_ylabel("magnetizing current [A]")
+    ax[5].set_xlabel("time t [s]")
+    for a in ax:
+        a.grid(True, alpha=0.4)
+        a.legend(loc="best", fontsize=7)
+    fig.suptitle(title, fontsize=10)
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
