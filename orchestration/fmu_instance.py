@@ -79,6 +79,7 @@ class FMUInstance:
                                modelIdentifier=self.md.coSimulation.modelIdentifier,
                                instanceName=instance_name)
         self.initialized = False
+        self.fatal = False  # after fmi2Fatal no FMI call is allowed, not even freeInstance
         try:
             self.slave.instantiate(callbacks=self._callbacks, loggingOn=True)
         except Exception as exc:
@@ -120,16 +121,27 @@ class FMUInstance:
                 self.slave.setString(vr, [str(value).encode("utf-8")])
 
     def initialize(self, start_time):
-        self.slave.setupExperiment(startTime=start_time)
-        self.slave.enterInitializationMode()
-        self.slave.exitInitializationMode()
+        try:
+            self.slave.setupExperiment(startTime=start_time)
+            self.slave.enterInitializationMode()
+            self.slave.exitInitializationMode()
+        except FMICallException as exc:
+            self.fatal = exc.status >= 4
+            raise
         self.initialized = True
 
     def do_step(self, t, h):
-        self.slave.fmi2DoStep(self.slave.component, t, h, 1)
+        try:
+            self.slave.fmi2DoStep(self.slave.component, t, h, 1)
+        except FMICallException as exc:
+            self.fatal = exc.status >= 4
+            raise
 
     def close(self):
-        """Terminate (when initialized) and free; never raises."""
+        """Terminate (when initialized) and free; never raises.  After a fatal status the instance
+        is left alone (FMI 2.0 allows no further call; pythonfmu 0.7.0 may crash on the free)."""
+        if self.fatal:
+            return
         try:
             if self.initialized:
                 self.slave.terminate()

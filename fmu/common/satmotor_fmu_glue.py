@@ -21,6 +21,17 @@ _CAUSALITY = {"input": Fmi2Causality.input, "output": Fmi2Causality.output,
               "parameter": Fmi2Causality.parameter}
 
 
+_PINNED = []
+
+
+def pin_namespace(namespace):
+    """Keep one more reference to a slave module's namespace.  pythonfmu 0.7.0's fmi2Instantiate
+    (findClass) re-executes the slave script in that namespace, then Py_DECREFs the borrowed dict;
+    calling this at the script's top level adds the reference that DECREF takes away (without it
+    the second instance of an FMU in one process crashes the host)."""
+    _PINNED.append(namespace)
+
+
 def fingerprint():
     """SHA-256 over the sources of the loaded ``satmotor`` package and of this module."""
     return satmotor.source_fingerprint(Path(__file__).resolve())
@@ -46,6 +57,11 @@ class UnitSlave(Fmi2Slave):
                 f"{type(self).__name__}: the loaded satmotor ({satmotor.__file__}, version "
                 f"{satmotor.__version__}) is not the one this FMU was built with (fingerprint {got[:12]} "
                 f"!= {self.FINGERPRINT[:12]}); another FMU of a different build is loaded in this process")
+        script = Path(self.resources) / f"{type(self).__module__}.py"
+        if self.FINGERPRINT and script.exists() and self.FINGERPRINT not in script.read_text():
+            raise ImportError(
+                f"{type(self).__name__}: this process already runs {type(self).__module__} from another "
+                f"build (fingerprint {self.FINGERPRINT[:12]}), not the one in {script.parent}")
         self._params = tuple(v.name for v in self.VARIABLES if v.causality == "parameter")
         self._inputs = tuple(v.name for v in self.VARIABLES if v.causality == "input")
         self._outputs = tuple(v.name for v in self.VARIABLES if v.causality == "output")

@@ -5,7 +5,7 @@ Variables, units and defaults: satmotor.interface (CONTROLLER_*).  Control law: 
 drive logic: satmotor.drive.
 """
 
-from satmotor_fmu_glue import UnitSlave
+from satmotor_fmu_glue import UnitSlave, pin_namespace
 
 from satmotor.interface import CONTROLLER_INPUTS, CONTROLLER_OUTPUTS, CONTROLLER_PARAMETERS, ControllerUnit
 
@@ -18,3 +18,6 @@ class BacksteppingController(UnitSlave):
     VARIABLES = CONTROLLER_INPUTS + CONTROLLER_OUTPUTS + CONTROLLER_PARAMETERS
     UNIT = ControllerUnit
     FINGERPRINT = "@SATMOTOR_FINGERPRINT@"
+
+
+pin_namespace(globals())  # see satmotor_fmu_glue.pin_namespace

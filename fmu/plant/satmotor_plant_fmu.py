@@ -3,7 +3,7 @@
 Variables, units and defaults: satmotor.interface (PLANT_*).  Equations: satmotor.plant.
 """
 
-from satmotor_fmu_glue import UnitSlave
+from satmotor_fmu_glue import UnitSlave, pin_namespace
 
 from satmotor.interface import PLANT_INPUTS, PLANT_OUTPUTS, PLANT_PARAMETERS, PlantUnit
 
@@ -15,3 +15,6 @@ class SaturatedInductionMotor(UnitSlave):
     VARIABLES = PLANT_INPUTS + PLANT_OUTPUTS + PLANT_PARAMETERS
     UNIT = PlantUnit
     FINGERPRINT = "@SATMOTOR_FINGERPRINT@"
+
+
+pin_namespace(globals())  # see satmotor_fmu_glue.pin_namespace

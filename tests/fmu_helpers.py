@@ -1,0 +1,133 @@
+"""FMI harness for tests/test_fmu.py: one fmpy low-level instance with its own log, and the
+child-process checks (run as ``python fmu_helpers.py MODE ...``; no satmotor import here, so a
+child starts with nothing cached but what its FMUs load)."""
+
+from __future__ import annotations
+
+import gc
+import json
+import re
+import sys
+import zipfile
+from typing import NamedTuple
+
+from fmpy import calloc, extract, free, read_model_description
+from fmpy.fmi2 import (
+    FMU2Slave,
+    fmi2CallbackAllocateMemoryTYPE,
+    fmi2CallbackFreeMemoryTYPE,
+    fmi2CallbackFunctions,
+    fmi2CallbackLoggerTYPE,
+)
+
+
+class Fmu(NamedTuple):
+    path: str
+    unzip: str
+    md: object
+
+
+def open_fmu(path, unzip=None):
+    return Fmu(str(path), extract(str(path), unzipdir=unzip), read_model_description(str(path)))
+
+
+class Slave:
+    """An instance of ``fmu`` (fmpy FMU2Slave, loggingOn) with name-based access and a log of
+    ``(status, message)`` (``log``: a list to append to, kept if instantiation fails); initialized
+    with ``params`` unless ``initialize`` is False."""
+
+    def __init__(self, fmu, name="inst", params=None, initialize=True, log=None):
+        self.vars = {v.name: v for v in fmu.md.modelVariables}
+        self.log = [] if log is None else log
+        self.dead = False  # after fmi2Fatal: no further call (pythonfmu 0.7.0 crashes on a later free)
+        self._cb = fmi2CallbackFunctions()
+        self._cb.logger = fmi2CallbackLoggerTYPE(self._logger)
+        self._cb.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
+        self._cb.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
+        self.fmu = FMU2Slave(guid=fmu.md.guid, unzipDirectory=fmu.unzip, instanceName=name,
+                             modelIdentifier=fmu.md.coSimulation.modelIdentifier)
+        self.fmu.instantiate(callbacks=self._cb, loggingOn=True)
+        if initialize:
+            self.initialize(params)
+
+    def _logger(self, env, instance, status, category, message):
+        self.log.append((status, (message or b"").decode("utf-8", "replace")))
+
+    def messages(self, min_status=0):
+        return "\n".join(m for s, m in self.log if s >= min_status)
+
+    def set(self, values):
+        for name, value in values.items():
+            v = self.vars[name]
+            setter = {"Real": self.fmu.setReal, "Integer": self.fmu.setInteger,
+                      "String": self.fmu.setString, "Boolean": self.fmu.setBoolean}[v.type]
+            setter([v.valueReference], [value])
+
+    def initialize(self, params=None, t0=0.0):
+        self.set(params or {})
+        self.fmu.setupExperiment(startTime=t0)
+        self.fmu.enterInitializationMode()
+        self.fmu.exitInitializationMode()
+
+    def get(self, names):
+        return self.fmu.getReal([self.vars[n].valueReference for n in names])
+
+    def step(self, t, dt, inputs=None):
+        self.set(inputs or {})
+        self.fmu.doStep(t, dt)
+
+    def free(self):
+        self.fmu.freeInstance()
+
+
+def tamper_fingerprint(src, dst):
+    """Copy of the plant FMU whose slave script carries another 64-hex FINGERPRINT."""
+    with zipfile.ZipFile(src) as z:
+        files = {n: z.read(n) for n in z.namelist()}
+    script = files["resources/satmotor_plant_fmu.py"].decode()
+    fp = re.search(r'FINGERPRINT = "([0-9a-f]{64})"', script).group(1)
+    files["resources/satmotor_plant_fmu.py"] = script.replace(fp, fp[::-1]).encode()
+    with zipfile.ZipFile(dst, "w") as z:
+        for n, data in files.items():
+            z.writestr(n, data)
+
+
+def _child_repeat(paths):
+    """Three instances of each FMU in this process, one step each."""
+    for path in paths:
+        fmu = open_fmu(path)
+        keep = []
+        for i in range(3):
+            s = Slave(fmu, f"i{i}")
+            s.fmu.doStep(0.0, 1e-4)
+            keep.append(s)
+            gc.collect()
+        for s in keep:  # an FMI host frees its instances (exiting with live ones is not covered)
+            s.free()
+    print(json.dumps({"ok": True}))
+
+
+def _child_tamper(tampered, controller, genuine_first=None):
+    """Instantiate the tampered plant (after the genuine one if given), then run the controller."""
+    out = {"instantiated": False, "error": "", "log": ""}
+    if genuine_first:
+        genuine = Slave(open_fmu(genuine_first), "genuine")
+        genuine.fmu.doStep(0.0, 1e-4)
+    log = []
+    try:
+        Slave(open_fmu(tampered), "tampered", initialize=False, log=log)
+        out["instantiated"] = True
+    except Exception as exc:  # fmpy: "Failed to instantiate model"
+        out["error"] = repr(exc)
+    out["log"] = "\n".join(m for _, m in log)
+    c = Slave(open_fmu(controller), "controller")
+    c.step(0.0, 1e-4, {"psi_ref": 0.9})
+    out["alive"] = c.get(["v_s_alpha"])[0] > 0.0
+    print(json.dumps(out))
+
+
+if __name__ == "__main__":
+    if sys.argv[1] == "repeat":
+        _child_repeat(sys.argv[2:])
+    else:
+        _child_tamper(*sys.argv[2:])

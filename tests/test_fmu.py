@@ -1,0 +1,407 @@
+"""The two FMUs (built once by build_fmus.build_all) against the FMI checkers, their contract, and
+the plain-Python units and closed loop they wrap (satmotor.interface, satmotor.simulate)."""
+
+from __future__ import annotations
+
+import functools
+import html
+import json
+import math
+import re
+import subprocess
+import sys
+import zipfile
+from pathlib import Path
+
+import numpy as np
+import pytest
+from fmpy import simulate_fmu
+from fmpy.fmi1 import FMICallException
+from fmpy.validation import validate_fmu
+from fmu_helpers import Slave, open_fmu, tamper_fingerprint
+
+from satmotor.backstepping import BacksteppingGains, ControllerConfig
+from satmotor.drive import PREMAG, RUN, DriveConfig
+from satmotor.interface import ControllerUnit, PlantUnit, motor_params
+from satmotor.magnetics import PolynomialCurve
+from satmotor.params import MotorParams, RatedData
+from satmotor.simulate import RampScenario
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+import build_fmus  # noqa: E402
+
+HELPERS = Path(__file__).with_name("fmu_helpers.py")
+H = 1e-4  # communication step = controller Ts [s]
+PLANT_IN = ("v_s_alpha", "v_s_beta", "T_load")
+PLANT_OUT = ("i_s_alpha", "i_s_beta", "psi_s_alpha", "psi_s_beta", "psi_r_alpha", "psi_r_beta", "omega_m",
+             "theta_m", "T_e", "i_mu")
+MOTOR = ("R_s", "R_r", "l_s", "l_r", "k", "n_p", "J", "B", "curve", "L_m0", "L_m_inf", "I_par", "poly_b",
+         "poly_n", "table_file")
+CTRL_IN = ("i_s_alpha", "i_s_beta", "psi_r_alpha", "psi_r_beta", "psi_s_alpha", "psi_s_beta", "omega_m",
+           "omega_ref", "psi_ref", "T_load")
+CTRL_OUT = ("v_s_alpha", "v_s_beta", "v_sd", "v_sq", "e1", "e2", "z1", "z2", "W", "T_load_est")
+CONTRACT = {
+    "SaturatedInductionMotor": {"input": PLANT_IN, "output": PLANT_OUT,
+                                "parameter": MOTOR + ("omega_m0", "psi_r0", "h_int")},
+    "BacksteppingController": {"input": CTRL_IN, "output": CTRL_OUT, "parameter": (
+        "c1", "c2", "d1", "d2", "Ts", "mode", "load_mode", "V_dc", "ref_bandwidth", "g_theta", "theta_max",
+        "I_max") + MOTOR},
+}
+UNITS = {"V": "v_s_alpha v_s_beta v_sd v_sq V_dc", "A": "i_s_alpha i_s_beta i_mu I_par I_max",
+         "Wb": "psi_s_alpha psi_s_beta psi_r_alpha psi_r_beta psi_ref psi_r0 e1", "Wb/s": "e2",
+         "rad/s": "omega_m omega_ref omega_m0 z1 ref_bandwidth", "rad": "theta_m", "rad/s2": "z2 theta_max",
+         "N m": "T_load T_e T_load_est", "Ohm": "R_s R_r", "H": "l_s l_r L_m0 L_m_inf", "1": "k W",
+         "kg m2": "J", "N m s": "B", "A/Wb^n": "poly_b", "s": "h_int Ts", "1/s": "c1 c2 d1 d2",
+         "1/s2": "g_theta"}
+UNIT_OF = {name: unit for unit, names in UNITS.items() for name in names.split()}
+
+
+def _defaults():
+    m, g, c, d = MotorParams(), BacksteppingGains(), ControllerConfig(), DriveConfig()
+    poly = PolynomialCurve()
+    motor = {n: getattr(m, n) for n in MOTOR[:8]}
+    motor |= {n: getattr(m.curve, n) for n in ("L_m0", "L_m_inf", "I_par")}
+    motor |= {"curve": m.curve.name, "poly_b": poly.poly_b, "poly_n": poly.poly_n, "table_file": ""}
+    ctrl = motor | {n: getattr(g, n) for n in ("c1", "c2", "d1", "d2")} | {
+        n: getattr(c, n) for n in ("Ts", "V_dc", "load_mode", "g_theta", "theta_max")} | {
+        "ref_bandwidth": d.ref_bandwidth, "I_max": d.I_max, "mode": "saturated"}
+    # at rest, unmagnetized (closed_loop's x0); one RK4 step per sample (closed_loop's n_sub = 1)
+    plant = motor | {"omega_m0": 0.0, "psi_r0": 0.0, "h_int": c.Ts}
+    return {"SaturatedInductionMotor": plant, "BacksteppingController": ctrl}
+
+
+DEFAULTS = _defaults()
+
+
+def _typed(var, text):
+    return {"Real": float, "Integer": int}.get(var.type, str)(text)
+
+
+def _child(*args):
+    r = subprocess.run([sys.executable, str(HELPERS), *map(str, args)], capture_output=True, text=True,
+                       timeout=120, cwd=HELPERS.parent)
+    return r.returncode, r.stdout.strip().splitlines()[-1] if r.stdout.strip() else "", r.stderr
+
+
+@pytest.fixture(scope="module")
+def fmus(tmp_path_factory):
+    out = tmp_path_factory.mktemp("fmus")
+    paths = build_fmus.build_all(out / "build")
+    return {p.stem: open_fmu(p, out / p.stem) for p in paths}
+
+
+@pytest.fixture(scope="module")
+def repeat_check(fmus):
+    """Instantiating the same FMU several times in one process, checked in a child first: a
+    crash there must fail these tests, not kill the pytest process."""
+    return _child("repeat", *(f.path for f in fmus.values()))
+
+
+@pytest.fixture
+def new(fmus, repeat_check):
+    """Factory: ``new(name, params)`` -> initialized Slave, freed after the test."""
+    if repeat_check[0] != 0:
+        pytest.fail(f"not run in-process: instantiating an FMU repeatedly failed in a child: {repeat_check}")
+    made = []
+
+    def make(name, params=None, **kw):
+        made.append(Slave(fmus[name], f"{name[:5]}{len(made)}", params, **kw))
+        return made[-1]
+    yield make
+    for s in made:
+        if not s.dead:
+            s.free()
+
+
+# --- plain-Python references -------------------------------------------------------------------------
+
+def dol_inputs(k):
+    """Direct-on-line start at rated voltage, rated load from 0.2 s, sampled at t_k = k H."""
+    r, t = RatedData(), k * H
+    return {"v_s_alpha": r.V_phase_peak * math.cos(r.omega_e * t), "v_s_beta": r.V_phase_peak *
+            math.sin(r.omega_e * t), "T_load": r.T_n if k >= 2000 else 0.0}
+
+
+@functools.cache
+def plant_reference(n=3000):
+    """PlantUnit outputs at t_0 .. t_n of the DOL start (inputs held over each step)."""
+    unit, rows = PlantUnit({}), []
+    for k in range(n + 1):
+        rows.append(dict(zip(PlantUnit.OUTPUTS, unit.outputs())))
+        if k < n:
+            unit.step(k * H, H, tuple(dol_inputs(k)[v] for v in PLANT_IN))
+    return {name: np.array([r[name] for r in rows]) for name in PLANT_OUT}
+
+
+@functools.cache
+def ramp_run(params=()):
+    """Plain closed loop of the ramp scenario with the drive ControllerUnit(params) builds."""
+    drive = ControllerUnit(dict(params)).drive
+    return RampScenario(t_end=0.4, t_ramp=0.15, t_load=0.3).run(MotorParams(), drive)
+
+
+def ctrl_inputs(rec, k):
+    meas = {n: rec[n][k] for n in CTRL_IN[:7]}
+    return meas | {"omega_ref": rec["omega_set"][k], "psi_ref": rec["psi_set"][k], "T_load": rec["T_load"][k]}
+
+
+def rel_err(got, ref, names):
+    """Largest |got - ref| over all samples, relative to max |ref|, over the variables ``names``."""
+    return max(np.max(np.abs(np.asarray(got[n]) - ref[n])) / max(np.max(np.abs(ref[n])), 1e-300)
+               for n in names)
+
+
+def run_plant(s, k0, k1):
+    out = []
+    for k in range(k0, k1):
+        s.step(k * H, H, dol_inputs(k))
+        out.append(s.get(PLANT_OUT))
+    return out
+
+
+def run_ctrl(s, k0, k1, rec):
+    out = []
+    for k in range(k0, k1):
+        s.step(k * H, H, ctrl_inputs(rec, k))
+        out.append(s.get(CTRL_OUT))
+    return out
+
+
+# --- 1-4: checkers, contract, reproducibility, documentation ----------------------------------------
+
+@pytest.mark.parametrize("name", list(CONTRACT))
+def test_fmpy_validation_and_fmutool_check_pass(fmus, name):
+    from fmu_manipulation_toolbox.assistant.fmutools import check_fmu
+
+    assert validate_fmu(fmus[name].path) == []
+    report = check_fmu(Path(fmus[name].path))
+    assert report["compliant"] and report["error_count"] == 0, report
+
+
+@pytest.mark.parametrize("name", list(CONTRACT))
+def test_model_description_matches_the_contract(fmus, name):
+    md = fmus[name].md
+    by_causality = {c: {v.name for v in md.modelVariables if v.causality == c} for c in CONTRACT[name]}
+    assert by_causality == {c: set(names) for c, names in CONTRACT[name].items()}
+    assert len(md.modelVariables) == sum(map(len, CONTRACT[name].values()))
+    for v in md.modelVariables:
+        if v.type == "Real":
+            assert v.description.endswith(f"[{UNIT_OF[v.name]}]"), (v.name, v.description)
+        if v.causality == "parameter":
+            assert _typed(v, v.start) == DEFAULTS[name][v.name], v.name
+    assert {v.name for v in md.modelVariables if v.type == "Integer"} == {"n_p", "poly_n"}
+    cs = md.coSimulation
+    assert cs.canGetAndSetFMUstate and cs.canSerializeFMUstate
+    assert cs.canHandleVariableCommunicationStepSize == (name == "SaturatedInductionMotor")
+
+
+def test_two_builds_are_byte_identical(fmus, tmp_path):
+    for p in build_fmus.build_all(tmp_path):
+        first = Path(fmus[p.stem].path)
+        with zipfile.ZipFile(p) as a, zipfile.ZipFile(first) as b:
+            assert a.read("modelDescription.xml") == b.read("modelDescription.xml")
+        assert open_fmu(p, tmp_path / p.stem).md.guid == fmus[p.stem].md.guid
+        assert p.read_bytes() == first.read_bytes()
+
+
+@pytest.mark.parametrize("name", list(CONTRACT))
+def test_documentation_lists_every_variable_with_its_default(fmus, name):
+    with zipfile.ZipFile(fmus[name].path) as z:
+        doc = z.read("documentation/index.html").decode()
+    rows = {}
+    for row in re.findall(r"<tr>(<td>.*?)</tr>", doc):
+        cells = [html.unescape(c) for c in re.findall(r"<td>(.*?)</td>", row)]
+        rows[cells[0]] = cells
+    assert set(rows) == {v.name for v in fmus[name].md.modelVariables}
+    for v in fmus[name].md.modelVariables:
+        assert rows[v.name][1] == v.causality and _typed(v, rows[v.name][3]) == _typed(v, v.start), v.name
+        if v.causality == "parameter":
+            assert _typed(v, rows[v.name][3]) == DEFAULTS[name][v.name], v.name
+
+
+# --- 5-6: standalone FMUs against the plain-Python units ------------------------------------------
+
+def test_plant_fmu_matches_plant_unit_low_level_and_simulate_fmu(fmus, new):
+    ref = plant_reference()
+    s = new("SaturatedInductionMotor")
+    rows = [s.get(PLANT_OUT)] + run_plant(s, 0, 3000)
+    low = dict(zip(PLANT_OUT, np.array(rows).T))
+    assert ref["omega_m"][-1] > 100.0 and abs(ref["T_e"][-1]) > 10.0  # a real start, loaded
+    # simulate_fmu applies inputs at each communication point, interpolating the table linearly:
+    # given on the exact communication grid t_k = k H they are the held values of the reference
+    sig = np.array([(k * H, *(dol_inputs(k)[v] for v in PLANT_IN)) for k in range(3001)],
+                   dtype=[("time", float)] + [(v, float) for v in PLANT_IN])
+    res = simulate_fmu(fmus["SaturatedInductionMotor"].path, start_time=0.0, stop_time=0.3, output_interval=H,
+                       input=sig, output=list(PLANT_OUT))
+    assert len(res) == 3001 and np.allclose(res["time"], np.arange(3001) * H, rtol=0, atol=1e-12)
+    err_low, err_sim = rel_err(low, ref, PLANT_OUT), rel_err(res, ref, PLANT_OUT)
+    print(f"plant: max rel diff low-level {err_low:.3g}, simulate_fmu {err_sim:.3g}")
+    assert err_low <= 1e-9 and err_sim <= 1e-9
+
+
+@pytest.mark.parametrize("params", [(), (("mode", "pi"),), (("load_mode", "estimated"),)])
+def test_controller_fmu_reproduces_the_plain_closed_loop_voltages(new, params):
+    rec = ramp_run(params)
+    assert set(rec["phase"]) == {PREMAG, RUN}  # pre-magnetization, switch and the law are all covered
+    s = new("BacksteppingController", dict(params))
+    got = dict(zip(CTRL_OUT, np.array(run_ctrl(s, 0, len(rec["t"]), rec)).T))
+    err = rel_err(got, rec, CTRL_OUT)
+    print(f"controller {dict(params)}: max rel diff {err:.3g}")
+    assert err <= 1e-9
+
+
+# --- 7: FMU state ------------------------------------------------------------------------------------
+
+def _replays(s, run, n, m):
+    """Run n steps, save the state, run m steps: on, again without restoring, after setFMUState,
+    after deserialization.  Returns the four output lists."""
+    run(s, 0, n)
+    state = s.fmu.getFMUState()
+    blob = s.fmu.serializeFMUState(state)
+    first = run(s, n, n + m)
+    unrestored = run(s, n, n + m)
+    s.fmu.setFMUState(state)
+    second = run(s, n, n + m)
+    restored = s.fmu.deSerializeFMUstate(blob)
+    s.fmu.setFMUState(restored)
+    third = run(s, n, n + m)
+    s.fmu.freeFMUState(state)
+    s.fmu.freeFMUState(restored)
+    return first, second, third, unrestored
+
+
+def test_plant_state_get_set_and_serialize_replay_bit_identically(new):
+    first, second, third, unrestored = _replays(new("SaturatedInductionMotor"), run_plant, 1900, 200)
+    assert first == second == third  # the load step at 2000 is inside the window
+    assert unrestored != first
+
+
+def test_controller_state_replays_bit_identically_across_the_premag_switch(new):
+    rec = ramp_run()
+    n, m = 1100, 100
+    assert rec["phase"][n] == PREMAG and rec["phase"][n + m] == RUN
+    first, second, third, unrestored = _replays(new("BacksteppingController"),
+                                                functools.partial(run_ctrl, rec=rec), n, m)
+    assert first == second == third
+    # Setting the registered variables again (the inputs; pythonfmu's default FMU state holds nothing else)
+    # is not enough: the drive's hidden state (phase, shapers, law) stayed in run mode, so the window
+    # replayed without setFMUState differs from the start of the window on.
+    assert unrestored[0] != first[0]
+
+
+# --- 8-9: bad parameters and bad inputs ---------------------------------------------------------------
+
+BAD_PARAMETERS = [
+    ("SaturatedInductionMotor", {"R_s": -1.0}), ("SaturatedInductionMotor", {"curve": "tanh"}),
+    ("SaturatedInductionMotor", {"n_p": 0}), ("SaturatedInductionMotor", {"L_m_inf": 0.5}),
+    ("SaturatedInductionMotor", {"curve": "table", "table_file": ""}),
+    ("SaturatedInductionMotor", {"curve": "table", "table_file": "/nonexistent/no_load.csv"}),
+    ("BacksteppingController", {"mode": "fuzzy"}), ("BacksteppingController", {"c1": 0.0}),
+    ("BacksteppingController", {"R_s": -1.0}),
+]
+
+
+def test_bad_parameters_are_refused_at_initialization_naming_the_value(new):
+    for name, params in BAD_PARAMETERS:
+        s = new(name, initialize=False)
+        s.set(params)
+        s.fmu.setupExperiment(startTime=0.0)
+        s.fmu.enterInitializationMode()
+        with pytest.raises(FMICallException) as exc:
+            s.fmu.exitInitializationMode()
+        s.dead = True  # fmi2Fatal: FMI 2.0 allows no further call, not even fmi2FreeInstance
+        assert exc.value.status in (3, 4), params
+        bad, value = list(params.items())[-1]
+        log = s.messages(min_status=3)
+        assert f"{bad} = {value!r}" in log, (params, s.log)
+    s = new("SaturatedInductionMotor")  # the host goes on: a fresh instance runs
+    assert np.array(run_plant(s, 0, 20))[-1].tolist() == [plant_reference()[n][20] for n in PLANT_OUT]
+
+
+def test_non_finite_input_is_discarded_with_a_message_and_the_step_can_be_redone(new):
+    s, unit = new("SaturatedInductionMotor"), PlantUnit({})
+    run_plant(s, 0, 5)
+    s.set({"v_s_alpha": math.nan})
+    with pytest.raises(FMICallException) as exc:
+        s.fmu.doStep(5 * H, H)
+    assert exc.value.status == 2 and "v_s_alpha = nan" in s.messages(min_status=2)
+    for k in range(6):
+        unit.step(k * H, H, tuple(dol_inputs(k)[v] for v in PLANT_IN))
+    assert run_plant(s, 5, 6)[0] == list(unit.outputs())  # the discarded step left the state alone
+
+
+def test_controller_discards_infinite_set_point_and_wrong_step(new):
+    s = new("BacksteppingController")
+    rec = ramp_run()
+    s.set(ctrl_inputs(rec, 0) | {"psi_ref": math.inf})
+    with pytest.raises(FMICallException) as exc:
+        s.fmu.doStep(0.0, H)
+    assert exc.value.status == 2 and "psi_ref = inf" in s.messages(min_status=2)
+    s.set({"psi_ref": rec["psi_set"][0]})
+    with pytest.raises(FMICallException) as exc:
+        s.fmu.doStep(0.0, 2 * H)
+    assert exc.value.status == 2 and "communicationStepSize = 0.0002" in s.messages(min_status=2)
+    assert run_ctrl(s, 0, 3, rec) == [[rec[n][k] for n in CTRL_OUT] for k in range(3)]
+
+
+# --- 10: two closed loops in one process, reset -------------------------------------------------------
+
+def test_two_interleaved_closed_loops_match_their_plain_loops_and_reset_replays(new):
+    scen, n = RampScenario(t_end=0.25, t_ramp=0.12, t_load=0.2), 2500
+    params = [{}, {"J": 0.02, "R_r": 1.5}]
+    pairs = [(new("BacksteppingController", p), new("SaturatedInductionMotor", p)) for p in params]
+    got = [{"y": [], "v": []} for _ in pairs]
+    for k in range(n + 1):
+        t = k * H
+        for (ctrl, plant), g in zip(pairs, got):
+            y = dict(zip(PLANT_OUT, plant.get(PLANT_OUT)))
+            ctrl.step(t, H, {c: y[c] for c in CTRL_IN[:7]} | {
+                "omega_ref": scen.omega_set(t), "psi_ref": scen.psi_set, "T_load": scen.load(t)})
+            v = ctrl.get(("v_s_alpha", "v_s_beta"))
+            g["y"].append(y)
+            g["v"].append(v)
+            if k < n:
+                plant.step(t, H, {"v_s_alpha": v[0], "v_s_beta": v[1], "T_load": scen.load(t)})
+    for p, g in zip(params, got):
+        ref = scen.run(motor_params(p), ControllerUnit(p).drive)
+        fmu = {name: [y[name] for y in g["y"]] for name in PLANT_OUT} | dict(zip(PLANT_IN[:2], zip(*g["v"])))
+        err = rel_err(fmu, ref, PLANT_OUT + PLANT_IN[:2])
+        print(f"closed loop {p}: max rel diff {err:.3g}")
+        assert err <= 1e-9 and ref["omega_m"][-1] > 5.0
+    assert got[0]["y"][-1]["omega_m"] != got[1]["y"][-1]["omega_m"]  # J differs: the instances are separate
+    plant, g = pairs[1][1], got[1]
+    plant.fmu.reset()
+    assert plant.get(["J"]) == [DEFAULTS["SaturatedInductionMotor"]["J"]]  # reset: back to the start values
+    plant.initialize(params[1])
+    replay = [plant.get(PLANT_OUT)]
+    for k in range(n):
+        v_a, v_b = g["v"][k]
+        plant.step(k * H, H, {"v_s_alpha": v_a, "v_s_beta": v_b, "T_load": scen.load(k * H)})
+        replay.append(plant.get(PLANT_OUT))
+    assert replay == [[y[name] for name in PLANT_OUT] for y in g["y"]]
+
+
+# --- 11: bundle check ---------------------------------------------------------------------------------
+
+def test_same_fmu_instantiates_repeatedly_in_one_process(repeat_check):
+    assert repeat_check[0] == 0, repeat_check
+
+
+def test_plant_with_another_fingerprint_refuses_to_instantiate(fmus, tmp_path):
+    tampered = tmp_path / "SaturatedInductionMotor.fmu"
+    tamper_fingerprint(fmus["SaturatedInductionMotor"].path, tampered)
+    rc, out, err = _child("tamper", tampered, fmus["BacksteppingController"].path)
+    assert rc == 0, err
+    res = json.loads(out)
+    assert not res["instantiated"] and res["error"] and res["alive"]  # refused; the process ran on
+    assert "fingerprint" in res["log"] and "satmotor" in res["log"], res
+
+
+def test_plant_with_another_fingerprint_is_refused_after_a_genuine_plant(fmus, tmp_path):
+    tampered = tmp_path / "SaturatedInductionMotor.fmu"
+    tamper_fingerprint(fmus["SaturatedInductionMotor"].path, tampered)
+    rc, out, err = _child("tamper", tampered, fmus["BacksteppingController"].path,
+                          fmus["SaturatedInductionMotor"].path)
+    assert rc == 0, err
+    assert not json.loads(out)["instantiated"]
