@@ -251,6 +251,22 @@ def test_controller_fmu_reproduces_the_plain_closed_loop_voltages(new, params):
     assert err <= 1e-9
 
 
+def test_controller_fmu_under_simulate_fmu_matches_the_plain_loop(fmus):
+    """fmpy.simulate_fmu with the plain loop's measurements as the input table (on the grid):
+    the output row after doStep(t_k, Ts) is the plain loop's sample k."""
+    rec = ramp_run()
+    n = len(rec["t"])
+    sig = np.array([(k * H, *ctrl_inputs(rec, k).values()) for k in range(n)],
+                   dtype=[("time", float)] + [(v, float) for v in CTRL_IN])
+    res = simulate_fmu(fmus["BacksteppingController"].path, start_time=0.0, stop_time=(n - 1) * H,
+                       output_interval=H, input=sig, output=list(CTRL_OUT))
+    got = {v: res[v][1:] for v in CTRL_OUT}
+    ref = {v: np.asarray(rec[v][: n - 1]) for v in CTRL_OUT}
+    err = rel_err(got, ref, CTRL_OUT)
+    print(f"controller simulate_fmu: max rel diff {err:.3g}")
+    assert err <= 1e-9
+
+
 # --- 7: FMU state ------------------------------------------------------------------------------------
 
 def _replays(s, run, n, m):
