@@ -118,7 +118,7 @@ class FMUInstance:
             elif var.type == "Boolean":
                 self.slave.setBoolean(vr, [bool(value)])
             else:
-                self.slave.setString(vr, [str(value).encode("utf-8")])
+                self.slave.setString(vr, [str(value)])
 
     def initialize(self, start_time):
         try:

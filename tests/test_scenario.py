@@ -1,0 +1,351 @@
+"""Scenario files and time profiles: the library is valid, the profiles match hand computations,
+the default scenario is satmotor's RampScenario, and every kind of bad file is reported with
+its file, field path and value (all problems at once)."""
+
+import copy
+import math
+import pickle
+from pathlib import Path
+
+import pytest
+
+from orchestration.profiles import (
+    Constant,
+    Csv,
+    Problem,
+    Ramp,
+    Sine,
+    Step,
+    Sum,
+    Table,
+    parse_profile,
+)
+from orchestration.scenario import (
+    Scenario,
+    ScenarioError,
+    interface_variables,
+    load_scenario,
+    validate_scenario_file,
+)
+from satmotor.backstepping import ControllerConfig
+from satmotor.params import RatedData
+from satmotor.simulate import RampScenario
+
+LIBRARY = Path(__file__).resolve().parents[1] / "scenarios"
+FILES = sorted(LIBRARY.glob("*.yaml"))
+
+
+# --- the library -------------------------------------------------------------------------------
+
+
+def test_library_has_the_required_scenarios():
+    names = {f.stem for f in FILES}
+    assert len(FILES) >= 7
+    assert {"startup_premag", "ramp_rated_load", "speed_reversal", "deep_saturation", "sinusoidal_load",
+            "rotor_resistance_mismatch", "field_weakening"} <= names
+
+
+@pytest.mark.parametrize("path", FILES, ids=[f.stem for f in FILES])
+def test_library_scenario_is_valid(path):
+    assert validate_scenario_file(path) == []
+    assert validate_scenario_file(path, interface_variables()) == []
+    sc = load_scenario(path)
+    assert isinstance(sc, Scenario)
+    assert sc.name == path.stem
+    assert sc.stop_time <= 2.0
+    assert set(sc.profiles) == {"omega_ref", "psi_ref", "T_load"}
+    for p in sc.profiles.values():
+        for t in (0.0, 0.1 * sc.stop_time, 0.5 * sc.stop_time, sc.stop_time):
+            assert math.isfinite(p.value(t))
+    assert sc.profiles["psi_ref"].value(sc.stop_time) > 0
+
+
+def test_library_uses_a_csv_profile_and_a_sum():
+    kinds = {type(p) for f in FILES for p in load_scenario(f).profiles.values()}
+    assert Csv in kinds and Sum in kinds
+
+
+def test_default_scenario_reproduces_ramp_scenario():
+    sc = load_scenario(LIBRARY / "ramp_rated_load.yaml")
+    ref = RampScenario()
+    assert sc.stop_time == ref.t_end
+    assert sc.Ts == ControllerConfig().Ts and sc.step == 1e-4 and sc.controller_every == 1
+    assert sc.algorithm == "gauss-seidel" and dict(sc.plant) == {} and dict(sc.controller) == {}
+    assert sc.acceptance.ss_window == (ref.t_steady, ref.t_end)
+    assert sc.acceptance.ss_speed == 0.01 and sc.acceptance.ss_flux == 0.01
+    assert ref.T_load == round(RatedData().T_n, 2)
+    w, psi, load = (sc.profiles[k] for k in ("omega_ref", "psi_ref", "T_load"))
+    n = round(sc.stop_time / sc.Ts)
+    for k in range(n + 1):  # bit for bit at every sample time of the master (t = k h)
+        t = k * sc.step
+        assert w.value(t) == ref.omega_set(t)
+        assert load.value(t) == ref.load(t)
+        assert psi.value(t) == ref.psi_set
+
+
+def test_rotor_resistance_mismatch_overrides_only_the_plant():
+    sc = load_scenario(LIBRARY / "rotor_resistance_mismatch.yaml")
+    assert dict(sc.plant) == {"R_r": pytest.approx(1.5 * 1.395)} and "R_r" not in sc.controller
+
+
+def test_field_weakening_stays_below_the_voltage_limit():
+    sc = load_scenario(LIBRARY / "field_weakening.yaml")
+    v_max = sc.controller.get("V_dc", 540.0) / math.sqrt(3.0)
+    n_p = 2
+    for k in range(int(sc.stop_time / 0.01) + 1):
+        t = 0.01 * k
+        emf = n_p * sc.profiles["omega_ref"].value(t) * sc.profiles["psi_ref"].value(t)
+        assert emf < 0.95 * v_max, (t, emf)
+    assert isinstance(sc.profiles["psi_ref"], Table)
+
+
+# --- profiles against hand computations --------------------------------------------------------
+
+
+def _parse(spec, file="<string>"):
+    p, problems = parse_profile(spec, "profiles.x", file)
+    assert problems == []
+    return p
+
+
+def test_constant_and_step():
+    assert _parse({"type": "constant", "value": 2}).value(7.0) == 2.0
+    s = _parse({"type": "step", "time": 0.5, "value": 3.0, "initial": -1})
+    assert isinstance(s, Step)
+    assert s.value(0.0) == -1.0 and s.value(0.4999999) == -1.0 and s.value(0.5) == 3.0 and s.value(9) == 3.0
+    assert _parse({"type": "step", "time": 1, "value": 4}).value(0.9) == 0.0
+
+
+def test_ramp():
+    r = _parse({"type": "ramp", "start": 1.0, "end": 3.0, "from": 10.0, "to": 30.0})
+    assert isinstance(r, Ramp)
+    assert r.value(0.0) == 10.0 and r.value(1.0) == 10.0
+    assert r.value(2.0) == pytest.approx(20.0, abs=1e-12) and r.value(1.5) == pytest.approx(15.0, abs=1e-12)
+    assert r.value(3.0) == pytest.approx(30.0, abs=1e-12) and r.value(100.0) == 30.0
+    down = _parse({"type": "ramp", "start": 0, "end": 2, "from": 5, "to": -5})
+    assert down.value(0.5) == pytest.approx(2.5, abs=1e-12)
+    assert down.value(3) == -5.0 and down.value(-1) == 5.0
+
+
+def test_table():
+    tb = _parse({"type": "table", "points": [[0, 1], [1, 3], [3, -1]]})
+    assert isinstance(tb, Table)
+    expected = {-1.0: 1.0, 0.0: 1.0, 0.25: 1.5, 0.5: 2.0, 1.0: 3.0, 2.0: 1.0, 2.5: 0.0, 3.0: -1.0, 10.0: -1.0}
+    for t, v in expected.items():
+        assert tb.value(t) == pytest.approx(v, abs=1e-12), t
+    assert _parse({"type": "table", "points": [[0.2, 4.0]]}).value(5.0) == 4.0
+
+
+def test_sine():
+    s = _parse({"type": "sine", "amplitude": 2.0, "frequency": 5.0, "phase": 0.3, "offset": 1.0,
+                "start": 0.2})
+    assert isinstance(s, Sine)
+    assert s.value(0.1) == 0.0
+    assert s.value(0.2) == pytest.approx(1.0 + 2.0 * math.sin(0.3), abs=1e-12)
+    # 0.05 s after the start is a quarter period of 5 Hz: sin(pi/2 + 0.3) = cos(0.3)
+    assert s.value(0.25) == pytest.approx(1.0 + 2.0 * math.cos(0.3), abs=1e-12)
+    assert s.value(0.3) == pytest.approx(1.0 - 2.0 * math.sin(0.3), abs=1e-12)  # half a period
+
+
+def test_csv_with_header_and_columns(tmp_path):
+    (tmp_path / "data").mkdir()
+    (tmp_path / "data" / "p.csv").write_text("a,time,torque\n9,0.0,0.0\n9,1.0,10.0\n9,2.0,4.0\n")
+    scen = tmp_path / "s.yaml"  # relative paths resolve against the scenario's directory
+    c = _parse({"type": "csv", "file": "data/p.csv", "time_column": 1, "value_column": 2}, str(scen))
+    assert isinstance(c, Csv) and c.times == (0.0, 1.0, 2.0)
+    assert c.value(0.5) == pytest.approx(5.0) and c.value(1.5) == pytest.approx(7.0)
+    assert c.value(-1) == 0.0 and c.value(3.0) == 4.0
+
+
+def test_library_csv_profile():
+    sc = load_scenario(LIBRARY / "load_cycle_csv.yaml")
+    p = sc.profiles["T_load"]
+    assert p.value(0.5) == 0.0 and p.value(0.925) == pytest.approx(10.0) and p.value(1.0) == 20.0
+    assert p.value(1.6) == pytest.approx(26.71) and p.value(2.0) == 10.0
+
+
+def test_sum():
+    s = _parse([{"type": "step", "time": 0.6, "value": 13.0},
+                {"type": "sine", "amplitude": 8.0, "frequency": 5.0, "start": 0.6}])
+    assert isinstance(s, Sum) and len(s.parts) == 2
+    assert s.value(0.5) == 0.0
+    for t in (0.6, 0.61, 0.65, 0.73, 1.0, 1.234):
+        assert s.value(t) == pytest.approx(13.0 + 8.0 * math.sin(2 * math.pi * 5 * t), abs=1e-9)
+    assert _parse([{"type": "constant", "value": 1.5}]) == Constant(1.5)  # one part: no Sum
+
+
+def test_profile_problems_name_the_path():
+    p, problems = parse_profile([{"type": "constant", "value": 1}, {"type": "step", "time": -1, "value": 2,
+                                                                    "extra": 0}], "profiles.T_load", "f.yaml")
+    assert p is None
+    fields = {q.field for q in problems}
+    assert fields == {"profiles.T_load[1].time", "profiles.T_load[1].extra"}
+    assert all(isinstance(q, Problem) and q.file == "f.yaml" for q in problems)
+    _, problems = parse_profile({"type": "constant", "value": float("nan")}, "profiles.x")
+    assert problems[0].message == "must be finite"
+
+
+# --- bad files ---------------------------------------------------------------------------------
+
+BASE = """\
+name: t
+stop_time: 0.01
+step: 1.0e-4
+profiles:
+  psi_ref: {type: constant, value: 0.95}
+  omega_ref: {type: ramp, start: 0.0, end: 0.005, to: 10.0}
+  T_load: {type: step, time: 0.005, value: 1.0}
+"""
+
+
+def _edit(old, new):
+    assert old in BASE
+    return BASE.replace(old, new)
+
+
+PSI = "  psi_ref: {type: constant, value: 0.95}\n"
+W = "  omega_ref: {type: ramp, start: 0.0, end: 0.005, to: 10.0}\n"
+TL = "  T_load: {type: step, time: 0.005, value: 1.0}\n"
+
+# (id, text, field path, value as shown) -- the message must hold all three and the file
+BAD = [
+    ("unknown top-level key", BASE + "colour: red\n", "colour", "'red'"),
+    ("missing psi_ref", _edit(PSI, ""), "profiles.psi_ref", "<missing>"),
+    ("missing name", _edit("name: t\n", ""), "name", "<missing>"),
+    ("negative stop_time", _edit("stop_time: 0.01", "stop_time: -1.0"), "stop_time", "-1.0"),
+    ("step not dividing stop_time", _edit("step: 1.0e-4", "step: 3.0e-3"), "stop_time", "0.01"),
+    ("unknown profile type", _edit(W, "  omega_ref: {type: square, value: 1.0}\n"), "profiles.omega_ref.type",
+     "'square'"),
+    ("table times not increasing",
+     _edit(W, "  omega_ref: {type: table, points: [[0, 0], [0.5, 1], [0.4, 2]]}\n"),
+     "profiles.omega_ref.points[2][0]", "0.4"),
+    ("bool for a number", _edit(TL, "  T_load: {type: step, time: true, value: 1.0}\n"),
+     "profiles.T_load.time", "True"),
+    ("1e-4 read as a string", _edit("step: 1.0e-4", "step: 1e-4"), "step", "'1e-4'"),
+    ("unknown plant parameter", BASE + "plant: {R_x: 1.0}\n", "plant.R_x", "1.0"),
+    ("overriding a plant output", BASE + "plant: {omega_m: 3.0}\n", "plant.omega_m", "3.0"),
+    ("overriding a controller input", BASE + "controller: {psi_ref: 1.0}\n", "controller.psi_ref", "1.0"),
+    ("wrong type for a String parameter", BASE + "plant: {curve: 3}\n", "plant.curve", "3"),
+    ("unknown curve name", BASE + "plant: {curve: spline}\n", "plant.curve", "'spline'"),
+    ("float for an Integer parameter", BASE + "plant: {n_p: 2.5}\n", "plant.n_p", "2.5"),
+    ("controller Ts override", BASE + "controller: {Ts: 2.0e-4}\n", "controller.Ts", "0.0002"),
+    ("record output that does not exist", BASE + "record: {outputs: [plant.nope]}\n", "record.outputs[0]",
+     "'plant.nope'"),
+    ("record interval not a multiple", BASE + "record: {interval: 1.5e-4}\n", "record.interval", "0.00015"),
+    ("unknown acceptance key", BASE + "acceptance: {ss_torque: 0.1}\n", "acceptance.ss_torque", "0.1"),
+    ("negative acceptance bound", BASE + "acceptance: {ss_speed: -0.1}\n", "acceptance.ss_speed", "-0.1"),
+    ("ss_window beyond stop_time", BASE + "acceptance: {ss_window: [0.0, 0.5]}\n", "acceptance.ss_window[1]",
+     "0.5"),
+    ("missing CSV file", _edit(TL, "  T_load: {type: csv, file: nope.csv}\n"), "profiles.T_load.file",
+     "'nope.csv'"),
+    ("invalid YAML syntax", BASE + "plant: {R_s: [1.0\n", "(yaml syntax)", "'line "),
+    ("controller_every zero", BASE + "controller_every: 0\n", "controller_every", "0"),
+    ("unknown algorithm", BASE + "algorithm: newton\n", "algorithm", "'newton'"),
+    ("bad name", _edit("name: t", "name: my run"), "name", "'my run'"),
+    ("non-finite number", _edit("stop_time: 0.01", "stop_time: .inf"), "stop_time", "inf"),
+    ("ramp end before start", _edit(W, "  omega_ref: {type: ramp, start: 0.004, end: 0.002, to: 1.0}\n"),
+     "profiles.omega_ref.end", "0.002"),
+    ("sum part problem",
+     _edit(TL, "  T_load: [{type: constant, value: 1.0}, {type: sine, amplitude: 1.0}]\n"),
+     "profiles.T_load[1].frequency", "<missing>"),
+]
+
+
+@pytest.mark.parametrize("text, field, shown", [b[1:] for b in BAD], ids=[b[0] for b in BAD])
+def test_bad_file_is_reported(tmp_path, text, field, shown):
+    path = tmp_path / "bad.yaml"
+    path.write_text(text)
+    with pytest.raises(ScenarioError) as info:
+        load_scenario(path)
+    msg = str(info.value)
+    assert str(path) in msg
+    line = next((ln for ln in msg.splitlines() if f": {field} = " in ln), None)
+    assert line is not None, msg
+    assert f"{field} = {shown}" in line, msg
+    assert isinstance(info.value, ValueError) and info.value.problems
+    assert validate_scenario_file(path) == info.value.problems  # the validator returns, never raises
+
+
+def test_string_number_gets_a_spelling_hint(tmp_path):
+    path = tmp_path / "s.yaml"
+    path.write_text(_edit("step: 1.0e-4", "step: 1e-4"))
+    (problem,) = validate_scenario_file(path)
+    assert "write 1.0e-4" in problem.message
+
+
+def test_three_problems_at_once(tmp_path):
+    path = tmp_path / "three.yaml"
+    path.write_text(_edit("stop_time: 0.01", "stop_time: -1") + "colour: red\nplant: {R_x: 1.0}\n")
+    problems = validate_scenario_file(path)
+    assert [p.field for p in problems] == ["colour", "stop_time", "plant.R_x"]
+    with pytest.raises(ScenarioError) as info:
+        load_scenario(path)
+    assert "3 problem(s)" in str(info.value)
+    for f in ("colour = 'red'", "stop_time = -1", "plant.R_x = 1.0"):
+        assert f in str(info.value)
+
+
+def test_missing_file_and_non_mapping(tmp_path):
+    (p,) = validate_scenario_file(tmp_path / "none.yaml")
+    assert "cannot read" in p.message and "none.yaml" in str(p)
+    path = tmp_path / "list.yaml"
+    path.write_text("- 1\n- 2\n")
+    (p,) = validate_scenario_file(path)
+    assert "mapping" in p.message
+
+
+def test_variables_from_the_fmus_are_used(tmp_path):
+    path = tmp_path / "v.yaml"
+    path.write_text(BASE + "plant: {R_s: 1.5, extra_gain: 2}\n")
+    assert [p.field for p in validate_scenario_file(path)] == ["plant.extra_gain"]
+    variables = interface_variables()
+    variables["plant"] = dict(variables["plant"], extra_gain=("parameter", "Integer"))
+    del variables["plant"]["R_s"]
+    assert [p.field for p in validate_scenario_file(path, variables)] == ["plant.R_s"]
+
+
+def test_defaults_and_overrides(tmp_path):
+    path = tmp_path / "d.yaml"
+    path.write_text("name: d\nstop_time: 1\nprofiles: {psi_ref: {type: constant, value: 1}}\n"
+                    "step: 5.0e-5\ncontroller_every: 2\nalgorithm: jacobi\n"
+                    "plant: {n_p: 2, curve: linear}\ncontroller: {mode: pi, c1: 300}\n")
+    sc = load_scenario(path)
+    assert sc.Ts == pytest.approx(1e-4) and sc.algorithm == "jacobi" and sc.description == ""
+    assert sc.profiles["omega_ref"].value(0.5) == 0.0 and sc.profiles["T_load"].value(0.5) == 0.0
+    assert sc.record.interval == 5e-5 and sc.record.outputs == () and sc.acceptance is None
+    assert dict(sc.plant) == {"n_p": 2, "curve": "linear"}
+    assert dict(sc.controller) == {"mode": "pi", "c1": 300.0}
+    with pytest.raises(AttributeError):
+        sc.stop_time = 2.0  # frozen
+
+
+@pytest.mark.parametrize("content, expected", [
+    ("t,v\n0,1\n0.5,2\n0.4,3\n", "line 4: time 0.4"),
+    ("0,1\n0.5\n", "line 2: 1 column(s)"),
+    ("t,v\n0,1\nx,2\n", "line 3: not numbers"),
+    ("t,v\n", "holds no data rows"),
+    ("0,1\n-1,nan\n", "line 2"),
+])
+def test_bad_csv_content(tmp_path, content, expected):
+    (tmp_path / "p.csv").write_text(content)
+    path = tmp_path / "s.yaml"
+    path.write_text(_edit(TL, "  T_load: {type: csv, file: p.csv}\n"))
+    (problem,) = validate_scenario_file(path)
+    assert problem.field == "profiles.T_load.file" and problem.value == "p.csv"
+    assert expected in problem.message
+
+
+def test_scenario_pickles_and_copies():
+    for f in FILES:
+        sc = load_scenario(f)
+        for back in (pickle.loads(pickle.dumps(sc)), copy.deepcopy(sc)):
+            assert back == sc
+            assert all(back.profiles[k].value(0.75) == sc.profiles[k].value(0.75) for k in sc.profiles)
+
+
+def test_unhashable_type_and_empty_list(tmp_path):
+    path = tmp_path / "s.yaml"
+    path.write_text(_edit(TL, "  T_load: {type: [step]}\n"))
+    assert [p.field for p in validate_scenario_file(path)] == ["profiles.T_load.type"]
+    path.write_text(_edit(TL, "  T_load: []\n"))
+    assert [p.field for p in validate_scenario_file(path)] == ["profiles.T_load"]
