@@ -4,7 +4,7 @@ VENV := .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed
 
-.PHONY: demo test lint bench clean
+.PHONY: demo test compare bench clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -13,7 +13,10 @@ $(STAMP): pyproject.toml
 	touch $(STAMP)
 
 demo: $(STAMP)
-	$(PY) demos/closed_loop.py --out results
+	$(PY) -m orchestration build --out build/fmus
+	$(PY) -m orchestration run scenarios/ramp_rated_load.yaml --out results --fmus build/fmus
+
+compare: $(STAMP)
 	$(PY) demos/compare_controllers.py --out results
 
 test: $(STAMP)

@@ -54,7 +54,7 @@ class RunResult:
     frame: pd.DataFrame
     status: str  # ok, discard, error, fatal (FMI status of the failing call), or 'setup'
     message: str
-    t_end: float  # [s] last time reached
+    t_end: float  # [s] last communication point reached (where a failure happened)
     wall_time: float  # [s]
 
     @property
@@ -133,6 +133,7 @@ def run(scenario, plant_fmu, controller_fmu, connections=DEFAULT_CONNECTIONS, al
         Ts = scenario.Ts
         for k in range(n + 1):
             t = t0 + k * h
+            t_reached = t  # the plant state at t exists; a failure below happens at t
             if k % N == 0:
                 current = "controller"
                 for j, (kind, src) in enumerate(c_src):
@@ -144,7 +145,6 @@ def run(scenario, plant_fmu, controller_fmu, connections=DEFAULT_CONNECTIONS, al
                 held = previous if jacobi else list(cv)
             if k % every == 0:
                 rows.append([t, *pv, *cv, *(profiles[p](t) for p in prof_names)])
-            t_reached = t
             if k == n:
                 break
             current = "plant"

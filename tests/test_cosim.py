@@ -1,0 +1,157 @@
+"""The fmpy co-simulation master against the plain-Python closed loop, the CLI, batch and Dask."""
+
+import dataclasses
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from orchestration import fmus
+from orchestration.master import run
+from orchestration.reference import COLUMNS, plain_reference
+from orchestration.scenario import load_scenario
+
+ROOT = Path(__file__).resolve().parents[1]
+LIBRARY = sorted((ROOT / "scenarios").glob("*.yaml"))
+
+
+@pytest.fixture(scope="module")
+def fmu_dir(tmp_path_factory):
+    d = tmp_path_factory.mktemp("fmus")
+    fmus.build(d, quiet=True)
+    return d
+
+
+def _on_common_times(co, ref, h):
+    k_co = np.rint(co["time"].to_numpy() / h).astype(np.int64)
+    k_ref = np.rint(ref["time"].to_numpy() / h).astype(np.int64)
+    common, i, j = np.intersect1d(k_co, k_ref, return_indices=True)
+    return co.iloc[i], ref.iloc[j], len(common)
+
+
+def _max_rel_diff(a, b, columns):
+    return max(np.max(np.abs(a[c].to_numpy() - b[c].to_numpy()))
+               / max(np.max(np.abs(b[c].to_numpy())), 1e-300) for c in columns)
+
+
+def test_library_has_the_required_scenarios():
+    names = {p.stem for p in LIBRARY}
+    assert len(names) >= 7
+    assert {"startup_premag", "ramp_rated_load", "speed_reversal", "deep_saturation", "sinusoidal_load",
+            "rotor_resistance_mismatch", "field_weakening"} <= names
+
+
+@pytest.mark.parametrize("path", LIBRARY, ids=lambda p: p.stem)
+def test_cosimulation_matches_the_plain_python_closed_loop(path, fmu_dir):
+    sc = load_scenario(path)
+    plant, ctrl = fmus.paths(fmu_dir)
+    res = run(sc, str(plant), str(ctrl))
+    assert res.ok, res.message
+    assert res.frame["time"].iloc[-1] == pytest.approx(sc.stop_time)
+    co, ref, n = _on_common_times(res.frame, plain_reference(sc), sc.step)
+    assert n >= 100
+    assert _max_rel_diff(co, ref, COLUMNS) <= 1e-8
+
+
+def test_jacobi_and_gauss_seidel_differ_less_with_a_smaller_step(fmu_dir):
+    base = load_scenario(ROOT / "scenarios" / "startup_premag.yaml")
+    plant, ctrl = fmus.paths(fmu_dir)
+    diffs = []
+    for h in (2e-4, 1e-4, 5e-5):
+        sc = dataclasses.replace(base, step=h, stop_time=0.4,
+                                 record=dataclasses.replace(base.record, interval=2e-4))
+        gs, ja = run(sc, str(plant), str(ctrl), algorithm="gauss-seidel"), run(sc, str(plant), str(ctrl),
+                                                                            algorithm="jacobi")
+        assert gs.ok and ja.ok
+        diffs.append(float(np.max(np.abs(gs.frame["plant.omega_m"] - ja.frame["plant.omega_m"]))))
+    assert diffs[0] > 0.0
+    assert diffs[1] < 0.7 * diffs[0] and diffs[2] < 0.7 * diffs[1], diffs
+
+
+def test_an_fmu_failure_stops_cleanly_and_keeps_what_was_recorded(tmp_path, fmu_dir):
+    f = tmp_path / "unreachable.yaml"
+    f.write_text("name: unreachable\nstop_time: 0.3\nprofiles:\n"
+                 "  psi_ref: [{type: constant, value: 0.9}, {type: step, time: 0.2, value: 1.5}]\n"
+                 "  omega_ref: {type: constant, value: 20.0}\n")
+    sc = load_scenario(f)
+    plant, ctrl = fmus.paths(fmu_dir)
+    res = run(sc, str(plant), str(ctrl))
+    assert res.status == "discard"
+    assert "psi_ref" in res.message and "2.4" in res.message  # the value 0.9 + 1.5, named by the drive
+    assert res.t_end == pytest.approx(0.2) and res.frame["time"].iloc[-1] == pytest.approx(0.2 - 1e-4)
+
+
+def _cli(*args, cwd=ROOT):
+    return subprocess.run([sys.executable, "-m", "orchestration", *map(str, args)], capture_output=True,
+                          text=True, cwd=cwd, timeout=600)
+
+
+@pytest.mark.parametrize("verb", ["", "build", "run", "batch", "validate"])
+def test_help_everywhere(verb):
+    r = _cli(*([verb] if verb else []), "--help")
+    assert r.returncode == 0 and "usage" in r.stdout
+
+
+def test_cli_run_writes_timeseries_metrics_and_figure(tmp_path, fmu_dir):
+    r = _cli("run", ROOT / "scenarios" / "startup_premag.yaml", "--out", tmp_path, "--fmus", fmu_dir)
+    assert r.returncode == 0, r.stderr
+    d = tmp_path / "startup_premag"
+    csv, parquet = pd.read_csv(d / "timeseries.csv"), pd.read_parquet(d / "timeseries.parquet")
+    assert len(csv) == len(parquet) > 1000 and np.allclose(csv["plant.omega_m"], parquet["plant.omega_m"])
+    m = json.loads((d / "metrics.json").read_text())
+    assert m["status"] == "ok" and m["metrics"]["min_W"] > 0
+    # the metric and the recorded series agree (an independent recomputation)
+    i_peak = np.max(np.hypot(csv["plant.i_s_alpha"], csv["plant.i_s_beta"]))
+    assert m["metrics"]["peak_current"] == pytest.approx(i_peak, rel=1e-12)
+    assert (d / "figure.png").stat().st_size > 20_000
+
+
+def test_cli_validate_reports_a_bad_file_and_exits_nonzero(tmp_path):
+    f = tmp_path / "bad.yaml"
+    f.write_text("name: bad\nstop_time: -1.0\nprofiles: {omega_ref: {type: constant, value: 1.0}}\n")
+    r = _cli("validate", f)
+    assert r.returncode == 2
+    assert str(f) in r.stderr and "stop_time" in r.stderr and "-1.0" in r.stderr and "psi_ref" in r.stderr
+
+
+@pytest.fixture
+def small_batch(tmp_path):
+    d = tmp_path / "batch"
+    d.mkdir()
+    for name, stop in (("short_a", 0.25), ("short_b", 0.3)):
+        (d / f"{name}.yaml").write_text(
+            f"name: {name}\nstop_time: {stop}\nprofiles:\n  psi_ref: {{type: constant, value: 0.95}}\n"
+            "  omega_ref: {type: step, time: 0.15, value: 30.0}\n")
+    (d / "broken.yaml").write_text("name: broken\nstop_time: 0.2\nprofiles: {psi_ref: {type: nope}}\n")
+    return d
+
+
+def _check_batch(r, out):
+    assert r.returncode == 2, r.stdout + r.stderr  # one invalid scenario: non-zero, the others done
+    summary = pd.read_csv(out / "summary.csv")
+    status = dict(zip(summary["scenario"], summary["status"]))
+    assert status == {"short_a": "ok", "short_b": "ok", "broken": "invalid"}
+    assert "FAILED" in r.stderr and "broken.yaml" in r.stderr
+    for name in ("short_a", "short_b"):
+        assert (out / name / "metrics.json").exists()
+
+
+def test_batch_completes_the_others_when_one_scenario_is_broken(tmp_path, small_batch, fmu_dir):
+    out = tmp_path / "out"
+    r = _cli("batch", small_batch, "--jobs", 2, "--out", out, "--fmus", fmu_dir)
+    _check_batch(r, out)
+    assert "iae_speed" in r.stdout  # the summary table on screen
+
+
+def test_batch_on_a_dask_local_cluster(tmp_path, small_batch, fmu_dir):
+    from distributed import LocalCluster
+
+    out = tmp_path / "out"
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
+        r = _cli("batch", small_batch, "--scheduler", cluster.scheduler_address, "--out", out,
+                 "--fmus", fmu_dir)
+    _check_batch(r, out)
