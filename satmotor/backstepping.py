@@ -47,18 +47,13 @@ import math
 from dataclasses import dataclass
 from typing import NamedTuple
 
-from .errors import ParameterError
+from .errors import ParameterError, require_number
 from .measurements import from_rotor_flux, from_stator_flux
 
 _SQRT3 = math.sqrt(3.0)
 _W_REL_FLOOR = 1e-12
 LOAD_MODES = ("known", "estimated")
 
-
-def _finite_positive(name, v, allow_zero=False):
-    ok = not isinstance(v, bool) and isinstance(v, (int, float)) and math.isfinite(v)
-    if not ok or v < 0 or (v == 0 and not allow_zero):
-        raise ParameterError(name, v, "must be a finite number " + (">= 0" if allow_zero else "> 0"))
 
 
 @dataclass(frozen=True)
@@ -79,7 +74,7 @@ class BacksteppingGains:
 
     def __post_init__(self):
         for name in ("c1", "c2", "d1", "d2"):
-            _finite_positive(name, getattr(self, name))
+            require_number(name, getattr(self, name), 0)
 
 
 @dataclass(frozen=True)
@@ -107,13 +102,13 @@ class ControllerConfig:
     use_stator_flux: bool = False
 
     def __post_init__(self):
-        _finite_positive("V_dc", self.V_dc)
-        _finite_positive("Ts", self.Ts, allow_zero=True)
-        _finite_positive("phi_min", self.phi_min)
+        require_number("V_dc", self.V_dc, 0)
+        require_number("Ts", self.Ts, 0, inclusive=True)
+        require_number("phi_min", self.phi_min, 0)
         if self.load_mode not in LOAD_MODES:
             raise ParameterError("load_mode", self.load_mode, f"must be one of {LOAD_MODES}")
-        _finite_positive("g_theta", self.g_theta)
-        _finite_positive("theta_max", self.theta_max)
+        require_number("g_theta", self.g_theta, 0)
+        require_number("theta_max", self.theta_max, 0)
         if not isinstance(self.use_stator_flux, bool):
             raise ParameterError("use_stator_flux", self.use_stator_flux, "must be a bool")
 

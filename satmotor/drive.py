@@ -32,22 +32,13 @@ from dataclasses import dataclass
 from typing import NamedTuple
 
 from .backstepping import BacksteppingGains, ControllerConfig, control
-from .errors import ParameterError
+from .errors import ParameterError, require_number
 from .ifoc import IFOCController, IFOCGains
 from .measurements import from_rotor_flux
 from .references import ReferenceShaper
 
 PREMAG, RUN = 0, 1
 _SQRT3 = math.sqrt(3.0)
-
-
-def _finite(name, v, lo=None, lo_open=True):
-    ok = not isinstance(v, bool) and isinstance(v, (int, float)) and math.isfinite(v)
-    if ok and lo is not None:
-        ok = v > lo if lo_open else v >= lo
-    if not ok:
-        rel = "" if lo is None else (f" > {lo}" if lo_open else f" >= {lo}")
-        raise ParameterError(name, v, f"must be a finite number{rel}")
 
 
 @dataclass(frozen=True)
@@ -68,14 +59,14 @@ class DriveConfig:
     premag_time_max: float = 0.4
 
     def __post_init__(self):
-        _finite("ref_bandwidth", self.ref_bandwidth, 0.0)
-        _finite("I_max", self.I_max, 0.0)
-        _finite("premag_fraction", self.premag_fraction, 0.0)
+        require_number("ref_bandwidth", self.ref_bandwidth, 0)
+        require_number("I_max", self.I_max, 0)
+        require_number("premag_fraction", self.premag_fraction, 0)
         if self.premag_fraction > 1.0:
             raise ParameterError("premag_fraction", self.premag_fraction, "must be <= 1")
-        _finite("premag_boost", self.premag_boost, 1.0, lo_open=False)
-        _finite("premag_gain", self.premag_gain, 0.0)
-        _finite("premag_time_max", self.premag_time_max, 0.0)
+        require_number("premag_boost", self.premag_boost, 1, inclusive=True)
+        require_number("premag_gain", self.premag_gain, 0)
+        require_number("premag_time_max", self.premag_time_max, 0)
 
 
 class DriveOutput(NamedTuple):
@@ -105,7 +96,7 @@ class _Drive:
     def __init__(self, params, Ts, V_dc, drive_cfg):
         self.params = params
         self.dcfg = drive_cfg = DriveConfig() if drive_cfg is None else drive_cfg
-        _finite("Ts", Ts, 0.0)
+        require_number("Ts", Ts, 0)
         self.Ts = Ts
         self._V_max = V_dc / _SQRT3
         self._flux = ReferenceShaper(drive_cfg.ref_bandwidth)
@@ -125,7 +116,7 @@ class _Drive:
         """Steady magnetizing current [A] for a rotor flux set-point [Wb]; error beyond I_max."""
         if psi_set == self._checked[0]:
             return self._checked[1]
-        _finite("psi_ref", psi_set, 0.0)
+        require_number("psi_ref", psi_set, 0)
         p = self.params
         I = p.curve.current(psi_set / p.k)
         if I > self.dcfg.I_max:
@@ -142,7 +133,7 @@ class _Drive:
         psi_s_alpha, psi_s_beta)`` [A, A, Wb, Wb, rad/s, Wb, Wb]; set-points [rad/s], [Wb];
         load torque [N m].  Returns a :class:`DriveOutput`."""
         I_set = self.magnetizing_current(psi_set)
-        _finite("omega_ref", omega_set)
+        require_number("omega_ref", omega_set)
         if self._phase == PREMAG:
             phi = math.hypot(meas[2], meas[3])
             if phi < self.dcfg.premag_fraction * psi_set and self._n < self._n_switch:

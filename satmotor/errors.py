@@ -1,4 +1,6 @@
-"""The one exception type the physics package raises for bad parameters."""
+"""The one exception type the physics package raises for bad parameters, and its number check."""
+
+import math
 
 
 class ParameterError(ValueError):
@@ -23,3 +25,15 @@ class ParameterError(ValueError):
         self.source = source
         where = f"{source}: " if source else ""
         super().__init__(f"{where}{field} = {value!r}: {reason}")
+
+
+def require_number(field, value, lower=None, inclusive=False):
+    """``float(value)`` when it is a finite real number (bool is not) above ``lower``
+    (``>= lower`` with ``inclusive``); otherwise a :class:`ParameterError` naming the field."""
+    ok = not isinstance(value, bool) and isinstance(value, (int, float)) and math.isfinite(value)
+    if ok and lower is not None:
+        ok = value >= lower if inclusive else value > lower
+    if not ok:
+        bound = "" if lower is None else f" {'>=' if inclusive else '>'} {lower}"
+        raise ParameterError(field, value, f"must be a finite number{bound}")
+    return float(value)

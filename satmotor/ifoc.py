@@ -55,18 +55,10 @@ import math
 from dataclasses import dataclass
 from typing import NamedTuple
 
-from .errors import ParameterError
+from .errors import ParameterError, require_number
 from .params import MotorParams, RatedData
 
 _TWO_PI = 2.0 * math.pi
-
-
-def _positive(field, value):
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not (
-        math.isfinite(value) and value > 0
-    ):
-        raise ParameterError(field, value, "must be a finite number > 0")
-    return float(value)
 
 
 @dataclass(frozen=True)
@@ -92,7 +84,7 @@ class IFOCGains:
 
     def __post_init__(self):
         for name in ("w_c", "w_speed", "I_max", "V_dc"):
-            _positive(name, getattr(self, name))
+            require_number(name, getattr(self, name), 0)
 
 
 class IFOCDiagnostics(NamedTuple):
@@ -145,10 +137,10 @@ class IFOCController:
         if not isinstance(gains, IFOCGains):
             raise ParameterError("gains", gains, "must be an IFOCGains")
         self.params, self.gains = params, gains
-        self.Ts = Ts = _positive("Ts", Ts)
+        self.Ts = Ts = require_number("Ts", Ts, 0)
         if L_m is None:
             L_m = params.curve.m(RatedData().I_mu_n)
-        self.L_m = L_m = _positive("L_m", L_m)
+        self.L_m = L_m = require_number("L_m", L_m, 0)
         k = params.k
         self.L_ra = L_ra = params.l_r + k * k * L_m
         kLm = k * L_m

@@ -26,15 +26,10 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from .errors import ParameterError
+from .errors import ParameterError, require_number
 
 _REL_TOL = 4.0e-16
 _MAX_ITER = 200
-
-
-def _positive(field, value):
-    if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
-        raise ParameterError(field, value, "must be a finite number > 0")
 
 
 class _Curve:
@@ -108,7 +103,7 @@ class LinearCurve(_Curve):
     name = "linear"
 
     def __post_init__(self):
-        _positive("L_m0", self.L_m0)
+        require_number("L_m0", self.L_m0, 0)
 
     @property
     def m0(self):
@@ -134,9 +129,9 @@ class LinearCurve(_Curve):
 
 
 def _check_saturating(L_m0, L_m_inf, I_par):
-    _positive("L_m0", L_m0)
-    _positive("L_m_inf", L_m_inf)
-    _positive("I_par", I_par)
+    require_number("L_m0", L_m0, 0)
+    require_number("L_m_inf", L_m_inf, 0)
+    require_number("I_par", I_par, 0)
     if L_m_inf >= L_m0:
         raise ParameterError(
             "L_m_inf", L_m_inf, f"must be < L_m0 = {L_m0!r} for a saturating curve"
@@ -288,7 +283,7 @@ class PolynomialCurve(_Curve):
     name = "polynomial"
 
     def __post_init__(self):
-        _positive("L_m0", self.L_m0)
+        require_number("L_m0", self.L_m0, 0)
         b = self.poly_b
         if not (isinstance(b, (int, float)) and math.isfinite(b) and b >= 0):
             raise ParameterError("poly_b", b, "must be a finite number >= 0")

@@ -35,18 +35,11 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
-from .errors import ParameterError
+from .errors import ParameterError, require_number
 from .magnetics import ArctanCurve, ExponentialCurve, LinearCurve, PolynomialCurve
 from .table_curve import TableCurve
 
 CURVE_NAMES = ("arctan", "exponential", "polynomial", "table", "linear")
-
-
-def _check_positive(obj, names):
-    for name in names:
-        v = getattr(obj, name)
-        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0:
-            raise ParameterError(name, v, "must be a finite number > 0")
 
 
 @dataclass(frozen=True)
@@ -82,13 +75,11 @@ class MotorParams:
     curve: object = field(default_factory=ArctanCurve)
 
     def __post_init__(self):
-        _check_positive(self, ("R_s", "R_r", "l_s", "l_r", "k", "J"))
+        for name in ("R_s", "R_r", "l_s", "l_r", "k", "J"):
+            require_number(name, getattr(self, name), 0)
         if isinstance(self.n_p, bool) or not isinstance(self.n_p, int) or self.n_p < 1:
             raise ParameterError("n_p", self.n_p, "must be an integer >= 1")
-        if isinstance(self.B, bool) or not isinstance(self.B, (int, float)) or not (
-            math.isfinite(self.B) and self.B >= 0
-        ):
-            raise ParameterError("B", self.B, "must be a finite number >= 0")
+        require_number("B", self.B, 0, inclusive=True)
         if not hasattr(self.curve, "solve"):
             raise ParameterError("curve", self.curve, "must be a magnetizing curve object")
 

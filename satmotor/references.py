@@ -27,17 +27,9 @@ from __future__ import annotations
 
 import math
 
-from .errors import ParameterError
+from .errors import ParameterError, require_number
 
 _CACHE_SIZE = 8
-
-
-def _finite_positive(field, value):
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not (
-        math.isfinite(value) and value > 0
-    ):
-        raise ParameterError(field, value, "must be a finite number > 0")
-    return float(value)
 
 
 def transition_matrix(bandwidth, h):
@@ -45,8 +37,8 @@ def transition_matrix(bandwidth, h):
 
     Returns a 3-tuple of row 3-tuples (closed form, see the module docstring).
     """
-    w = _finite_positive("bandwidth", bandwidth)
-    h = _finite_positive("h", h)
+    w = require_number("bandwidth", bandwidth, 0)
+    h = require_number("h", h, 0)
     w2, w3 = w * w, w * w * w
     N = ((w, 1.0, 0.0), (0.0, w, 1.0), (-w3, -3.0 * w2, -2.0 * w))
     N2 = ((w2, 2.0 * w, 1.0), (-w3, -2.0 * w2, -w), (w3 * w, 2.0 * w3, w2))
@@ -101,7 +93,7 @@ def design_bandwidth_from_rise_time(t_r):
     ``w_n = RISE_TIME_PRODUCT / t_r`` with ``RISE_TIME_PRODUCT`` = 4.2202 (from
     ``1 - exp(-x)(1 + x + x^2/2)`` = 0.1 and 0.9).
     """
-    return RISE_TIME_PRODUCT / _finite_positive("t_r", t_r)
+    return RISE_TIME_PRODUCT / require_number("t_r", t_r, 0)
 
 
 class ReferenceShaper:
@@ -119,7 +111,7 @@ class ReferenceShaper:
     __slots__ = ("bandwidth", "_r", "_r1", "_r2", "_h", "_phi", "_cache")
 
     def __init__(self, bandwidth, initial=0.0):
-        self.bandwidth = _finite_positive("bandwidth", bandwidth)
+        self.bandwidth = require_number("bandwidth", bandwidth, 0)
         self._h = None
         self._phi = None
         self._cache = {}
