@@ -15,18 +15,15 @@ import argparse
 import json
 from pathlib import Path
 
-import matplotlib
+import pandas as pd
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-import pandas as pd  # noqa: E402
-
-from satmotor.backstepping import ControllerConfig  # noqa: E402
-from satmotor.drive import BacksteppingDrive  # noqa: E402
-from satmotor.metrics import run_metrics  # noqa: E402
-from satmotor.params import MotorParams  # noqa: E402
-from satmotor.simulate import RECORDED, RampScenario  # noqa: E402
+from orchestration.plots import figure
+from orchestration.reference import COLUMNS
+from satmotor.backstepping import ControllerConfig
+from satmotor.drive import BacksteppingDrive
+from satmotor.metrics import run_metrics
+from satmotor.params import MotorParams
+from satmotor.simulate import RECORDED, RampScenario
 
 UNITS = {"t": "s", "v_s_alpha": "V", "v_s_beta": "V", "v_sd": "V", "v_sq": "V", "T_load": "N m",
          "omega_set": "rad/s", "psi_set": "Wb", "omega_ref": "rad/s", "psi_ref": "Wb", "i_s_alpha": "A",
@@ -37,37 +34,11 @@ UNITS = {"t": "s", "v_s_alpha": "V", "v_s_beta": "V", "v_sd": "V", "v_sq": "V", 
 
 
 def plot(r, path, title):
-    t = r["t"]
-    fig, ax = plt.subplots(6, 1, sharex=True, figsize=(9, 13), constrained_layout=True)
-    ax[0].plot(t, r["omega_set"], "k:", label="set-point")
-    ax[0].plot(t, r["omega_ref"], "k--", lw=0.8, label="shaped reference")
-    ax[0].plot(t, r["omega_m"], label="omega_m")
-    ax[0].set_ylabel("speed [rad/s]")
-    ax[1].plot(t, r["psi_set"], "k:", label="set-point")
-    ax[1].plot(t, r["psi_ref"], "k--", lw=0.8, label="shaped reference")
-    ax[1].plot(t, r["psi_r_mag"], label="|psi_r|")
-    ax[1].set_ylabel("rotor flux [Wb]")
-    ax[2].plot(t, r["T_e"], label="T_e")
-    ax[2].plot(t, r["T_load"], label="T_load")
-    ax[2].plot(t, r["T_load_est"], "--", label="load used by the law")
-    ax[2].set_ylabel("torque [N m]")
-    ax[3].plot(t, r["i_s_alpha"], lw=0.6, label="i_s_alpha")
-    ax[3].plot(t, r["i_s_beta"], lw=0.6, label="i_s_beta")
-    ax[3].plot(t, np.hypot(r["i_s_alpha"], r["i_s_beta"]), "k", lw=0.9, label="|i_s|")
-    ax[3].set_ylabel("stator current [A]")
-    ax[4].plot(t, r["v_sd"], label="v_sd")
-    ax[4].plot(t, r["v_sq"], label="v_sq")
-    ax[4].plot(t, np.hypot(r["v_s_alpha"], r["v_s_beta"]), "k", lw=0.9, label="|v_s|")
-    ax[4].set_ylabel("stator voltage [V]")
-    ax[5].plot(t, r["i_mu"], label="|i_mu|")
-    ax[5].set_ylabel("magnetizing current [A]")
-    ax[5].set_xlabel("time t [s]")
-    for a in ax:
-        a.grid(True, alpha=0.4)
-        a.legend(loc="lower right", fontsize=8)
-    fig.suptitle(title)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    """The co-simulation figure (orchestration.plots) of a plain-Python record."""
+    frame = pd.DataFrame({"time": r["t"], **{col: r[key] for col, key in COLUMNS.items()},
+                          "profile.omega_ref": r["omega_set"], "profile.psi_ref": r["psi_set"],
+                          "profile.T_load": r["T_load"]})
+    figure(frame, path, title)
 
 
 def main(argv=None):
