@@ -26,6 +26,7 @@ test: $(STAMP)
 bench: $(STAMP)
 	$(PY) bench/bench_plant.py
 	$(PY) bench/bench_controller.py
+	$(PY) bench/bench_cosim.py
 
 clean:
 	rm -rf $(VENV) results build
