@@ -9,6 +9,7 @@ from pathlib import Path
 
 import pytest
 
+from orchestration.cli import main as cli_main
 from orchestration.profiles import (
     Constant,
     Csv,
@@ -252,7 +253,7 @@ BAD = [
 
 
 @pytest.mark.parametrize("text, field, shown", [b[1:] for b in BAD], ids=[b[0] for b in BAD])
-def test_bad_file_is_reported(tmp_path, text, field, shown):
+def test_bad_file_is_reported(tmp_path, capsys, text, field, shown):
     path = tmp_path / "bad.yaml"
     path.write_text(text)
     with pytest.raises(ScenarioError) as info:
@@ -264,6 +265,10 @@ def test_bad_file_is_reported(tmp_path, text, field, shown):
     assert f"{field} = {shown}" in line, msg
     assert isinstance(info.value, ValueError) and info.value.problems
     assert validate_scenario_file(path) == info.value.problems  # the validator returns, never raises
+    # and the command line says so with a non-zero exit, naming the file and the field
+    assert cli_main(["validate", str(path), "--fmus", str(tmp_path / "no_fmus")]) == 2
+    err = capsys.readouterr().err
+    assert str(path) in err and field in err
 
 
 def test_string_number_gets_a_spelling_hint(tmp_path):
