@@ -155,3 +155,16 @@ def test_batch_on_a_dask_local_cluster(tmp_path, small_batch, fmu_dir):
         r = _cli("batch", small_batch, "--scheduler", cluster.scheduler_address, "--out", out,
                  "--fmus", fmu_dir)
     _check_batch(r, out)
+
+
+def test_cli_run_of_a_failing_scenario_writes_the_partial_results(tmp_path, fmu_dir):
+    f = tmp_path / "fails.yaml"
+    f.write_text("name: fails\nstop_time: 0.3\nprofiles:\n"
+                 "  psi_ref: [{type: constant, value: 0.9}, {type: step, time: 0.2, value: 1.5}]\n")
+    r = _cli("run", f, "--out", tmp_path / "out", "--fmus", fmu_dir)
+    assert r.returncode == 1 and "discard" in r.stdout
+    d = tmp_path / "out" / "fails"
+    m = json.loads((d / "metrics.json").read_text())
+    assert m["status"] == "discard" and "psi_ref" in m["message"] and m["t_end"] == pytest.approx(0.2)
+    csv = pd.read_csv(d / "timeseries.csv")
+    assert len(csv) == m["rows"] == 2000 and csv["time"].iloc[-1] == pytest.approx(0.1999)
