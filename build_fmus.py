@@ -59,8 +59,9 @@ def documentation(name):
     rows = []
     for table in tables:
         for v in getattr(itf, table):
+            start = str(v.start).lower() if isinstance(v.start, bool) else v.start  # as in the XML
             rows.append("<tr>" + "".join(f"<td>{html.escape(str(c))}</td>" for c in (
-                v.name, v.causality, v.type, v.start, v.unit, v.description)) + "</tr>")
+                v.name, v.causality, v.type, start, v.unit, v.description)) + "</tr>")
     flags = {**COMMON_OPTIONS, **options}
     parts = [f"<!DOCTYPE html><html><head><meta charset='utf-8'><title>{name}</title></head><body>",
              f"<h1>{name}</h1><p>{html.escape(ast.get_docstring(ast.parse(script.read_text())) or '')}</p>",

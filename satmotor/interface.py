@@ -121,6 +121,8 @@ CONTROLLER_PARAMETERS = (
     _v("g_theta", "parameter", _C.g_theta, "1/s2", "adaptation gain of the load estimate"),
     _v("theta_max", "parameter", _C.theta_max, "rad/s2", "bound of the estimate of T_load/J"),
     _v("I_max", "parameter", _D.I_max, "A", "current limit (pre-magnetization, flux set-points)"),
+    _v("use_stator_flux", "parameter", _C.use_stator_flux, "", "magnetizing state from the measured "
+       "stator flux too (seed H1, eqs 18-19) instead of the curve alone", "Boolean"),
 ) + MOTOR_PARAMETERS
 
 
@@ -135,6 +137,11 @@ def _number(values, var):
         if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
             raise ParameterError(var.name, v, "must be a finite number")
         v = float(v)
+    elif var.type == "Boolean":
+        if v in (0, 1):  # FMI hosts may hand a Boolean over as 0/1
+            v = bool(v)
+        if not isinstance(v, bool):
+            raise ParameterError(var.name, v, "must be a Boolean")
     return v
 
 
@@ -216,7 +223,8 @@ class ControllerUnit:
                 p = dataclasses.replace(p, curve=LinearCurve(p.curve.m0))
             gains = BacksteppingGains(f["c1"], f["c2"], f["d1"], f["d2"])
             cfg = ControllerConfig(V_dc=f["V_dc"], Ts=f["Ts"], load_mode=f["load_mode"],
-                                   g_theta=f["g_theta"], theta_max=f["theta_max"])
+                                   g_theta=f["g_theta"], theta_max=f["theta_max"],
+                                   use_stator_flux=f["use_stator_flux"])
             self.drive = BacksteppingDrive(p, gains, cfg, dcfg)
         self.Ts = f["Ts"]
         self._out = (0.0,) * len(self.OUTPUTS)

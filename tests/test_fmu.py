@@ -46,7 +46,7 @@ CONTRACT = {
                                 "parameter": MOTOR + ("omega_m0", "psi_r0", "h_int")},
     "BacksteppingController": {"input": CTRL_IN, "output": CTRL_OUT, "parameter": (
         "c1", "c2", "d1", "d2", "Ts", "mode", "load_mode", "V_dc", "ref_bandwidth", "g_theta", "theta_max",
-        "I_max") + MOTOR},
+        "I_max", "use_stator_flux") + MOTOR},
 }
 UNITS = {"V": "v_s_alpha v_s_beta v_sd v_sq V_dc", "A": "i_s_alpha i_s_beta i_mu I_par I_max",
          "Wb": "psi_s_alpha psi_s_beta psi_r_alpha psi_r_beta psi_ref psi_r0 e1", "Wb/s": "e2",
@@ -65,7 +65,8 @@ def _defaults():
     motor |= {"curve": m.curve.name, "poly_b": poly.poly_b, "poly_n": poly.poly_n, "table_file": ""}
     ctrl = motor | {n: getattr(g, n) for n in ("c1", "c2", "d1", "d2")} | {
         n: getattr(c, n) for n in ("Ts", "V_dc", "load_mode", "g_theta", "theta_max")} | {
-        "ref_bandwidth": d.ref_bandwidth, "I_max": d.I_max, "mode": "saturated"}
+        "ref_bandwidth": d.ref_bandwidth, "I_max": d.I_max, "mode": "saturated",
+        "use_stator_flux": c.use_stator_flux}
     # at rest, unmagnetized (closed_loop's x0); one RK4 step per sample (closed_loop's n_sub = 1)
     plant = motor | {"omega_m0": 0.0, "psi_r0": 0.0, "h_int": c.Ts}
     return {"SaturatedInductionMotor": plant, "BacksteppingController": ctrl}
@@ -75,6 +76,8 @@ DEFAULTS = _defaults()
 
 
 def _typed(var, text):
+    if var.type == "Boolean":
+        return str(text).lower() in ("true", "1")
     return {"Real": float, "Integer": int}.get(var.type, str)(text)
 
 
@@ -240,7 +243,8 @@ def test_plant_fmu_matches_plant_unit_low_level_and_simulate_fmu(fmus, new):
     assert err_low <= 1e-9 and err_sim <= 1e-9
 
 
-@pytest.mark.parametrize("params", [(), (("mode", "pi"),), (("load_mode", "estimated"),)])
+@pytest.mark.parametrize("params", [(), (("mode", "pi"),), (("load_mode", "estimated"),),
+                                    (("use_stator_flux", True),)])
 def test_controller_fmu_reproduces_the_plain_closed_loop_voltages(new, params):
     rec = ramp_run(params)
     assert set(rec["phase"]) == {PREMAG, RUN}  # pre-magnetization, switch and the law are all covered
