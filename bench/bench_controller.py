@@ -27,7 +27,7 @@ import sys
 import time
 
 import numpy as np
-from bench_plant import cpu_model, write_section
+from bench_plant import best_time, cpu_model, write_section
 
 from satmotor.backstepping import BacksteppingGains, ControllerConfig, control
 from satmotor.drive import RUN, BacksteppingDrive, IFOCDrive
@@ -70,15 +70,6 @@ def capture(make_drive):
 def control_inputs(run_log):
     """(meas, ref, load, theta_hat) of each running sample, from the drive state before the step."""
     return [(meas, s0[2:5] + s0[5:8], (tl, 0.0), s0[8]) for meas, _, _, tl, s0, _ in run_log]
-
-
-def best_time(fn, *args):
-    best, res = math.inf, None
-    for _ in range(REPEATS):
-        t0 = time.perf_counter()
-        res = fn(*args)
-        best = min(best, time.perf_counter() - t0)
-    return best, res
 
 
 def control_rate(inputs, params, cfg):

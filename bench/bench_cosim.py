@@ -15,11 +15,10 @@ from __future__ import annotations
 import datetime
 import platform
 import sys
-import time
 from pathlib import Path
 
 import numpy as np
-from bench_plant import cpu_model, write_section
+from bench_plant import best_time, cpu_model, write_section
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
@@ -30,20 +29,11 @@ from orchestration.reference import plain_reference  # noqa: E402
 from orchestration.scenario import load_scenario  # noqa: E402
 
 
-def best(f, repeats=3):
-    times, out = [], None
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        out = f()
-        times.append(time.perf_counter() - t0)
-    return min(times), out
-
-
 def main():
     sc = load_scenario(ROOT / "scenarios" / "ramp_rated_load.yaml")
     plant, ctrl = fmus.ensure(quiet=True)
-    t_co, res = best(lambda: run(sc, str(plant), str(ctrl)))
-    t_py, ref = best(lambda: plain_reference(sc))
+    t_co, res = best_time(run, sc, str(plant), str(ctrl))
+    t_py, ref = best_time(plain_reference, sc)
     assert res.ok
     same = np.array_equal(res.frame["plant.omega_m"].to_numpy(), ref["plant.omega_m"].to_numpy())
     steps = round(sc.stop_time / sc.step)
