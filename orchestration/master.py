@@ -129,7 +129,7 @@ def run(scenario, plant_fmu, controller_fmu, connections=DEFAULT_CONNECTIONS, al
         names += [f"plant.{v}" for v in p_out.names] + [f"controller.{v}" for v in c_out.names] + \
             [f"profile.{v}" for v in prof_names]
         pv, cv = p_out.read(), c_out.read()
-        held = list(cv)  # controller outputs seen by the plant (Jacobi: one sample old)
+        held = list(cv)  # controller outputs seen by the plant (Jacobi: one sample old); made once
         Ts = scenario.Ts
         for k in range(n + 1):
             t = t0 + k * h
@@ -139,10 +139,12 @@ def run(scenario, plant_fmu, controller_fmu, connections=DEFAULT_CONNECTIONS, al
                 for j, (kind, src) in enumerate(c_src):
                     c_in.values[j] = pv[src] if kind == 0 else (held[src] if kind == 1 else src(t))
                 c_in.write()
-                previous = list(cv)
+                if jacobi:
+                    held[:] = cv  # the previous sample's voltages, copied into the list made once
                 ctrl.do_step(t, Ts)
-                cv = c_out.read()
-                held = previous if jacobi else list(cv)
+                cv = c_out.read()  # the port's own array, refreshed in place
+                if not jacobi:
+                    held = cv
             if k % every == 0:
                 rows.append([t, *pv, *cv, *(profiles[p](t) for p in prof_names)])
             if k == n:
