@@ -1,4 +1,4 @@
-"""Shared fixtures: one instance of every magnetizing-curve family."""
+"""Shared fixtures: one instance of every magnetizing-curve family; the FMUs, built once per run."""
 
 import pytest
 
@@ -32,3 +32,13 @@ def curve(request):
 @pytest.fixture(params=SATURATING)
 def saturating_curve(request):
     return CURVES[request.param]
+
+
+@pytest.fixture(scope="session")
+def fmu_dir(tmp_path_factory):
+    """Directory holding both pythonfmu FMUs, built once per test run (build_fmus.py)."""
+    from orchestration import fmus
+
+    d = tmp_path_factory.mktemp("fmus")
+    fmus.build(d, quiet=True)
+    return d

@@ -19,13 +19,6 @@ ROOT = Path(__file__).resolve().parents[1]
 LIBRARY = sorted((ROOT / "scenarios").glob("*.yaml"))
 
 
-@pytest.fixture(scope="module")
-def fmu_dir(tmp_path_factory):
-    d = tmp_path_factory.mktemp("fmus")
-    fmus.build(d, quiet=True)
-    return d
-
-
 def _on_common_times(co, ref, h):
     k_co = np.rint(co["time"].to_numpy() / h).astype(np.int64)
     k_ref = np.rint(ref["time"].to_numpy() / h).astype(np.int64)

@@ -88,10 +88,9 @@ def _child(*args):
 
 
 @pytest.fixture(scope="module")
-def fmus(tmp_path_factory):
-    out = tmp_path_factory.mktemp("fmus")
-    paths = build_fmus.build_all(out / "build")
-    return {p.stem: open_fmu(p, out / p.stem) for p in paths}
+def fmus(fmu_dir, tmp_path_factory):
+    out = tmp_path_factory.mktemp("unzipped")
+    return {p.stem: open_fmu(p, out / p.stem) for p in sorted(Path(fmu_dir).glob("*.fmu"))}
 
 
 @pytest.fixture(scope="module")
