@@ -17,10 +17,12 @@ csv        file, time_column (0), value_column (1)          as table, points rea
 =========  ===============================================  =====================================
 
 Every kind is a frozen dataclass with a fast ``value(t) -> float`` (plain Python floats, called
-every step by the master) and a classmethod ``parse(mapping, path, file)`` returning
-``(profile or None, problems)``: every problem found, as a :class:`Problem` naming the file, the
-field path (``profiles.T_load[1].time``) and the value; nothing is raised.  A CSV file is read
-once, at parse time; a relative name is resolved against the directory of ``file`` (the scenario).
+every step by the master), ``bounds(t0, t1) -> (low, high)`` enclosing its values over
+``[t0, t1]`` (exact for every kind but a sum, which adds the parts' bounds), and a classmethod
+``parse(mapping, path, file)`` returning ``(profile or None, problems)``: every problem found, as
+a :class:`Problem` naming the file, the field path (``profiles.T_load[1].time``) and the value;
+nothing is raised.  A CSV file (',', ';' or tab separators) is read once, at parse time; a
+relative name is resolved against the directory of ``file`` (the scenario).
 """
 
 from __future__ import annotations
@@ -162,6 +164,9 @@ class Constant:
     def value(self, t):
         return self.level
 
+    def bounds(self, t0, t1):
+        return self.level, self.level
+
     @classmethod
     def parse(cls, m, path, file="<string>"):
         chk = Checker(file)
@@ -178,6 +183,10 @@ class Step:
 
     def value(self, t):
         return self.level if t >= self.time else self.initial
+
+    def bounds(self, t0, t1):
+        vals = [self.value(t0), self.value(t1)]
+        return min(vals), max(vals)
 
     @classmethod
     def parse(cls, m, path, file="<string>"):
@@ -213,6 +222,10 @@ class Ramp:
         v = self.from_ + (t - self.start) * self._slope
         return self._hi if v > self._hi else (self._lo if v < self._lo else v)
 
+    def bounds(self, t0, t1):  # monotonic
+        a, b = self.value(t0), self.value(t1)
+        return min(a, b), max(a, b)
+
     @classmethod
     def parse(cls, m, path, file="<string>"):
         chk = Checker(file)
@@ -241,6 +254,10 @@ class Table:
         i = bisect_right(ts, t)
         t0, v0 = ts[i - 1], self.values[i - 1]
         return v0 + (self.values[i] - v0) * (t - t0) / (ts[i] - t0)
+
+    def bounds(self, t0, t1):  # piecewise linear: the extremes are at the ends or at inner points
+        vals = [self.value(t0), self.value(t1)] + [v for t, v in zip(self.times, self.values) if t0 < t < t1]
+        return min(vals), max(vals)
 
     @classmethod
     def parse(cls, m, path, file="<string>"):
@@ -284,6 +301,18 @@ class Sine:
             return 0.0
         return self.offset + self.amplitude * math.sin(self._w * (t - self.start) + self.phase)
 
+    def bounds(self, t0, t1):
+        vals = [self.value(t0), self.value(t1)]
+        if t1 > self.start and self._w > 0:  # the crests and troughs inside (max(t0, start), t1)
+            a = max(t0, self.start)
+            vals.append(self.value(a))
+            x0, x1 = self._w * (a - self.start) + self.phase, self._w * (t1 - self.start) + self.phase
+            k = math.ceil((x0 - math.pi / 2) / math.pi)
+            for j in (k, k + 1):  # two consecutive extremes give both signs
+                if j * math.pi + math.pi / 2 < x1:
+                    vals.append(self.offset + self.amplitude * (1.0 if j % 2 == 0 else -1.0))
+        return min(vals), max(vals)
+
     @classmethod
     def parse(cls, m, path, file="<string>"):
         chk = Checker(file)
@@ -292,6 +321,14 @@ class Sine:
                                    "start": (0.0, "time")})
         return (cls(f["amplitude"], f["frequency"], f["phase"], f["offset"], f["start"]) if f else None,
                 chk.problems)
+
+
+def _dialect(text):
+    """The CSV dialect of ``text``: ',' unless the sniffer finds ';' or tab separators."""
+    try:
+        return csv.Sniffer().sniff(text[:4096], delimiters=",;\t")
+    except csv.Error:
+        return csv.excel
 
 
 @dataclass(frozen=True)
@@ -305,6 +342,7 @@ class Csv:
     kind: ClassVar[str] = "csv"
 
     value = Table.value
+    bounds = Table.bounds
 
     @classmethod
     def parse(cls, m, path, file="<string>"):
@@ -324,7 +362,8 @@ class Csv:
         where = f"{path}.file"
         try:
             with open(resolved, newline="") as fh:
-                rows = list(csv.reader(fh))
+                text = fh.read()
+            rows = list(csv.reader(text.splitlines(), dialect=_dialect(text)))
         except (OSError, UnicodeDecodeError, csv.Error) as exc:
             chk.add(where, name, f"cannot read {resolved}: {exc}")
             return None, chk.problems
@@ -332,10 +371,12 @@ class Csv:
         for r, row in enumerate(rows, start=1):
             if not any(c.strip() for c in row):
                 continue
+            if len(row) <= max(tc, vc):
+                chk.add(where, name, f"line {r}: {len(row)} column(s) {row!r}, needs column {max(tc, vc)} "
+                        "(0-based); separators: ',' ';' or tab")
+                break
             try:
                 t, v = float(row[tc]), float(row[vc])
-            except IndexError:
-                chk.add(where, name, f"line {r}: {len(row)} column(s), needs column {max(tc, vc)} (0-based)")
             except ValueError:
                 if r == 1:
                     continue  # header
@@ -366,6 +407,10 @@ class Sum:
         for p in self.parts:
             s += p.value(t)
         return s
+
+    def bounds(self, t0, t1):
+        b = [p.bounds(t0, t1) for p in self.parts]
+        return sum(lo for lo, _ in b), sum(hi for _, hi in b)
 
 
 KINDS = {k.kind: k for k in (Constant, Step, Ramp, Table, Sine, Csv)}
