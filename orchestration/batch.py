@@ -1,25 +1,38 @@
-"""Batch runs: one process per scenario, locally (a process pool of ``jobs``) or on a Dask cluster.
+"""Batch runs: one process per scenario, locally (``jobs`` at a time) or on a Dask cluster.
 
-Each scenario runs as ``python -m orchestration run FILE --no-build`` in its own process (pythonfmu
-FMUs share one interpreter per process, so a fresh process per scenario keeps runs independent);
-its exit code and ``metrics.json`` make its row of the summary.  A failing scenario is reported
-and the others complete; the batch exits with the largest exit code.
+1. Every file is loaded and checked first, in this process: a file that cannot be read or is
+   invalid becomes a row with its message (never a traceback); two scenarios with the same
+   ``name`` (they would write the same results directory) refuse the batch before anything runs.
+2. Each valid scenario runs as ``python -m orchestration run FILE --no-build`` in its own process
+   (pythonfmu FMUs share one interpreter per process; a fresh process keeps runs independent).
+   Its exit code and ``metrics.json`` make its row; a child killed by a signal is a failed row.
+3. SIGINT/SIGTERM (:mod:`orchestration.interrupts`): nothing new starts, running children get
+   SIGTERM (they write their partial results), and every scenario not finished is a row with
+   status ``interrupted``.  ``summary.csv`` is written in every case once runs have started.
+
+Exit code: ``128 + signum`` when interrupted, else the largest exit code of the rows (0: all ok;
+1: a run failed; 2: a file invalid; 3: a run missed its acceptance bounds; a child killed by
+signal N counts as 128 + N).
 """
 
 from __future__ import annotations
 
 import json
+import os
+import signal
 import subprocess
 import sys
 from concurrent.futures import ThreadPoolExecutor, as_completed
 from pathlib import Path
 
-import pandas as pd
-
 from . import fmus
+from .interrupts import PARENT_ENV, StopRequest
 
 SUMMARY_METRICS = ("iae_speed", "iae_flux", "ss_speed", "ss_flux", "overshoot_speed", "settling_time_speed",
                    "peak_current", "peak_voltage", "min_W")
+INVALID = 2
+POLL = 0.2  # [s] how often a waiting batch looks for a stop request
+GRACE = 30.0  # [s] a child has to write its partial results after SIGTERM before it is killed
 
 
 def collect(items):
@@ -31,38 +44,94 @@ def collect(items):
     return out
 
 
-def run_one(path, out, fmu_dir, algorithm=None):
-    """Run one scenario in a child process; returns the summary row (a dict).  Never raises."""
+def _row(path, name, status, exit_code, message=""):
+    return {"file": str(path), "scenario": name, "status": status, "exit_code": exit_code, "message": message}
+
+
+def plan(files, variables=None):
+    """``(runnable, rows)``: ``[(file, scenario name)]`` to run and the rows of the files that
+    cannot run (invalid or unreadable).  Never raises."""
+    from .scenario import ScenarioError, load_scenario
+
+    runnable, rows = [], []
+    for f in files:
+        try:
+            runnable.append((Path(f).resolve(), load_scenario(f, variables).name))
+        except ScenarioError as exc:
+            rows.append(_row(f, Path(f).stem, "invalid", INVALID, " | ".join(str(p) for p in exc.problems)))
+        except Exception as exc:  # noqa: BLE001 - a batch reports a file it cannot load, it goes on
+            rows.append(_row(f, Path(f).stem, "invalid", INVALID, f"cannot load: {exc!r}"))
+    return runnable, rows
+
+
+def duplicates(runnable):
+    """``{name: [files]}`` of the scenario names used by more than one file."""
+    by_name = {}
+    for f, name in runnable:
+        by_name.setdefault(name, []).append(str(f))
+    return {n: fs for n, fs in by_name.items() if len(fs) > 1}
+
+
+def run_one(path, out, fmu_dir, algorithm=None, name=None, should_stop=None):
+    """Run one scenario in a child process; returns its summary row (a dict).  Never raises.
+
+    ``should_stop``: a function polled while the child runs; when it returns True the child gets
+    SIGTERM (it writes its partial results) and the row says ``interrupted``.
+    """
     path, out, fmu_dir = Path(path).resolve(), Path(out).resolve(), Path(fmu_dir).resolve()
+    name = name or path.stem
+    if should_stop and should_stop():
+        return _row(path, name, "interrupted", 0, "not started: the batch was interrupted")
+    metrics = out / name / "metrics.json"
+    metrics.unlink(missing_ok=True)  # a child that dies early must not leave an old row to read
     cmd = [sys.executable, "-m", "orchestration", "run", str(path), "--out", str(out), "--fmus", str(fmu_dir),
            "--no-build"]
     if algorithm:
         cmd += ["--algorithm", algorithm]
-    proc = subprocess.run(cmd, capture_output=True, text=True, cwd=fmus.ROOT)
-    row = {"file": str(path), "exit_code": proc.returncode}
+    env = {**os.environ, PARENT_ENV: str(os.getpid())}
     try:
-        name = _scenario_name(path)
-        summary = json.loads((Path(out) / name / "metrics.json").read_text()) if name else None
+        proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
+    except OSError as exc:
+        return _row(path, name, "failed", 1, f"cannot start the child process: {exc}")
+    stopped = False
+    while True:
+        try:
+            stdout, stderr = proc.communicate(timeout=POLL)
+            break
+        except subprocess.TimeoutExpired:
+            if not stopped and should_stop and should_stop():
+                stopped = True
+                proc.terminate()
+                try:
+                    stdout, stderr = proc.communicate(timeout=GRACE)
+                except subprocess.TimeoutExpired:
+                    proc.kill()
+                    stdout, stderr = proc.communicate()
+                break
+    return _child_row(path, name, proc.returncode, stdout, stderr, metrics, stopped)
+
+
+def _child_row(path, name, rc, stdout, stderr, metrics, stopped):
+    lines = (stderr or stdout or "").strip().splitlines()
+    tail = " | ".join(lines[-6:])
+    try:
+        summary = json.loads(metrics.read_text())
     except (OSError, ValueError):
         summary = None
-    if summary is None or proc.returncode == 2:
-        lines = (proc.stderr or proc.stdout).strip().splitlines()
-        row.update(scenario=Path(path).stem, status="invalid" if proc.returncode == 2 else "failed",
-                   message=" | ".join(lines[-6:]))
-        return row
-    row.update(scenario=summary["scenario"], status=summary["status"], message=summary["message"],
-               accepted=summary["accepted"], wall_time=summary["wall_time"],
-               **{k: summary["metrics"].get(k) for k in SUMMARY_METRICS})
+    if rc < 0:
+        sig = signal.Signals(-rc).name if -rc in signal.Signals._value2member_map_ else str(-rc)
+        status = "interrupted" if stopped else "failed"
+        return _row(path, name, status, 128 - rc, f"the child process was killed by {sig}" + (
+            f"; {tail}" if tail else ""))
+    if rc == INVALID:
+        return _row(path, name, "invalid", rc, tail)
+    if summary is None or summary.get("status") == "running":
+        return _row(path, name, "interrupted" if stopped else "failed", rc or 1,
+                    f"exit {rc} without results" + (f": {tail}" if tail else ""))
+    row = _row(path, name, summary["status"], rc, summary.get("message", ""))
+    row.update(accepted=summary.get("accepted"), wall_time=summary.get("wall_time"),
+               **{k: (summary.get("metrics") or {}).get(k) for k in SUMMARY_METRICS})
     return row
-
-
-def _scenario_name(path):
-    from .scenario import ScenarioError, load_scenario
-
-    try:
-        return load_scenario(path).name
-    except ScenarioError:
-        return None
 
 
 def _progress(total):
@@ -74,39 +143,108 @@ def _progress(total):
         return None
 
 
-def run_batch(items, out, fmu_dir, jobs=2, scheduler=None, algorithm=None):
+def _run_local(runnable, out, fmu_dir, jobs, algorithm, stop, done):
+    with ThreadPoolExecutor(max_workers=max(1, jobs)) as pool:  # each task runs and watches a child
+        futures = [pool.submit(run_one, f, out, fmu_dir, algorithm, name, lambda: bool(stop.signum))
+                   for f, name in runnable]
+        for fut in as_completed(futures):
+            done(fut.result())
+
+
+def _run_dask(runnable, out, fmu_dir, scheduler, algorithm, stop, done):
+    import uuid
+
+    from distributed import Client, Event
+
+    with Client(scheduler) as client:
+        event_name = f"satmotor-batch-stop-{uuid.uuid4().hex}"
+        event = Event(event_name, client=client)
+        remaining = {client.submit(_dask_task, str(f), str(out), str(fmu_dir), algorithm, name, event_name,
+                                   pure=False): (f, name) for f, name in runnable}
+        while remaining:
+            if stop.signum and not event.is_set():
+                event.set()  # every task still to start, or running, sees it and stops its child
+            for fut in [f for f in remaining if f.done()]:
+                f, name = remaining.pop(fut)
+                try:
+                    done(fut.result())
+                except Exception as exc:  # noqa: BLE001 - a lost worker is a failed row
+                    done(_row(f, name, "failed", 1, f"the Dask task failed: {exc!r}"))
+            if remaining:
+                stop.event.wait(POLL)
+
+
+def _dask_task(path, out, fmu_dir, algorithm, name, event_name):
+    """``run_one`` on a Dask worker, stopping when the batch's Dask Event is set."""
+    from distributed import Event
+
+    event = Event(event_name)
+    return run_one(path, out, fmu_dir, algorithm, name, should_stop=event.is_set)
+
+
+def run_batch(items, out, fmu_dir, jobs=2, scheduler=None, algorithm=None, stop=None):
     """Run every scenario of ``items``; write ``out/summary.csv``; return the exit code."""
+    stop = stop or StopRequest()
     files = collect(items)
     if not files:
         print("no scenario files found", file=sys.stderr)
-        return 2
-    Path(out).mkdir(parents=True, exist_ok=True)
-    fmus.ensure(fmu_dir, quiet=True)  # once, before any worker starts
+        return INVALID
+    runnable, rows = plan(files)
+    dup = duplicates(runnable)
+    if dup:
+        for name, fs in dup.items():
+            print(f"scenario name {name!r} is used by {len(fs)} files (they would write the same results "
+                  f"directory): {', '.join(fs)}", file=sys.stderr)
+        print("batch refused: nothing was run", file=sys.stderr)
+        return INVALID
+    out = Path(out)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        (out / "summary.csv").write_text("")  # --out is writable before anything runs
+    except OSError as exc:
+        print(f"--out {out}: cannot write the results: {exc}", file=sys.stderr)
+        return INVALID
+    started = set()
     bar = _progress(len(files))
-    rows = []
-    if scheduler:
-        from distributed import Client
-        from distributed import as_completed as dask_completed
+    bar and bar.update(len(rows))
 
-        with Client(scheduler) as client:
-            futures = client.map(run_one, [str(f) for f in files], out=str(Path(out).resolve()),
-                                 fmu_dir=str(Path(fmu_dir).resolve()), algorithm=algorithm, pure=False)
-            for fut in dask_completed(futures):
-                rows.append(fut.result())
-                bar and bar.update(1)
-    else:
-        with ThreadPoolExecutor(max_workers=max(1, jobs)) as pool:  # each task runs a child process
-            futures = [pool.submit(run_one, f, out, fmu_dir, algorithm) for f in files]
-            for fut in as_completed(futures):
-                rows.append(fut.result())
-                bar and bar.update(1)
-    bar and bar.close()
+    def done(row):
+        rows.append(row)
+        started.add(row["file"])
+        bar and bar.update(1)
+
+    error = ""
+    try:
+        if runnable:
+            fmus.ensure(fmu_dir, quiet=True)  # once, before any child starts
+            if scheduler:
+                _run_dask(runnable, out, fmu_dir, scheduler, algorithm, stop, done)
+            else:
+                _run_local(runnable, out, fmu_dir, jobs, algorithm, stop, done)
+    except Exception as exc:  # noqa: BLE001 - the summary is written whatever happened
+        error = f"the batch failed before running it: {exc!r}"
+        print(error, file=sys.stderr)
+    finally:
+        bar and bar.close()
+        for f, name in runnable:  # what never reported: interrupted, or not run because of the error
+            if str(f) not in started:
+                rows.append(_row(f, name, "failed", 1, error) if error and not stop.signum else
+                            _row(f, name, "interrupted", 0, "no result: the batch was interrupted"))
+        _write_summary(rows, out)
+    if stop.signum:
+        return stop.exit_code
+    return max(r["exit_code"] for r in rows)
+
+
+def _write_summary(rows, out):
+    import pandas as pd
+
     df = pd.DataFrame(rows).sort_values("file").reset_index(drop=True)
-    df.to_csv(Path(out) / "summary.csv", index=False)
+    df.to_csv(out / "summary.csv", index=False)
     shown = [c for c in ("scenario", "status", "accepted", *SUMMARY_METRICS, "wall_time") if c in df]
     print(df[shown].to_string(index=False, float_format=lambda v: f"{v:.4g}"))
     for r in rows:
-        if r["exit_code"] != 0:
-            print(f"FAILED {r['file']} (exit {r['exit_code']}): {r.get('message', '')}", file=sys.stderr)
-    print(f"summary: {Path(out) / 'summary.csv'}")
-    return max(r["exit_code"] for r in rows)
+        if r["status"] != "ok" or r["exit_code"] != 0:
+            print(f"{r['status'].upper()} {r['file']} (exit {r['exit_code']}): {r.get('message', '')}",
+                  file=sys.stderr)
+    print(f"summary: {out / 'summary.csv'}")

@@ -1,8 +1,10 @@
 """Command line: ``python -m orchestration {build,run,batch,validate}`` (also ``satmotor-cosim``).
 
 Exit codes: 0 success; 1 a run failed (FMI discard/error/fatal, or setup); 2 a scenario file is
-invalid; 3 a run completed but missed its acceptance bounds.  ``batch`` exits with the largest
-code of its scenarios.
+invalid, or ``--out`` cannot be written (found before anything runs); 3 a run completed but
+missed its acceptance bounds; 130 / 143 interrupted by SIGINT (Ctrl-C) / SIGTERM, after writing
+what was computed (status ``interrupted``).  ``batch`` exits with the largest code of its
+scenarios (see :mod:`orchestration.batch`).
 """
 
 from __future__ import annotations
@@ -49,30 +51,47 @@ def cmd_validate(args):
     return worst
 
 
-def run_file(path, out, fmu_dir, algorithm=None, build=True, plot=True):
-    """Load, run and write one scenario; returns (exit code, summary dict)."""
+def run_file(path, out, fmu_dir, algorithm=None, build=True, plot=True, stop=None):
+    """Load, run and write one scenario; returns (exit code, summary dict).
+
+    Checked before any FMU runs: the scenario (every problem at once) and that ``out`` can be
+    written.  The time series stream to disk as the run goes; ``stop`` (an
+    :class:`orchestration.interrupts.StopRequest`) ends the run early with what it has."""
     from .master import run
-    from .results import write_results
+    from .results import prepare_dir, streaming_recorder, write_results
     from .scenario import ScenarioError, load_scenario
+
+    def refused(message, name=Path(path).stem):
+        return INVALID, {"scenario": name, "file": str(path), "status": "invalid", "message": message}
 
     try:
         if build:
             fmus.ensure(fmu_dir, quiet=True)
         sc = load_scenario(path, model_variables(fmu_dir))
     except ScenarioError as exc:
-        return INVALID, {"scenario": Path(path).stem, "file": str(path), "status": "invalid",
-                         "message": str(exc)}
+        return refused(str(exc))
+    try:
+        directory = prepare_dir(out, sc)
+    except OSError as exc:
+        return refused(f"--out {out}: cannot write the results: {exc}", sc.name)
     plant, ctrl = fmus.paths(fmu_dir)
-    result = run(sc, str(plant), str(ctrl), algorithm=algorithm)
+    result = run(sc, str(plant), str(ctrl), algorithm=algorithm, recorder=streaming_recorder(sc, directory),
+                 stop=stop)
     summary = write_results(result, out, plot=plot)
+    if result.status == "interrupted":
+        return stop.exit_code, summary
     if not result.ok:
         return RUN_FAILED, summary
     return (NOT_ACCEPTED if summary["accepted"] is False else OK), summary
 
 
 def cmd_run(args):
-    code, s = run_file(args.scenario, args.out, args.fmus, args.algorithm, build=not args.no_build,
-                       plot=not args.no_plot)
+    from .interrupts import catch, die_with_parent
+
+    die_with_parent()
+    with catch() as stop:
+        code, s = run_file(args.scenario, args.out, args.fmus, args.algorithm, build=not args.no_build,
+                           plot=not args.no_plot, stop=stop)
     if s.get("status") == "invalid":
         print(s["message"], file=sys.stderr)
         return code
@@ -87,9 +106,11 @@ def cmd_run(args):
 
 def cmd_batch(args):
     from .batch import run_batch
+    from .interrupts import catch
 
-    return run_batch(args.scenarios, args.out, args.fmus, jobs=args.jobs, scheduler=args.scheduler,
-                     algorithm=args.algorithm)
+    with catch() as stop:
+        return run_batch(args.scenarios, args.out, args.fmus, jobs=args.jobs, scheduler=args.scheduler,
+                         algorithm=args.algorithm, stop=stop)
 
 
 def parser():

@@ -1,13 +1,21 @@
 """One FMI 2.0 co-simulation FMU instance, driven through fmpy's low-level FMU2Slave API.
 
-Value references are looked up by name in the model description; the FMU's log messages are
-collected (logging on) so a failing call can be reported with the FMU's own words.  The per-step
-calls go through prebuilt ctypes arrays (one allocation per instance, none per step).
+Value references are looked up by name in the model description.  Each instance keeps its own
+log: FMUs call the logger with a variadic format, which ctypes cannot receive, so fmpy's native
+proxy formats the message and calls one process-wide Python function; that function
+(:func:`_route`) hands the message to the instance whose ``componentEnvironment`` token it
+carries.  The per-step calls go through prebuilt ctypes arrays (one allocation per instance, none
+per step).
 """
 
 from __future__ import annotations
 
-from ctypes import byref
+import itertools
+import shutil
+import sys
+import tempfile
+import weakref
+from ctypes import byref, c_void_p
 
 from fmpy import extract, read_model_description
 from fmpy.fmi1 import FMICallException
@@ -24,6 +32,36 @@ from fmpy.fmi2 import (
 )
 
 STATUS = ("ok", "warning", "discard", "error", "fatal", "pending")
+_FAILED = ("discard", "error", "fatal")
+
+# The routing table of the process-wide logger: componentEnvironment token -> instance.  Weak:
+# an instance that is gone takes its route with it.
+_ROUTES = weakref.WeakValueDictionary()
+_TOKENS = itertools.count(1)
+
+
+def _route(env, instance_name, status, category, message):
+    text = message.decode("utf-8", "replace") if isinstance(message, bytes) else str(message)
+    level = STATUS[status] if 0 <= status < len(STATUS) else str(status)
+    inst = _ROUTES.get(env or 0)
+    if inst is not None:
+        inst.messages.append((level, text))
+    else:  # a message from an instance we do not know (another host in this process): keep it visible
+        name = instance_name.decode("utf-8", "replace") if isinstance(instance_name, bytes) else instance_name
+        print(f"[{name}] {level}: {text}", file=sys.stderr)
+
+
+_LOGGER = fmi2CallbackLoggerTYPE(_route)  # one ctypes callback for the whole process, never freed
+
+
+def extract_owned(path):
+    """Extract the FMU ``path`` into a new temporary directory; the caller removes it
+    (:func:`remove_extracted`)."""
+    return extract(str(path), unzipdir=tempfile.mkdtemp(prefix="satmotor-fmu-"))
+
+
+def remove_extracted(directory):
+    shutil.rmtree(directory, ignore_errors=True)
 
 
 class RealPort:
@@ -62,40 +100,44 @@ class FMUInstance:
         self.path = str(path)
         self.name = instance_name
         self.md = read_model_description(self.path)
-        self.unzip_dir = unzip_dir or extract(self.path)
+        self._owned_dir = unzip_dir is None
+        self.unzip_dir = extract_owned(self.path) if unzip_dir is None else unzip_dir
         self.variables = {v.name: v for v in self.md.modelVariables}
         self.messages = []
+        self.initialized = False
+        self.fatal = False  # after fmi2Fatal no FMI call is allowed, not even freeInstance
+        self.slave = None
+        self._token = next(_TOKENS)
+        _ROUTES[self._token] = self
         self._callbacks = fmi2CallbackFunctions()
-        self._callbacks.logger = fmi2CallbackLoggerTYPE(self._log)
+        self._callbacks.logger = _LOGGER
         self._callbacks.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
         self._callbacks.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
+        self._callbacks.componentEnvironment = c_void_p(self._token)
         try:
             from fmpy.logging import addLoggerProxy
 
-            addLoggerProxy(byref(self._callbacks))
+            addLoggerProxy(byref(self._callbacks))  # (re)points the proxy at _route
         except Exception:  # noqa: BLE001 - the proxy only formats variadic messages
             pass
-        self.slave = FMU2Slave(guid=self.md.guid, unzipDirectory=self.unzip_dir,
-                               modelIdentifier=self.md.coSimulation.modelIdentifier,
-                               instanceName=instance_name)
-        self.initialized = False
-        self.fatal = False  # after fmi2Fatal no FMI call is allowed, not even freeInstance
         try:
+            self.slave = FMU2Slave(guid=self.md.guid, unzipDirectory=self.unzip_dir,
+                                   modelIdentifier=self.md.coSimulation.modelIdentifier,
+                                   instanceName=instance_name)
             self.slave.instantiate(callbacks=self._callbacks, loggingOn=True)
         except Exception as exc:
-            detail = self.last_message() or "no message from the FMU (see the host's stderr)"
+            self.slave = None
+            self._remove_dir()
+            detail = self.first_error() or "no message from the FMU (see the host's stderr)"
             raise RuntimeError(f"{self.md.modelName}: instantiation failed ({exc}): {detail}") from None
 
-    def _log(self, env, instance, status, category, message):
-        text = message.decode("utf-8", "replace") if isinstance(message, bytes) else str(message)
-        self.messages.append((STATUS[status] if 0 <= status < len(STATUS) else str(status), text))
-
-    def last_message(self):
-        """The most severe (then latest) message the FMU logged, or ''."""
-        if not self.messages:
-            return ""
-        order = {s: i for i, s in enumerate(STATUS)}
-        return max(reversed(self.messages), key=lambda m: order.get(m[0], 0))[1]
+    def first_error(self):
+        """The first message logged with a discard, error or fatal status (else the last message),
+        or ''."""
+        for level, text in self.messages:
+            if level in _FAILED:
+                return text
+        return self.messages[-1][1] if self.messages else ""
 
     def vr(self, names):
         """Value references of ``names``; KeyError names the variable and the FMU."""
@@ -131,23 +173,33 @@ class FMUInstance:
         self.initialized = True
 
     def do_step(self, t, h):
+        """fmi2DoStep; a failure raises FMICallException tagged ``.unit`` (this instance's name)
+        and ``.time`` (the communication point)."""
         try:
             self.slave.fmi2DoStep(self.slave.component, t, h, 1)
         except FMICallException as exc:
             self.fatal = exc.status >= 4
+            exc.unit, exc.time = self.name, t
             raise
 
     def close(self):
-        """Terminate (when initialized) and free; never raises.  After a fatal status the instance
-        is left alone (FMI 2.0 allows no further call; pythonfmu 0.7.0 may crash on the free)."""
-        if self.fatal:
-            return
-        try:
-            if self.initialized:
-                self.slave.terminate()
-        except FMICallException:
-            pass
-        try:
-            self.slave.freeInstance()
-        except Exception:  # noqa: BLE001 - freeing a failed instance must not mask the first error
-            pass
+        """Terminate (when initialized), free, and remove an extraction this instance owns; never
+        raises.  After a fatal status the instance is left alone (FMI 2.0 allows no further call;
+        pythonfmu 0.7.0 may crash on the free)."""
+        if self.slave is not None and not self.fatal:
+            try:
+                if self.initialized:
+                    self.slave.terminate()
+            except FMICallException:
+                pass
+            try:
+                self.slave.freeInstance()
+            except Exception:  # noqa: BLE001 - freeing a failed instance must not mask the first error
+                pass
+        self.slave = None
+        self._remove_dir()
+
+    def _remove_dir(self):
+        if self._owned_dir:
+            self._owned_dir = False
+            remove_extracted(self.unzip_dir)

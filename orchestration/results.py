@@ -1,7 +1,8 @@
 """Results of a co-simulation run: metrics, acceptance checks, and the files written.
 
 Files per run, under ``OUT/<scenario name>/``: ``timeseries.csv`` and ``timeseries.parquet`` (the
-recorded outputs; column names ``unit.variable``, SI units as in the FMUs' descriptions),
+recorded outputs, streamed as the run goes; column names ``unit.variable``, SI units as in the
+FMUs' descriptions),
 ``metrics.json`` (metrics, acceptance verdicts and how the run ended) and ``figure.png``.
 """
 
@@ -14,6 +15,8 @@ from pathlib import Path
 import numpy as np
 
 from satmotor.metrics import iae, overshoot
+
+from .recorder import FILES, StreamingRecorder
 
 SETTLING_BAND = 0.02  # [1] relative band of the settling time
 
@@ -89,23 +92,59 @@ def check_acceptance(metrics, scenario):
     return out
 
 
+RESULT_FILES = (*FILES, "metrics.json", "figure.png")
+# what compute_metrics and the figure read: always recorded, whatever record.outputs lists
+NEEDED = ("plant.omega_m", "plant.psi_r_alpha", "plant.psi_r_beta", "plant.i_s_alpha", "plant.i_s_beta",
+          "plant.T_e", "plant.i_mu", "controller.v_s_alpha", "controller.v_s_beta", "controller.v_sd",
+          "controller.v_sq", "controller.e1", "controller.z1", "controller.W", "controller.T_load_est")
+
+
+def prepare_dir(out_dir, scenario):
+    """``out_dir/<name>/``, made ready before a run: created, the previous results of the scenario
+    removed (a failed rerun never sits beside an old figure), and ``metrics.json`` written with
+    status ``running``.  An OSError here means the results could not be written: nothing has run."""
+    d = Path(out_dir) / scenario.name
+    d.mkdir(parents=True, exist_ok=True)
+    for name in RESULT_FILES:
+        (d / name).unlink(missing_ok=True)
+    (d / "metrics.json").write_text(json.dumps({"scenario": scenario.name, "file": str(scenario.path),
+                                                "status": "running"}) + "\n")
+    return d
+
+
+def recorded_selection(scenario, columns):
+    """Indices of ``columns`` to record: time, the profiles, ``record.outputs`` (all outputs when
+    empty) and the columns the metrics and the figure need."""
+    wanted = set(scenario.record.outputs) | set(NEEDED) if scenario.record.outputs else None
+    return [i for i, c in enumerate(columns)
+            if c == "time" or c.startswith("profile.") or wanted is None or c in wanted]
+
+
+def streaming_recorder(scenario, directory):
+    """A ``columns -> StreamingRecorder`` factory for :func:`orchestration.master.run`."""
+    return lambda columns: StreamingRecorder(columns, directory, keep=recorded_selection(scenario, columns))
+
+
 def write_results(result, out_dir, plot=True):
     """Write the files of one run under ``out_dir/<name>/``; returns the summary dict (also in
-    metrics.json).  Partial results of a failed run are written too."""
+    metrics.json).  A streamed run has its time series on disk already; a run recorded in memory
+    gets them written here.  Partial results of a failed or interrupted run are written too."""
     sc = result.scenario
     d = Path(out_dir) / sc.name
     d.mkdir(parents=True, exist_ok=True)
-    df = result.frame
-    keep = ["time"] + [c for c in df.columns if c.startswith("profile.")]
-    wanted = list(sc.record.outputs) or [c for c in df.columns if c not in keep]
-    df[keep + [c for c in wanted if c not in keep]].to_csv(d / "timeseries.csv", index=False)
-    df[keep + [c for c in wanted if c not in keep]].to_parquet(d / "timeseries.parquet", index=False)
+    rec = result.recorder
+    if not isinstance(rec, StreamingRecorder):
+        df = rec.frame()
+        df = df[[df.columns[i] for i in recorded_selection(sc, list(df.columns))]]
+        df.to_csv(d / FILES[0], index=False)
+        df.to_parquet(d / FILES[1], index=False)
+    df = rec.frame()
     metrics = compute_metrics(df, sc) if result.ok else {}
     acceptance = check_acceptance(metrics, sc)
     summary = {
         "scenario": sc.name, "file": str(sc.path), "status": result.status, "message": result.message,
-        "t_end": result.t_end, "stop_time": sc.stop_time, "wall_time": result.wall_time,
-        "rows": len(df), "metrics": metrics, "acceptance": acceptance,
+        "failed_unit": result.failed_unit, "t_end": result.t_end, "stop_time": sc.stop_time,
+        "wall_time": result.wall_time, "rows": len(df), "metrics": metrics, "acceptance": acceptance,
         "accepted": all(v["pass"] for v in acceptance.values()) if acceptance else None,
     }
     (d / "metrics.json").write_text(json.dumps(summary, indent=2, default=float) + "\n")

@@ -13,6 +13,10 @@ required; ``T_load`` [N m], default 0; see :mod:`orchestration.profiles`), ``rec
 ``ss_flux`` relative steady-state errors over ``ss_window: [t_from, t_to]`` [s],
 ``overshoot_speed`` relative, ``peak_current`` [A]).
 
+Once the file is well formed, :func:`orchestration.feasibility.physics_problems` builds the
+plain-Python units from the overrides (the ranges live in :mod:`satmotor`), checks that the flux
+set-points are reachable and that the recording stays within its bound.
+
 :func:`validate_scenario_file` returns every problem and never raises; :func:`load_scenario`
 raises one :class:`ScenarioError` listing all of them.  Numbers are ints or floats; YAML 1.1
 reads ``1e-4`` (no dot) as a string, which is reported with the spelling to use (``1.0e-4``).
@@ -27,6 +31,7 @@ from types import MappingProxyType
 
 import yaml
 
+from .feasibility import physics_problems
 from .profiles import Checker, Constant, Problem, parse_profile
 
 __all__ = ["Problem", "ScenarioError", "Acceptance", "Record", "Scenario", "load_scenario",
@@ -269,7 +274,8 @@ def _check(data, file, variables):
     sc = Scenario(name, description, Path(file), stop_time, step, every, algorithm,
                   MappingProxyType(plant), MappingProxyType(controller),
                   MappingProxyType({k: profiles[k] for k in PROFILE_NAMES}), record, acceptance)
-    return sc, []
+    problems = physics_problems(sc)
+    return (None, problems) if problems else (sc, [])
 
 
 def _read(path):
