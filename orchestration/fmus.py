@@ -1,7 +1,7 @@
-"""Where the FMUs are, whether they match the current sources, and building them (build_fmus.py).
+"""Where the FMUs are, whether they match the current sources, and building them.
 
-The orchestration never imports the FMU code: it runs ``build_fmus.py`` in a child process and
-reads the fingerprint the build baked into each slave script.
+The orchestration never imports the FMU code: it runs :mod:`orchestration.fmu_build` in a child
+process and reads the fingerprint the build baked into each slave script.
 """
 
 from __future__ import annotations
@@ -14,9 +14,7 @@ from pathlib import Path
 
 import satmotor
 
-ROOT = Path(__file__).resolve().parents[1]
-DEFAULT_DIR = ROOT / "build" / "fmus"
-GLUE = ROOT / "fmu" / "common" / "satmotor_fmu_glue.py"
+DEFAULT_DIR = Path("build") / "fmus"  # relative to the working directory
 PLANT, CONTROLLER = "SaturatedInductionMotor.fmu", "BacksteppingController.fmu"
 _SLAVES = {PLANT: "resources/satmotor_plant_fmu.py", CONTROLLER: "resources/satmotor_controller_fmu.py"}
 
@@ -40,16 +38,16 @@ def built_fingerprint(fmu_path, slave):
 
 def up_to_date(fmu_dir=DEFAULT_DIR):
     """True when both FMUs exist and were built from the current satmotor and glue sources."""
-    if not GLUE.exists():
-        return all(p.exists() for p in paths(fmu_dir))  # installed without the sources: trust them
+    from .fmu_build import GLUE
+
     want = satmotor.source_fingerprint(GLUE)
     return all(built_fingerprint(p, _SLAVES[p.name]) == want for p in paths(fmu_dir))
 
 
 def build(fmu_dir=DEFAULT_DIR, quiet=False):
-    """Run build_fmus.py into ``fmu_dir``; raises CalledProcessError when the build fails."""
-    subprocess.run([sys.executable, str(ROOT / "build_fmus.py"), "--out", str(fmu_dir)], check=True,
-                   cwd=ROOT, stdout=subprocess.DEVNULL if quiet else None)
+    """Build both FMUs into ``fmu_dir``; raises CalledProcessError when the build fails."""
+    subprocess.run([sys.executable, "-m", "orchestration.fmu_build", "--out", str(fmu_dir)], check=True,
+                   stdout=subprocess.DEVNULL if quiet else None)
     return paths(fmu_dir)
 
 

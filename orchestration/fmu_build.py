@@ -1,0 +1,174 @@
+"""Build the two FMI 2.0 co-simulation FMUs with pythonfmu, bundling the satmotor package.
+
+Usage::
+
+    python build_fmus.py [--out DIR]        # in a checkout; default build/fmus/
+    python -m orchestration.fmu_build [--out DIR]
+    satmotor-cosim build [--out DIR]
+
+The FMU sources (``fmu/common``, ``fmu/plant``, ``fmu/controller``) are installed with the
+package as ``satmotor_fmu_sources``, so an installed ``satmotor-cosim`` builds the FMUs outside a
+checkout too.
+
+Each FMU is built in a child process (pythonfmu imports the slave script to read its variables,
+and a later simulation in the same process would otherwise run the cached build copy), then
+made reproducible: fixed timestamps, sorted zip entries, and a GUID derived from the content, so
+two builds from the same commit give the same model description and GUID.
+"""
+
+from __future__ import annotations
+
+import argparse
+import ast
+import hashlib
+import html
+import importlib.util
+import inspect
+import re
+import shutil
+import subprocess
+import sys
+import tempfile
+import uuid
+import zipfile
+from pathlib import Path
+
+import satmotor
+
+
+
+def _sources():
+    """The directory of the FMU sources: the installed ``satmotor_fmu_sources`` (in a checkout with
+    an editable install, that is ``fmu/``), else the checkout's ``fmu/``."""
+    spec = importlib.util.find_spec("satmotor_fmu_sources")
+    if spec is not None and spec.origin:
+        return Path(spec.origin).resolve().parent
+    return Path(__file__).resolve().parents[1] / "fmu"
+
+
+SOURCES = _sources()
+SATMOTOR = Path(satmotor.__file__).resolve().parent
+GLUE = SOURCES / "common" / "satmotor_fmu_glue.py"
+FIXED_DATE = "2026-01-01T00:00:00Z"
+
+# name: (slave script, interface table names, modules whose docstrings hold the equations, build options)
+FMUS = {
+    "SaturatedInductionMotor": (
+        SOURCES / "plant" / "satmotor_plant_fmu.py",
+        ("PLANT_INPUTS", "PLANT_OUTPUTS", "PLANT_PARAMETERS"),
+        ("satmotor.plant", "satmotor.magnetics", "satmotor.table_curve"),
+        {"canHandleVariableCommunicationStepSize": True},
+    ),
+    "BacksteppingController": (
+        SOURCES / "controller" / "satmotor_controller_fmu.py",
+        ("CONTROLLER_INPUTS", "CONTROLLER_OUTPUTS", "CONTROLLER_PARAMETERS"),
+        ("satmotor.fo_model", "satmotor.backstepping", "satmotor.drive", "satmotor.references",
+         "satmotor.ifoc"),
+        {"canHandleVariableCommunicationStepSize": False},
+    ),
+}
+COMMON_OPTIONS = {"canGetAndSetFMUstate": True, "canSerializeFMUstate": True, "needsExecutionTool": True}
+
+
+def documentation(name):
+    """index.html from the same interface tables the slave registers, and the model docstrings."""
+    import importlib
+
+    import satmotor.interface as itf
+
+    script, tables, modules, options = FMUS[name]
+    rows = []
+    for table in tables:
+        for v in getattr(itf, table):
+            start = str(v.start).lower() if isinstance(v.start, bool) else v.start  # as in the XML
+            rows.append("<tr>" + "".join(f"<td>{html.escape(str(c))}</td>" for c in (
+                v.name, v.causality, v.type, start, v.unit, v.description)) + "</tr>")
+    flags = {**COMMON_OPTIONS, **options}
+    parts = [f"<!DOCTYPE html><html><head><meta charset='utf-8'><title>{name}</title></head><body>",
+             f"<h1>{name}</h1><p>{html.escape(ast.get_docstring(ast.parse(script.read_text())) or '')}</p>",
+             "<h2>Variables</h2><table border='1'><tr><th>name</th><th>causality</th><th>type</th>"
+             "<th>start</th><th>unit</th><th>description</th></tr>", *rows, "</table>",
+             "<h2>Capability flags</h2><ul>",
+             *(f"<li>{k} = {str(v).lower()}</li>" for k, v in flags.items()), "</ul>",
+             "<h2>Equations</h2>"]
+    for mod in modules:
+        doc = inspect.getdoc(importlib.import_module(mod)) or ""
+        parts.append(f"<h3>{mod}</h3><pre>{html.escape(doc)}</pre>")
+    parts.append("</body></html>")
+    return "\n".join(parts)
+
+
+def make_reproducible(src, dst, extra_files=None):
+    """Rewrite the FMU zip deterministically; the GUID is a UUID5 of the content. Returns it."""
+    with zipfile.ZipFile(src) as z:
+        files = {n: z.read(n) for n in z.namelist() if not n.endswith("/") and "__pycache__" not in n}
+    files.update(extra_files or {})
+    md = files["modelDescription.xml"].decode("utf-8")
+    md = re.sub(r'generationDateAndTime="[^"]*"', f'generationDateAndTime="{FIXED_DATE}"', md, count=1)
+    md = re.sub(r'guid="[^"]*"', 'guid="{GUID}"', md, count=1)
+    h = hashlib.sha256()
+    for n in sorted(files):
+        h.update(n.encode() + b"\0" + (md.encode() if n == "modelDescription.xml" else files[n]) + b"\0")
+    guid = "{" + str(uuid.uuid5(uuid.NAMESPACE_URL, h.hexdigest())) + "}"
+    files["modelDescription.xml"] = md.replace('guid="{GUID}"', f'guid="{guid}"', 1).encode("utf-8")
+    with zipfile.ZipFile(dst, "w") as z:
+        for n in sorted(files):
+            info = zipfile.ZipInfo(n, date_time=(1980, 1, 1, 0, 0, 0))
+            info.compress_type = zipfile.ZIP_DEFLATED
+            info.external_attr = 0o644 << 16
+            info.create_system = 3
+            z.writestr(info, files[n])
+    return guid
+
+
+def build_one(name, out_dir):
+    """Build one FMU (call in a fresh process: pythonfmu imports the slave script)."""
+    from pythonfmu.builder import FmuBuilder
+
+    sys.path.insert(0, str(GLUE.parent))
+    import satmotor_fmu_glue
+
+    script, _, _, options = FMUS[name]
+    with tempfile.TemporaryDirectory() as tmp:
+        tmp = Path(tmp)
+        staged = tmp / script.name
+        fp = satmotor_fmu_glue.fingerprint()
+        staged.write_text(script.read_text().replace("@SATMOTOR_FINGERPRINT@", fp))
+        shutil.copy(GLUE, tmp / GLUE.name)
+        pkg = tmp / "satmotor"
+        shutil.copytree(SATMOTOR, pkg, ignore=shutil.ignore_patterns("__pycache__", "*.pyc"))
+        raw = FmuBuilder.build_FMU(staged, dest=tmp / "raw", project_files={pkg, tmp / GLUE.name},
+                                   **COMMON_OPTIONS, **options)
+        doc = documentation(name).encode("utf-8")
+        out = Path(out_dir) / f"{name}.fmu"
+        guid = make_reproducible(raw, out, {"documentation/index.html": doc})
+    print(f"built {out}  guid {guid}")
+    return out
+
+
+def build_all(out_dir="build/fmus"):
+    """Build both FMUs into ``out_dir``, each in a child process; returns their paths."""
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    paths = []
+    for name in FMUS:
+        subprocess.run([sys.executable, "-m", "orchestration.fmu_build", "--one", name, "--out", str(out)],
+                       check=True)
+        paths.append(out / f"{name}.fmu")
+    return paths
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description="Build SaturatedInductionMotor.fmu and "
+                                 "BacksteppingController.fmu (FMI 2.0 co-simulation, pythonfmu).")
+    ap.add_argument("--out", default="build/fmus", help="output directory (default build/fmus)")
+    ap.add_argument("--one", choices=sorted(FMUS), help=argparse.SUPPRESS)  # internal: build one, in-process
+    args = ap.parse_args(argv)
+    if args.one:
+        build_one(args.one, args.out)
+    else:
+        build_all(args.out)
+
+
+if __name__ == "__main__":
+    main()
