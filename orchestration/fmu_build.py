@@ -36,7 +36,6 @@ from pathlib import Path
 import satmotor
 
 
-
 def _sources():
     """The directory of the FMU sources: the installed ``satmotor_fmu_sources`` (in a checkout with
     an editable install, that is ``fmu/``), else the checkout's ``fmu/``."""

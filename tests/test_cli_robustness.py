@@ -1,0 +1,247 @@
+"""The command line as a user meets it: bad input stopped before any FMU runs, failures explained,
+Ctrl-C and SIGTERM safe in run and batch (partial results, exit codes, no process left), batch
+rows that say the truth, outputs that are checked first and cleaned on a rerun."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pandas as pd
+import pytest
+
+pytestmark = pytest.mark.slow
+ROOT = Path(__file__).resolve().parents[1]
+PSI = "  psi_ref: {type: constant, value: 0.9}\n"
+
+
+def _cli(*args, env=None, **kw):
+    return subprocess.run([sys.executable, "-m", "orchestration", *map(str, args)], capture_output=True,
+                          text=True, timeout=600, env=env, **kw)
+
+
+def _start(*args, **kw):
+    return subprocess.Popen([sys.executable, "-m", "orchestration", *map(str, args)], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True, **kw)
+
+
+def _scenario(d, name, stop_time=0.3, extra=""):
+    f = Path(d) / f"{name}.yaml"
+    f.write_text(f"name: {name}\nstop_time: {stop_time}\nprofiles:\n{PSI}"
+                 "  omega_ref: {type: step, time: 0.15, value: 50.0}\n" + extra)
+    return f
+
+
+def _processes(marker):
+    """Command lines of the live processes whose arguments contain ``marker``."""
+    out = subprocess.run(["ps", "-ww", "-eo", "pid,stat,args"], capture_output=True, text=True).stdout
+    rows = [line.split(None, 2) for line in out.splitlines()[1:]]
+    return [" ".join(r) for r in rows if len(r) == 3 and str(marker) in r[2] and not r[1].startswith("Z")]
+
+
+def _wait_running(metrics, proc, timeout=120.0):
+    """Until ``metrics`` says the run has started (and a little more, so the loop is stepping)."""
+    t0 = time.monotonic()
+    while time.monotonic() - t0 < timeout:
+        assert proc.poll() is None, proc.communicate()
+        if metrics.exists() and '"running"' in metrics.read_text():
+            time.sleep(1.5)
+            return
+        time.sleep(0.05)
+    raise AssertionError("the run never started")
+
+
+# --- bad input stopped before any FMU runs ----------------------------------------------------------------
+
+BAD = {
+    "plant.R_s": ("plant: {R_s: -1.0}\n", "-1.0"),
+    "plant.J": ("plant: {J: 0}\n", "0"),
+    "profiles.psi_ref": ("controller: {I_max: 2.0}\n", "needs a magnetizing current"),
+    "stop_time": ("record: {interval: 1.0e-4}\n", "1e+08 values"),
+}
+
+
+@pytest.mark.parametrize("field", list(BAD))
+def test_validate_and_run_refuse_what_the_fmus_would_refuse(field, tmp_path, fmu_dir):
+    extra, value = BAD[field]
+    stop = 1.0e9 if field == "stop_time" else 0.3
+    f = _scenario(tmp_path, "bad", stop, extra)
+    r = _cli("validate", f, "--fmus", fmu_dir)
+    assert r.returncode == 2
+    line = next(ln for ln in r.stderr.splitlines() if f": {field} = " in ln)
+    assert str(f) in line and value in line
+    r = _cli("run", f, "--out", tmp_path / "out", "--fmus", fmu_dir, "--no-build")
+    assert r.returncode == 2 and field in r.stderr
+    assert not (tmp_path / "out").exists()  # refused before anything ran or was written
+
+
+def test_every_bad_override_is_reported_at_once(tmp_path, fmu_dir):
+    f = _scenario(tmp_path, "bad", extra="plant: {R_s: -1.0, J: 0, l_s: 0.0}\ncontroller: {c1: -3.0}\n")
+    r = _cli("validate", f, "--fmus", fmu_dir)
+    assert r.returncode == 2
+    for field in ("plant.R_s", "plant.J", "plant.l_s", "controller.c1"):
+        assert f": {field} = " in r.stderr, r.stderr
+
+
+# --- failures explained -----------------------------------------------------------------------------------
+
+def test_a_plant_failure_names_the_plant_and_quotes_its_message(tmp_path, fmu_dir):
+    # J so small that the mechanical mode is unstable under RK4 at h = 100 us: the plant's state
+    # becomes non-finite after the speed step; the reason is the plant's, not the controller's
+    f = _scenario(tmp_path, "stiff", extra="plant: {J: 1.0e-7}\n")
+    r = _cli("run", f, "--out", tmp_path / "out", "--fmus", fmu_dir, "--no-build", "--no-plot")
+    assert r.returncode == 1
+    m = json.loads((tmp_path / "out" / "stiff" / "metrics.json").read_text())
+    assert m["status"] == "discard" and m["failed_unit"] == "plant"
+    assert "SaturatedInductionMotor at t = " in m["message"] and "non-finite" in m["message"]
+    assert m["message"] in r.stdout
+    assert 0.15 < m["t_end"] < 0.3 and m["rows"] == round(m["t_end"] / 1e-4) + 1  # rows up to t_end
+
+
+# --- outputs ------------------------------------------------------------------------------------------------
+
+def test_an_unwritable_out_is_found_before_the_run(tmp_path, fmu_dir):
+    blocker = tmp_path / "a_file"
+    blocker.write_text("not a directory")
+    f = _scenario(tmp_path, "ok")
+    t0 = time.monotonic()
+    r = _cli("run", f, "--out", blocker / "sub", "--fmus", fmu_dir, "--no-build")
+    assert r.returncode == 2 and "--out" in r.stderr and str(blocker / "sub") in r.stderr
+    assert "Traceback" not in r.stderr and time.monotonic() - t0 < 20
+
+
+def test_a_rerun_clears_the_previous_results_and_leaves_no_extracted_fmu(tmp_path, fmu_dir):
+    f = _scenario(tmp_path, "again", stop_time=0.05)
+    d = tmp_path / "out" / "again"
+    d.mkdir(parents=True)
+    (d / "figure.png").write_bytes(b"old figure")
+    (d / "timeseries.parquet").write_bytes(b"old")
+    tmp = tmp_path / "tmp"
+    tmp.mkdir()
+    r = _cli("run", f, "--out", tmp_path / "out", "--fmus", fmu_dir, "--no-build", "--no-plot",
+             env={**os.environ, "TMPDIR": str(tmp)})
+    assert r.returncode == 0, r.stderr
+    assert not (d / "figure.png").exists()  # --no-plot: the old figure must not pass for this run's
+    assert len(pd.read_parquet(d / "timeseries.parquet")) == 501
+    assert list(tmp.iterdir()) == []  # the two extracted FMUs were removed
+
+
+# --- interrupts ------------------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("sig,code", [(signal.SIGINT, 130), (signal.SIGTERM, 143)])
+def test_run_stops_on_a_signal_and_writes_what_it_has(sig, code, tmp_path, fmu_dir):
+    f = _scenario(tmp_path, "long", stop_time=30.0)
+    out = tmp_path / "out"
+    p = _start("run", f, "--out", out, "--fmus", fmu_dir, "--no-build", "--no-plot")
+    _wait_running(out / "long" / "metrics.json", p)
+    p.send_signal(sig)
+    stdout, stderr = p.communicate(timeout=60)
+    assert p.returncode == code, stderr
+    m = json.loads((out / "long" / "metrics.json").read_text())
+    assert m["status"] == "interrupted" and signal.Signals(sig).name in m["message"]
+    assert "Traceback" not in stderr and "fatal" not in stdout
+    csv = pd.read_csv(out / "long" / "timeseries.csv")
+    assert len(csv) == m["rows"] > 100 and csv["time"].iloc[-1] <= m["t_end"] < 30.0
+    assert len(pd.read_parquet(out / "long" / "timeseries.parquet")) == m["rows"]
+
+
+def _batch_dir(tmp_path, n_long=3):
+    d = tmp_path / "scenarios"
+    d.mkdir()
+    _scenario(d, "quick", stop_time=0.05)
+    for i in range(n_long):
+        _scenario(d, f"long{i}", stop_time=30.0)
+    return d
+
+
+def _wait_children(marker, n, timeout=120.0):
+    t0 = time.monotonic()
+    while time.monotonic() - t0 < timeout:
+        if len([p for p in _processes(marker) if " run " in p]) >= n:
+            time.sleep(1.5)
+            return
+        time.sleep(0.1)
+    raise AssertionError(f"fewer than {n} children running: {_processes(marker)}")
+
+
+@pytest.mark.parametrize("sig,code", [(signal.SIGINT, 130), (signal.SIGTERM, 143)])
+def test_batch_stops_on_a_signal_summarizes_everything_and_leaves_no_process(sig, code, tmp_path, fmu_dir):
+    d, out = _batch_dir(tmp_path), tmp_path / "out"
+    p = _start("batch", d, "--jobs", 2, "--out", out, "--fmus", fmu_dir, start_new_session=True)
+    _wait_children(d, 2)
+    if sig == signal.SIGINT:
+        os.killpg(p.pid, sig)  # Ctrl-C in a terminal: the whole foreground process group
+    else:
+        p.send_signal(sig)  # SIGTERM to the batch parent only
+    stdout, stderr = p.communicate(timeout=120)
+    assert p.returncode == code, stderr
+    assert "Traceback" not in stderr
+    assert _processes(d) == []
+    summary = pd.read_csv(out / "summary.csv")
+    status = dict(zip(summary["scenario"], summary["status"]))
+    assert set(status) == {"quick", "long0", "long1", "long2"}
+    assert [status[f"long{i}"] for i in range(3)] == ["interrupted"] * 3
+    stopped = [json.loads((out / f"long{i}" / "metrics.json").read_text()) for i in range(2)
+               if (out / f"long{i}" / "metrics.json").exists()]
+    assert any(m["status"] == "interrupted" and m["rows"] > 0 for m in stopped)  # partial results kept
+
+
+def test_a_killed_batch_leaves_no_child_behind(tmp_path, fmu_dir):
+    d, out = _batch_dir(tmp_path, n_long=2), tmp_path / "out"
+    p = _start("batch", d, "--jobs", 2, "--out", out, "--fmus", fmu_dir, start_new_session=True)
+    _wait_children(d, 2)
+    p.kill()
+    p.communicate(timeout=60)
+    t0 = time.monotonic()
+    while _processes(d) and time.monotonic() - t0 < 60:
+        time.sleep(0.2)
+    assert _processes(d) == []
+
+
+def test_a_child_killed_by_a_signal_is_a_failed_row_and_a_failed_batch(tmp_path, fmu_dir):
+    d, out = _batch_dir(tmp_path, n_long=1), tmp_path / "out"
+    p = _start("batch", d, "--jobs", 2, "--out", out, "--fmus", fmu_dir)
+    _wait_children(d / "long0.yaml", 1)
+    pid = int(next(ln for ln in _processes(d / "long0.yaml") if " run " in ln).split()[0])
+    os.kill(pid, signal.SIGKILL)
+    stdout, stderr = p.communicate(timeout=120)
+    assert p.returncode == 128 + signal.SIGKILL
+    row = pd.read_csv(out / "summary.csv").set_index("scenario").loc["long0"]
+    assert row["status"] == "failed" and "SIGKILL" in row["message"]
+
+
+# --- batch correctness -------------------------------------------------------------------------------------
+
+def test_duplicate_names_refuse_the_batch_before_anything_runs(tmp_path, fmu_dir):
+    d = tmp_path / "scenarios"
+    d.mkdir()
+    _scenario(d, "twin", stop_time=0.05)
+    (d / "twin_copy.yaml").write_text((d / "twin.yaml").read_text())
+    r = _cli("batch", d, "--out", tmp_path / "out", "--fmus", fmu_dir)
+    assert r.returncode == 2 and "'twin'" in r.stderr and "twin_copy.yaml" in r.stderr
+    assert not (tmp_path / "out" / "twin").exists()
+
+
+def test_files_that_cannot_load_are_rows_and_the_others_run(tmp_path, fmu_dir):
+    d = tmp_path / "scenarios"
+    d.mkdir()
+    _scenario(d, "good", stop_time=0.05)
+    (d / "semicolon.csv").write_text("t;T\n0;0\n0.02;5\n")  # ';' separators are read
+    _scenario(d, "semi", stop_time=0.05, extra="  T_load: {type: csv, file: semicolon.csv}\n")
+    (d / "one_column.csv").write_text("t\n0\n0.02\n")  # a column is missing: a problem, not an IndexError
+    _scenario(d, "short_rows", stop_time=0.05, extra="  T_load: {type: csv, file: one_column.csv}\n")
+    (d / "binary.yaml").write_bytes(b"\xff\xfe\x00garbage")
+    (d / "not_a_mapping.yaml").write_text("- 1\n- 2\n")
+    r = _cli("batch", d, "--out", tmp_path / "out", "--fmus", fmu_dir)
+    assert r.returncode == 2 and "Traceback" not in r.stderr
+    summary = pd.read_csv(tmp_path / "out" / "summary.csv").set_index("file")
+    status = {Path(k).stem: v for k, v in summary["status"].items()}
+    assert status == {"good": "ok", "semi": "ok", "short_rows": "invalid", "binary": "invalid",
+                      "not_a_mapping": "invalid"}
+    msg = {Path(k).stem: v for k, v in summary["message"].items()}
+    assert "1 column(s)" in msg["short_rows"] and "cannot read" in msg["binary"]
