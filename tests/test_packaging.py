@@ -1,0 +1,71 @@
+"""``pip install .`` gives a working ``satmotor-cosim`` outside a checkout: the package carries the
+FMU sources and the build logic, and declares every third-party package the commands import."""
+
+from __future__ import annotations
+
+import ast
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+import tomllib
+
+ROOT = Path(__file__).resolve().parents[1]
+# import name -> distribution name, where they differ
+DISTRIBUTION = {"yaml": "pyyaml", "fmpy": "fmpy", "pythonfmu": "pythonfmu", "distributed": "dask"}
+OPTIONAL = {"distributed", "dask"}  # batch --scheduler only: the [dask] extra
+
+
+def _third_party_imports(package):
+    names = set()
+    for f in (ROOT / package).rglob("*.py"):
+        for node in ast.walk(ast.parse(f.read_text())):
+            if isinstance(node, ast.Import):
+                names |= {a.name.split(".")[0] for a in node.names}
+            elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+                names.add(node.module.split(".")[0])
+    ours = ("satmotor", "orchestration", "satmotor_fmu_glue", "satmotor_fmu_sources")
+    return {n for n in names if n not in sys.stdlib_module_names and n not in ours}
+
+
+def test_every_package_the_commands_import_is_a_dependency():
+    meta = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]
+    required = {d.split(">")[0].split("=")[0].split("[")[0].strip().lower() for d in meta["dependencies"]}
+    extras = {d.split(">")[0].split("[")[0].strip().lower() for d in meta["optional-dependencies"]["dask"]}
+    for package in ("satmotor", "orchestration"):
+        for name in _third_party_imports(package):
+            dist = DISTRIBUTION.get(name, name)
+            assert dist in (extras if name in OPTIONAL else required), f"{package} imports {name}"
+    assert _third_party_imports("satmotor") == {"numpy"}
+
+
+@pytest.mark.slow
+def test_installed_package_runs_build_validate_run_and_batch_outside_a_checkout(tmp_path):
+    site = tmp_path / "site"
+    r = subprocess.run([sys.executable, "-m", "pip", "install", "--quiet", "--no-deps", "--target", str(site),
+                        str(ROOT)], capture_output=True, text=True, timeout=600)
+    assert r.returncode == 0, r.stderr
+    work = tmp_path / "work"  # no checkout here: only a scenario file
+    work.mkdir()
+    (work / "s.yaml").write_text("name: s\nstop_time: 0.02\nprofiles:\n"
+                                 "  psi_ref: {type: constant, value: 0.9}\n")
+    env = {**os.environ, "PYTHONPATH": str(site)}
+
+    def cli(*args):
+        return subprocess.run([sys.executable, str(site / "bin" / "satmotor-cosim"), *args], cwd=work,
+                              env=env, capture_output=True, text=True, timeout=600)
+
+    where = subprocess.run([sys.executable, "-c", "import orchestration, satmotor_fmu_sources as s; "
+                            "print(orchestration.__file__, s.__file__)"], cwd=work, env=env,
+                           capture_output=True, text=True)
+    assert where.stdout.count(str(site)) == 2, where  # the installed copy, not the checkout
+    assert cli("validate", "s.yaml").returncode == 0
+    r = cli("run", "s.yaml", "--out", "res")
+    assert r.returncode == 0, r.stdout + r.stderr
+    assert (work / "build" / "fmus" / "SaturatedInductionMotor.fmu").exists()
+    assert (work / "res" / "s" / "metrics.json").exists()
+    r = cli("batch", ".", "--out", "res_batch", "--jobs", "1")
+    assert r.returncode == 0, r.stdout + r.stderr
+    assert (work / "res_batch" / "summary.csv").exists()
