@@ -48,7 +48,7 @@ from dataclasses import dataclass
 from typing import NamedTuple
 
 from .errors import ParameterError, require_number
-from .measurements import from_rotor_flux, from_stator_flux
+from .measurements import MEAS_OMEGA_M, magnetizing_state
 
 _SQRT3 = math.sqrt(3.0)
 _W_REL_FLOOR = 1e-12
@@ -239,8 +239,9 @@ def control(meas, ref, load, params, gains, cfg, theta_hat=0.0):
     Parameters
     ----------
     meas : tuple
-        ``(i_s_alpha, i_s_beta, psi_r_alpha, psi_r_beta, omega_m[, psi_s_alpha, psi_s_beta])``
-        [A, A, Wb, Wb, rad/s, Wb, Wb]; psi_s is needed only with ``cfg.use_stator_flux``.
+        The measurement tuple of :mod:`satmotor.measurements`, ``(i_s_alpha, i_s_beta,
+        psi_r_alpha, psi_r_beta, omega_m[, psi_s_alpha, psi_s_beta])`` [A, A, Wb, Wb, rad/s, Wb,
+        Wb]; psi_s is needed only with ``cfg.use_stator_flux``.
     ref : tuple
         ``(Phi_ref, Phi_ref', Phi_ref'', omega_ref, omega_ref', omega_ref'')`` [Wb, Wb/s, Wb/s^2,
         rad/s, rad/s^2, rad/s^3] (mechanical speed).
@@ -261,20 +262,19 @@ def control(meas, ref, load, params, gains, cfg, theta_hat=0.0):
         Voltages (v_s rotated by ``rho + omega_s Ts / 2``), errors, V, W, the magnetizing state,
         theta_hat_dot (0 in the known mode) and the limiter flags.
     """
-    if cfg.use_stator_flux:
-        ms = from_stator_flux(meas[0], meas[1], meas[2], meas[3], meas[5], meas[6], params)
-    else:
-        ms = from_rotor_flux(meas[0], meas[1], meas[2], meas[3], params)
+    ms = magnetizing_state(meas, params, cfg.use_stator_flux)
+    w = meas[MEAS_OMEGA_M]
     I = ms.I
     dm = params.curve.dm_dI(I)
     if cfg.load_mode == "known":
-        es = _core(params, gains, cfg.phi_min, ms.Phi_rd, ms.i_mu_d, ms.i_mu_q, meas[4], ms.m, dm, I,
-                   ref, load[0] / params.J, load[1] / params.J, None)
+        T_L, dT_L = load
+        es = _core(params, gains, cfg.phi_min, ms.Phi_rd, ms.i_mu_d, ms.i_mu_q, w, ms.m, dm, I,
+                   ref, T_L / params.J, dT_L / params.J, None)
         theta_hat_dot = 0.0
     else:
         tm = cfg.theta_max
         theta = min(max(theta_hat, -tm), tm)
-        es = _core(params, gains, cfg.phi_min, ms.Phi_rd, ms.i_mu_d, ms.i_mu_q, meas[4], ms.m, dm, I,
+        es = _core(params, gains, cfg.phi_min, ms.Phi_rd, ms.i_mu_d, ms.i_mu_q, w, ms.m, dm, I,
                    ref, theta, 0.0, (cfg.g_theta, tm))
         theta_hat_dot = es.theta_dot
     e1, e2, z1, z2 = es.e1, es.e2, es.z1, es.z2

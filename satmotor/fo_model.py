@@ -56,7 +56,7 @@ class FluxOrientedModel:
         fluxes and inductances used (for diagnostics and the controller).
         """
         p = self.p
-        phi, imd, imq, w = x[0], x[1], x[2], x[3]
+        phi, imd, imq, w = x[PHI_RD], x[I_MU_D], x[I_MU_Q], x[OMEGA]
         Md, Mq, Mdq, m, dm, ldyn = dynamic_inductances(p.curve, imd, imq)
         sg = self._sigma
         l11, l22, l12 = p.l_s + sg * Md, p.l_s + sg * Mq, sg * Mdq

@@ -18,7 +18,7 @@ from .errors import ParameterError
 from .ifoc import IFOCGains
 from .magnetics import ArctanCurve, LinearCurve, PolynomialCurve
 from .params import CURVE_NAMES, MotorParams, make_curve
-from .plant import Plant, initial_state
+from .plant import OMEGA_M, PSI_R_A, PSI_R_B, PSI_S_A, PSI_S_B, THETA_M, Plant, initial_state
 
 
 class Variable(NamedTuple):
@@ -193,7 +193,8 @@ class PlantUnit:
     def outputs(self):
         """Output values in the order of :attr:`OUTPUTS`."""
         x, o = self.x, self.plant.outputs(self.x)
-        return (o.i_s_alpha, o.i_s_beta, x[0], x[1], x[2], x[3], x[4], x[5], o.T_e, o.i_mu)
+        return (o.i_s_alpha, o.i_s_beta, x[PSI_S_A], x[PSI_S_B], x[PSI_R_A], x[PSI_R_B], x[OMEGA_M],
+                x[THETA_M], o.T_e, o.i_mu)
 
     def get_state(self):
         return tuple(self.x)

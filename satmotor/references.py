@@ -30,6 +30,8 @@ import math
 from .errors import ParameterError, require_number
 
 _CACHE_SIZE = 8
+# Layout of a shaper's state and value tuple (r, r', r'').
+REF_VALUE, REF_RATE, REF_ACCEL = range(3)
 
 
 def transition_matrix(bandwidth, h):
