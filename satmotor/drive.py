@@ -15,8 +15,9 @@ Start from standstill (the backstepping law is singular at Phi_rd = 0):
 
 2. *Switch* when ``|psi_r| >= premag_fraction psi_set`` (or after ``premag_time_max``): the
    flux shaper is put at the measured state ``(Phi_rd, Phi_rd', 0)`` with
-   ``Phi_rd' = (R_r/l_r)(k m i_mu_d - Phi_rd)`` and the speed shaper at ``(omega_m, 0, 0)``, so
-   that ``e1 = e2 = z1 = 0`` at the switch: the law takes over without a jump.
+   ``Phi_rd' = (R_r/l_r)(k m i_mu_d - Phi_rd)`` (:func:`satmotor.fo_model.flux_rate`) and the
+   speed shaper at ``(omega_m, 0, 0)``, so that ``e1 = e2 = z1 = 0`` at the switch: the law
+   takes over without a jump.
 
 3. *Run*: references from the shapers (third-order, exact derivatives), the control law, and
    in the estimated-load mode ``theta_hat <- clip(theta_hat + Ts theta_hat', +-theta_max)``
@@ -33,6 +34,7 @@ from typing import NamedTuple
 
 from .backstepping import BacksteppingGains, ControllerConfig, control
 from .errors import ParameterError, require_number
+from .fo_model import flux_rate, model_constants
 from .ifoc import IFOCController, IFOCGains
 from .measurements import MEAS_I_S_A, MEAS_I_S_B, MEAS_OMEGA_M, MEAS_PSI_R_A, MEAS_PSI_R_B, from_rotor_flux
 from .references import REF_VALUE, ReferenceShaper
@@ -164,7 +166,8 @@ class _Drive:
     def _switch(self, meas):
         p = self.params
         ms = from_rotor_flux(meas[MEAS_I_S_A], meas[MEAS_I_S_B], meas[MEAS_PSI_R_A], meas[MEAS_PSI_R_B], p)
-        dphi = p.R_r / p.l_r * (p.k * ms.m * ms.i_mu_d - ms.Phi_rd)
+        c = model_constants(p)
+        dphi = flux_rate(c.a, c.k, ms.Phi_rd, ms.i_mu_d, ms.m)
         self._flux.set_state((ms.Phi_rd, dphi, 0.0))
         self._speed.reset(meas[MEAS_OMEGA_M])
         self._phase = RUN

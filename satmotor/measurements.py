@@ -82,16 +82,6 @@ def from_stator_flux(i_sa, i_sb, psi_ra, psi_rb, psi_sa, psi_sb, params):
     return _in_flux_frame(ima, imb, I, m, psi_ra, psi_rb)
 
 
-def magnetizing_state(meas, params, use_stator_flux=False):
-    """Magnetizing state from a measurement tuple ``meas`` (see the module docstring): the
-    stator-flux variant with ``use_stator_flux``, else the rotor-flux one."""
-    if use_stator_flux:
-        return from_stator_flux(meas[MEAS_I_S_A], meas[MEAS_I_S_B], meas[MEAS_PSI_R_A],
-                                meas[MEAS_PSI_R_B], meas[MEAS_PSI_S_A], meas[MEAS_PSI_S_B], params)
-    return from_rotor_flux(meas[MEAS_I_S_A], meas[MEAS_I_S_B], meas[MEAS_PSI_R_A], meas[MEAS_PSI_R_B],
-                           params)
-
-
-__all__ = ["MagnetizingState", "from_rotor_flux", "from_stator_flux", "magnetizing_state",
+__all__ = ["MagnetizingState", "from_rotor_flux", "from_stator_flux",
            "MEAS_I_S_A", "MEAS_I_S_B", "MEAS_PSI_R_A", "MEAS_PSI_R_B", "MEAS_OMEGA_M", "MEAS_PSI_S_A",
            "MEAS_PSI_S_B"]
