@@ -67,9 +67,7 @@ class DriveConfig:
     def __post_init__(self):
         require_number("ref_bandwidth", self.ref_bandwidth, 0)
         require_number("I_max", self.I_max, 0)
-        require_number("premag_fraction", self.premag_fraction, 0)
-        if self.premag_fraction > 1.0:
-            raise ParameterError("premag_fraction", self.premag_fraction, "must be <= 1")
+        require_number("premag_fraction", self.premag_fraction, 0, upper=1)
         require_number("premag_boost", self.premag_boost, 1, inclusive=True)
         require_number("premag_gain", self.premag_gain, 0)
         require_number("premag_time_max", self.premag_time_max, 0)

@@ -26,7 +26,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from .errors import ParameterError, require_number
+from .errors import ParameterError, require_integer, require_number
 
 _REL_TOL = 4.0e-16
 _MAX_ITER = 200
@@ -284,12 +284,9 @@ class PolynomialCurve(_Curve):
 
     def __post_init__(self):
         require_number("L_m0", self.L_m0, 0)
-        b = self.poly_b
-        if not (isinstance(b, (int, float)) and math.isfinite(b) and b >= 0):
-            raise ParameterError("poly_b", b, "must be a finite number >= 0")
-        n = self.poly_n
-        if not (isinstance(n, int) and n >= 3 and n % 2 == 1):
-            raise ParameterError("poly_n", n, "must be an odd integer >= 3")
+        require_number("poly_b", self.poly_b, 0, inclusive=True)
+        if require_integer("poly_n", self.poly_n, 3) % 2 != 1:
+            raise ParameterError("poly_n", self.poly_n, "must be an odd integer >= 3")
 
     @property
     def m0(self):
