@@ -81,7 +81,7 @@ PLANT_PARAMETERS = MOTOR_PARAMETERS + (
        "ceil(dt/h_int) equal sub-steps"),
 )
 
-_G, _C, _D, _I = BacksteppingGains(), ControllerConfig(), DriveConfig(), IFOCGains()
+_G, _C, _D = BacksteppingGains(), ControllerConfig(), DriveConfig()
 CONTROLLER_MODES = ("saturated", "constant_m", "pi")
 CONTROLLER_INPUTS = (
     _v("i_s_alpha", "input", 0.0, "A", "measured stator current, alpha axis"),
