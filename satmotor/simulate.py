@@ -103,6 +103,11 @@ class RampScenario:
     t_end: float = 1.5  # [s]
     t_steady: float = 1.3  # [s] start of the steady-state window
 
+    @property
+    def ss_window(self):
+        """Steady-state window ``(t_steady, t_end)`` [s] of :func:`satmotor.metrics.run_metrics`."""
+        return self.t_steady, self.t_end
+
     def omega_set(self, t):
         return 0.0 if t < self.t_ramp else min(self.omega_final, (t - self.t_ramp) * self.ramp_rate)
 
