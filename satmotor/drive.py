@@ -118,8 +118,9 @@ class _Drive:
 
     def magnetizing_current(self, psi_set):
         """Steady magnetizing current [A] for a rotor flux set-point [Wb]; error beyond I_max."""
-        if psi_set == self._checked[0]:
-            return self._checked[1]
+        checked_psi, checked_I = self._checked
+        if psi_set == checked_psi:
+            return checked_I
         require_number("psi_ref", psi_set, 0)
         p = self.params
         I = p.curve.current(psi_set / p.k)

@@ -65,9 +65,9 @@ _CONSTANTS = {}  # id(params) -> (params, ModelConstants); MotorParams is frozen
 
 def model_constants(params):
     """The :class:`ModelConstants` of ``params`` (computed once per parameter object)."""
-    hit = _CONSTANTS.get(id(params))
-    if hit is not None and hit[0] is params:
-        return hit[1]
+    owner, c = _CONSTANTS.get(id(params), (None, None))
+    if owner is params:
+        return c
     c = ModelConstants.of(params)
     if len(_CONSTANTS) >= 16:
         _CONSTANTS.clear()
