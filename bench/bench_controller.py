@@ -25,12 +25,13 @@ import math
 import platform
 import sys
 import time
+from typing import NamedTuple
 
 import numpy as np
 from bench_plant import best_time, cpu_model, write_section
 
 from satmotor.backstepping import BacksteppingGains, ControllerConfig, control
-from satmotor.drive import RUN, BacksteppingDrive, IFOCDrive
+from satmotor.drive import RUN, STATE_FLUX, STATE_LAW, STATE_PHASE, STATE_SPEED, BacksteppingDrive, IFOCDrive
 from satmotor.magnetics import LinearCurve
 from satmotor.params import MotorParams
 from satmotor.plant import Plant
@@ -46,8 +47,19 @@ CFG_EST = ControllerConfig(Ts=TS, load_mode="estimated")
 SCENARIO = RampScenario()
 
 
+class Sample(NamedTuple):
+    """One logged drive call: its arguments, the drive state before it and its output."""
+
+    meas: tuple
+    omega_set: float
+    psi_set: float
+    T_load: float
+    state: tuple
+    out: tuple
+
+
 class Recorder:
-    """Drive wrapper for ``closed_loop``: logs ``(meas, omega_set, psi_set, T_load, state before)``."""
+    """Drive wrapper for ``closed_loop``: logs a :class:`Sample` per call."""
 
     def __init__(self, drive):
         self.drive, self.Ts, self.log = drive, drive.Ts, []
@@ -55,7 +67,7 @@ class Recorder:
     def step(self, meas, omega_set, psi_set, T_load):
         s0 = self.drive.get_state()
         out = self.drive.step(meas, omega_set, psi_set, T_load)
-        self.log.append((meas, omega_set, psi_set, T_load, s0, out))
+        self.log.append(Sample(meas, omega_set, psi_set, T_load, s0, out))
         return out
 
 
@@ -63,13 +75,17 @@ def capture(make_drive):
     """One closed-loop RampScenario run; returns (drive, running samples of the log, recorded arrays)."""
     rec_drive = Recorder(make_drive())
     rec = SCENARIO.run(P, rec_drive)
-    k0 = next(k for k, e in enumerate(rec_drive.log) if e[4][0] == RUN)
+    k0 = next(k for k, e in enumerate(rec_drive.log) if e.state[STATE_PHASE] == RUN)
     return make_drive(), rec_drive.log[k0:], rec, k0
 
 
 def control_inputs(run_log):
     """(meas, ref, load, theta_hat) of each running sample, from the drive state before the step."""
-    return [(meas, s0[2:5] + s0[5:8], (tl, 0.0), s0[8]) for meas, _, _, tl, s0, _ in run_log]
+    out = []
+    for e in run_log:
+        (theta_hat,) = e.state[STATE_LAW]
+        out.append((e.meas, e.state[STATE_FLUX] + e.state[STATE_SPEED], (e.T_load, 0.0), theta_hat))
+    return out
 
 
 def control_rate(inputs, params, cfg):
@@ -81,8 +97,8 @@ def control_rate(inputs, params, cfg):
 
 
 def drive_rate(drive, run_log):
-    s0 = run_log[0][4]
-    args = [e[:4] for e in run_log]
+    s0 = run_log[0].state
+    args = [(e.meas, e.omega_set, e.psi_set, e.T_load) for e in run_log]
     step, set_state = drive.step, drive.set_state
 
     def loop():
@@ -90,7 +106,7 @@ def drive_rate(drive, run_log):
         return [step(*a) for a in args]
 
     t, outs = best_time(loop)
-    assert all(o == e[5] for o, e in zip(outs, run_log)), "drive replay differs from the recorded run"
+    assert all(o == e.out for o, e in zip(outs, run_log)), "drive replay differs from the recorded run"
     return len(args) / t
 
 

@@ -25,7 +25,7 @@ from scipy.integrate import solve_ivp
 
 from satmotor.integrate import rk4
 from satmotor.params import MotorParams, RatedData
-from satmotor.plant import N_STATES, Plant
+from satmotor.plant import N_STATES, OMEGA_M, PSI_R_A, PSI_R_B, PSI_S_A, PSI_S_B, THETA_M, Plant
 
 T_END, T_LOAD = 1.0, 0.6
 RK45_TOL = dict(rtol=1e-8, atol=1e-10)
@@ -78,8 +78,10 @@ def run_plant_step(n):
 
 def error(x, ref):
     """max_i |x_i - ref_i| / s_i, s_i = |psi_s|, |psi_r| (vector magnitudes), |omega_m|, |theta_m| of ref."""
-    ps, pr = math.hypot(ref[0], ref[1]), math.hypot(ref[2], ref[3])
-    scale = np.array([ps, ps, pr, pr, abs(ref[4]), abs(ref[5])])
+    ps, pr = math.hypot(ref[PSI_S_A], ref[PSI_S_B]), math.hypot(ref[PSI_R_A], ref[PSI_R_B])
+    scale = np.empty(N_STATES)
+    scale[[PSI_S_A, PSI_S_B]], scale[[PSI_R_A, PSI_R_B]] = ps, pr
+    scale[OMEGA_M], scale[THETA_M] = abs(ref[OMEGA_M]), abs(ref[THETA_M])
     return float(np.max(np.abs(np.asarray(x) - ref) / scale))
 
 

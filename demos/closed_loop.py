@@ -54,7 +54,7 @@ def main(argv=None):
     p, sc = MotorParams(), RampScenario(psi_set=args.psi)
     res = sc.run(p, BacksteppingDrive(p, cfg=ControllerConfig(load_mode=args.load_mode)))
     res.pop("x_end")
-    metrics = run_metrics(res, sc.omega_final, sc.psi_set, sc.t_steady)
+    metrics = run_metrics(res, sc.ss_window)
     stem = out / "closed_loop"
     pd.DataFrame({f"{k} [{UNITS[k]}]": res[k] for k in RECORDED}).to_csv(f"{stem}.csv", index=False)
     Path(f"{stem}.json").write_text(json.dumps(metrics, indent=2) + "\n")

@@ -49,7 +49,7 @@ def compare(psi_values=(0.95, 1.15)):
     for psi in psi_values:
         sc = RampScenario(psi_set=psi)
         for name, make in designs(p).items():
-            m = run_metrics(sc.run(p, make()), sc.omega_final, sc.psi_set, sc.t_steady)
+            m = run_metrics(sc.run(p, make()), sc.ss_window)
             rows.append({"psi_set [Wb]": psi, "design": name, **m})
     return pd.DataFrame(rows)
 

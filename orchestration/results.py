@@ -9,87 +9,45 @@ FMUs' descriptions),
 from __future__ import annotations
 
 import json
-import math
 from pathlib import Path
 
-import numpy as np
-
-from satmotor.metrics import iae, overshoot
+from satmotor.metrics import acceptance, closed_loop_metrics, run_phase
 
 from .recorder import FILES, StreamingRecorder
 
-SETTLING_BAND = 0.02  # [1] relative band of the settling time
-
 
 def _run_phase(df):
-    """Rows where the control law runs (W > 0; the PI baseline reports W = 0: all rows after the
-    flux error is first within 10 % of the set-point)."""
-    W = df["controller.W"].to_numpy()
-    if np.any(W > 0):
-        return W > 0
-    e1 = df["controller.e1"].to_numpy()
-    psi = df["profile.psi_ref"].to_numpy()
-    reached = np.abs(e1) <= 0.1 * np.abs(psi)
-    return np.cumsum(reached) > 0
+    """Run-phase mask of a recorded run (:func:`satmotor.metrics.run_phase`: from the first W > 0,
+    or for the PI baseline, which reports W = 0, from the first flux error within 10 % of the
+    set-point)."""
+    return run_phase(df["controller.W"].to_numpy(), df["controller.e1"].to_numpy(),
+                     df["profile.psi_ref"].to_numpy())
 
 
 def compute_metrics(df, scenario):
-    """Metrics of a recorded run (SI units).
-
-    IAE of the tracking errors z1 [rad/s] and e1 [Wb] (against the shaped references) over the
-    run phase; steady-state errors: the largest |response - set-point| over the acceptance window
-    (default: the last 10 % of the run), relative to the final set-point (at least 1 rad/s,
-    1 mWb); overshoot of the speed relative to its total change; settling time into a 2 % band.
-    """
+    """Metrics of a recorded run (SI units): :func:`satmotor.metrics.closed_loop_metrics` on the
+    frame's columns (definitions there), the steady-state window from the scenario's acceptance
+    ``ss_window`` (default: the last 10 % of the run).  ``{}`` for an empty frame."""
     if df.empty:
         return {}
-    t = df["time"].to_numpy()
-    w = df["plant.omega_m"].to_numpy()
-    phi = np.hypot(df["plant.psi_r_alpha"], df["plant.psi_r_beta"]).to_numpy()
-    w_set = df["profile.omega_ref"].to_numpy()
-    psi_set = df["profile.psi_ref"].to_numpy()
-    run = _run_phase(df)
-    t_run = float(t[np.argmax(run)]) if run.any() else math.nan
+    columns = {"t": "time", "omega_m": "plant.omega_m", "omega_set": "profile.omega_ref",
+               "psi_r_alpha": "plant.psi_r_alpha", "psi_r_beta": "plant.psi_r_beta",
+               "psi_set": "profile.psi_ref", "z1": "controller.z1", "e1": "controller.e1",
+               "i_s_alpha": "plant.i_s_alpha", "i_s_beta": "plant.i_s_beta",
+               "v_s_alpha": "controller.v_s_alpha", "v_s_beta": "controller.v_s_beta", "W": "controller.W"}
     acc = scenario.acceptance
-    t_from = acc.ss_window[0] if acc is not None and acc.ss_window else t[0] + 0.9 * (t[-1] - t[0])
-    ss = t >= t_from
-    w_final, psi_final = float(w_set[-1]), float(psi_set[-1])
-    m = {
-        "t_switch": t_run,
-        "iae_speed": iae(t[run], np.abs(df["controller.z1"].to_numpy()[run]), 0.0) if run.any() else math.nan,
-        "iae_flux": iae(t[run], np.abs(df["controller.e1"].to_numpy()[run]), 0.0) if run.any() else math.nan,
-        "ss_speed": float(np.max(np.abs(w[ss] - w_set[ss]))) / max(abs(w_final), 1.0),
-        "ss_flux": float(np.max(np.abs(phi[ss] - psi_set[ss]))) / max(abs(psi_final), 1e-3),
-        "overshoot_speed": overshoot(w, w_final, w[0]) if w_final != w[0] else 0.0,
-        "settling_time_speed": _settling_time(t, w, w_final),
-        "peak_current": float(np.max(np.hypot(df["plant.i_s_alpha"], df["plant.i_s_beta"]))),
-        "peak_voltage": float(np.max(np.hypot(df["controller.v_s_alpha"], df["controller.v_s_beta"]))),
-        "min_W": float(np.min(df["controller.W"].to_numpy()[run])) if run.any() else math.nan,
-    }
-    return m
-
-
-def _settling_time(t, y, final):
-    """Last time [s] |y - final| left the band SETTLING_BAND |final| (0 if never; nan if final = 0)."""
-    if final == 0:
-        return math.nan
-    out = np.nonzero(np.abs(y - final) > SETTLING_BAND * abs(final))[0]
-    return float(t[out[-1]]) if out.size else float(t[0])
+    return closed_loop_metrics(**{k: df[c].to_numpy() for k, c in columns.items()}, run=_run_phase(df),
+                               ss_window=acc.ss_window if acc is not None and acc.ss_window else None)
 
 
 def check_acceptance(metrics, scenario):
-    """``{bound: {"limit": x, "value": y, "pass": bool}}`` for the scenario's acceptance bounds."""
+    """``{bound: {"limit": x, "value": y, "pass": bool}}`` for the scenario's acceptance bounds
+    (:func:`satmotor.metrics.acceptance`; a nan value fails)."""
     acc = scenario.acceptance
     if acc is None or not metrics:
         return {}
-    out = {}
-    for key, metric in (("ss_speed", "ss_speed"), ("ss_flux", "ss_flux"),
-                        ("overshoot_speed", "overshoot_speed"), ("peak_current", "peak_current")):
-        limit = getattr(acc, key)
-        if limit is not None:
-            value = metrics[metric]
-            out[key] = {"limit": limit, "value": value, "pass": bool(value <= limit)}
-    return out
+    return acceptance(metrics, {key: getattr(acc, key) for key in
+                                ("ss_speed", "ss_flux", "overshoot_speed", "peak_current")})
 
 
 RESULT_FILES = (*FILES, "metrics.json", "figure.png")

@@ -1,8 +1,11 @@
 """Backstepping speed and rotor-flux controller for the saturated motor (seed section 4, corrected).
 
 Control model: :mod:`satmotor.fo_model`, ``x = [Phi_rd, i_mu_d, i_mu_q, omega_m]``,
-``x' = F(x) + G(x) v``.  Notation: ``a = R_r/l_r``, ``K = kappa k / (J l_r)``,
-``kappa = 3/2 n_p``, ``b = B/J``, ``theta = T_L/J`` (or its estimate ``theta_hat``)::
+``x' = F(x) + G(x) v``; the law takes F, ``L^-1`` (G's nonzero rows) and omega_s from
+:func:`satmotor.fo_model.vector_fields` and the parameter groups below from
+:func:`satmotor.fo_model.model_constants` (nothing of the model is derived here).
+Notation: ``a = R_r/l_r``, ``K = kappa k / (J l_r)``, ``kappa = 3/2 n_p``, ``b = B/J``,
+``theta = T_L/J`` (or its estimate ``theta_hat``)::
 
     e1 = Phi_rd - Phi_ref,   alpha1 = -c1 e1 + a Phi_rd + Phi_ref',   e2 = a k m i_mu_d - alpha1
     z1 = omega_m - omega_ref, gamma1 = -d1 z1 + theta + b omega_m + omega_ref',
@@ -48,7 +51,18 @@ from dataclasses import dataclass
 from typing import NamedTuple
 
 from .errors import ParameterError, require_number
-from .measurements import from_rotor_flux, from_stator_flux
+from .fo_model import model_constants, vector_fields
+from .measurements import (
+    MEAS_I_S_A,
+    MEAS_I_S_B,
+    MEAS_OMEGA_M,
+    MEAS_PSI_R_A,
+    MEAS_PSI_R_B,
+    MEAS_PSI_S_A,
+    MEAS_PSI_S_B,
+    from_rotor_flux,
+    from_stator_flux,
+)
 
 _SQRT3 = math.sqrt(3.0)
 _W_REL_FLOOR = 1e-12
@@ -160,41 +174,23 @@ def _core(p, g, phi_min, phi, imd, imq, w, m, dm, I, ref, theta, theta_dot, adap
     """Error system at ``x = (phi, imd, imq, w)`` with the static m and dm/dI at I = |i_mu|.
 
     ``adapt`` is None (theta' = theta_dot given) or ``(g_theta, theta_max)`` (theta = theta_hat,
-    theta' from the projected update law).  Returns an :class:`ErrorSystem`.
+    theta' from the projected update law).  Returns the fields of an :class:`ErrorSystem` as a
+    plain tuple (the per-sample path unpacks it).
     """
     pr, dpr, ddpr, wr, dwr, ddwr = ref
     c1, d1 = g.c1, g.d1
-    k, lr, ls = p.k, p.l_r, p.l_s
-    a = p.R_r / lr
-    ak = a * k
-    K = 1.5 * p.n_p * k / (p.J * lr)
-    b = p.B / p.J
-    # dynamic inductances (M = m I2 + (dm/I) i_mu i_mu^T)
-    s = dm / I if I > 0.0 else 0.0
-    Md, Mq, Mdq = m + s * imd * imd, m + s * imq * imq, s * imd * imq
+    c = model_constants(p)
+    a, ak, K, b = c.a, c.ak, c.K, c.b
+    limited = phi < phi_min
+    phe = phi_min if limited else phi
+    # drift F and L^-1 of the control model (Phi_rd floored in omega_s)
+    (dphi, Fd, Fq, Fw, a11, a12, a22, ws, Md, Mq, Mdq, _, _, _, _, te_J,
+     _) = vector_fields(c, phi, imd, imq, w, m, dm, I, theta, phe)
     # errors
     e1 = phi - pr
     e2 = ak * m * imd + c1 * e1 - a * phi - dpr
     z1 = w - wr
-    z2 = K * m * phi * imq + d1 * z1 - theta - b * w - dwr
-    limited = phi < phi_min
-    phe = phi_min if limited else phi
-    # drift F (fo_model, Phi_rd floored in omega_s)
-    sg = 1.0 + k * k * ls / lr
-    l11, l22, l12 = ls + sg * Md, ls + sg * Mq, sg * Mdq
-    detL = l11 * l22 - l12 * l12
-    a11, a22, a12 = l22 / detL, l11 / detL, -l12 / detL
-    k_lr = k / lr
-    cc = 1.0 + k * k_lr * m
-    ls_sm = ls + sg * m
-    kls_lr = ls * k_lr
-    dphi = a * (k * m * imd - phi)
-    ws = p.n_p * w + ak * m * imq / phe
-    r1 = -p.R_s * (cc * imd - k_lr * phi) + ws * ls_sm * imq + kls_lr * dphi
-    r2 = -p.R_s * cc * imq - ws * (ls_sm * imd - kls_lr * phi)
-    Fd = a11 * r1 + a12 * r2
-    Fq = a12 * r1 + a22 * r2
-    Fw = K * m * phi * imq - theta - b * w
+    z2 = te_J + d1 * z1 - theta - b * w - dwr
     if adapt is not None:
         g_theta, theta_max = adapt
         theta_dot = -g_theta * (z1 + (d1 - b) * z2)
@@ -216,8 +212,8 @@ def _core(p, g, phi_min, phi, imd, imq, w, m, dm, I, ref, theta, theta_dot, adap
     floor = _W_REL_FLOOR * (abs(L11 * L22) + abs(L12 * L21))
     if not abs(W) > floor:
         limited = True
-    return ErrorSystem(e1, e2, z1, z2, ge2, gz2, dt_e2, dt_z2, beta1, beta2,
-                       ((L11, L12), (L21, L22)), W * (phi / phe), ws, theta_dot, limited)
+    return (e1, e2, z1, z2, ge2, gz2, dt_e2, dt_z2, beta1, beta2, ((L11, L12), (L21, L22)),
+            W * (phi / phe), ws, theta_dot, limited)
 
 
 def error_system(x, ref, params, gains, theta=0.0, theta_dot=0.0, phi_min=0.05, adapt=None):
@@ -230,7 +226,8 @@ def error_system(x, ref, params, gains, theta=0.0, theta_dot=0.0, phi_min=0.05, 
     phi, imd, imq, w = (float(v) for v in x)
     I = math.hypot(imd, imq)
     _, m, dm, _ = params.curve.evaluate(I)
-    return _core(params, gains, phi_min, phi, imd, imq, w, m, dm, I, ref, theta, theta_dot, adapt)
+    return ErrorSystem(*_core(params, gains, phi_min, phi, imd, imq, w, m, dm, I, ref, theta, theta_dot,
+                              adapt))
 
 
 def control(meas, ref, load, params, gains, cfg, theta_hat=0.0):
@@ -239,8 +236,9 @@ def control(meas, ref, load, params, gains, cfg, theta_hat=0.0):
     Parameters
     ----------
     meas : tuple
-        ``(i_s_alpha, i_s_beta, psi_r_alpha, psi_r_beta, omega_m[, psi_s_alpha, psi_s_beta])``
-        [A, A, Wb, Wb, rad/s, Wb, Wb]; psi_s is needed only with ``cfg.use_stator_flux``.
+        The measurement tuple of :mod:`satmotor.measurements`, ``(i_s_alpha, i_s_beta,
+        psi_r_alpha, psi_r_beta, omega_m[, psi_s_alpha, psi_s_beta])`` [A, A, Wb, Wb, rad/s, Wb,
+        Wb]; psi_s is needed only with ``cfg.use_stator_flux``.
     ref : tuple
         ``(Phi_ref, Phi_ref', Phi_ref'', omega_ref, omega_ref', omega_ref'')`` [Wb, Wb/s, Wb/s^2,
         rad/s, rad/s^2, rad/s^3] (mechanical speed).
@@ -262,31 +260,31 @@ def control(meas, ref, load, params, gains, cfg, theta_hat=0.0):
         theta_hat_dot (0 in the known mode) and the limiter flags.
     """
     if cfg.use_stator_flux:
-        ms = from_stator_flux(meas[0], meas[1], meas[2], meas[3], meas[5], meas[6], params)
+        ms = from_stator_flux(meas[MEAS_I_S_A], meas[MEAS_I_S_B], meas[MEAS_PSI_R_A], meas[MEAS_PSI_R_B],
+                              meas[MEAS_PSI_S_A], meas[MEAS_PSI_S_B], params)
     else:
-        ms = from_rotor_flux(meas[0], meas[1], meas[2], meas[3], params)
+        ms = from_rotor_flux(meas[MEAS_I_S_A], meas[MEAS_I_S_B], meas[MEAS_PSI_R_A], meas[MEAS_PSI_R_B],
+                             params)
+    w = meas[MEAS_OMEGA_M]
     I = ms.I
     dm = params.curve.dm_dI(I)
     if cfg.load_mode == "known":
-        es = _core(params, gains, cfg.phi_min, ms.Phi_rd, ms.i_mu_d, ms.i_mu_q, meas[4], ms.m, dm, I,
-                   ref, load[0] / params.J, load[1] / params.J, None)
-        theta_hat_dot = 0.0
+        T_L, dT_L = load
+        theta, theta_dot, adapt = T_L / params.J, dT_L / params.J, None
     else:
         tm = cfg.theta_max
-        theta = min(max(theta_hat, -tm), tm)
-        es = _core(params, gains, cfg.phi_min, ms.Phi_rd, ms.i_mu_d, ms.i_mu_q, meas[4], ms.m, dm, I,
-                   ref, theta, 0.0, (cfg.g_theta, tm))
-        theta_hat_dot = es.theta_dot
-    e1, e2, z1, z2 = es.e1, es.e2, es.z1, es.z2
-    (L11, L12), (L21, L22) = es.Lambda
+        theta, theta_dot, adapt = min(max(theta_hat, -tm), tm), 0.0, (cfg.g_theta, tm)
+    (e1, e2, z1, z2, _, _, _, _, beta1, beta2, ((L11, L12), (L21, L22)), W_true, ws, theta_dot,
+     singular) = _core(params, gains, cfg.phi_min, ms.Phi_rd, ms.i_mu_d, ms.i_mu_q, w, ms.m, dm, I,
+                       ref, theta, theta_dot, adapt)
+    theta_hat_dot = 0.0 if adapt is None else theta_dot
     W = L11 * L22 - L12 * L21
-    singular = es.singular_limited
     if singular:
         floor = max(_W_REL_FLOOR * (abs(L11 * L22) + abs(L12 * L21)), 1e-300)
         if not abs(W) > floor:
             W = math.copysign(floor, W) if W == W else floor
-    q1 = -gains.c2 * e2 - e1 - es.beta1
-    q2 = -gains.d2 * z2 - z1 - es.beta2
+    q1 = -gains.c2 * e2 - e1 - beta1
+    q2 = -gains.d2 * z2 - z1 - beta2
     vd = (L22 * q1 - L12 * q2) / W
     vq = (L11 * q2 - L21 * q1) / W
     vmax = cfg.V_dc / _SQRT3
@@ -298,11 +296,10 @@ def control(meas, ref, load, params, gains, cfg, theta_hat=0.0):
             vd, vq = vd * f, vq * f
         else:  # overflow: keep the direction where it is defined
             vd, vq = (math.copysign(vmax, vd), 0.0) if abs(vd) >= abs(vq) else (0.0, math.copysign(vmax, vq))
-    ws = es.omega_s
     rho_out = ms.rho + 0.5 * ws * cfg.Ts
     c, s = math.cos(rho_out), math.sin(rho_out)
     V = 0.5 * (e1 * e1 + e2 * e2 + z1 * z1 + z2 * z2)
-    return ControlOutput(c * vd - s * vq, s * vd + c * vq, vd, vq, e1, e2, z1, z2, V, es.W, ms.m, I,
+    return ControlOutput(c * vd - s * vq, s * vd + c * vq, vd, vq, e1, e2, z1, z2, V, W_true, ms.m, I,
                          ms.Phi_rd, ms.rho, ws, theta_hat_dot, vlim, singular)
 
 

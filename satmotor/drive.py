@@ -15,8 +15,9 @@ Start from standstill (the backstepping law is singular at Phi_rd = 0):
 
 2. *Switch* when ``|psi_r| >= premag_fraction psi_set`` (or after ``premag_time_max``): the
    flux shaper is put at the measured state ``(Phi_rd, Phi_rd', 0)`` with
-   ``Phi_rd' = (R_r/l_r)(k m i_mu_d - Phi_rd)`` and the speed shaper at ``(omega_m, 0, 0)``, so
-   that ``e1 = e2 = z1 = 0`` at the switch: the law takes over without a jump.
+   ``Phi_rd' = (R_r/l_r)(k m i_mu_d - Phi_rd)`` (:func:`satmotor.fo_model.flux_rate`) and the
+   speed shaper at ``(omega_m, 0, 0)``, so that ``e1 = e2 = z1 = 0`` at the switch: the law
+   takes over without a jump.
 
 3. *Run*: references from the shapers (third-order, exact derivatives), the control law, and
    in the estimated-load mode ``theta_hat <- clip(theta_hat + Ts theta_hat', +-theta_max)``
@@ -33,11 +34,16 @@ from typing import NamedTuple
 
 from .backstepping import BacksteppingGains, ControllerConfig, control
 from .errors import ParameterError, require_number
+from .fo_model import flux_rate, model_constants
 from .ifoc import IFOCController, IFOCGains
-from .measurements import from_rotor_flux
-from .references import ReferenceShaper
+from .measurements import MEAS_I_S_A, MEAS_I_S_B, MEAS_OMEGA_M, MEAS_PSI_R_A, MEAS_PSI_R_B, from_rotor_flux
+from .references import REF_VALUE, ReferenceShaper
 
 PREMAG, RUN = 0, 1
+# Layout of the drive state (get_state/set_state): phase, pre-magnetization sample count, the flux
+# and speed shapers' (r, r', r''), then the law's own states.
+STATE_PHASE, STATE_COUNT = 0, 1
+STATE_FLUX, STATE_SPEED, STATE_LAW = slice(2, 5), slice(5, 8), slice(8, None)
 _SQRT3 = math.sqrt(3.0)
 
 
@@ -61,9 +67,7 @@ class DriveConfig:
     def __post_init__(self):
         require_number("ref_bandwidth", self.ref_bandwidth, 0)
         require_number("I_max", self.I_max, 0)
-        require_number("premag_fraction", self.premag_fraction, 0)
-        if self.premag_fraction > 1.0:
-            raise ParameterError("premag_fraction", self.premag_fraction, "must be <= 1")
+        require_number("premag_fraction", self.premag_fraction, 0, upper=1)
         require_number("premag_boost", self.premag_boost, 1, inclusive=True)
         require_number("premag_gain", self.premag_gain, 0)
         require_number("premag_time_max", self.premag_time_max, 0)
@@ -114,8 +118,9 @@ class _Drive:
 
     def magnetizing_current(self, psi_set):
         """Steady magnetizing current [A] for a rotor flux set-point [Wb]; error beyond I_max."""
-        if psi_set == self._checked[0]:
-            return self._checked[1]
+        checked_psi, checked_I = self._checked
+        if psi_set == checked_psi:
+            return checked_I
         require_number("psi_ref", psi_set, 0)
         p = self.params
         I = p.curve.current(psi_set / p.k)
@@ -129,13 +134,13 @@ class _Drive:
         return I
 
     def step(self, meas, omega_set, psi_set, T_load):
-        """One sample: ``meas = (i_s_alpha, i_s_beta, psi_r_alpha, psi_r_beta, omega_m,
-        psi_s_alpha, psi_s_beta)`` [A, A, Wb, Wb, rad/s, Wb, Wb]; set-points [rad/s], [Wb];
-        load torque [N m].  Returns a :class:`DriveOutput`."""
+        """One sample: ``meas`` the measurement tuple of :mod:`satmotor.measurements`
+        [A, A, Wb, Wb, rad/s, Wb, Wb]; set-points [rad/s], [Wb]; load torque [N m].
+        Returns a :class:`DriveOutput`."""
         I_set = self.magnetizing_current(psi_set)
         require_number("omega_ref", omega_set)
         if self._phase == PREMAG:
-            phi = math.hypot(meas[2], meas[3])
+            phi = math.hypot(meas[MEAS_PSI_R_A], meas[MEAS_PSI_R_B])
             if phi < self.dcfg.premag_fraction * psi_set and self._n < self._n_switch:
                 self._n += 1
                 return self._premag(meas, I_set, phi, psi_set)
@@ -148,36 +153,37 @@ class _Drive:
     def _premag(self, meas, I_set, phi, psi_set):
         p, K = self.params, self.dcfg.premag_gain
         i_ref = min(self.dcfg.premag_boost * I_set, self.dcfg.I_max)
-        va = p.R_s * i_ref + K * (i_ref - meas[0])
-        vb = -K * meas[1]
+        va = p.R_s * i_ref + K * (i_ref - meas[MEAS_I_S_A])
+        vb = -K * meas[MEAS_I_S_B]
         vn = math.hypot(va, vb)
         lim = vn > self._V_max
         if lim:
             va, vb = va * self._V_max / vn, vb * self._V_max / vn
         return DriveOutput(va, vb, va, vb, phi - psi_set, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
-                           meas[4], phi, PREMAG, lim, False)
+                           meas[MEAS_OMEGA_M], phi, PREMAG, lim, False)
 
     def _switch(self, meas):
         p = self.params
-        ms = from_rotor_flux(meas[0], meas[1], meas[2], meas[3], p)
-        dphi = p.R_r / p.l_r * (p.k * ms.m * ms.i_mu_d - ms.Phi_rd)
+        ms = from_rotor_flux(meas[MEAS_I_S_A], meas[MEAS_I_S_B], meas[MEAS_PSI_R_A], meas[MEAS_PSI_R_B], p)
+        c = model_constants(p)
+        dphi = flux_rate(c.a, c.k, ms.Phi_rd, ms.i_mu_d, ms.m)
         self._flux.set_state((ms.Phi_rd, dphi, 0.0))
-        self._speed.reset(meas[4])
+        self._speed.reset(meas[MEAS_OMEGA_M])
         self._phase = RUN
         self._on_switch(ms)
 
     def get_state(self):
-        """Every internal state as a flat tuple of floats."""
+        """Every internal state as a flat tuple of floats (layout: the ``STATE_*`` constants)."""
         return (float(self._phase), float(self._n)) + self._flux.get_state() + \
             self._speed.get_state() + self._law_state()
 
     def set_state(self, state):
         """Restore a tuple from :meth:`get_state`."""
         s = tuple(float(v) for v in state)
-        self._phase, self._n = int(s[0]), int(s[1])
-        self._flux.set_state(s[2:5])
-        self._speed.set_state(s[5:8])
-        self._set_law_state(s[8:])
+        self._phase, self._n = int(s[STATE_PHASE]), int(s[STATE_COUNT])
+        self._flux.set_state(s[STATE_FLUX])
+        self._speed.set_state(s[STATE_SPEED])
+        self._set_law_state(s[STATE_LAW])
 
 
 class BacksteppingDrive(_Drive):
@@ -222,7 +228,8 @@ class BacksteppingDrive(_Drive):
         else:
             t_load = T_load
         return DriveOutput(o.v_s_alpha, o.v_s_beta, o.v_sd, o.v_sq, o.e1, o.e2, o.z1, o.z2, o.V, o.W,
-                           t_load, rw[0], rf[0], RUN, o.voltage_limited, o.singular_limited)
+                           t_load, rw[REF_VALUE], rf[REF_VALUE], RUN, o.voltage_limited,
+                           o.singular_limited)
 
 
 class IFOCDrive(_Drive):
@@ -246,7 +253,9 @@ class IFOCDrive(_Drive):
         self.ifoc.set_state(s)
 
     def _run(self, meas, rf, rw, T_load):
-        va, vb, d = self.ifoc(meas[0], meas[1], meas[4], rw[0], rf[0])
-        e1 = math.hypot(meas[2], meas[3]) - rf[0]  # diagnostics only: the PI loops never see the flux
-        return DriveOutput(va, vb, d.v_sd, d.v_sq, e1, 0.0, meas[4] - rw[0], 0.0, 0.0, 0.0, 0.0,
-                           rw[0], rf[0], RUN, d.voltage_limited, False)
+        w, w_ref, psi_ref = meas[MEAS_OMEGA_M], rw[REF_VALUE], rf[REF_VALUE]
+        va, vb, d = self.ifoc(meas[MEAS_I_S_A], meas[MEAS_I_S_B], w, w_ref, psi_ref)
+        # diagnostics only: the PI loops never see the flux
+        e1 = math.hypot(meas[MEAS_PSI_R_A], meas[MEAS_PSI_R_B]) - psi_ref
+        return DriveOutput(va, vb, d.v_sd, d.v_sq, e1, 0.0, w - w_ref, 0.0, 0.0, 0.0, 0.0,
+                           w_ref, psi_ref, RUN, d.voltage_limited, False)

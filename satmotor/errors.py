@@ -27,13 +27,26 @@ class ParameterError(ValueError):
         super().__init__(f"{where}{field} = {value!r}: {reason}")
 
 
-def require_number(field, value, lower=None, inclusive=False):
+def require_number(field, value, lower=None, inclusive=False, upper=None):
     """``float(value)`` when it is a finite real number (bool is not) above ``lower``
-    (``>= lower`` with ``inclusive``); otherwise a :class:`ParameterError` naming the field."""
+    (``>= lower`` with ``inclusive``) and at most ``upper``; otherwise a :class:`ParameterError`
+    naming the field and the value."""
     ok = not isinstance(value, bool) and isinstance(value, (int, float)) and math.isfinite(value)
     if ok and lower is not None:
         ok = value >= lower if inclusive else value > lower
+    if ok and upper is not None:
+        ok = value <= upper
     if not ok:
         bound = "" if lower is None else f" {'>=' if inclusive else '>'} {lower}"
+        if upper is not None:
+            bound += f"{' and' if bound else ''} <= {upper}"
         raise ParameterError(field, value, f"must be a finite number{bound}")
     return float(value)
+
+
+def require_integer(field, value, lower=None):
+    """``value`` when it is an int (bool is not) ``>= lower``; otherwise a :class:`ParameterError`
+    naming the field and the value."""
+    if isinstance(value, bool) or not isinstance(value, int) or (lower is not None and value < lower):
+        raise ParameterError(field, value, "must be an integer" + ("" if lower is None else f" >= {lower}"))
+    return value

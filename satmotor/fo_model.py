@@ -19,17 +19,97 @@ are singular at i_mu_q = 0, this form is not).  With ``sigma = 1 + k^2 l_s/l_r``
     J omega_m' = kappa k m Phi_rd i_mu_q / l_r - T_load - B omega_m,  kappa = 3/2 n_p
 
 The flux angle obeys ``rho' = omega_s``.
+
+:func:`vector_fields` is the one implementation of these equations (plain floats, the
+per-sample path): :class:`FluxOrientedModel` and the backstepping law both call it.
 """
 
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
-from .magnetics import dynamic_inductances
+from .magnetics import inductance_matrix
 from .plant import N_STATES, OMEGA_M, PSI_R_A, PSI_R_B, PSI_S_A, PSI_S_B, THETA_M
 
 PHI_RD, I_MU_D, I_MU_Q, OMEGA = range(4)
-FO_STATE_NAMES = ("Phi_rd", "i_mu_d", "i_mu_q", "omega_m")
+
+
+class ModelConstants(NamedTuple):
+    """Parameter groups of the control model, derived once from a :class:`MotorParams` (SI)."""
+
+    k: float  # [1] turns ratio
+    l_s: float  # [H]
+    R_s: float  # [Ohm]
+    n_p: int  # [1]
+    a: float  # R_r / l_r [1/s]
+    ak: float  # a k [1/s]
+    K: float  # kappa k / (J l_r) [1/(kg m2 H)]: T_e / J = K m Phi_rd i_mu_q
+    b: float  # B / J [1/s]
+    sigma: float  # 1 + k^2 l_s / l_r [1]
+    k_lr: float  # k / l_r [1/H]
+    k2_lr: float  # k^2 / l_r [1/H]
+    kls_lr: float  # k l_s / l_r [1]
+
+    @classmethod
+    def of(cls, p):
+        k, lr, ls = p.k, p.l_r, p.l_s
+        a = p.R_r / lr
+        k_lr = k / lr
+        return cls(k, ls, p.R_s, p.n_p, a, a * k, 1.5 * p.n_p * k / (p.J * lr), p.B / p.J,
+                   1.0 + k * k * ls / lr, k_lr, k * k_lr, ls * k_lr)
+
+
+_CONSTANTS = {}  # id(params) -> (params, ModelConstants); MotorParams is frozen
+
+
+def model_constants(params):
+    """The :class:`ModelConstants` of ``params`` (computed once per parameter object)."""
+    owner, c = _CONSTANTS.get(id(params), (None, None))
+    if owner is params:
+        return c
+    c = ModelConstants.of(params)
+    if len(_CONSTANTS) >= 16:
+        _CONSTANTS.clear()
+    _CONSTANTS[id(params)] = (params, c)
+    return c
+
+
+def flux_rate(a, k, phi, i_mu_d, m):
+    """``Phi_rd' = a (k m i_mu_d - Phi_rd)`` [Wb/s] with ``a = R_r/l_r`` (eq 24; no input enters it)."""
+    return a * (k * m * i_mu_d - phi)
+
+
+def vector_fields(c, phi, imd, imq, w, m, dm, I, theta, phi_ws):
+    """Drift F and input matrix of ``x' = F(x) + G(x) v`` at ``x = (phi, imd, imq, w)``: the one
+    derivation of the control model (module docstring), used by :class:`FluxOrientedModel` and by
+    the backstepping law.
+
+    ``c`` the :class:`ModelConstants`; m [H] and dm [H/A] the static inductance and its derivative
+    at ``I = |i_mu|`` [A] (m may be measured); theta = T_load/J [rad/s^2]; phi_ws [Wb] the flux
+    used in the slip term of omega_s (``phi`` itself, or the law's guarded ``max(phi, phi_min)``).
+    ``G = ((0, 0), (g_dd, g_dq), (g_dq, g_qq), (0, 0))`` with ``[[g_dd, g_dq], [g_dq, g_qq]] = L^-1``.
+
+    Returns the tuple ``(F_phi, F_d, F_q, F_w, g_dd, g_dq, g_qq, omega_s, M_d, M_q, M_dq, i_sd,
+    i_sq, psi_sd, psi_sq, T_e/J, det L)`` [Wb/s, A/s, A/s, rad/s^2, 1/H x3, rad/s, H x3, A, A, Wb,
+    Wb, rad/s^2, H^2].
+    """
+    k, ls, R_s, n_p, a, ak, K, b, sg, k_lr, k2_lr, kls_lr = c
+    Md, Mq, Mdq = inductance_matrix(m, dm, imd, imq, I)
+    l11, l22, l12 = ls + sg * Md, ls + sg * Mq, sg * Mdq
+    detL = l11 * l22 - l12 * l12
+    a11, a22, a12 = l22 / detL, l11 / detL, -l12 / detL
+    cc = 1.0 + k2_lr * m
+    ls_sm = ls + sg * m
+    isd = cc * imd - k_lr * phi
+    psd = ls_sm * imd - kls_lr * phi
+    dphi = flux_rate(a, k, phi, imd, m)
+    ws = n_p * w + ak * m * imq / phi_ws
+    r1 = -R_s * isd + ws * ls_sm * imq + kls_lr * dphi
+    r2 = -R_s * cc * imq - ws * psd
+    te_J = K * m * phi * imq
+    return (dphi, a11 * r1 + a12 * r2, a12 * r1 + a22 * r2, te_J - theta - b * w, a11, a12, a22, ws,
+            Md, Mq, Mdq, isd, cc * imq, psd, ls_sm * imq, te_J, detL)
 
 
 class FluxOrientedModel:
@@ -42,48 +122,27 @@ class FluxOrientedModel:
 
     def __init__(self, params):
         self.p = params
-        self._sigma = params.sigma
-        self._k2_lr = params.k * params.k / params.l_r
-        self._k_lr = params.k / params.l_r
-        self._kls_lr = params.k * params.l_s / params.l_r
-        self._Rr_lr = params.R_r / params.l_r
+        self._c = ModelConstants.of(params)
 
     def fields(self, x, T_load):
-        """Return ``(F, G, aux)`` at state ``x``.
+        """Return ``(F, G, aux)`` at state ``x`` (:func:`vector_fields` with m from the curve).
 
         F is a 4-tuple [Wb/s, A/s, A/s, rad/s^2]; G a 4-tuple of rows
         ``(dx_i/dv_sd, dx_i/dv_sq)``; aux a dict with omega_s [rad/s], the currents,
         fluxes and inductances used (for diagnostics and the controller).
         """
-        p = self.p
-        phi, imd, imq, w = x[0], x[1], x[2], x[3]
-        Md, Mq, Mdq, m, dm, ldyn = dynamic_inductances(p.curve, imd, imq)
-        sg = self._sigma
-        l11, l22, l12 = p.l_s + sg * Md, p.l_s + sg * Mq, sg * Mdq
-        det = l11 * l22 - l12 * l12
-        a11, a22, a12 = l22 / det, l11 / det, -l12 / det
-        c = 1.0 + self._k2_lr * m
-        isd = c * imd - self._k_lr * phi
-        isq = c * imq
-        ls_sm = p.l_s + sg * m
-        psd = ls_sm * imd - self._kls_lr * phi
-        psq = ls_sm * imq
-        dphi = self._Rr_lr * (p.k * m * imd - phi)
-        ws = p.n_p * w + self._Rr_lr * p.k * m * imq / phi
-        r1 = -p.R_s * isd + ws * psq + self._kls_lr * dphi
-        r2 = -p.R_s * isq - ws * psd
-        te = 1.5 * p.n_p * p.k * m * phi * imq / p.l_r
-        F = (dphi, a11 * r1 + a12 * r2, a12 * r1 + a22 * r2, (te - T_load - p.B * w) / p.J)
+        p, c = self.p, self._c
+        phi, imd, imq, w = x[PHI_RD], x[I_MU_D], x[I_MU_Q], x[OMEGA]
+        I = math.hypot(imd, imq)
+        _, m, dm, ldyn = p.curve.evaluate(I)
+        (dphi, Fd, Fq, Fw, a11, a12, a22, ws, Md, Mq, Mdq, isd, isq, psd, psq, te_J,
+         det) = vector_fields(c, phi, imd, imq, w, m, dm, I, T_load / p.J, phi)
+        F = (dphi, Fd, Fq, Fw)
         G = ((0.0, 0.0), (a11, a12), (a12, a22), (0.0, 0.0))
         aux = {"omega_s": ws, "i_sd": isd, "i_sq": isq, "psi_sd": psd, "psi_sq": psq,
-               "T_e": te, "m": m, "dm_dI": dm, "L_dyn": ldyn, "M_d": Md, "M_q": Mq,
+               "T_e": te_J * p.J, "m": m, "dm_dI": dm, "L_dyn": ldyn, "M_d": Md, "M_q": Mq,
                "M_dq": Mdq, "det_L": det}
         return F, G, aux
-
-    def derivatives(self, t, x, v_sd, v_sq, T_load):
-        """``x' = F(x) + G(x) v``."""
-        F, G, _ = self.fields(x, T_load)
-        return tuple(f + g[0] * v_sd + g[1] * v_sq for f, g in zip(F, G))
 
     def derivatives_with_angle(self, t, xr, v_sd, v_sq, T_load):
         """Derivatives of ``[Phi_rd, i_mu_d, i_mu_q, omega_m, rho]`` with rho' = omega_s."""
@@ -119,5 +178,5 @@ def to_stationary(params, x_fo, rho, theta_m=0.0):
     return tuple(x)
 
 
-__all__ = ["FluxOrientedModel", "from_stationary", "to_stationary",
-           "PHI_RD", "I_MU_D", "I_MU_Q", "OMEGA", "FO_STATE_NAMES"]
+__all__ = ["FluxOrientedModel", "ModelConstants", "model_constants", "vector_fields", "flux_rate",
+           "from_stationary", "to_stationary", "PHI_RD", "I_MU_D", "I_MU_Q", "OMEGA"]

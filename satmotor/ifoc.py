@@ -184,16 +184,13 @@ class IFOCController:
         The d integrator starts at its steady value for a magnetized machine at rest,
         ``R_eq phi_r / (k L_m)`` (zero for ``phi_r = 0``).
         """
-        for name, v in (("theta_f", theta_f), ("phi_r", phi_r)):
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
-                raise ParameterError(name, v, "must be a finite number")
-        if phi_r < 0:
-            raise ParameterError("phi_r", phi_r, "must be >= 0")
+        theta_f = require_number("theta_f", theta_f)
+        phi_r = require_number("phi_r", phi_r, 0, inclusive=True)
         self._x_w = 0.0
         self._x_d = self.R_eq * phi_r * self._inv_kLm
         self._x_q = 0.0
-        self._theta = math.remainder(float(theta_f), _TWO_PI)
-        self._phi = float(phi_r)
+        self._theta = math.remainder(theta_f, _TWO_PI)
+        self._phi = phi_r
 
     def get_state(self):
         """``(x_speed [N m], x_d [V], x_q [V], theta_f [rad], phi_hat [Wb])``: every internal state."""
@@ -210,8 +207,8 @@ class IFOCController:
         self._x_w, self._x_d, self._x_q, self._theta, self._phi = vals
 
     def __call__(self, i_s_alpha, i_s_beta, omega_m, omega_ref, phi_ref):
-        if not phi_ref > 0.0 or phi_ref == math.inf:
-            raise ParameterError("phi_ref", phi_ref, "must be a finite number > 0")
+        if not 0.0 < phi_ref < math.inf:  # per-sample fast path; require_number raises
+            require_number("phi_ref", phi_ref, 0)
         # --- speed loop -> current references (current limit, clamping anti-windup)
         i_d_ref = phi_ref * self._inv_kLm
         if i_d_ref > self._I_max:

@@ -14,11 +14,11 @@ from typing import NamedTuple
 
 from .backstepping import BacksteppingGains, ControllerConfig
 from .drive import BacksteppingDrive, DriveConfig, IFOCDrive
-from .errors import ParameterError
+from .errors import ParameterError, require_integer, require_number
 from .ifoc import IFOCGains
 from .magnetics import ArctanCurve, LinearCurve, PolynomialCurve
 from .params import CURVE_NAMES, MotorParams, make_curve
-from .plant import Plant, initial_state
+from .plant import OMEGA_M, PSI_R_A, PSI_R_B, PSI_S_A, PSI_S_B, THETA_M, Plant, initial_state
 
 
 class Variable(NamedTuple):
@@ -81,7 +81,7 @@ PLANT_PARAMETERS = MOTOR_PARAMETERS + (
        "ceil(dt/h_int) equal sub-steps"),
 )
 
-_G, _C, _D, _I = BacksteppingGains(), ControllerConfig(), DriveConfig(), IFOCGains()
+_G, _C, _D = BacksteppingGains(), ControllerConfig(), DriveConfig()
 CONTROLLER_MODES = ("saturated", "constant_m", "pi")
 CONTROLLER_INPUTS = (
     _v("i_s_alpha", "input", 0.0, "A", "measured stator current, alpha axis"),
@@ -131,12 +131,9 @@ def _number(values, var):
     if var.type == "Integer":
         if isinstance(v, float) and v.is_integer():
             v = int(v)
-        if isinstance(v, bool) or not isinstance(v, int):
-            raise ParameterError(var.name, v, "must be an integer")
+        v = require_integer(var.name, v)
     elif var.type == "Real":
-        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
-            raise ParameterError(var.name, v, "must be a finite number")
-        v = float(v)
+        v = require_number(var.name, v)
     elif var.type == "Boolean":
         if v in (0, 1):  # FMI hosts may hand a Boolean over as 0/1
             v = bool(v)
@@ -155,8 +152,8 @@ def motor_params(values):
 
 def _finite_inputs(names, values):
     for name, v in zip(names, values):
-        if not math.isfinite(v):
-            raise ParameterError(name, v, "input must be finite")
+        if not math.isfinite(v):  # per-step fast path; require_number raises
+            require_number(name, v)
 
 
 class PlantUnit:
@@ -168,11 +165,8 @@ class PlantUnit:
     def __init__(self, values):
         self.params = motor_params(values)
         w0, psi0, h = (_number(values, v) for v in PLANT_PARAMETERS[-3:])
-        if psi0 < 0:
-            raise ParameterError("psi_r0", psi0, "must be >= 0")
-        if not h > 0:
-            raise ParameterError("h_int", h, "must be > 0")
-        self.h_int = h
+        require_number("psi_r0", psi0, 0, inclusive=True)
+        self.h_int = h = require_number("h_int", h, 0)
         self.plant = Plant(self.params)
         self.x0 = initial_state(self.params, omega_m=w0, psi_r_alpha=psi0)
         self.x = self.x0
@@ -182,8 +176,7 @@ class PlantUnit:
         raises ParameterError on a bad input."""
         _finite_inputs(self.INPUTS, inputs)
         v_a, v_b, T_load = inputs
-        if not dt > 0:
-            raise ParameterError("communicationStepSize", dt, "must be > 0")
+        require_number("communicationStepSize", dt, 0)
         n_sub = max(1, math.ceil(dt / self.h_int - 1e-9))
         x = self.plant.step(t, self.x, v_a, v_b, T_load, dt, n_sub)
         if not all(math.isfinite(v) for v in x):
@@ -193,7 +186,8 @@ class PlantUnit:
     def outputs(self):
         """Output values in the order of :attr:`OUTPUTS`."""
         x, o = self.x, self.plant.outputs(self.x)
-        return (o.i_s_alpha, o.i_s_beta, x[0], x[1], x[2], x[3], x[4], x[5], o.T_e, o.i_mu)
+        return (o.i_s_alpha, o.i_s_beta, x[PSI_S_A], x[PSI_S_B], x[PSI_R_A], x[PSI_R_B], x[OMEGA_M],
+                x[THETA_M], o.T_e, o.i_mu)
 
     def get_state(self):
         return tuple(self.x)

@@ -26,7 +26,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from .errors import ParameterError, require_number
+from .errors import ParameterError, require_integer, require_number
 
 _REL_TOL = 4.0e-16
 _MAX_ITER = 200
@@ -284,12 +284,9 @@ class PolynomialCurve(_Curve):
 
     def __post_init__(self):
         require_number("L_m0", self.L_m0, 0)
-        b = self.poly_b
-        if not (isinstance(b, (int, float)) and math.isfinite(b) and b >= 0):
-            raise ParameterError("poly_b", b, "must be a finite number >= 0")
-        n = self.poly_n
-        if not (isinstance(n, int) and n >= 3 and n % 2 == 1):
-            raise ParameterError("poly_n", n, "must be an odd integer >= 3")
+        require_number("poly_b", self.poly_b, 0, inclusive=True)
+        if require_integer("poly_n", self.poly_n, 3) % 2 != 1:
+            raise ParameterError("poly_n", self.poly_n, "must be an odd integer >= 3")
 
     @property
     def m0(self):
@@ -367,11 +364,19 @@ class PolynomialCurve(_Curve):
         return I * self._psi_of_current(I) - self.energy(I)
 
 
+def inductance_matrix(m, dm_dI, i_mu_d, i_mu_q, I):
+    """``(M_d, M_q, M_dq)`` [H] of ``M = m I2 + (dm/dI / I) i_mu i_mu^T`` from the static m [H], its
+    derivative dm/dI [H/A] and ``i_mu = (i_mu_d, i_mu_q)`` of magnitude ``I`` [A]; ``M = m I2`` at
+    I = 0.  The one formula of seed eqs 20-22 (eq 21 corrected: ``M_dq = dm/dI i_mu_d i_mu_q / I``
+    has no ``m`` term); m need not come from a curve (the controller may measure it)."""
+    s = dm_dI / I if I > 0.0 else 0.0
+    return m + s * i_mu_d * i_mu_d, m + s * i_mu_q * i_mu_q, s * i_mu_d * i_mu_q
+
+
 def dynamic_inductances(curve, i_mu_d, i_mu_q):
     """Dynamic inductances of the main field at ``i_mu = (i_mu_d, i_mu_q)`` [A].
 
-    ``M = d(m(I) i_mu)/d i_mu = m I2 + (dm/dI / I) i_mu i_mu^T`` (seed eqs 20-22;
-    eq 21 corrected: ``M_dq = dm/dI i_mu_d i_mu_q / I`` has no ``m`` term).
+    ``M = d(m(I) i_mu)/d i_mu`` (:func:`inductance_matrix` with m and dm/dI of ``curve``).
     Its eigenvalues are ``m`` (across i_mu) and ``L_dyn`` (along i_mu).
 
     Returns
@@ -381,7 +386,4 @@ def dynamic_inductances(curve, i_mu_d, i_mu_q):
     """
     I = math.hypot(i_mu_d, i_mu_q)
     _, m, dm, ldyn = curve.evaluate(I)
-    if I == 0.0:
-        return m, m, 0.0, m, dm, ldyn
-    s = dm / I
-    return m + s * i_mu_d * i_mu_d, m + s * i_mu_q * i_mu_q, s * i_mu_d * i_mu_q, m, dm, ldyn
+    return inductance_matrix(m, dm, i_mu_d, i_mu_q, I) + (m, dm, ldyn)

@@ -17,12 +17,19 @@ fix): ``i_mu = sigma i_s + (k/l_r)(psi_r - k psi_s)`` (pure algebra, no curve) a
 
 Both return a :class:`MagnetizingState` that also gives the rotor-flux frame:
 ``Phi_rd = |psi_r|``, ``rho = atan2(psi_r_beta, psi_r_alpha)`` and i_mu rotated by -rho.
+
+The measurement tuple a drive reads every sample is
+``meas = (i_s_alpha, i_s_beta, psi_r_alpha, psi_r_beta, omega_m[, psi_s_alpha, psi_s_beta])``
+[A, A, Wb, Wb, rad/s, Wb, Wb]; its indices are the constants ``MEAS_I_S_A`` ... ``MEAS_PSI_S_B``
+(psi_s is needed only with the stator-flux variant).
 """
 
 from __future__ import annotations
 
 import math
 from typing import NamedTuple
+
+MEAS_I_S_A, MEAS_I_S_B, MEAS_PSI_R_A, MEAS_PSI_R_B, MEAS_OMEGA_M, MEAS_PSI_S_A, MEAS_PSI_S_B = range(7)
 
 
 class MagnetizingState(NamedTuple):
@@ -75,11 +82,6 @@ def from_stator_flux(i_sa, i_sb, psi_ra, psi_rb, psi_sa, psi_sb, params):
     return _in_flux_frame(ima, imb, I, m, psi_ra, psi_rb)
 
 
-def magnetizing_state(meas, params, use_stator_flux=False):
-    """Dispatch on a measurement tuple ``(i_sa, i_sb, psi_ra, psi_rb, omega_m[, psi_sa, psi_sb])``."""
-    if use_stator_flux:
-        return from_stator_flux(meas[0], meas[1], meas[2], meas[3], meas[5], meas[6], params)
-    return from_rotor_flux(meas[0], meas[1], meas[2], meas[3], params)
-
-
-__all__ = ["MagnetizingState", "from_rotor_flux", "from_stator_flux", "magnetizing_state"]
+__all__ = ["MagnetizingState", "from_rotor_flux", "from_stator_flux",
+           "MEAS_I_S_A", "MEAS_I_S_B", "MEAS_PSI_R_A", "MEAS_PSI_R_B", "MEAS_OMEGA_M", "MEAS_PSI_S_A",
+           "MEAS_PSI_S_B"]

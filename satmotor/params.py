@@ -35,7 +35,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
-from .errors import ParameterError, require_number
+from .errors import ParameterError, require_integer, require_number
 from .magnetics import ArctanCurve, ExponentialCurve, LinearCurve, PolynomialCurve
 from .table_curve import TableCurve
 
@@ -77,8 +77,7 @@ class MotorParams:
     def __post_init__(self):
         for name in ("R_s", "R_r", "l_s", "l_r", "k", "J"):
             require_number(name, getattr(self, name), 0)
-        if isinstance(self.n_p, bool) or not isinstance(self.n_p, int) or self.n_p < 1:
-            raise ParameterError("n_p", self.n_p, "must be an integer >= 1")
+        require_integer("n_p", self.n_p, 1)
         require_number("B", self.B, 0, inclusive=True)
         if not hasattr(self.curve, "solve"):
             raise ParameterError("curve", self.curve, "must be a magnetizing curve object")

@@ -91,8 +91,8 @@ class Plant:
         return s * ua, s * ub, I, psi, psi / I
 
     def derivatives(self, t, x, v_a, v_b, T_load):
-        """Right-hand side ``dx/dt`` [SI per s] for constant inputs over the call."""
-        psa, psb, pra, prb, w = x[0], x[1], x[2], x[3], x[4]
+        """Right-hand side ``dx/dt`` [SI per s] for constant inputs over the call (state order)."""
+        psa, psb, pra, prb, w = x[PSI_S_A], x[PSI_S_B], x[PSI_R_A], x[PSI_R_B], x[OMEGA_M]
         ima, imb, _, _, m = self.magnetizing(psa, psb, pra, prb)
         isa = (psa - m * ima) * self._inv_ls
         isb = (psb - m * imb) * self._inv_ls
@@ -112,7 +112,7 @@ class Plant:
 
     def outputs(self, x):
         """Currents, magnetizing state and torque at state ``x``."""
-        psa, psb, pra, prb = x[0], x[1], x[2], x[3]
+        psa, psb, pra, prb = x[PSI_S_A], x[PSI_S_B], x[PSI_R_A], x[PSI_R_B]
         ima, imb, I, psi, m = self.magnetizing(psa, psb, pra, prb)
         isa = (psa - m * ima) * self._inv_ls
         isb = (psb - m * imb) * self._inv_ls

@@ -30,6 +30,8 @@ import math
 from .errors import ParameterError, require_number
 
 _CACHE_SIZE = 8
+# Layout of a shaper's state and value tuple (r, r', r'').
+REF_VALUE, REF_RATE, REF_ACCEL = range(3)
 
 
 def transition_matrix(bandwidth, h):
@@ -120,9 +122,7 @@ class ReferenceShaper:
     def _coefficients(self, h):
         phi = self._cache.get(h)
         if phi is None:
-            if isinstance(h, bool) or not isinstance(h, (int, float)) or not (math.isfinite(h) and h > 0):
-                raise ParameterError("h", h, "must be a finite number > 0")
-            P = transition_matrix(self.bandwidth, h)
+            P = transition_matrix(self.bandwidth, h)  # checks h
             phi = P[0] + P[1] + P[2]  # flat 9-tuple, row major
             if len(self._cache) >= _CACHE_SIZE:
                 self._cache.clear()
@@ -134,8 +134,8 @@ class ReferenceShaper:
     def step(self, u, h):
         """Advance by ``h`` [s] with the raw set-point ``u`` held; return ``(r, r', r'')``."""
         phi = self._phi if h == self._h else self._coefficients(h)
-        if not math.isfinite(u):
-            raise ParameterError("u", u, "must be finite")
+        if not math.isfinite(u):  # per-sample fast path; require_number raises
+            require_number("u", u)
         e0 = self._r - u
         r1, r2 = self._r1, self._r2
         p00, p01, p02, p10, p11, p12, p20, p21, p22 = phi
@@ -146,9 +146,7 @@ class ReferenceShaper:
 
     def reset(self, value=0.0):
         """Put the filter at rest at ``value``: ``(r, r', r'') = (value, 0, 0)``."""
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-            raise ParameterError("value", value, "must be a finite number")
-        self._r, self._r1, self._r2 = float(value), 0.0, 0.0
+        self._r, self._r1, self._r2 = require_number("value", value), 0.0, 0.0
 
     @property
     def value(self):

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .plant import PSI_R_A, PSI_R_B, PSI_S_A, PSI_S_B, Plant
+from .plant import N_STATES, OMEGA_M, PSI_R_A, PSI_R_B, PSI_S_A, PSI_S_B, THETA_M, Plant
 
 RECORDED = ("t", "v_s_alpha", "v_s_beta", "v_sd", "v_sq", "T_load", "omega_set", "psi_set",
             "omega_ref", "psi_ref", "i_s_alpha", "i_s_beta", "psi_s_alpha", "psi_s_beta",
@@ -61,18 +61,19 @@ def closed_loop(plant_params, drive, t_end, omega_set, psi_set, T_load=0.0, n_su
     n = round((t_end - t0) / Ts)
     rows = n // record_every + 1
     rec = {k: np.empty(rows) for k in RECORDED}
-    x = tuple(x0) if x0 is not None else (0.0,) * 6
+    x = tuple(x0) if x0 is not None else (0.0,) * N_STATES
     r = 0
     for k in range(n + 1):
         t = t0 + k * Ts
         o = plant.outputs(x)
-        meas = (o.i_s_alpha, o.i_s_beta, x[PSI_R_A], x[PSI_R_B], x[4], x[PSI_S_A], x[PSI_S_B])
+        psa, psb, pra, prb, w = x[PSI_S_A], x[PSI_S_B], x[PSI_R_A], x[PSI_R_B], x[OMEGA_M]
+        meas = (o.i_s_alpha, o.i_s_beta, pra, prb, w, psa, psb)  # layout of satmotor.measurements
         ws, ps, tl = w_set(t), p_set(t), load(t)
         d = drive.step(meas, ws, ps, tl)
         if k % record_every == 0:
             row = (t, d.v_s_alpha, d.v_s_beta, d.v_sd, d.v_sq, tl, ws, ps, d.omega_ref, d.psi_ref,
-                   o.i_s_alpha, o.i_s_beta, x[0], x[1], x[2], x[3], x[4], x[5], o.T_e, o.i_mu,
-                   (x[2] * x[2] + x[3] * x[3]) ** 0.5, d.e1, d.e2, d.z1, d.z2, d.V, d.W,
+                   o.i_s_alpha, o.i_s_beta, psa, psb, pra, prb, w, x[THETA_M], o.T_e, o.i_mu,
+                   (pra * pra + prb * prb) ** 0.5, d.e1, d.e2, d.z1, d.z2, d.V, d.W,
                    d.T_load_est, d.phase, d.voltage_limited, d.singular_limited)
             for key, v in zip(RECORDED, row):
                 rec[key][r] = v
@@ -101,6 +102,11 @@ class RampScenario:
     T_load: float = 26.71  # [N m] rated torque of the default motor
     t_end: float = 1.5  # [s]
     t_steady: float = 1.3  # [s] start of the steady-state window
+
+    @property
+    def ss_window(self):
+        """Steady-state window ``(t_steady, t_end)`` [s] of :func:`satmotor.metrics.run_metrics`."""
+        return self.t_steady, self.t_end
 
     def omega_set(self, t):
         return 0.0 if t < self.t_ramp else min(self.omega_final, (t - self.t_ramp) * self.ramp_rate)

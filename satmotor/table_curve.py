@@ -171,9 +171,3 @@ class TableCurve(_Curve):
         _, y0, d0, c2, c3 = self._seg[k]
         t = I - self._x[k]
         return self._cum[k] + t * (y0 + t * (d0 / 2 + t * (c2 / 3 + t * c3 / 4)))
-
-
-def sample_curve(curve, i_max, n):
-    """Points (i_mu, psi_m) of ``curve`` on ``n`` equally spaced currents in (0, i_max]."""
-    i = [i_max * (k + 1) / n for k in range(n)]
-    return tuple(i), tuple(curve.psi(v) for v in i)

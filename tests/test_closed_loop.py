@@ -50,7 +50,7 @@ def default_runs():
     for mode in ("known", "estimated"):
         drv = BacksteppingDrive(P, G, ControllerConfig(load_mode=mode))
         res = sc.run(P, drv)
-        runs[mode] = (res, run_metrics(res, sc.omega_final, sc.psi_set, sc.t_steady))
+        runs[mode] = (res, run_metrics(res, sc.ss_window))
     return sc, runs
 
 
@@ -70,9 +70,9 @@ def test_saturation_aware_design_beats_constant_m_in_saturation():
     """The seed's claim: at a flux set-point in saturation the design with the curve tracks better
     than the same law designed with a constant (unsaturated) m."""
     sc = RampScenario(psi_set=1.15)
-    sat = run_metrics(sc.run(P, BacksteppingDrive(P, G)), sc.omega_final, sc.psi_set, sc.t_steady)
+    sat = run_metrics(sc.run(P, BacksteppingDrive(P, G)), sc.ss_window)
     p_lin = dataclasses.replace(P, curve=LinearCurve(P.curve.L_m0))
-    lin = run_metrics(sc.run(P, BacksteppingDrive(p_lin, G)), sc.omega_final, sc.psi_set, sc.t_steady)
+    lin = run_metrics(sc.run(P, BacksteppingDrive(p_lin, G)), sc.ss_window)
     for key in ("iae_flux", "iae_speed", "ss_flux", "ss_speed"):
         assert sat[key] < lin[key], key
     assert lin["ss_flux"] > 0.01  # the constant-m design misses the flux by more than 1 %
@@ -81,7 +81,7 @@ def test_saturation_aware_design_beats_constant_m_in_saturation():
 def test_ifoc_baseline_runs_the_same_scenario():
     sc = RampScenario()
     res = sc.run(P, IFOCDrive(P))
-    m = run_metrics(res, sc.omega_final, sc.psi_set, sc.t_steady)
+    m = run_metrics(res, sc.ss_window)
     assert m["ss_speed"] < 0.01 and m["ss_flux"] < 0.05
 
 

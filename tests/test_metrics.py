@@ -1,0 +1,238 @@
+"""The one metrics implementation (satmotor.metrics) and its two callers (the plain loop's
+run_metrics, the co-simulation's compute_metrics/check_acceptance) on hand-made series whose
+figures are computed by hand."""
+
+import math
+from types import SimpleNamespace
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from orchestration.results import check_acceptance, compute_metrics
+from orchestration.scenario import Acceptance
+from satmotor.drive import PREMAG, RUN
+from satmotor.metrics import (
+    SERIES,
+    acceptance,
+    closed_loop_metrics,
+    iae,
+    overshoot,
+    run_metrics,
+    run_phase,
+    settling_time,
+    steady_state_error,
+    steady_state_window,
+)
+
+# ----- the parts ------------------------------------------------------------------------------
+
+
+def test_iae_of_a_ramp_is_the_triangle_area():
+    t = np.linspace(0.0, 2.0, 11)
+    assert iae(t, 3.0 * t) == pytest.approx(0.5 * 2.0 * 6.0, rel=1e-15)  # linear: trapezoids exact
+    assert iae(t, -3.0 * t) == pytest.approx(6.0, rel=1e-15)  # |e|
+
+
+def test_iae_of_an_error_crossing_zero_counts_both_triangles():
+    t = np.array([0.0, 1.0, 2.0])
+    assert iae(t, t - 1.0) == pytest.approx(1.0, rel=1e-15)  # 1/2 + 1/2
+
+
+@pytest.mark.parametrize("n", [0, 1])
+def test_iae_of_fewer_than_two_samples_is_zero(n):
+    assert iae(np.zeros(n), np.ones(n)) == 0.0
+
+
+def test_run_phase_from_the_first_positive_W_to_the_end():
+    W = [0.0, 0.0, 0.0, 5.0, 6.0, -1.0, 7.0]  # a dip after the switch stays in the run phase
+    assert run_phase(W, np.ones(7), 0.9).tolist() == [False] * 3 + [True] * 4
+
+
+def test_run_phase_of_the_pi_baseline_from_the_flux_error_within_10_percent():
+    e1 = [-0.9, -0.5, -0.05, 0.2, 0.0]  # |e1| <= 0.09 first at index 2
+    assert run_phase(np.zeros(5), e1, np.full(5, 0.9)).tolist() == [False, False, True, True, True]
+    assert run_phase(np.zeros(5), np.full(5, -0.9), 0.9).tolist() == [False] * 5  # never runs
+
+
+def test_steady_state_window_ends_included_and_default_last_tenth():
+    t = np.arange(11.0)  # 0 .. 10 s
+    assert np.flatnonzero(steady_state_window(t, (3.0, 5.0))).tolist() == [3, 4, 5]
+    assert np.flatnonzero(steady_state_window(t, None)).tolist() == [9, 10]  # t >= 9
+    assert np.flatnonzero(steady_state_window(0.1 * np.arange(11), (0.3, 0.6))).tolist() == [3, 4, 5, 6]
+
+
+def test_steady_state_error_of_a_constant_offset():
+    y_set = np.full(6, 50.0)
+    inside = np.array([False, False, True, True, True, True])
+    y = np.array([0.0, 80.0, 49.0, 50.5, 49.8, 50.2])  # largest |error| in the window: 1.0
+    assert steady_state_error(y, y_set, inside) == pytest.approx(1.0 / 50.0, rel=1e-15)
+    # relative to the set-point at the window's last sample, at least the floor
+    assert steady_state_error(y - 50.0, y_set - 50.0, inside, floor=1.0) == pytest.approx(1.0, rel=1e-15)
+    assert math.isnan(steady_state_error(y, y_set, np.zeros(6, dtype=bool)))
+
+
+def test_overshoot_of_a_known_step_response():
+    assert overshoot([0.0, 60.0, 110.0, 98.0, 100.0], 100.0, 0.0) == pytest.approx(0.1, rel=1e-15)
+    assert overshoot([0.0, 50.0, 99.0, 100.0], 100.0, 0.0) == 0.0  # no excursion beyond the set-point
+    # a step down (speed reversal): beyond means below
+    assert overshoot([100.0, 0.0, -55.0, -50.0], -50.0, 100.0) == pytest.approx(5.0 / 150.0, rel=1e-15)
+    assert overshoot([20.0, 25.0, 20.0], 20.0, 20.0) == 0.0  # no change asked
+
+
+def test_settling_time_is_the_last_sample_outside_the_2_percent_band():
+    t = np.arange(8.0)
+    y = np.array([0.0, 50.0, 103.0, 99.0, 97.9, 101.0, 100.0, 100.0])  # band +-2: last out at t = 4
+    assert settling_time(t, y, 100.0) == 4.0
+    assert settling_time(t, np.full(8, 100.5), 100.0) == 0.0  # never outside: t[0]
+    assert settling_time(t, y[::-1], 100.0) == 7.0  # outside at the end: t[-1]
+    assert math.isnan(settling_time(t, y, 0.0))
+
+
+def test_acceptance_at_the_bound():
+    m = {"ss_speed": 0.01, "ss_flux": 0.0100000001, "peak_current": math.nan, "overshoot_speed": 0.0}
+    out = acceptance(m, {"ss_speed": 0.01, "ss_flux": 0.01, "peak_current": 25.0, "overshoot_speed": None})
+    assert out == {"ss_speed": {"limit": 0.01, "value": 0.01, "pass": True},
+                   "ss_flux": {"limit": 0.01, "value": 0.0100000001, "pass": False},
+                   "peak_current": {"limit": 25.0, "value": m["peak_current"], "pass": False}}
+
+
+# ----- a whole record, through both callers -----------------------------------------------------
+
+T = np.arange(0.0, 10.25, 0.5)  # 21 samples, 0 .. 10 s
+N = T.size
+
+
+def record():
+    """A hand-made run: law running from t = 1 s, speed step to 100 rad/s with a 10 % overshoot."""
+    w = np.full(N, 100.5)
+    w[:9] = [0.0, 30.0, 70.0, 95.0, 110.0, 104.0, 99.0, 97.5, 103.0]  # last out of +-2 at t = 4 s
+    ang = 0.3 * T
+    i_a, i_b = np.full(N, 1.0), np.zeros(N)
+    i_a[3], i_b[3] = 3.0, 4.0  # |i_s| = 5 A, the peak
+    v_a, v_b = np.full(N, 2.0), np.zeros(N)
+    v_a[6], v_b[6] = -6.0, 8.0  # |v_s| = 10 V, the peak
+    run = T >= 1.0
+    return {
+        "t": T, "omega_m": w, "omega_set": np.full(N, 100.0),
+        "psi_r_alpha": 0.909 * np.cos(ang), "psi_r_beta": 0.909 * np.sin(ang), "psi_set": np.full(N, 0.9),
+        "z1": np.where(run, -2.0, 0.0),  # |z1| = 2 over 9 s
+        "e1": np.where(run, 0.01 * (T - 1.0), -0.9),  # ramp 0 .. 0.09 Wb over 9 s
+        "i_s_alpha": i_a, "i_s_beta": i_b, "v_s_alpha": v_a, "v_s_beta": v_b,
+        "W": np.where(run, 3.0 + T, 0.0),
+    }
+
+
+EXPECTED = {
+    "t_switch": 1.0,
+    "iae_speed": 2.0 * 9.0,
+    "iae_flux": 0.5 * 9.0 * 0.09,
+    "ss_speed": 0.5 / 100.0,
+    "ss_flux": 0.009 / 0.9,
+    "overshoot_speed": 0.1,
+    "settling_time_speed": 4.0,
+    "peak_current": 5.0,
+    "peak_voltage": 10.0,
+    "min_W": 4.0,
+}
+
+
+def check(m, expected=EXPECTED):
+    assert set(m) >= set(expected)
+    for k, v in expected.items():
+        assert m[k] == pytest.approx(v, rel=1e-12, abs=1e-15), k
+
+
+@pytest.mark.parametrize("window", [None, (8.0, 10.0)])
+def test_closed_loop_metrics_of_the_hand_made_run(window):
+    r = record()
+    check(closed_loop_metrics(**r, run=r["t"] >= 1.0, ss_window=window))
+
+
+def test_a_window_before_the_end_is_measured_against_its_own_set_point():
+    r = record()
+    r["omega_set"] = np.where(T <= 6.0, 100.0, 120.0)  # window [5, 6]: omega 100.5 against 100
+    m = closed_loop_metrics(**r, run=T >= 1.0, ss_window=(5.0, 6.0))
+    assert m["ss_speed"] == pytest.approx(0.005, rel=1e-12)
+    assert math.isnan(closed_loop_metrics(**r, run=T >= 1.0, ss_window=(20.0, 30.0))["ss_speed"])
+
+
+def test_a_law_that_never_runs_has_no_run_phase_figures():
+    r = record()
+    m = closed_loop_metrics(**r, run=np.zeros(N, dtype=bool))
+    for k in ("t_switch", "iae_speed", "iae_flux", "min_W"):
+        assert math.isnan(m[k]), k
+    assert m["peak_current"] == 5.0
+
+
+def test_empty_and_one_sample_records():
+    assert closed_loop_metrics(**{k: np.zeros(0) for k in SERIES}, run=np.zeros(0, dtype=bool)) == {}
+    one = {k: v[4:5] for k, v in record().items()}  # t = 2 s, running, omega 110 against 100
+    m = closed_loop_metrics(**one, run=np.ones(1, dtype=bool))
+    check(m, {"t_switch": 2.0, "iae_speed": 0.0, "iae_flux": 0.0, "ss_speed": 0.1, "ss_flux": 0.01,
+              "overshoot_speed": 0.0, "settling_time_speed": 2.0, "min_W": 5.0})
+
+
+def test_run_metrics_reads_a_plain_loop_record():
+    r = record()
+    r["phase"] = np.where(T >= 1.0, RUN, PREMAG)
+    r["voltage_limited"] = T >= 7.5  # 6 of 21 samples
+    m = run_metrics(r, (8.0, 10.0))
+    check(m)
+    assert m["voltage_limited_fraction"] == pytest.approx(6 / 21, rel=1e-15)
+
+
+COSIM = {"t": "time", "omega_m": "plant.omega_m", "omega_set": "profile.omega_ref",
+         "psi_r_alpha": "plant.psi_r_alpha", "psi_r_beta": "plant.psi_r_beta", "psi_set": "profile.psi_ref",
+         "z1": "controller.z1", "e1": "controller.e1", "i_s_alpha": "plant.i_s_alpha",
+         "i_s_beta": "plant.i_s_beta", "v_s_alpha": "controller.v_s_alpha",
+         "v_s_beta": "controller.v_s_beta", "W": "controller.W"}
+
+
+def frame(r):
+    """The co-simulation's DataFrame of a record (plus columns the metrics do not read)."""
+    df = pd.DataFrame({COSIM[k]: v for k, v in r.items()})
+    df["plant.T_e"] = 0.0
+    df["profile.T_load"] = 0.0
+    return df
+
+
+def scenario(**acceptance_bounds):
+    return SimpleNamespace(acceptance=Acceptance(**acceptance_bounds) if acceptance_bounds else None)
+
+
+def test_compute_metrics_is_the_same_figures_from_the_dataframe():
+    r = record()
+    m = compute_metrics(frame(r), scenario(ss_window=(8.0, 10.0)))
+    assert m == closed_loop_metrics(**r, run=T >= 1.0, ss_window=(8.0, 10.0))
+    assert list(m) == ["t_switch", "iae_speed", "iae_flux", "ss_speed", "ss_flux", "overshoot_speed",
+                       "settling_time_speed", "peak_current", "peak_voltage", "min_W"]
+    check(m)
+    check(compute_metrics(frame(r), scenario()))  # default window: the last 10 %
+
+
+def test_compute_metrics_finds_the_pi_baselines_run_phase():
+    r = record()
+    r["W"] = np.zeros(N)  # the PI baseline reports W = 0; e1 is -0.9 before t = 1 s, then small
+    m = compute_metrics(frame(r), scenario())
+    check(m, {**EXPECTED, "min_W": 0.0})
+
+
+def test_compute_metrics_of_empty_and_one_row_frames():
+    assert compute_metrics(frame(record()).iloc[:0], scenario()) == {}
+    m = compute_metrics(frame({k: v[4:5] for k, v in record().items()}), scenario())
+    check(m, {"t_switch": 2.0, "iae_speed": 0.0, "ss_speed": 0.1, "overshoot_speed": 0.0, "min_W": 5.0})
+
+
+@pytest.mark.parametrize("limit, passes", [(0.005, True), (0.0049, False)])
+def test_check_acceptance_pass_and_fail_at_the_bound(limit, passes):
+    m = compute_metrics(frame(record()), scenario(ss_window=(8.0, 10.0)))
+    sc = scenario(ss_speed=limit, ss_flux=0.01 + 1e-12, overshoot_speed=0.1 + 1e-12, peak_current=4.9,
+                  ss_window=(8.0, 10.0))
+    out = check_acceptance(m, sc)
+    assert out["ss_speed"] == {"limit": limit, "value": m["ss_speed"], "pass": passes}
+    assert out["ss_flux"]["pass"] and out["overshoot_speed"]["pass"]
+    assert out["peak_current"] == {"limit": 4.9, "value": 5.0, "pass": False}
+    assert check_acceptance(m, scenario(ss_window=(8.0, 10.0))) == {}  # no bounds given
+    assert check_acceptance(m, scenario()) == {}  # no acceptance section
+    assert check_acceptance({}, sc) == {}  # a failed run has no metrics
