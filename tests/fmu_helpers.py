@@ -126,8 +126,32 @@ def _child_tamper(tampered, controller, genuine_first=None):
     print(json.dumps(out))
 
 
+SIM_STEPS = 20  # of 1e-4 s, from the start values below (plant, controller) and the other defaults
+SIM_START = ({"v_s_alpha": 100.0}, {"psi_ref": 0.9})
+
+
+def _child_simulate(paths, runs=3):
+    """fmpy.simulate_fmu ``runs`` times per FMU in this process, the FMUs taking turns (each run
+    extracts the FMU into a new temporary directory and deletes it afterwards).  Per run: the
+    exception if any, and the outputs at the last communication point."""
+    from fmpy import simulate_fmu
+
+    out = {path: [] for path in paths}
+    for _ in range(runs):
+        for path in paths:
+            try:
+                res = simulate_fmu(path, start_time=0.0, stop_time=SIM_STEPS * 1e-4, output_interval=1e-4,
+                                   start_values=SIM_START["Controller" in path])
+                out[path].append({"error": "", "last": {n: float(res[n][-1]) for n in res.dtype.names}})
+            except Exception as exc:  # fmpy: "Failed to instantiate model" and the like
+                out[path].append({"error": repr(exc), "last": None})
+    print(json.dumps(out))
+
+
 if __name__ == "__main__":
     if sys.argv[1] == "repeat":
         _child_repeat(sys.argv[2:])
+    elif sys.argv[1] == "simulate":
+        _child_simulate(sys.argv[2:])
     else:
         _child_tamper(*sys.argv[2:])

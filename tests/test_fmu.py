@@ -18,7 +18,7 @@ import pytest
 from fmpy import simulate_fmu
 from fmpy.fmi1 import FMICallException
 from fmpy.validation import validate_fmu
-from fmu_helpers import Slave, open_fmu, tamper_fingerprint
+from fmu_helpers import SIM_START, SIM_STEPS, Slave, open_fmu, tamper_fingerprint
 
 from satmotor.backstepping import BacksteppingGains, ControllerConfig
 from satmotor.drive import PREMAG, RUN, DriveConfig
@@ -424,3 +424,29 @@ def test_plant_with_another_fingerprint_is_refused_after_a_genuine_plant(fmus, t
                           fmus["SaturatedInductionMotor"].path)
     assert rc == 0, err
     assert not json.loads(out)["instantiated"]
+
+
+def test_simulate_fmu_runs_each_fmu_three_times_in_one_process(fmus):
+    """fmpy.simulate_fmu extracts into a temporary directory and deletes it; pythonfmu keeps the
+    modules of the first run cached: later runs (of the same FMU and of the other one, which shares
+    the glue module) must neither read from the deleted directory nor differ from the plain units."""
+    paths = [fmus[n].path for n in ("SaturatedInductionMotor", "BacksteppingController")]
+    rc, out, err = _child("simulate", *paths)
+    assert rc == 0, err
+    runs = json.loads(out)
+    plant, ctrl = PlantUnit({}), ControllerUnit({})
+    u_plant = {n: SIM_START[0].get(n, 0.0) for n in PLANT_IN}
+    u_ctrl = {n: SIM_START[1].get(n, 0.0) for n in CTRL_IN}
+    for k in range(SIM_STEPS):
+        plant.step(k * H, H, tuple(u_plant[n] for n in PlantUnit.INPUTS))
+        ctrl.step(k * H, H, tuple(u_ctrl[n] for n in ControllerUnit.INPUTS))
+    want = {paths[0]: dict(zip(PLANT_OUT, plant.outputs())), paths[1]: dict(zip(CTRL_OUT, ctrl.outputs()))}
+    for path, results in runs.items():
+        assert len(results) == 3
+        for i, r in enumerate(results):
+            assert r["error"] == "", (Path(path).name, i, r)
+            assert math.isclose(r["last"]["time"], SIM_STEPS * H, abs_tol=1e-12)
+            # fmpy's communication points are sums of the step, not k H: equal to rounding
+            for n, v in want[path].items():
+                assert math.isclose(r["last"][n], v, rel_tol=1e-9, abs_tol=1e-12), (Path(path).name, i, n)
+        assert results[1] == results[2] == results[0]

@@ -3,7 +3,9 @@ check, initialization, stepping and the full FMU state.  No equations here.
 
 Bundled into each FMU next to ``satmotor/``.  pythonfmu imports every FMU's modules into one shared
 interpreter, caching them by name; the slaves therefore check, at instantiation, that the
-``satmotor`` and glue modules they got hash to the fingerprint baked in at build time.
+``satmotor`` and glue modules they got hash to the fingerprint baked in at build time.  That hash
+is taken once, when this module is imported: the cached modules may come from an extraction
+directory the host has deleted since (fmpy.simulate_fmu does), so nothing is read from disk later.
 """
 
 from __future__ import annotations
@@ -24,17 +26,38 @@ _CAUSALITY = {"input": Fmi2Causality.input, "output": Fmi2Causality.output,
 _PINNED = []
 
 
-def pin_namespace(namespace):
-    """Keep one more reference to a slave module's namespace.  pythonfmu 0.7.0's fmi2Instantiate
-    (findClass) re-executes the slave script in that namespace, then Py_DECREFs the borrowed dict;
-    calling this at the script's top level adds the reference that DECREF takes away (without it
-    the second instance of an FMU in one process crashes the host)."""
-    _PINNED.append(namespace)
+def _source_fingerprint():
+    try:
+        return satmotor.source_fingerprint(Path(__file__).resolve())
+    except OSError as exc:  # refused at instantiation (no build fingerprint can equal this)
+        return f"unavailable ({exc})"
+
+
+# SHA-256 over the loaded satmotor package and this module, taken once per process (see above)
+_FINGERPRINT = _source_fingerprint()
 
 
 def fingerprint():
-    """SHA-256 over the sources of the loaded ``satmotor`` package and of this module."""
-    return satmotor.source_fingerprint(Path(__file__).resolve())
+    """SHA-256 over the sources of the loaded ``satmotor`` package and of this module, as they were
+    when this module was imported."""
+    return _FINGERPRINT
+
+
+def pin_namespace(namespace, defined=None):
+    """Call at a slave script's top level as ``pin_namespace(globals(), locals())``.
+
+    pythonfmu 0.7.0's fmi2Instantiate (findClass) imports the slave module (cached by name across
+    FMUs), re-executes this FMU's copy of the script with the module's dict as globals and a fresh
+    dict as locals, Py_DECREFs the borrowed globals, and then takes the slave class from the *cached
+    module*.  This keeps one more reference to the globals (without it the second instance of an
+    FMU in one process crashes the host) and publishes the slave classes the script just defined
+    (``defined``) into the module, so that the instance is made from this FMU's own script and its
+    baked-in FINGERPRINT, not from the first one loaded under that module name."""
+    _PINNED.append(namespace)
+    if defined is not None and defined is not namespace:
+        for name, obj in defined.items():
+            if isinstance(obj, type) and issubclass(obj, UnitSlave) and obj is not UnitSlave:
+                namespace[name] = obj
 
 
 def _describe(var):
@@ -51,17 +74,12 @@ class UnitSlave(Fmi2Slave):
 
     def __init__(self, **kwargs):
         super().__init__(**kwargs)
-        got = fingerprint()
-        if self.FINGERPRINT and got != self.FINGERPRINT:
+        if self.FINGERPRINT and _FINGERPRINT != self.FINGERPRINT:
             raise ImportError(
                 f"{type(self).__name__}: the loaded satmotor ({satmotor.__file__}, version "
-                f"{satmotor.__version__}) is not the one this FMU was built with (fingerprint {got[:12]} "
-                f"!= {self.FINGERPRINT[:12]}); another FMU of a different build is loaded in this process")
-        script = Path(self.resources) / f"{type(self).__module__}.py"
-        if self.FINGERPRINT and script.exists() and self.FINGERPRINT not in script.read_text():
-            raise ImportError(
-                f"{type(self).__name__}: this process already runs {type(self).__module__} from another "
-                f"build (fingerprint {self.FINGERPRINT[:12]}), not the one in {script.parent}")
+                f"{satmotor.__version__}) and glue are not the ones this FMU was built with (fingerprint "
+                f"{_FINGERPRINT[:12]} != {self.FINGERPRINT[:12]}); another FMU of a different build is "
+                f"loaded in this process")
         self._params = tuple(v.name for v in self.VARIABLES if v.causality == "parameter")
         self._inputs = tuple(v.name for v in self.VARIABLES if v.causality == "input")
         self._outputs = tuple(v.name for v in self.VARIABLES if v.causality == "output")
