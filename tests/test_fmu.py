@@ -450,3 +450,57 @@ def test_simulate_fmu_runs_each_fmu_three_times_in_one_process(fmus):
             for n, v in want[path].items():
                 assert math.isclose(r["last"][n], v, rel_tol=1e-9, abs_tol=1e-12), (Path(path).name, i, n)
         assert results[1] == results[2] == results[0]
+
+
+# --- 12: the FMI call contract: life cycle, communication points -------------------------------------
+
+def _refused_step(s, t, dt):
+    """doStep(t, dt) must be refused without harm: fmi2Discard (pythonfmu 0.7.0 cannot return
+    fmi2Error without fmi2Fatal) or fmi2Error; returns the messages logged by the call."""
+    n = len(s.log)
+    with pytest.raises(FMICallException) as exc:
+        s.fmu.doStep(t, dt)
+    assert exc.value.status in (2, 3), (t, dt, exc.value.status)
+    return "\n".join(m for status, m in s.log[n:] if status >= 2)
+
+
+def _run_checked(name, s, k0, k1):
+    """Steps k0 .. k1-1 of the plant's DOL start or the controller's ramp run; the outputs must be
+    the plain units' from the start (nothing refused before left a trace)."""
+    if name == "SaturatedInductionMotor":
+        ref = plant_reference()
+        assert run_plant(s, k0, k1) == [[ref[n][k + 1] for n in PLANT_OUT] for k in range(k0, k1)]
+    else:
+        rec = ramp_run()
+        assert run_ctrl(s, k0, k1, rec) == [[rec[n][k] for n in CTRL_OUT] for k in range(k0, k1)]
+
+
+@pytest.mark.parametrize("name", list(CONTRACT))
+def test_do_step_outside_the_initialized_state_is_refused_with_a_message(new, name):
+    s = new(name, initialize=False)
+    assert "not initialized" in _refused_step(s, 0.0, H)
+    s.fmu.setupExperiment(startTime=0.0)
+    s.fmu.enterInitializationMode()
+    assert "initialization mode" in _refused_step(s, 0.0, H)
+    s.fmu.exitInitializationMode()
+    _run_checked(name, s, 0, 3)
+    s.fmu.terminate()
+    outputs = s.get(CONTRACT[name]["output"])
+    assert "terminated" in _refused_step(s, 3 * H, H)
+    assert s.get(CONTRACT[name]["output"]) == outputs
+
+
+BAD_COMMUNICATION_POINTS = [
+    (math.nan, H, "currentCommunicationPoint = nan"), (math.inf, H, "currentCommunicationPoint = inf"),
+    (-math.inf, H, "currentCommunicationPoint = -inf"), (0.0, math.nan, "communicationStepSize = nan"),
+    (0.0, math.inf, "communicationStepSize = inf"), (0.0, 0.0, "communicationStepSize = 0.0"),
+    (0.0, -H, "communicationStepSize = -0.0001"),
+]
+
+
+@pytest.mark.parametrize("name", list(CONTRACT))
+def test_non_finite_communication_point_or_bad_step_size_is_refused_naming_it(new, name):
+    s = new(name)
+    for t, dt, text in BAD_COMMUNICATION_POINTS:
+        assert text in _refused_step(s, t, dt)
+    _run_checked(name, s, 0, 3)

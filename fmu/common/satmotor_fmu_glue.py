@@ -6,6 +6,14 @@ interpreter, caching them by name; the slaves therefore check, at instantiation,
 ``satmotor`` and glue modules they got hash to the fingerprint baked in at build time.  That hash
 is taken once, when this module is imported: the cached modules may come from an extraction
 directory the host has deleted since (fmpy.simulate_fmu does), so nothing is read from disk later.
+
+Statuses.  pythonfmu 0.7.0 turns any Python exception into fmi2Fatal and drops the Python instance
+(a later call, even fmi2FreeInstance, may then crash the host); it ignores what set_*,
+exit_initialization_mode, terminate and _set_fmu_state return (the host gets fmi2OK); only do_step
+can report anything else: returning False gives fmi2Discard.  fmi2Error cannot be reached from
+Python.  So a refusal here never raises: it logs a message naming the variable and the value
+(status error), leaves the instance unchanged, and is reported again by the next doStep, which
+returns fmi2Discard (the host may redo that step).
 """
 
 from __future__ import annotations
@@ -17,6 +25,10 @@ from pythonfmu import Boolean, Fmi2Causality, Fmi2Initial, Fmi2Slave, Fmi2Variab
 from pythonfmu.enums import Fmi2Status
 
 import satmotor
+
+_INF = math.inf
+INSTANTIATED, INITIALIZATION, STEPPING, TERMINATED = (
+    "not initialized", "in initialization mode", "initialized", "terminated")
 
 _TYPES = {"Real": Real, "Integer": Integer, "Boolean": Boolean, "String": String}
 _CAUSALITY = {"input": Fmi2Causality.input, "output": Fmi2Causality.output,
@@ -84,6 +96,9 @@ class UnitSlave(Fmi2Slave):
         self._inputs = tuple(v.name for v in self.VARIABLES if v.causality == "input")
         self._outputs = tuple(v.name for v in self.VARIABLES if v.causality == "output")
         self._unit = None
+        self._phase = INSTANTIATED
+        self._pending = []  # refusals not yet reported by a doStep
+        self._go = False  # doStep may run: initialized, not terminated, no refusal pending
         for var in self.VARIABLES:
             setattr(self, var.name, var.start)
             kw = {"causality": _CAUSALITY[var.causality], "description": _describe(var)}
@@ -97,6 +112,11 @@ class UnitSlave(Fmi2Slave):
                 kw["initial"] = Fmi2Initial.exact
             self.register_variable(_TYPES[var.type](var.name, **kw))
 
+    # --- life cycle ------------------------------------------------------------------------------------
+
+    def enter_initialization_mode(self):
+        self._phase = INITIALIZATION
+
     def exit_initialization_mode(self):
         """Build the unit from the parameters; a bad value is logged (naming it) and refused."""
         try:
@@ -105,9 +125,25 @@ class UnitSlave(Fmi2Slave):
             self.log(f"{type(self).__name__}: bad parameter: {exc}", Fmi2Status.error)
             raise
         self._publish()
+        self._phase = STEPPING
+        self._go = not self._pending
+
+    def terminate(self):
+        self._phase = TERMINATED
+        self._go = False
+
+    def _refuse(self, message):
+        """Log a refused call (status error); the next doStep reports it again and discards."""
+        self.log(f"{type(self).__name__}: {message}", Fmi2Status.error)
+        self._pending.append(message)
+        self._go = False
+
+    # --- stepping ------------------------------------------------------------------------------------
 
     def do_step(self, current_time, step_size):
         """Advance the unit; a bad input or a failed step is logged and discarded, never raised."""
+        if not (self._go and 0.0 < step_size < _INF and -_INF < current_time < _INF):
+            return self._refuse_step(current_time, step_size)
         try:
             self._unit.step(current_time, step_size, tuple(getattr(self, n) for n in self._inputs))
         except Exception as exc:
@@ -115,6 +151,25 @@ class UnitSlave(Fmi2Slave):
             return False
         self._publish()
         return True
+
+    def _refuse_step(self, t, dt):
+        """Why doStep(t, dt) cannot run, logged; False (fmi2Discard: see the module docstring)."""
+        name = type(self).__name__
+        if self._phase != STEPPING:
+            self.log(f"{name}: doStep(currentCommunicationPoint = {t!r}, communicationStepSize = {dt!r}) "
+                     f"refused: the FMU is {self._phase}; doStep is allowed only after "
+                     f"exitInitializationMode and before terminate", Fmi2Status.error)
+        elif self._pending:
+            self.log(f"{name}: doStep at t = {t!r} s discarded: an earlier call was refused: "
+                     f"{'; '.join(self._pending)}", Fmi2Status.error)
+            self._pending.clear()
+            self._go = True
+        elif not 0.0 < dt < _INF:
+            self.log(f"{name} at t = {t!r} s: communicationStepSize = {dt!r}: must be finite and > 0",
+                     Fmi2Status.discard)
+        else:
+            self.log(f"{name}: currentCommunicationPoint = {t!r}: must be finite", Fmi2Status.discard)
+        return False
 
     def _publish(self):
         for name, value in zip(self._outputs, self._unit.outputs()):
