@@ -72,6 +72,14 @@ class Slave:
     def get(self, names):
         return self.fmu.getReal([self.vars[n].valueReference for n in names])
 
+    def value(self, name):
+        """One variable's value, read by its declared type."""
+        v = self.vars[name]
+        getter = {"Real": self.fmu.getReal, "Integer": self.fmu.getInteger,
+                  "String": self.fmu.getString, "Boolean": self.fmu.getBoolean}[v.type]
+        value = getter([v.valueReference])[0]
+        return value.decode() if isinstance(value, bytes) else value
+
     def step(self, t, dt, inputs=None):
         self.set(inputs or {})
         self.fmu.doStep(t, dt)

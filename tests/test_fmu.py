@@ -504,3 +504,36 @@ def test_non_finite_communication_point_or_bad_step_size_is_refused_naming_it(ne
     for t, dt, text in BAD_COMMUNICATION_POINTS:
         assert text in _refused_step(s, t, dt)
     _run_checked(name, s, 0, 3)
+
+
+SET_AFTER_INITIALIZATION = {  # a value of every type; none is the default
+    "SaturatedInductionMotor": {"R_s": 2.0, "n_p": 3, "curve": "linear", "J": 1.0, "h_int": 1e-5},
+    "BacksteppingController": {"R_s": 2.0, "c1": 1.0, "Ts": 2e-4, "mode": "pi", "use_stator_flux": True},
+}
+
+
+@pytest.mark.parametrize("name", list(CONTRACT))
+def test_parameters_and_outputs_set_after_initialization_are_refused_and_stay(new, name):
+    s = new(name)
+    _run_checked(name, s, 0, 2)
+    output = CONTRACT[name]["output"][0]
+    before = s.get([output])[0]
+    for var, value in [*SET_AFTER_INITIALIZATION[name].items(), (output, before + 1.0)]:
+        assert value != DEFAULTS[name].get(var, before)
+        n = len(s.log)
+        try:
+            s.set({var: value})
+        except FMICallException as exc:  # fmi2Error, should pythonfmu ever let a set return it
+            assert exc.value.status == 3, (var, exc.value.status)
+        what = "an output" if var == output else "a fixed parameter"
+        assert f"{var}: {what} cannot be set after initialization" in "\n".join(
+            m for status, m in s.log[n:] if status >= 3), (var, s.log[n:])
+        assert s.value(var) == DEFAULTS[name].get(var, before), var
+    # reported again (no host can miss it): the next doStep is discarded, naming every refused variable
+    message = _refused_step(s, 2 * H, H)
+    assert all(f"{var}:" in message for var in [*SET_AFTER_INITIALIZATION[name], output]), message
+    # inputs can still be set, and the run goes on as if no parameter had been touched
+    var = CONTRACT[name]["input"][0]
+    s.set({var: 123.0})
+    assert s.value(var) == 123.0
+    _run_checked(name, s, 2, 6)

@@ -18,6 +18,7 @@ returns fmi2Discard (the host may redo that step).
 
 from __future__ import annotations
 
+import functools
 import math
 from pathlib import Path
 
@@ -127,10 +128,20 @@ class UnitSlave(Fmi2Slave):
         self._publish()
         self._phase = STEPPING
         self._go = not self._pending
+        # from now on fmi2Set* may change inputs only (fixed parameters, outputs: refused); the
+        # setters are swapped once here, so setting inputs costs nothing more per step
+        for var in self.vars.values():
+            if var.causality != Fmi2Causality.input:
+                var.setter = functools.partial(self._refuse_set, var.name)
 
     def terminate(self):
         self._phase = TERMINATED
         self._go = False
+
+    def _refuse_set(self, name, value):
+        what = "a fixed parameter" if name in self._params else "an output"
+        self._refuse(f"{name}: {what} cannot be set after initialization ({name} = {value!r} refused, "
+                     f"it stays {getattr(self, name)!r})")
 
     def _refuse(self, message):
         """Log a refused call (status error); the next doStep reports it again and discards."""
@@ -183,7 +194,8 @@ class UnitSlave(Fmi2Slave):
     def _set_fmu_state(self, state):
         state = dict(state)
         unit_state = state.pop("_unit", None)
-        super()._set_fmu_state(state)
+        for name, value in state.items():  # not through the setters: restoring a state is no fmi2Set*
+            setattr(self, name, value)
         if unit_state is not None:
             if self._unit is None:
                 self._unit = self.UNIT({name: getattr(self, name) for name in self._params})
