@@ -18,7 +18,15 @@ import pytest
 from fmpy import simulate_fmu
 from fmpy.fmi1 import FMICallException
 from fmpy.validation import validate_fmu
-from fmu_helpers import SIM_START, SIM_STEPS, Slave, open_fmu, tamper_fingerprint
+from fmu_helpers import (
+    SIM_START,
+    SIM_STEPS,
+    STATE_INPUTS,
+    STATE_STEPS,
+    Slave,
+    open_fmu,
+    tamper_fingerprint,
+)
 
 from satmotor.backstepping import BacksteppingGains, ControllerConfig
 from satmotor.drive import PREMAG, RUN, DriveConfig
@@ -537,3 +545,41 @@ def test_parameters_and_outputs_set_after_initialization_are_refused_and_stay(ne
     s.set({var: 123.0})
     assert s.value(var) == 123.0
     _run_checked(name, s, 2, 6)
+
+
+FOREIGN_STATES = {  # attempt (tests/fmu_helpers.py _child_state): what its refusal must name
+    "controller state": "BacksteppingController", "controller blob": "BacksteppingController",
+    "truncated": "not valid", "garbled": "not valid", "empty": "not valid", "not an object": "list",
+    "non-numeric entry": "entry 0 = 'x'", "null entry": "entry 1 = None", "entry missing": "5 entries",
+    "entry missing, tag adjusted": "5 entries", "other build": "build", "other guid": "guid {0}",
+    "untagged": "untagged", "plant state": "SaturatedInductionMotor",
+}
+
+
+def test_foreign_or_malformed_fmu_states_are_refused_and_leave_the_instance_unchanged(fmus):
+    """In a child (a state pointer of another FMU could crash the host): a controller's state set on
+    the plant (it once gave i_s = -9452 A), serialized states across FMUs, truncated, garbled and
+    forged blobs.  Each is refused with a message (no fmi2Fatal), the outputs stay, the refusal is
+    reported by a status, and the plant then runs on exactly like the plain PlantUnit."""
+    rc, out, err = _child("state", fmus["SaturatedInductionMotor"].path, fmus["BacksteppingController"].path)
+    assert rc == 0, err
+    res = json.loads(out)
+    plant, ctrl = PlantUnit({}), ControllerUnit({})
+    plant_ref, ctrl_ref = [dict(zip(PLANT_OUT, plant.outputs()))], [dict(zip(CTRL_OUT, ctrl.outputs()))]
+    for k in range(max(r["k"] for r in res.values())):
+        plant.step(k * H, H, tuple(STATE_INPUTS[n] for n in PlantUnit.INPUTS))
+        ctrl.step(k * H, H, tuple({"psi_ref": 0.9}.get(n, 0.0) for n in ControllerUnit.INPUTS))
+        plant_ref.append(dict(zip(PLANT_OUT, plant.outputs())))
+        ctrl_ref.append(dict(zip(CTRL_OUT, ctrl.outputs())))
+    assert set(res) == set(FOREIGN_STATES) | {"own state", "own blob"}
+    for label, r in res.items():
+        ref = ctrl_ref if label == "plant state" else plant_ref
+        if label in FOREIGN_STATES:
+            assert r.get("deserialize", 0) in (0, 3) and r["set"] in (0, 3), (label, r)  # never fmi2Fatal
+            assert r["unchanged"], label
+            assert FOREIGN_STATES[label] in r["log"] and "refused" in r["log"], (label, r["log"])
+            # the host learns it from a status: setFMUState's fmi2Error, or the next doStep's fmi2Discard
+            assert r["set"] == 3 or (r["step"] in (2, 3) and r["redo"] == 0), (label, r)
+        else:  # the genuine state goes back to step STATE_STEPS, set or deserialized
+            assert r["log"] == "" and r["step"] == 0 and r["k"] == STATE_STEPS + 1, (label, r)
+        assert r["outputs"] == ref[r["k"]], label

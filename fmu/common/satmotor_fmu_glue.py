@@ -19,7 +19,10 @@ returns fmi2Discard (the host may redo that step).
 from __future__ import annotations
 
 import functools
+import json
 import math
+import weakref
+import xml.etree.ElementTree as ET
 from pathlib import Path
 
 from pythonfmu import Boolean, Fmi2Causality, Fmi2Initial, Fmi2Slave, Fmi2Variability, Integer, Real, String
@@ -31,6 +34,8 @@ _INF = math.inf
 INSTANTIATED, INITIALIZATION, STEPPING, TERMINATED = (
     "not initialized", "in initialization mode", "initialized", "terminated")
 
+_TAG, _UNIT, _REFUSED = "_tag", "_unit", "_refused"  # FMU state keys besides the variables
+_PYTHON_TYPES = {"Real": (float, int), "Integer": (int,), "Boolean": (bool,), "String": (str,)}
 _TYPES = {"Real": Real, "Integer": Integer, "Boolean": Boolean, "String": String}
 _CAUSALITY = {"input": Fmi2Causality.input, "output": Fmi2Causality.output,
               "parameter": Fmi2Causality.parameter}
@@ -73,6 +78,29 @@ def pin_namespace(namespace, defined=None):
                 namespace[name] = obj
 
 
+_GUIDS = {}
+
+
+def _guid(resources):
+    """The GUID in the modelDescription.xml next to ``resources`` (read once per directory), or ''."""
+    if not resources:
+        return ""
+    guid = _GUIDS.get(resources)
+    if guid is None:
+        try:
+            guid = ET.parse(Path(resources).parent / "modelDescription.xml").getroot().get("guid", "")
+        except (OSError, ET.ParseError):
+            guid = ""
+        _GUIDS[resources] = guid
+    return guid
+
+
+def _tag_text(tag):
+    if not isinstance(tag, dict):
+        return f"an untagged FMU (tag {tag!r:.60})"
+    return f"{tag.get('model')} (build {str(tag.get('fingerprint'))[:12]}, guid {tag.get('guid')})"
+
+
 def _describe(var):
     return f"{var.description} [{var.unit}]" if var.unit else var.description
 
@@ -100,6 +128,10 @@ class UnitSlave(Fmi2Slave):
         self._phase = INSTANTIATED
         self._pending = []  # refusals not yet reported by a doStep
         self._go = False  # doStep may run: initialized, not terminated, no refusal pending
+        self._kinds = {v.name: v.type for v in self.VARIABLES}
+        self._identity = {"model": type(self).__name__, "fingerprint": self.FINGERPRINT or _FINGERPRINT,
+                          "guid": _guid(self.resources)}
+        type(self)._current = weakref.ref(self)  # for _fmu_state_from_bytes, called on the class
         for var in self.VARIABLES:
             setattr(self, var.name, var.start)
             kw = {"causality": _CAUSALITY[var.causality], "description": _describe(var)}
@@ -186,18 +218,109 @@ class UnitSlave(Fmi2Slave):
         for name, value in zip(self._outputs, self._unit.outputs()):
             setattr(self, name, value)
 
+    # --- FMU state -----------------------------------------------------------------------------------
+    # A state is a dict: every variable by name, _UNIT (the unit's flat state, None before
+    # initialization) and _TAG (this FMU's identity and the unit state's length).  A state of another
+    # FMU (all pythonfmu FMUs of a process share one interpreter, so the host can hand one over), of
+    # another build, or a malformed one is refused with the instance unchanged.
+
     def _get_fmu_state(self):
-        state = super()._get_fmu_state()
-        state["_unit"] = None if self._unit is None else list(self._unit.get_state())
+        state = {name: getattr(self, name) for name in self._kinds}
+        unit = None if self._unit is None else list(self._unit.get_state())
+        state[_TAG] = dict(self._identity, size=None if unit is None else len(unit))
+        state[_UNIT] = unit
         return state
 
     def _set_fmu_state(self, state):
-        state = dict(state)
-        unit_state = state.pop("_unit", None)
-        for name, value in state.items():  # not through the setters: restoring a state is no fmi2Set*
+        try:
+            problem = self._state_problem(state) or self._restore(state)
+        except Exception as exc:  # never into pythonfmu (fmi2Fatal); _restore changes nothing before
+            problem = f"{type(exc).__name__}: {exc}"  # its last, infallible lines
+        if problem:
+            self._refuse(f"setFMUState refused, the instance is unchanged: {problem}")
+
+    def _state_problem(self, state):
+        """Why ``state`` is not a state of this FMU, or None."""
+        if not isinstance(state, dict):
+            return f"not an FMU state of {type(self).__name__} but a {type(state).__name__}"
+        if _REFUSED in state:
+            return str(state[_REFUSED])
+        tag = state.get(_TAG)
+        if not isinstance(tag, dict) or any(tag.get(k) != v for k, v in self._identity.items()):
+            return f"it is a state of {_tag_text(tag)}, this is {_tag_text(self._identity)}"
+        names = set(state) - {_TAG, _UNIT}
+        if names != set(self._kinds):
+            return (f"variables missing: {sorted(set(self._kinds) - names)}, "
+                    f"unknown: {sorted(names - set(self._kinds))}")
+        for name, kind in self._kinds.items():
+            if type(state[name]) not in _PYTHON_TYPES[kind]:
+                return f"{name} = {state[name]!r} is not a {kind}"
+        unit = state.get(_UNIT)
+        if unit is None:
+            if tag.get("size") is not None:
+                return f"it has no unit state, but its tag says {tag['size']!r} entries"
+            return None
+        if not isinstance(unit, list) or len(unit) != tag.get("size"):
+            return (f"the unit state has {len(unit) if isinstance(unit, list) else repr(unit)} entries, "
+                    f"its tag says {tag.get('size')!r}")
+        for i, v in enumerate(unit):
+            if type(v) not in (float, int) or not math.isfinite(v):
+                return f"unit state entry {i} = {v!r} is not a finite number"
+        return None
+
+    def _restore(self, state):
+        """Adopt a state that passed _state_problem; returns why not, changing nothing, or None."""
+        values = {name: state[name] for name in self._kinds}
+        unit_state, unit = state.get(_UNIT), None
+        if unit_state is None:
+            if self._phase in (STEPPING, TERMINATED):
+                return "it was taken before initialization, and this instance is initialized"
+        else:
+            unit = self._unit
+            params = {name: values[name] for name in self._params}
+            if unit is None or any(getattr(self, name) != value for name, value in params.items()):
+                try:  # a state of another instance of this FMU, with other parameters
+                    unit = self.UNIT(params)
+                except Exception as exc:
+                    return f"its parameters are refused: {exc}"
+            want = len(unit.get_state())
+            if len(unit_state) != want:
+                return (f"its unit state has {len(unit_state)} entries, {type(self).__name__} with its "
+                        f"parameters has {want}")
+            old = unit.get_state()
+            try:
+                unit.set_state(tuple(float(v) for v in unit_state))
+            except Exception as exc:
+                unit.set_state(old)
+                return f"its unit state is refused: {exc}"
+        for name, value in values.items():  # not through the setters: restoring a state is no fmi2Set*
             setattr(self, name, value)
-        if unit_state is not None:
-            if self._unit is None:
-                self._unit = self.UNIT({name: getattr(self, name) for name in self._params})
-            self._unit.set_state(tuple(float(v) if isinstance(v, (int, float)) else math.nan
-                                       for v in unit_state))
+        self._unit = unit
+        if unit is not None:
+            self._publish()
+        return None
+
+    @staticmethod
+    def _fmu_state_to_bytes(state):
+        try:
+            return json.dumps(state).encode("utf-8")
+        except Exception as exc:  # never raise (fmi2Fatal): deserialized, this state is refused
+            return json.dumps({_REFUSED: f"the FMU state could not be serialized: {exc}"}).encode("utf-8")
+
+    @classmethod
+    def _fmu_state_from_bytes(cls, data):
+        """Called by pythonfmu on the instance's class: never raises (fmi2Fatal); a blob that is not
+        a state of this FMU becomes a refusal that setFMUState reports, and is logged at once through
+        the instance (pin_namespace gives each instance a class of its own)."""
+        ref = cls.__dict__.get("_current")
+        inst = ref() if ref is not None else None
+        try:
+            state = json.loads(bytes(data).decode("utf-8"))
+            problem = inst._state_problem(state) if inst is not None else None
+        except Exception as exc:  # not UTF-8, not JSON, nested too deep, ...
+            problem = f"it is not valid ({type(exc).__name__}: {exc})"
+        if problem:
+            state = {_REFUSED: f"the serialized FMU state ({len(data)} bytes) is refused: {problem}"}
+            if inst is not None:
+                inst.log(f"{cls.__name__}: deSerializeFMUstate: {state[_REFUSED]}", Fmi2Status.error)
+        return state
