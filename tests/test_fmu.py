@@ -583,3 +583,22 @@ def test_foreign_or_malformed_fmu_states_are_refused_and_leave_the_instance_unch
         else:  # the genuine state goes back to step STATE_STEPS, set or deserialized
             assert r["log"] == "" and r["step"] == 0 and r["k"] == STATE_STEPS + 1, (label, r)
         assert r["outputs"] == ref[r["k"]], label
+
+
+def test_state_of_another_instance_with_other_parameters_is_adopted_with_them(new):
+    """A serialized state carries the parameters: restored in another instance of the same FMU, that
+    instance continues the first one's run (here with another inertia), step for step."""
+    params = {"J": 0.02, "R_r": 1.5}
+    a, b = new("SaturatedInductionMotor", params), new("SaturatedInductionMotor")
+    run_plant(a, 0, 50)
+    state = a.fmu.getFMUState()
+    blob = a.fmu.serializeFMUState(state)
+    a.fmu.freeFMUState(state)
+    state = b.fmu.deSerializeFMUstate(blob)
+    b.fmu.setFMUState(state)
+    b.fmu.freeFMUState(state)
+    assert b.messages(min_status=2) == "" and b.value("J") == 0.02
+    unit = PlantUnit(params)
+    for k in range(80):
+        unit.step(k * H, H, tuple(dol_inputs(k)[v] for v in PLANT_IN))
+    assert run_plant(b, 50, 80)[-1] == run_plant(a, 50, 80)[-1] == list(unit.outputs())
