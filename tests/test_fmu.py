@@ -18,7 +18,15 @@ import pytest
 from fmpy import simulate_fmu
 from fmpy.fmi1 import FMICallException
 from fmpy.validation import validate_fmu
-from fmu_helpers import Slave, open_fmu, tamper_fingerprint
+from fmu_helpers import (
+    SIM_START,
+    SIM_STEPS,
+    STATE_INPUTS,
+    STATE_STEPS,
+    Slave,
+    open_fmu,
+    tamper_fingerprint,
+)
 
 from satmotor.backstepping import BacksteppingGains, ControllerConfig
 from satmotor.drive import PREMAG, RUN, DriveConfig
@@ -424,3 +432,173 @@ def test_plant_with_another_fingerprint_is_refused_after_a_genuine_plant(fmus, t
                           fmus["SaturatedInductionMotor"].path)
     assert rc == 0, err
     assert not json.loads(out)["instantiated"]
+
+
+def test_simulate_fmu_runs_each_fmu_three_times_in_one_process(fmus):
+    """fmpy.simulate_fmu extracts into a temporary directory and deletes it; pythonfmu keeps the
+    modules of the first run cached: later runs (of the same FMU and of the other one, which shares
+    the glue module) must neither read from the deleted directory nor differ from the plain units."""
+    paths = [fmus[n].path for n in ("SaturatedInductionMotor", "BacksteppingController")]
+    rc, out, err = _child("simulate", *paths)
+    assert rc == 0, err
+    runs = json.loads(out)
+    plant, ctrl = PlantUnit({}), ControllerUnit({})
+    u_plant = {n: SIM_START[0].get(n, 0.0) for n in PLANT_IN}
+    u_ctrl = {n: SIM_START[1].get(n, 0.0) for n in CTRL_IN}
+    for k in range(SIM_STEPS):
+        plant.step(k * H, H, tuple(u_plant[n] for n in PlantUnit.INPUTS))
+        ctrl.step(k * H, H, tuple(u_ctrl[n] for n in ControllerUnit.INPUTS))
+    want = {paths[0]: dict(zip(PLANT_OUT, plant.outputs())), paths[1]: dict(zip(CTRL_OUT, ctrl.outputs()))}
+    for path, results in runs.items():
+        assert len(results) == 3
+        for i, r in enumerate(results):
+            assert r["error"] == "", (Path(path).name, i, r)
+            assert math.isclose(r["last"]["time"], SIM_STEPS * H, abs_tol=1e-12)
+            # fmpy's communication points are sums of the step, not k H: equal to rounding
+            for n, v in want[path].items():
+                assert math.isclose(r["last"][n], v, rel_tol=1e-9, abs_tol=1e-12), (Path(path).name, i, n)
+        assert results[1] == results[2] == results[0]
+
+
+# --- 12: the FMI call contract: life cycle, communication points -------------------------------------
+
+def _refused_step(s, t, dt):
+    """doStep(t, dt) must be refused without harm: fmi2Discard (pythonfmu 0.7.0 cannot return
+    fmi2Error without fmi2Fatal) or fmi2Error; returns the messages logged by the call."""
+    n = len(s.log)
+    with pytest.raises(FMICallException) as exc:
+        s.fmu.doStep(t, dt)
+    assert exc.value.status in (2, 3), (t, dt, exc.value.status)
+    return "\n".join(m for status, m in s.log[n:] if status >= 2)
+
+
+def _run_checked(name, s, k0, k1):
+    """Steps k0 .. k1-1 of the plant's DOL start or the controller's ramp run; the outputs must be
+    the plain units' from the start (nothing refused before left a trace)."""
+    if name == "SaturatedInductionMotor":
+        ref = plant_reference()
+        assert run_plant(s, k0, k1) == [[ref[n][k + 1] for n in PLANT_OUT] for k in range(k0, k1)]
+    else:
+        rec = ramp_run()
+        assert run_ctrl(s, k0, k1, rec) == [[rec[n][k] for n in CTRL_OUT] for k in range(k0, k1)]
+
+
+@pytest.mark.parametrize("name", list(CONTRACT))
+def test_do_step_outside_the_initialized_state_is_refused_with_a_message(new, name):
+    s = new(name, initialize=False)
+    assert "not initialized" in _refused_step(s, 0.0, H)
+    s.fmu.setupExperiment(startTime=0.0)
+    s.fmu.enterInitializationMode()
+    assert "initialization mode" in _refused_step(s, 0.0, H)
+    s.fmu.exitInitializationMode()
+    _run_checked(name, s, 0, 3)
+    s.fmu.terminate()
+    outputs = s.get(CONTRACT[name]["output"])
+    assert "terminated" in _refused_step(s, 3 * H, H)
+    assert s.get(CONTRACT[name]["output"]) == outputs
+
+
+BAD_COMMUNICATION_POINTS = [
+    (math.nan, H, "currentCommunicationPoint = nan"), (math.inf, H, "currentCommunicationPoint = inf"),
+    (-math.inf, H, "currentCommunicationPoint = -inf"), (0.0, math.nan, "communicationStepSize = nan"),
+    (0.0, math.inf, "communicationStepSize = inf"), (0.0, 0.0, "communicationStepSize = 0.0"),
+    (0.0, -H, "communicationStepSize = -0.0001"),
+]
+
+
+@pytest.mark.parametrize("name", list(CONTRACT))
+def test_non_finite_communication_point_or_bad_step_size_is_refused_naming_it(new, name):
+    s = new(name)
+    for t, dt, text in BAD_COMMUNICATION_POINTS:
+        assert text in _refused_step(s, t, dt)
+    _run_checked(name, s, 0, 3)
+
+
+SET_AFTER_INITIALIZATION = {  # a value of every type; none is the default
+    "SaturatedInductionMotor": {"R_s": 2.0, "n_p": 3, "curve": "linear", "J": 1.0, "h_int": 1e-5},
+    "BacksteppingController": {"R_s": 2.0, "c1": 1.0, "Ts": 2e-4, "mode": "pi", "use_stator_flux": True},
+}
+
+
+@pytest.mark.parametrize("name", list(CONTRACT))
+def test_parameters_and_outputs_set_after_initialization_are_refused_and_stay(new, name):
+    s = new(name)
+    _run_checked(name, s, 0, 2)
+    output = CONTRACT[name]["output"][0]
+    before = s.get([output])[0]
+    for var, value in [*SET_AFTER_INITIALIZATION[name].items(), (output, before + 1.0)]:
+        assert value != DEFAULTS[name].get(var, before)
+        n = len(s.log)
+        try:
+            s.set({var: value})
+        except FMICallException as exc:  # fmi2Error, should pythonfmu ever let a set return it
+            assert exc.value.status == 3, (var, exc.value.status)
+        what = "an output" if var == output else "a fixed parameter"
+        assert f"{var}: {what} cannot be set after initialization" in "\n".join(
+            m for status, m in s.log[n:] if status >= 3), (var, s.log[n:])
+        assert s.value(var) == DEFAULTS[name].get(var, before), var
+    # reported again (no host can miss it): the next doStep is discarded, naming every refused variable
+    message = _refused_step(s, 2 * H, H)
+    assert all(f"{var}:" in message for var in [*SET_AFTER_INITIALIZATION[name], output]), message
+    # inputs can still be set, and the run goes on as if no parameter had been touched
+    var = CONTRACT[name]["input"][0]
+    s.set({var: 123.0})
+    assert s.value(var) == 123.0
+    _run_checked(name, s, 2, 6)
+
+
+FOREIGN_STATES = {  # attempt (tests/fmu_helpers.py _child_state): what its refusal must name
+    "controller state": "BacksteppingController", "controller blob": "BacksteppingController",
+    "truncated": "not valid", "garbled": "not valid", "empty": "not valid", "not an object": "list",
+    "non-numeric entry": "entry 0 = 'x'", "null entry": "entry 1 = None", "entry missing": "5 entries",
+    "entry missing, tag adjusted": "5 entries", "other build": "build", "other guid": "guid {0}",
+    "untagged": "untagged", "plant state": "SaturatedInductionMotor",
+}
+
+
+def test_foreign_or_malformed_fmu_states_are_refused_and_leave_the_instance_unchanged(fmus):
+    """In a child (a state pointer of another FMU could crash the host): a controller's state set on
+    the plant (it once gave i_s = -9452 A), serialized states across FMUs, truncated, garbled and
+    forged blobs.  Each is refused with a message (no fmi2Fatal), the outputs stay, the refusal is
+    reported by a status, and the plant then runs on exactly like the plain PlantUnit."""
+    rc, out, err = _child("state", fmus["SaturatedInductionMotor"].path, fmus["BacksteppingController"].path)
+    assert rc == 0, err
+    res = json.loads(out)
+    plant, ctrl = PlantUnit({}), ControllerUnit({})
+    plant_ref, ctrl_ref = [dict(zip(PLANT_OUT, plant.outputs()))], [dict(zip(CTRL_OUT, ctrl.outputs()))]
+    for k in range(max(r["k"] for r in res.values())):
+        plant.step(k * H, H, tuple(STATE_INPUTS[n] for n in PlantUnit.INPUTS))
+        ctrl.step(k * H, H, tuple({"psi_ref": 0.9}.get(n, 0.0) for n in ControllerUnit.INPUTS))
+        plant_ref.append(dict(zip(PLANT_OUT, plant.outputs())))
+        ctrl_ref.append(dict(zip(CTRL_OUT, ctrl.outputs())))
+    assert set(res) == set(FOREIGN_STATES) | {"own state", "own blob"}
+    for label, r in res.items():
+        ref = ctrl_ref if label == "plant state" else plant_ref
+        if label in FOREIGN_STATES:
+            assert r.get("deserialize", 0) in (0, 3) and r["set"] in (0, 3), (label, r)  # never fmi2Fatal
+            assert r["unchanged"], label
+            assert FOREIGN_STATES[label] in r["log"] and "refused" in r["log"], (label, r["log"])
+            # the host learns it from a status: setFMUState's fmi2Error, or the next doStep's fmi2Discard
+            assert r["set"] == 3 or (r["step"] in (2, 3) and r["redo"] == 0), (label, r)
+        else:  # the genuine state goes back to step STATE_STEPS, set or deserialized
+            assert r["log"] == "" and r["step"] == 0 and r["k"] == STATE_STEPS + 1, (label, r)
+        assert r["outputs"] == ref[r["k"]], label
+
+
+def test_state_of_another_instance_with_other_parameters_is_adopted_with_them(new):
+    """A serialized state carries the parameters: restored in another instance of the same FMU, that
+    instance continues the first one's run (here with another inertia), step for step."""
+    params = {"J": 0.02, "R_r": 1.5}
+    a, b = new("SaturatedInductionMotor", params), new("SaturatedInductionMotor")
+    run_plant(a, 0, 50)
+    state = a.fmu.getFMUState()
+    blob = a.fmu.serializeFMUState(state)
+    a.fmu.freeFMUState(state)
+    state = b.fmu.deSerializeFMUstate(blob)
+    b.fmu.setFMUState(state)
+    b.fmu.freeFMUState(state)
+    assert b.messages(min_status=2) == "" and b.value("J") == 0.02
+    unit = PlantUnit(params)
+    for k in range(80):
+        unit.step(k * H, H, tuple(dol_inputs(k)[v] for v in PLANT_IN))
+    assert run_plant(b, 50, 80)[-1] == run_plant(a, 50, 80)[-1] == list(unit.outputs())

@@ -3,12 +3,26 @@ check, initialization, stepping and the full FMU state.  No equations here.
 
 Bundled into each FMU next to ``satmotor/``.  pythonfmu imports every FMU's modules into one shared
 interpreter, caching them by name; the slaves therefore check, at instantiation, that the
-``satmotor`` and glue modules they got hash to the fingerprint baked in at build time.
+``satmotor`` and glue modules they got hash to the fingerprint baked in at build time.  That hash
+is taken once, when this module is imported: the cached modules may come from an extraction
+directory the host has deleted since (fmpy.simulate_fmu does), so nothing is read from disk later.
+
+Statuses.  pythonfmu 0.7.0 turns any Python exception into fmi2Fatal and drops the Python instance
+(a later call, even fmi2FreeInstance, may then crash the host); it ignores what set_*,
+exit_initialization_mode, terminate and _set_fmu_state return (the host gets fmi2OK); only do_step
+can report anything else: returning False gives fmi2Discard.  fmi2Error cannot be reached from
+Python.  So a refusal here never raises: it logs a message naming the variable and the value
+(status error), leaves the instance unchanged, and is reported again by the next doStep, which
+returns fmi2Discard (the host may redo that step).
 """
 
 from __future__ import annotations
 
+import functools
+import json
 import math
+import weakref
+import xml.etree.ElementTree as ET
 from pathlib import Path
 
 from pythonfmu import Boolean, Fmi2Causality, Fmi2Initial, Fmi2Slave, Fmi2Variability, Integer, Real, String
@@ -16,6 +30,12 @@ from pythonfmu.enums import Fmi2Status
 
 import satmotor
 
+_INF = math.inf
+INSTANTIATED, INITIALIZATION, STEPPING, TERMINATED = (
+    "not initialized", "in initialization mode", "initialized", "terminated")
+
+_TAG, _UNIT, _REFUSED = "_tag", "_unit", "_refused"  # FMU state keys besides the variables
+_PYTHON_TYPES = {"Real": (float, int), "Integer": (int,), "Boolean": (bool,), "String": (str,)}
 _TYPES = {"Real": Real, "Integer": Integer, "Boolean": Boolean, "String": String}
 _CAUSALITY = {"input": Fmi2Causality.input, "output": Fmi2Causality.output,
               "parameter": Fmi2Causality.parameter}
@@ -24,17 +44,61 @@ _CAUSALITY = {"input": Fmi2Causality.input, "output": Fmi2Causality.output,
 _PINNED = []
 
 
-def pin_namespace(namespace):
-    """Keep one more reference to a slave module's namespace.  pythonfmu 0.7.0's fmi2Instantiate
-    (findClass) re-executes the slave script in that namespace, then Py_DECREFs the borrowed dict;
-    calling this at the script's top level adds the reference that DECREF takes away (without it
-    the second instance of an FMU in one process crashes the host)."""
-    _PINNED.append(namespace)
+def _source_fingerprint():
+    try:
+        return satmotor.source_fingerprint(Path(__file__).resolve())
+    except OSError as exc:  # refused at instantiation (no build fingerprint can equal this)
+        return f"unavailable ({exc})"
+
+
+# SHA-256 over the loaded satmotor package and this module, taken once per process (see above)
+_FINGERPRINT = _source_fingerprint()
 
 
 def fingerprint():
-    """SHA-256 over the sources of the loaded ``satmotor`` package and of this module."""
-    return satmotor.source_fingerprint(Path(__file__).resolve())
+    """SHA-256 over the sources of the loaded ``satmotor`` package and of this module, as they were
+    when this module was imported."""
+    return _FINGERPRINT
+
+
+def pin_namespace(namespace, defined=None):
+    """Call at a slave script's top level as ``pin_namespace(globals(), locals())``.
+
+    pythonfmu 0.7.0's fmi2Instantiate (findClass) imports the slave module (cached by name across
+    FMUs), re-executes this FMU's copy of the script with the module's dict as globals and a fresh
+    dict as locals, Py_DECREFs the borrowed globals, and then takes the slave class from the *cached
+    module*.  This keeps one more reference to the globals (without it the second instance of an
+    FMU in one process crashes the host) and publishes the slave classes the script just defined
+    (``defined``) into the module, so that the instance is made from this FMU's own script and its
+    baked-in FINGERPRINT, not from the first one loaded under that module name."""
+    _PINNED.append(namespace)
+    if defined is not None and defined is not namespace:
+        for name, obj in defined.items():
+            if isinstance(obj, type) and issubclass(obj, UnitSlave) and obj is not UnitSlave:
+                namespace[name] = obj
+
+
+_GUIDS = {}
+
+
+def _guid(resources):
+    """The GUID in the modelDescription.xml next to ``resources`` (read once per directory), or ''."""
+    if not resources:
+        return ""
+    guid = _GUIDS.get(resources)
+    if guid is None:
+        try:
+            guid = ET.parse(Path(resources).parent / "modelDescription.xml").getroot().get("guid", "")
+        except (OSError, ET.ParseError):
+            guid = ""
+        _GUIDS[resources] = guid
+    return guid
+
+
+def _tag_text(tag):
+    if not isinstance(tag, dict):
+        return f"an untagged FMU (tag {tag!r:.60})"
+    return f"{tag.get('model')} (build {str(tag.get('fingerprint'))[:12]}, guid {tag.get('guid')})"
 
 
 def _describe(var):
@@ -51,21 +115,23 @@ class UnitSlave(Fmi2Slave):
 
     def __init__(self, **kwargs):
         super().__init__(**kwargs)
-        got = fingerprint()
-        if self.FINGERPRINT and got != self.FINGERPRINT:
+        if self.FINGERPRINT and _FINGERPRINT != self.FINGERPRINT:
             raise ImportError(
                 f"{type(self).__name__}: the loaded satmotor ({satmotor.__file__}, version "
-                f"{satmotor.__version__}) is not the one this FMU was built with (fingerprint {got[:12]} "
-                f"!= {self.FINGERPRINT[:12]}); another FMU of a different build is loaded in this process")
-        script = Path(self.resources) / f"{type(self).__module__}.py"
-        if self.FINGERPRINT and script.exists() and self.FINGERPRINT not in script.read_text():
-            raise ImportError(
-                f"{type(self).__name__}: this process already runs {type(self).__module__} from another "
-                f"build (fingerprint {self.FINGERPRINT[:12]}), not the one in {script.parent}")
+                f"{satmotor.__version__}) and glue are not the ones this FMU was built with (fingerprint "
+                f"{_FINGERPRINT[:12]} != {self.FINGERPRINT[:12]}); another FMU of a different build is "
+                f"loaded in this process")
         self._params = tuple(v.name for v in self.VARIABLES if v.causality == "parameter")
         self._inputs = tuple(v.name for v in self.VARIABLES if v.causality == "input")
         self._outputs = tuple(v.name for v in self.VARIABLES if v.causality == "output")
         self._unit = None
+        self._phase = INSTANTIATED
+        self._pending = []  # refusals not yet reported by a doStep
+        self._go = False  # doStep may run: initialized, not terminated, no refusal pending
+        self._kinds = {v.name: v.type for v in self.VARIABLES}
+        self._identity = {"model": type(self).__name__, "fingerprint": self.FINGERPRINT or _FINGERPRINT,
+                          "guid": _guid(self.resources)}
+        type(self)._current = weakref.ref(self)  # for _fmu_state_from_bytes, called on the class
         for var in self.VARIABLES:
             setattr(self, var.name, var.start)
             kw = {"causality": _CAUSALITY[var.causality], "description": _describe(var)}
@@ -79,6 +145,11 @@ class UnitSlave(Fmi2Slave):
                 kw["initial"] = Fmi2Initial.exact
             self.register_variable(_TYPES[var.type](var.name, **kw))
 
+    # --- life cycle ------------------------------------------------------------------------------------
+
+    def enter_initialization_mode(self):
+        self._phase = INITIALIZATION
+
     def exit_initialization_mode(self):
         """Build the unit from the parameters; a bad value is logged (naming it) and refused."""
         try:
@@ -87,9 +158,35 @@ class UnitSlave(Fmi2Slave):
             self.log(f"{type(self).__name__}: bad parameter: {exc}", Fmi2Status.error)
             raise
         self._publish()
+        self._phase = STEPPING
+        self._go = not self._pending
+        # from now on fmi2Set* may change inputs only (fixed parameters, outputs: refused); the
+        # setters are swapped once here, so setting inputs costs nothing more per step
+        for var in self.vars.values():
+            if var.causality != Fmi2Causality.input:
+                var.setter = functools.partial(self._refuse_set, var.name)
+
+    def terminate(self):
+        self._phase = TERMINATED
+        self._go = False
+
+    def _refuse_set(self, name, value):
+        what = "a fixed parameter" if name in self._params else "an output"
+        self._refuse(f"{name}: {what} cannot be set after initialization ({name} = {value!r} refused, "
+                     f"it stays {getattr(self, name)!r})")
+
+    def _refuse(self, message):
+        """Log a refused call (status error); the next doStep reports it again and discards."""
+        self.log(f"{type(self).__name__}: {message}", Fmi2Status.error)
+        self._pending.append(message)
+        self._go = False
+
+    # --- stepping ------------------------------------------------------------------------------------
 
     def do_step(self, current_time, step_size):
         """Advance the unit; a bad input or a failed step is logged and discarded, never raised."""
+        if not (self._go and 0.0 < step_size < _INF and -_INF < current_time < _INF):
+            return self._refuse_step(current_time, step_size)
         try:
             self._unit.step(current_time, step_size, tuple(getattr(self, n) for n in self._inputs))
         except Exception as exc:
@@ -98,21 +195,132 @@ class UnitSlave(Fmi2Slave):
         self._publish()
         return True
 
+    def _refuse_step(self, t, dt):
+        """Why doStep(t, dt) cannot run, logged; False (fmi2Discard: see the module docstring)."""
+        name = type(self).__name__
+        if self._phase != STEPPING:
+            self.log(f"{name}: doStep(currentCommunicationPoint = {t!r}, communicationStepSize = {dt!r}) "
+                     f"refused: the FMU is {self._phase}; doStep is allowed only after "
+                     f"exitInitializationMode and before terminate", Fmi2Status.error)
+        elif self._pending:
+            self.log(f"{name}: doStep at t = {t!r} s discarded: an earlier call was refused: "
+                     f"{'; '.join(self._pending)}", Fmi2Status.error)
+            self._pending.clear()
+            self._go = True
+        elif not 0.0 < dt < _INF:
+            self.log(f"{name} at t = {t!r} s: communicationStepSize = {dt!r}: must be finite and > 0",
+                     Fmi2Status.discard)
+        else:
+            self.log(f"{name}: currentCommunicationPoint = {t!r}: must be finite", Fmi2Status.discard)
+        return False
+
     def _publish(self):
         for name, value in zip(self._outputs, self._unit.outputs()):
             setattr(self, name, value)
 
+    # --- FMU state -----------------------------------------------------------------------------------
+    # A state is a dict: every variable by name, _UNIT (the unit's flat state, None before
+    # initialization) and _TAG (this FMU's identity and the unit state's length).  A state of another
+    # FMU (all pythonfmu FMUs of a process share one interpreter, so the host can hand one over), of
+    # another build, or a malformed one is refused with the instance unchanged.
+
     def _get_fmu_state(self):
-        state = super()._get_fmu_state()
-        state["_unit"] = None if self._unit is None else list(self._unit.get_state())
+        state = {name: getattr(self, name) for name in self._kinds}
+        unit = None if self._unit is None else list(self._unit.get_state())
+        state[_TAG] = dict(self._identity, size=None if unit is None else len(unit))
+        state[_UNIT] = unit
         return state
 
     def _set_fmu_state(self, state):
-        state = dict(state)
-        unit_state = state.pop("_unit", None)
-        super()._set_fmu_state(state)
-        if unit_state is not None:
-            if self._unit is None:
-                self._unit = self.UNIT({name: getattr(self, name) for name in self._params})
-            self._unit.set_state(tuple(float(v) if isinstance(v, (int, float)) else math.nan
-                                       for v in unit_state))
+        try:
+            problem = self._state_problem(state) or self._restore(state)
+        except Exception as exc:  # never into pythonfmu (fmi2Fatal); _restore changes nothing before
+            problem = f"{type(exc).__name__}: {exc}"  # its last, infallible lines
+        if problem:
+            self._refuse(f"setFMUState refused, the instance is unchanged: {problem}")
+
+    def _state_problem(self, state):
+        """Why ``state`` is not a state of this FMU, or None."""
+        if not isinstance(state, dict):
+            return f"not an FMU state of {type(self).__name__} but a {type(state).__name__}"
+        if _REFUSED in state:
+            return str(state[_REFUSED])
+        tag = state.get(_TAG)
+        if not isinstance(tag, dict) or any(tag.get(k) != v for k, v in self._identity.items()):
+            return f"it is a state of {_tag_text(tag)}, this is {_tag_text(self._identity)}"
+        names = set(state) - {_TAG, _UNIT}
+        if names != set(self._kinds):
+            return (f"variables missing: {sorted(set(self._kinds) - names)}, "
+                    f"unknown: {sorted(names - set(self._kinds))}")
+        for name, kind in self._kinds.items():
+            if type(state[name]) not in _PYTHON_TYPES[kind]:
+                return f"{name} = {state[name]!r} is not a {kind}"
+        unit = state.get(_UNIT)
+        if unit is None:
+            if tag.get("size") is not None:
+                return f"it has no unit state, but its tag says {tag['size']!r} entries"
+            return None
+        if not isinstance(unit, list) or len(unit) != tag.get("size"):
+            return (f"the unit state has {len(unit) if isinstance(unit, list) else repr(unit)} entries, "
+                    f"its tag says {tag.get('size')!r}")
+        for i, v in enumerate(unit):
+            if type(v) not in (float, int) or not math.isfinite(v):
+                return f"unit state entry {i} = {v!r} is not a finite number"
+        return None
+
+    def _restore(self, state):
+        """Adopt a state that passed _state_problem; returns why not, changing nothing, or None."""
+        values = {name: state[name] for name in self._kinds}
+        unit_state, unit = state.get(_UNIT), None
+        if unit_state is None:
+            if self._phase in (STEPPING, TERMINATED):
+                return "it was taken before initialization, and this instance is initialized"
+        else:
+            unit = self._unit
+            params = {name: values[name] for name in self._params}
+            if unit is None or any(getattr(self, name) != value for name, value in params.items()):
+                try:  # a state of another instance of this FMU, with other parameters
+                    unit = self.UNIT(params)
+                except Exception as exc:
+                    return f"its parameters are refused: {exc}"
+            want = len(unit.get_state())
+            if len(unit_state) != want:
+                return (f"its unit state has {len(unit_state)} entries, {type(self).__name__} with its "
+                        f"parameters has {want}")
+            old = unit.get_state()
+            try:
+                unit.set_state(tuple(float(v) for v in unit_state))
+            except Exception as exc:
+                unit.set_state(old)
+                return f"its unit state is refused: {exc}"
+        for name, value in values.items():  # not through the setters: restoring a state is no fmi2Set*
+            setattr(self, name, value)
+        self._unit = unit
+        if unit is not None:
+            self._publish()
+        return None
+
+    @staticmethod
+    def _fmu_state_to_bytes(state):
+        try:
+            return json.dumps(state).encode("utf-8")
+        except Exception as exc:  # never raise (fmi2Fatal): deserialized, this state is refused
+            return json.dumps({_REFUSED: f"the FMU state could not be serialized: {exc}"}).encode("utf-8")
+
+    @classmethod
+    def _fmu_state_from_bytes(cls, data):
+        """Called by pythonfmu on the instance's class: never raises (fmi2Fatal); a blob that is not
+        a state of this FMU becomes a refusal that setFMUState reports, and is logged at once through
+        the instance (pin_namespace gives each instance a class of its own)."""
+        ref = cls.__dict__.get("_current")
+        inst = ref() if ref is not None else None
+        try:
+            state = json.loads(bytes(data).decode("utf-8"))
+            problem = inst._state_problem(state) if inst is not None else None
+        except Exception as exc:  # not UTF-8, not JSON, nested too deep, ...
+            problem = f"it is not valid ({type(exc).__name__}: {exc})"
+        if problem:
+            state = {_REFUSED: f"the serialized FMU state ({len(data)} bytes) is refused: {problem}"}
+            if inst is not None:
+                inst.log(f"{cls.__name__}: deSerializeFMUstate: {state[_REFUSED]}", Fmi2Status.error)
+        return state

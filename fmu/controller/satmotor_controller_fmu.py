@@ -20,4 +20,4 @@ class BacksteppingController(UnitSlave):
     FINGERPRINT = "@SATMOTOR_FINGERPRINT@"
 
 
-pin_namespace(globals())  # see satmotor_fmu_glue.pin_namespace
+pin_namespace(globals(), locals())  # see satmotor_fmu_glue.pin_namespace

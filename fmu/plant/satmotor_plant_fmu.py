@@ -17,4 +17,4 @@ class SaturatedInductionMotor(UnitSlave):
     FINGERPRINT = "@SATMOTOR_FINGERPRINT@"
 
 
-pin_namespace(globals())  # see satmotor_fmu_glue.pin_namespace
+pin_namespace(globals(), locals())  # see satmotor_fmu_glue.pin_namespace
