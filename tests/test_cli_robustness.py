@@ -245,3 +245,18 @@ def test_files_that_cannot_load_are_rows_and_the_others_run(tmp_path, fmu_dir):
                       "not_a_mapping": "invalid"}
     msg = {Path(k).stem: v for k, v in summary["message"].items()}
     assert "1 column(s)" in msg["short_rows"] and "cannot read" in msg["binary"]
+
+
+def test_a_dask_batch_stops_its_children_on_sigterm(tmp_path, fmu_dir):
+    from distributed import LocalCluster
+
+    d, out = _batch_dir(tmp_path, n_long=2), tmp_path / "out"
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
+        p = _start("batch", d, "--scheduler", cluster.scheduler_address, "--out", out, "--fmus", fmu_dir)
+        _wait_children(d, 2)
+        p.send_signal(signal.SIGTERM)
+        stdout, stderr = p.communicate(timeout=120)
+        assert p.returncode == 143, stderr
+        assert _processes(d) == []  # the children on the workers were stopped, not left running
+    status = dict(pd.read_csv(out / "summary.csv")[["scenario", "status"]].itertuples(index=False))
+    assert status["long0"] == status["long1"] == "interrupted"
