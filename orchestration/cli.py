@@ -10,6 +10,7 @@ scenarios (see :mod:`orchestration.batch`).
 from __future__ import annotations
 
 import argparse
+import subprocess
 import sys
 from pathlib import Path
 
@@ -70,6 +71,10 @@ def run_file(path, out, fmu_dir, algorithm=None, build=True, plot=True, stop=Non
         sc = load_scenario(path, model_variables(fmu_dir))
     except ScenarioError as exc:
         return refused(str(exc))
+    except subprocess.CalledProcessError as exc:
+        return RUN_FAILED, {"scenario": Path(path).stem, "file": str(path), "status": "setup",
+                            "message": f"building the FMUs into {fmu_dir} failed (exit {exc.returncode})",
+                            "rows": 0, "wall_time": 0.0}
     try:
         directory = prepare_dir(out, sc)
     except OSError as exc:

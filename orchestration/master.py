@@ -108,9 +108,10 @@ def run(scenario, plant_fmu, controller_fmu, connections=DEFAULT_CONNECTIONS, al
         profiles = {k: p.value for k, p in scenario.profiles.items()}
         columns = recorded_columns(p_out.names, c_out.names, sorted(profiles))
         rec = recorder(columns) if recorder else Recorder(columns)
-        t_reached = _loop(scenario, jacobi=algorithm == "jacobi", plant=plant, ctrl=ctrl, p_out=p_out,
-                          c_out=c_out, connections=connections, profiles=profiles, rec=rec, stop=stop)
-        if stop.signum:
+        t_reached, complete = _loop(scenario, jacobi=algorithm == "jacobi", plant=plant, ctrl=ctrl,
+                                    p_out=p_out, c_out=c_out, connections=connections, profiles=profiles,
+                                    rec=rec, stop=stop)
+        if not complete:
             status, message = "interrupted", f"stopped by {_signame(stop.signum)} at t = {t_reached:.6g} s"
     except FMICallException as exc:
         current = getattr(exc, "unit", current)  # FMUInstance.do_step tags the unit and the time
@@ -127,8 +128,11 @@ def run(scenario, plant_fmu, controller_fmu, connections=DEFAULT_CONNECTIONS, al
             u.close()
         for d in extracted:
             remove_extracted(d)
-    if rec is None:
-        rec = recorder(["time"]) if recorder else Recorder(["time"])
+    if rec is None:  # the run failed before its first row: an empty record of the same kind
+        try:
+            rec = recorder(["time"]) if recorder else Recorder(["time"])
+        except Exception:  # noqa: BLE001 - e.g. the streaming recorder's directory went away
+            rec = Recorder(["time"])
     rec.close()
     return RunResult(scenario, rec, status, message, t_reached, time.perf_counter() - wall0,
                      current if status not in ("ok", "interrupted") else "")
@@ -141,8 +145,9 @@ def _report(unit, exc, inst):
 
 
 def _loop(sc, jacobi, plant, ctrl, p_out, c_out, connections, profiles, rec, stop):
-    """The stepping loop; returns the last communication point reached [s].  A failing doStep
-    raises FMICallException tagged with the unit and the time (:meth:`FMUInstance.do_step`)."""
+    """The stepping loop; returns (the last communication point reached [s], whether the run
+    reached its stop time).  A failing doStep raises FMICallException tagged with the unit and the
+    time (:meth:`FMUInstance.do_step`)."""
     h, N = sc.step, sc.controller_every
     n = round(sc.stop_time / h)
     every = max(1, round(sc.record.interval / h))
@@ -160,7 +165,7 @@ def _loop(sc, jacobi, plant, ctrl, p_out, c_out, connections, profiles, rec, sto
         t = t0 + k * h
         if k % N == 0:
             if stop.signum:
-                break
+                return t, False
             for j, (unit, src) in enumerate(c_src):
                 c_in.values[j] = pv[src] if unit == PLANT else (held[src] if unit == CONTROLLER else src(t))
             c_in.write()
@@ -179,7 +184,7 @@ def _loop(sc, jacobi, plant, ctrl, p_out, c_out, connections, profiles, rec, sto
         p_in.write()
         plant.do_step(t, h)
         pv = p_out.read()
-    return t
+    return t, True
 
 
 def _signame(signum):

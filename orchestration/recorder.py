@@ -58,7 +58,9 @@ class Recorder:
         """Every recorded row (after :meth:`close`)."""
         if not self._chunks:
             return pd.DataFrame(columns=self.columns, dtype=float)
-        return pd.concat(self._chunks, ignore_index=True) if len(self._chunks) > 1 else self._chunks[0]
+        if len(self._chunks) > 1:
+            self._chunks = [pd.concat(self._chunks, ignore_index=True)]  # once
+        return self._chunks[0]
 
 
 class StreamingRecorder(Recorder):
