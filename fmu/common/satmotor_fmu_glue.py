@@ -115,6 +115,7 @@ class UnitSlave(Fmi2Slave):
 
     def __init__(self, **kwargs):
         super().__init__(**kwargs)
+        guard_process_exit(self.resources)  # see guard_process_exit (end of file)
         if self.FINGERPRINT and _FINGERPRINT != self.FINGERPRINT:
             raise ImportError(
                 f"{type(self).__name__}: the loaded satmotor ({satmotor.__file__}, version "
@@ -324,3 +325,49 @@ class UnitSlave(Fmi2Slave):
             if inst is not None:
                 inst.log(f"{cls.__name__}: deSerializeFMUstate: {state[_REFUSED]}", Fmi2Status.error)
         return state
+
+
+# --- process exit: pythonfmu 0.6.5-0.7.0 touches freed memory at exit; release its state in time ----------
+#
+# The native wrapper of these FMUs keeps a static std::shared_ptr<PyState> (PySlaveInstance.cpp).  At
+# exit() the C++ exit handlers destroy it (its block is freed, the pointer left set); then the library's
+# ELF destructor onLibraryUnload() -> finalizePythonInterpreter() does `pyState = nullptr` on it: an atomic
+# decrement on freed memory (and a virtual call through it whenever the freed word reads 1).  Exit
+# handlers run last-registered first, so the library's own finalizePythonInterpreter, registered here at
+# instantiation (after the library registered its static's destructor at load), runs first: the
+# pointer is null before the static is destroyed, and both later steps do nothing.
+
+_EXIT_GUARDED = set()  # dlopen handles of the binaries whose release is registered
+
+
+def guard_process_exit(resources):
+    """Register, once per binary, the pythonfmu library's own ``finalizePythonInterpreter()`` as a C
+    exit handler (glibc ``__cxa_atexit``) for the FMU unpacked next to ``resources``.  The library is
+    already loaded (this runs inside its fmi2Instantiate); it is pinned (RTLD_NODELETE, as the first
+    pythonfmu library of a process already is) so that the handler outlives a host's dlclose.  Linux
+    only; a library without that symbol (not pythonfmu >= 0.6.5) is left alone; never raises."""
+    try:
+        import ctypes
+        import glob
+        import os
+        import sys
+
+        if not sys.platform.startswith("linux") or not resources:
+            return
+        for path in glob.glob(os.path.join(os.path.dirname(os.path.abspath(resources)),
+                                           "binaries", "linux64", "*.so")):
+            try:  # RTLD_NOLOAD: only a library the host has loaded, never load one
+                lib = ctypes.CDLL(path, mode=os.RTLD_NOLOAD)
+            except OSError:
+                continue
+            if lib._handle in _EXIT_GUARDED or not hasattr(lib, "finalizePythonInterpreter"):
+                continue
+            ctypes.CDLL(path, mode=os.RTLD_NOLOAD | os.RTLD_NODELETE)  # pin
+            cxa_atexit = ctypes.CDLL("libc.so.6")["__cxa_atexit"]
+            cxa_atexit.argtypes = (ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p)
+            cxa_atexit.restype = ctypes.c_int
+            release = ctypes.cast(lib.finalizePythonInterpreter, ctypes.c_void_p)
+            if cxa_atexit(release, None, None) == 0:
+                _EXIT_GUARDED.add(lib._handle)
+    except Exception:  # noqa: BLE001 - a guard, never a reason to fail an instantiation
+        pass
