@@ -1,7 +1,6 @@
 """``python -m orchestration``: see :mod:`orchestration.cli`."""
 
-import sys
-
+from .clean_exit import exit_now
 from .cli import main
 
-sys.exit(main())
+exit_now(main())

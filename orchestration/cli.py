@@ -15,6 +15,7 @@ import sys
 from pathlib import Path
 
 from . import fmus
+from .clean_exit import exit_now
 
 OK, RUN_FAILED, INVALID, NOT_ACCEPTED = 0, 1, 2, 3
 
@@ -161,4 +162,7 @@ def parser():
 
 def main(argv=None):
     args = parser().parse_args(argv)
-    return args.func(args)
+    code = args.func(args)
+    if argv is None:  # this process's own command line (python -m orchestration, satmotor-cosim):
+        exit_now(code)  # end it here, before native exit code runs (see orchestration/clean_exit.py)
+    return code
