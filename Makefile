@@ -20,6 +20,7 @@ compare: $(STAMP)
 	$(PY) demos/compare_controllers.py --out results
 
 test: $(STAMP)
+	./scripts/system_packages.sh
 	$(PY) -m ruff check .
 	$(PY) -m pytest
 
