@@ -22,6 +22,7 @@ import os
 import signal
 import subprocess
 import sys
+import tempfile
 from concurrent.futures import ThreadPoolExecutor, as_completed
 from pathlib import Path
 
@@ -72,11 +73,12 @@ def duplicates(runnable):
     return {n: fs for n, fs in by_name.items() if len(fs) > 1}
 
 
-def run_one(path, out, fmu_dir, algorithm=None, name=None, should_stop=None):
+def run_one(path, out, fmu_dir, algorithm=None, name=None, should_stop=None, tmpdir=None):
     """Run one scenario in a child process; returns its summary row (a dict).  Never raises.
 
     ``should_stop``: a function polled while the child runs; when it returns True the child gets
-    SIGTERM (it writes its partial results) and the row says ``interrupted``.
+    SIGTERM (it writes its partial results) and the row says ``interrupted``.  ``tmpdir``: the
+    child's TMPDIR (where it extracts the FMUs).
     """
     path, out, fmu_dir = Path(path).resolve(), Path(out).resolve(), Path(fmu_dir).resolve()
     name = name or path.stem
@@ -88,7 +90,7 @@ def run_one(path, out, fmu_dir, algorithm=None, name=None, should_stop=None):
            "--no-build"]
     if algorithm:
         cmd += ["--algorithm", algorithm]
-    env = {**os.environ, PARENT_ENV: str(os.getpid())}
+    env = {**os.environ, PARENT_ENV: str(os.getpid()), **({"TMPDIR": str(tmpdir)} if tmpdir else {})}
     try:
         proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
     except OSError as exc:
@@ -144,8 +146,11 @@ def _progress(total):
 
 
 def _run_local(runnable, out, fmu_dir, jobs, algorithm, stop, done):
-    with ThreadPoolExecutor(max_workers=max(1, jobs)) as pool:  # each task runs and watches a child
-        futures = [pool.submit(run_one, f, out, fmu_dir, algorithm, name, lambda: bool(stop.signum))
+    # the children extract their FMUs under a directory of ours, removed at the end: even a child
+    # killed with SIGKILL (which cannot clean up) leaves nothing in the system's temporary directory
+    with tempfile.TemporaryDirectory(prefix="satmotor-batch-") as tmp, \
+            ThreadPoolExecutor(max_workers=max(1, jobs)) as pool:  # each task runs and watches a child
+        futures = [pool.submit(run_one, f, out, fmu_dir, algorithm, name, lambda: bool(stop.signum), tmp)
                    for f, name in runnable]
         for fut in as_completed(futures):
             done(fut.result())

@@ -205,7 +205,10 @@ def test_a_killed_batch_leaves_no_child_behind(tmp_path, fmu_dir):
 
 def test_a_child_killed_by_a_signal_is_a_failed_row_and_a_failed_batch(tmp_path, fmu_dir):
     d, out = _batch_dir(tmp_path, n_long=1), tmp_path / "out"
-    p = _start("batch", d, "--jobs", 2, "--out", out, "--fmus", fmu_dir)
+    tmp = tmp_path / "tmp"
+    tmp.mkdir()
+    p = _start("batch", d, "--jobs", 2, "--out", out, "--fmus", fmu_dir,
+               env={**os.environ, "TMPDIR": str(tmp)})
     _wait_children(d / "long0.yaml", 1)
     pid = int(next(ln for ln in _processes(d / "long0.yaml") if " run " in ln).split()[0])
     os.kill(pid, signal.SIGKILL)
@@ -213,6 +216,7 @@ def test_a_child_killed_by_a_signal_is_a_failed_row_and_a_failed_batch(tmp_path,
     assert p.returncode == 128 + signal.SIGKILL
     row = pd.read_csv(out / "summary.csv").set_index("scenario").loc["long0"]
     assert row["status"] == "failed" and "SIGKILL" in row["message"]
+    assert list(tmp.iterdir()) == []  # the killed child's extracted FMUs went with the batch's directory
 
 
 # --- batch correctness -------------------------------------------------------------------------------------
