@@ -38,14 +38,15 @@ class StopRequest:
 @contextmanager
 def catch(stop=None):
     """Within the block, SIGINT/SIGTERM set ``stop.signum`` (a new :class:`StopRequest` if None).
-    Only the main thread can install handlers; elsewhere the block runs with the handlers as
-    they are."""
+    A signal this process inherited as ignored (e.g. SIGINT of a job started with ``&`` by a
+    non-interactive shell, or under ``nohup``) stays ignored, as Python itself does.  Only the
+    main thread can install handlers; elsewhere the block runs with the handlers as they are."""
     stop = stop or StopRequest()
     if threading.current_thread() is not threading.main_thread():
         yield stop
         return
-    previous = {s: signal.getsignal(s) for s in SIGNALS}
-    for s in SIGNALS:
+    previous = {s: signal.getsignal(s) for s in SIGNALS if signal.getsignal(s) is not signal.SIG_IGN}
+    for s in previous:
         signal.signal(s, lambda signum, frame: stop.request(signum))
     try:
         yield stop
