@@ -7,7 +7,7 @@ and the load torque ``T_load`` [N m]::
     x' = F(x) + G(x) v
 
 Derivation (equivalent to seed eqs 24, 28-40 with the corrections of
-``shared/design/errata.md``; the seed's coefficients a, b3, g0 divide by M_dq and
+``docs/errata.md``; the seed's coefficients a, b3, g0 divide by M_dq and
 are singular at i_mu_q = 0, this form is not).  With ``sigma = 1 + k^2 l_s/l_r``,
 ``M`` the dynamic inductance matrix and ``L = l_s I2 + sigma M``::
 

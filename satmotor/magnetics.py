@@ -17,7 +17,7 @@ Each curve gives, all finite and smooth at ``I = 0``:
 * ``solve(a, c)`` the root I >= 0 of ``a I + psi(I) = c`` (a >= 0), with psi(I)
 
 The dynamic inductance matrix ``M = d lambda / d i_mu`` (seed eqs 20-22, eq 21
-corrected per ``shared/design/errata.md``: no ``m`` term in M_dq) is returned by
+corrected per ``docs/errata.md``: no ``m`` term in M_dq) is returned by
 :func:`dynamic_inductances`.
 """
 
