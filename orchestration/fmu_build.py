@@ -11,9 +11,11 @@ package as ``satmotor_fmu_sources``, so an installed ``satmotor-cosim`` builds t
 checkout too.
 
 Each FMU is built in a child process (pythonfmu imports the slave script to read its variables,
-and a later simulation in the same process would otherwise run the cached build copy), then
-made reproducible: fixed timestamps, sorted zip entries, and a GUID derived from the content, so
-two builds from the same commit give the same model description and GUID.
+and a later simulation in the same process would otherwise run the cached build copy); its model
+description is completed (units, default experiment, version, license, model structure:
+``orchestration.fmu_model_description``), then the FMU is made reproducible: fixed timestamps,
+sorted zip entries, and a GUID derived from the content, so two builds from the same commit give
+the same model description and GUID.
 """
 
 from __future__ import annotations
@@ -34,6 +36,9 @@ import zipfile
 from pathlib import Path
 
 import satmotor
+
+from .fmu_model_description import complete as complete_model_description
+from .fmu_model_description import output_initial_calculated
 
 
 def _sources():
@@ -80,6 +85,8 @@ def documentation(name):
     for table in tables:
         for v in getattr(itf, table):
             start = str(v.start).lower() if isinstance(v.start, bool) else v.start  # as in the XML
+            if v.causality == "output" and output_initial_calculated(name):
+                start = "calculated"  # from the parameters at initialization (no start in the XML)
             rows.append("<tr>" + "".join(f"<td>{html.escape(str(c))}</td>" for c in (
                 v.name, v.causality, v.type, start, v.unit, v.description)) + "</tr>")
     flags = {**COMMON_OPTIONS, **options}
@@ -139,8 +146,10 @@ def build_one(name, out_dir):
         raw = FmuBuilder.build_FMU(staged, dest=tmp / "raw", project_files={pkg, tmp / GLUE.name},
                                    **COMMON_OPTIONS, **options)
         doc = documentation(name).encode("utf-8")
+        with zipfile.ZipFile(raw) as z:
+            md = complete_model_description(name, z.read("modelDescription.xml"))
         out = Path(out_dir) / f"{name}.fmu"
-        guid = make_reproducible(raw, out, {"documentation/index.html": doc})
+        guid = make_reproducible(raw, out, {"documentation/index.html": doc, "modelDescription.xml": md})
     print(f"built {out}  guid {guid}")
     return out
 

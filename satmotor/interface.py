@@ -3,7 +3,8 @@
 The tables below are the single source of the units' interfaces: the FMU slaves register their
 variables from them, the FMU documentation is generated from them, and the plain-Python
 reference uses the same units.  Defaults come from the parameter dataclasses (no number is
-written twice).  Units are in the descriptions (pythonfmu cannot write a unit attribute).
+written twice).  Units are in the descriptions and, added by the build
+(``orchestration.fmu_model_description``), in the FMUs' ``unit`` attributes.
 """
 
 from __future__ import annotations
