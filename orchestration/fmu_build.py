@@ -127,6 +127,20 @@ def make_reproducible(src, dst, extra_files=None):
     return guid
 
 
+BUILD_INPUTS = "resources/build_inputs.sha256"  # inside each FMU: what it was built from
+
+
+def inputs_fingerprint(name):
+    """SHA-256 over everything the FMU ``name`` is built from: the satmotor package, the glue, its
+    slave script and this build logic (so a change to any of them makes a built FMU stale)."""
+    from . import fmu_model_description
+
+    h = hashlib.sha256(satmotor.source_fingerprint(GLUE).encode())
+    for f in (FMUS[name][0], Path(__file__), Path(fmu_model_description.__file__)):
+        h.update(Path(f).read_bytes())
+    return h.hexdigest()
+
+
 def build_one(name, out_dir):
     """Build one FMU (call in a fresh process: pythonfmu imports the slave script)."""
     from pythonfmu.builder import FmuBuilder
@@ -149,7 +163,8 @@ def build_one(name, out_dir):
         with zipfile.ZipFile(raw) as z:
             md = complete_model_description(name, z.read("modelDescription.xml"))
         out = Path(out_dir) / f"{name}.fmu"
-        guid = make_reproducible(raw, out, {"documentation/index.html": doc, "modelDescription.xml": md})
+        guid = make_reproducible(raw, out, {"documentation/index.html": doc, "modelDescription.xml": md,
+                                            BUILD_INPUTS: (inputs_fingerprint(name) + "\n").encode()})
     print(f"built {out}  guid {guid}")
     return out
 

@@ -1,22 +1,19 @@
 """Where the FMUs are, whether they match the current sources, and building them.
 
 The orchestration never imports the FMU code: it runs :mod:`orchestration.fmu_build` in a child
-process and reads the fingerprint the build baked into each slave script.
+process and compares the fingerprint of the build inputs it wrote into each FMU
+(``resources/build_inputs.sha256``) with the current sources.
 """
 
 from __future__ import annotations
 
-import re
 import subprocess
 import sys
 import zipfile
 from pathlib import Path
 
-import satmotor
-
 DEFAULT_DIR = Path("build") / "fmus"  # relative to the working directory
 PLANT, CONTROLLER = "SaturatedInductionMotor.fmu", "BacksteppingController.fmu"
-_SLAVES = {PLANT: "resources/satmotor_plant_fmu.py", CONTROLLER: "resources/satmotor_controller_fmu.py"}
 
 
 def paths(fmu_dir=DEFAULT_DIR):
@@ -25,23 +22,20 @@ def paths(fmu_dir=DEFAULT_DIR):
     return d / PLANT, d / CONTROLLER
 
 
-def built_fingerprint(fmu_path, slave):
-    """The satmotor fingerprint baked into an FMU, or None."""
-    try:
-        with zipfile.ZipFile(fmu_path) as z:
-            text = z.read(slave).decode("utf-8")
-    except (OSError, KeyError, zipfile.BadZipFile):
-        return None
-    m = re.search(r'FINGERPRINT = "([0-9a-f]{64})"', text)
-    return m.group(1) if m else None
-
-
 def up_to_date(fmu_dir=DEFAULT_DIR):
-    """True when both FMUs exist and were built from the current satmotor and glue sources."""
-    from .fmu_build import GLUE
+    """True when both FMUs exist and were built from the current sources: satmotor, the glue, the
+    slave scripts and the build logic (:func:`orchestration.fmu_build.inputs_fingerprint`)."""
+    from .fmu_build import BUILD_INPUTS, inputs_fingerprint
 
-    want = satmotor.source_fingerprint(GLUE)
-    return all(built_fingerprint(p, _SLAVES[p.name]) == want for p in paths(fmu_dir))
+    for p in paths(fmu_dir):
+        try:
+            with zipfile.ZipFile(p) as z:
+                built = z.read(BUILD_INPUTS).decode().strip()
+        except (OSError, KeyError, zipfile.BadZipFile):
+            return False
+        if built != inputs_fingerprint(p.stem):
+            return False
+    return True
 
 
 def build(fmu_dir=DEFAULT_DIR, quiet=False):

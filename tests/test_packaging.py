@@ -69,3 +69,29 @@ def test_installed_package_runs_build_validate_run_and_batch_outside_a_checkout(
     r = cli("batch", ".", "--out", "res_batch", "--jobs", "1")
     assert r.returncode == 0, r.stdout + r.stderr
     assert (work / "res_batch" / "summary.csv").exists()
+
+
+def test_a_change_to_any_build_input_makes_the_fmus_stale(fmu_dir, tmp_path, monkeypatch):
+    import shutil
+    import zipfile
+
+    from orchestration import fmu_build, fmus
+
+    assert fmus.up_to_date(fmu_dir)
+    copy = tmp_path / "fmus"
+    shutil.copytree(fmu_dir, copy)
+    assert fmus.up_to_date(copy)
+    # the slave script changed since the build (one comment line): the recorded inputs differ
+    script, *rest = fmu_build.FMUS["SaturatedInductionMotor"]
+    edited = tmp_path / script.name
+    edited.write_text(script.read_text() + "# edited\n")
+    monkeypatch.setitem(fmu_build.FMUS, "SaturatedInductionMotor", (edited, *rest))
+    assert not fmus.up_to_date(copy)
+    monkeypatch.undo()
+    plain = tmp_path / "old.fmu"  # an FMU built before the record existed
+    with zipfile.ZipFile(copy / fmus.PLANT) as src, zipfile.ZipFile(plain, "w") as dst:
+        for n in src.namelist():
+            if n != fmu_build.BUILD_INPUTS:
+                dst.writestr(n, src.read(n))
+    shutil.move(plain, copy / fmus.PLANT)
+    assert not fmus.up_to_date(copy)
