@@ -142,7 +142,7 @@ class UnitSlave(Fmi2Slave):
         self._go = False  # doStep may run: initialized, not terminated, no refusal pending
         self._kinds = {v.name: v.type for v in self.VARIABLES}
         self._take_inputs = _picker(self._inputs)
-        self._plans = {}  # fmi2Get/SetReal fast path: tuple(vrs) -> plan (see get_real, set_real)
+        self._plans = {}  # fmi2Get/SetReal fast path: (tuple(vrs), is a set) -> plan (see get_real)
         self._identity = {"model": type(self).__name__, "fingerprint": self.FINGERPRINT or _FINGERPRINT,
                           "guid": _guid(self.resources)}
         type(self)._current = weakref.ref(self)  # for _fmu_state_from_bytes, called on the class
