@@ -64,8 +64,18 @@ def remove_extracted(directory):
     shutil.rmtree(directory, ignore_errors=True)
 
 
+def check(function, status):
+    """Raise FMICallException, as fmpy does, for a status worse than fmi2Warning."""
+    if status > 1:
+        raise FMICallException(function=function, status=status)
+
+
 class RealPort:
-    """A fixed list of Real variables of one instance, read or written in one FMI call."""
+    """A fixed list of Real variables of one instance, read or written in one FMI call.
+
+    :attr:`get_args` and :attr:`set_args` are the argument tuples of the raw ctypes calls
+    ``FMUInstance.raw("fmi2GetReal")(*port.get_args)`` (the stepping loop's path, see
+    :meth:`FMUInstance.raw`); :meth:`read` and :meth:`write` go through fmpy."""
 
     def __init__(self, instance, names):
         self.names = tuple(names)
@@ -73,6 +83,7 @@ class RealPort:
         self._vr = (fmi2ValueReference * self.n)(*instance.vr(self.names))
         self.values = (fmi2Real * self.n)()
         self._inst = instance
+        self.get_args = self.set_args = (instance.slave.component, self._vr, self.n, self.values)
 
     def write(self):
         s = self._inst.slave
@@ -171,6 +182,21 @@ class FMUInstance:
             self.fatal = exc.status >= 4
             raise
         self.initialized = True
+
+    def raw(self, function):
+        """The ctypes function ``function`` (e.g. ``"fmi2DoStep"``) of this instance's library, as
+        fmpy loaded it (argument types set), without fmpy's per-call wrapper: the caller checks the
+        status (:func:`check`; :meth:`step_failed` for fmi2DoStep)."""
+        return getattr(self.slave.dll, function)
+
+    def step_failed(self, status, t):
+        """Raise the FMICallException of a failed fmi2DoStep at ``t``, tagged as :meth:`do_step` does."""
+        try:
+            check("fmi2DoStep", status)
+        except FMICallException as exc:
+            self.fatal = exc.status >= 4
+            exc.unit, exc.time = self.name, t
+            raise
 
     def do_step(self, t, h):
         """fmi2DoStep; a failure raises FMICallException tagged ``.unit`` (this instance's name)

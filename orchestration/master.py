@@ -24,10 +24,11 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass
+from operator import itemgetter
 
 from fmpy.fmi1 import FMICallException
 
-from .fmu_instance import STATUS, FMUInstance, RealPort, extract_owned, remove_extracted
+from .fmu_instance import STATUS, FMUInstance, RealPort, check, extract_owned, remove_extracted
 from .recorder import Recorder
 from .wiring import CONTROLLER, DEFAULT_CONNECTIONS, PLANT, PROFILE, Connection, inputs_of, resolve
 
@@ -144,46 +145,96 @@ def _report(unit, exc, inst):
     return f"{unit}: {exc}" + (f" -- {first}" if first else "")
 
 
+def _input_port(inst, unit, connections, outputs, profiles, prof):
+    """The input port of ``unit`` and a function ``(plant values, controller values, profile values)
+    -> the port's values``.  The port lists the inputs fed by the plant, then by the controller,
+    then by profiles (``prof``: the value functions in recording order), so the values are three
+    C-level picks joined; the FMI call sets them all at once in that order."""
+    names = inputs_of(connections, unit)
+    srcs = resolve(connections, unit, names, outputs, profiles)
+    groups = {PLANT: [], CONTROLLER: [], PROFILE: []}
+    for name, s in zip(names, srcs):
+        ref = s.ref if s.unit != PROFILE else next(i for i, f in enumerate(prof) if f is s.ref)
+        groups[s.unit].append((name, ref))
+    order = groups[PLANT] + groups[CONTROLLER] + groups[PROFILE]
+    port = RealPort(inst, [name for name, _ in order])
+    pick_p, pick_c, pick_f = (_picker([ref for _, ref in groups[u]]) for u in (PLANT, CONTROLLER, PROFILE))
+
+    def values(pv, cv, fv):
+        return pick_p(pv) + pick_c(cv) + pick_f(fv)
+
+    return port, values
+
+
+def _picker(indices):
+    """``sequence -> tuple of sequence[i] for i in indices`` (one C-level call)."""
+    if len(indices) >= 2:
+        return itemgetter(*indices)
+    if len(indices) == 1:
+        i = indices[0]
+        return lambda seq: (seq[i],)
+    return lambda seq: ()
+
+
 def _loop(sc, jacobi, plant, ctrl, p_out, c_out, connections, profiles, rec, stop):
     """The stepping loop; returns (the last communication point reached [s], whether the run
     reached its stop time).  A failing doStep raises FMICallException tagged with the unit and the
-    time (:meth:`FMUInstance.do_step`)."""
+    time (:meth:`FMUInstance.step_failed`).  The FMI functions are called through ctypes directly
+    (:meth:`FMUInstance.raw`) with argument tuples made once; the profiles are evaluated once per
+    step (pure functions of t); every value exchanged is a plain float."""
     h, N = sc.step, sc.controller_every
     n = round(sc.stop_time / h)
     every = max(1, round(sc.record.interval / h))
     outputs = {PLANT: p_out.names, CONTROLLER: c_out.names}
-    p_in = RealPort(plant, inputs_of(connections, PLANT))
-    c_in = RealPort(ctrl, inputs_of(connections, CONTROLLER))
-    c_src = [(s.unit, s.ref) for s in resolve(connections, CONTROLLER, c_in.names, outputs, profiles)]
-    p_src = [(s.unit, s.ref) for s in resolve(connections, PLANT, p_in.names, outputs, profiles)]
     prof = [profiles[p] for p in sorted(profiles)]
-    pv, cv = p_out.read(), c_out.read()
-    held = list(cv)  # controller outputs seen by the plant (Jacobi: one sample old); made once
+    c_in, c_values = _input_port(ctrl, CONTROLLER, connections, outputs, profiles, prof)
+    p_in, p_values = _input_port(plant, PLANT, connections, outputs, profiles, prof)
+    get_p, get_c = plant.raw("fmi2GetReal"), ctrl.raw("fmi2GetReal")
+    set_p, set_c = plant.raw("fmi2SetReal"), ctrl.raw("fmi2SetReal")
+    step_p, step_c = plant.raw("fmi2DoStep"), ctrl.raw("fmi2DoStep")
+    comp_p, comp_c = plant.slave.component, ctrl.slave.component
+    pg, cg, pvals, cvals = p_out.get_args, c_out.get_args, p_out.values, c_out.values
+    ps, cs, p_invals, c_invals = p_in.set_args, c_in.set_args, p_in.values, c_in.values
+    pv, cv = p_out.read()[:], c_out.read()[:]  # lists of floats, new ones after each read
+    held = cv  # controller outputs seen by the plant (Jacobi: one sample old)
     Ts, t0, t = sc.Ts, 0.0, 0.0
     append = rec.append
     for k in range(n + 1):
         t = t0 + k * h
+        fv = [f(t) for f in prof]
         if k % N == 0:
             if stop.signum:
                 return t, False
-            for j, (unit, src) in enumerate(c_src):
-                c_in.values[j] = pv[src] if unit == PLANT else (held[src] if unit == CONTROLLER else src(t))
-            c_in.write()
+            c_invals[:] = c_values(pv, held, fv)
+            r = set_c(*cs)
+            if r > 1:
+                check("fmi2SetReal", r)
             if jacobi:
-                held[:] = cv  # the previous sample's voltages, copied into the list made once
-            ctrl.do_step(t, Ts)
-            cv = c_out.read()  # the port's own array, refreshed in place
+                held = cv  # the previous sample's voltages
+            r = step_c(comp_c, t, Ts, 1)
+            if r > 1:
+                ctrl.step_failed(r, t)
+            r = get_c(*cg)
+            if r > 1:
+                check("fmi2GetReal", r)
+            cv = cvals[:]
             if not jacobi:
                 held = cv
         if k % every == 0:
-            append([t, *pv, *cv, *[f(t) for f in prof]])
+            append((t, *pv, *cv, *fv))
         if k == n:
             break
-        for j, (unit, src) in enumerate(p_src):
-            p_in.values[j] = held[src] if unit == CONTROLLER else (pv[src] if unit == PLANT else src(t))
-        p_in.write()
-        plant.do_step(t, h)
-        pv = p_out.read()
+        p_invals[:] = p_values(pv, held, fv)
+        r = set_p(*ps)
+        if r > 1:
+            check("fmi2SetReal", r)
+        r = step_p(comp_p, t, h, 1)
+        if r > 1:
+            plant.step_failed(r, t)
+        r = get_p(*pg)
+        if r > 1:
+            check("fmi2GetReal", r)
+        pv = pvals[:]
     return t, True
 
 

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import pandas as pd
+import numpy as np
 
 CHUNK_ROWS = 20_000  # rows per chunk: about 4 MB of Python floats for 24 columns
 FILES = ("timeseries.csv", "timeseries.parquet")
@@ -21,7 +21,8 @@ class Recorder:
     """Rows ``[time, values...]`` in the order of ``columns``, in memory.
 
     ``keep``: indices of the row entries to record (None: all), chosen once so the stepping loop
-    appends whole rows and the recorder drops what is not wanted per chunk, not per row.
+    appends whole rows and the recorder drops what is not wanted per chunk, not per row.  Each full
+    chunk becomes one float64 array (rows x kept columns); pandas is imported only by :meth:`frame`.
     """
 
     def __init__(self, columns, keep=None, chunk_rows=CHUNK_ROWS):
@@ -38,29 +39,54 @@ class Recorder:
         if len(self.rows) >= self._chunk_rows:
             self.flush()
 
-    def _chunk_frame(self):
-        df = pd.DataFrame(self.rows, columns=self._all)
-        return df if self._keep is None else df[self.columns]
+    def _chunk_array(self):
+        a = np.array(self.rows, dtype=float).reshape(len(self.rows), len(self._all))
+        return a if self._keep is None else a[:, self._keep]
 
     def flush(self):
         if self.rows:
-            self._write(self._chunk_frame())
+            self._write(self._chunk_array())
             self.n_rows += len(self.rows)
             self.rows = []
 
-    def _write(self, df):
-        self._chunks.append(df)
+    def _write(self, chunk):
+        self._chunks.append(chunk)
 
     def close(self):
         self.flush()
 
-    def frame(self):
-        """Every recorded row (after :meth:`close`)."""
-        if not self._chunks:
-            return pd.DataFrame(columns=self.columns, dtype=float)
+    def arrays(self, columns=None):
+        """``{column: float64 array}`` of every recorded row (after :meth:`close`); ``columns``:
+        only those.  No pandas."""
         if len(self._chunks) > 1:
-            self._chunks = [pd.concat(self._chunks, ignore_index=True)]  # once
-        return self._chunks[0]
+            self._chunks = [np.concatenate(self._chunks)]  # once
+        a = self._chunks[0] if self._chunks else np.empty((0, len(self.columns)))
+        index = {c: i for i, c in enumerate(self.columns)}
+        return {c: a[:, index[c]] for c in (self.columns if columns is None else columns)}
+
+    def frame(self):
+        """Every recorded row (after :meth:`close`) as a DataFrame."""
+        import pandas as pd
+
+        return pd.DataFrame(self.arrays(), columns=self.columns, dtype=float)
+
+
+def csv_text(chunk):
+    """The CSV lines of a float array, as pandas' ``to_csv`` writes them (shortest round-trip
+    ``repr`` of each value, an empty field for NaN), in one pass of precomputed formatting."""
+    fmt = ",".join(["%r"] * chunk.shape[1]) + "\n"
+    rows = chunk.tolist()
+    if np.isnan(chunk).any():
+        return "".join([",".join("" if v != v else repr(v) for v in r) + "\n" for r in rows])
+    return "".join([fmt % tuple(r) for r in rows])
+
+
+def _numpy(column):
+    """A float64 array of a pyarrow column (no pandas: ChunkedArray.to_numpy imports it)."""
+    if column.num_chunks == 0:
+        return np.empty(0)
+    return np.concatenate([np.frombuffer(c.buffers()[1], np.float64, len(c), 8 * c.offset) if not c.null_count
+                           else c.to_numpy(zero_copy_only=False) for c in column.chunks])
 
 
 class StreamingRecorder(Recorder):
@@ -82,14 +108,17 @@ class StreamingRecorder(Recorder):
         self._csv = open(self.csv_path, "w", newline="")  # noqa: SIM115 - closed in close()
         self._csv.write(",".join(self.columns) + "\n")
         self._csv.flush()
-        schema = pa.schema([(c, pa.float64()) for c in self.columns])
-        self._parquet = pq.ParquetWriter(self.parquet_path, schema)
+        self._schema = pa.schema([(c, pa.float64()) for c in self.columns])
+        self._parquet = pq.ParquetWriter(self.parquet_path, self._schema)
         self._closed = False
 
-    def _write(self, df):
-        df.to_csv(self._csv, header=False, index=False, lineterminator="\n")
+    def _write(self, chunk):
+        self._csv.write(csv_text(chunk))
         self._csv.flush()
-        self._parquet.write_table(self._pa.Table.from_pandas(df.astype(float), preserve_index=False))
+        pa = self._pa  # columns from their buffers: pa.array would import pandas (~0.3 s) to check types
+        cols = [pa.Array.from_buffers(pa.float64(), len(chunk), [None, pa.py_buffer(np.ascontiguousarray(c))])
+                for c in chunk.T]
+        self._parquet.write_table(pa.Table.from_arrays(cols, schema=self._schema))
 
     def close(self):
         if self._closed:
@@ -101,6 +130,16 @@ class StreamingRecorder(Recorder):
             self._csv.close()
             self._parquet.close()
 
+    def arrays(self, columns=None):
+        """``{column: float64 array}`` read back from the Parquet file (``columns``: only those)."""
+        import pyarrow.parquet as pq
+
+        with pq.ParquetFile(self.parquet_path) as f:  # not read_table: pyarrow.dataset imports pandas
+            table = f.read(columns=columns)
+        return {c: _numpy(table.column(c)) for c in table.column_names}
+
     def frame(self, columns=None):
         """The recorded rows read back from the Parquet file (``columns``: only those)."""
+        import pandas as pd
+
         return pd.read_parquet(self.parquet_path, columns=columns)

@@ -11,6 +11,8 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+import numpy as np
+
 from satmotor.metrics import acceptance, closed_loop_metrics, run_phase
 
 from .recorder import FILES, StreamingRecorder
@@ -20,15 +22,16 @@ def _run_phase(df):
     """Run-phase mask of a recorded run (:func:`satmotor.metrics.run_phase`: from the first W > 0,
     or for the PI baseline, which reports W = 0, from the first flux error within 10 % of the
     set-point)."""
-    return run_phase(df["controller.W"].to_numpy(), df["controller.e1"].to_numpy(),
-                     df["profile.psi_ref"].to_numpy())
+    return run_phase(np.asarray(df["controller.W"]), np.asarray(df["controller.e1"]),
+                     np.asarray(df["profile.psi_ref"]))
 
 
 def compute_metrics(df, scenario):
     """Metrics of a recorded run (SI units): :func:`satmotor.metrics.closed_loop_metrics` on the
-    frame's columns (definitions there), the steady-state window from the scenario's acceptance
-    ``ss_window`` (default: the last 10 % of the run).  ``{}`` for an empty frame."""
-    if df.empty:
+    columns of ``df`` (a DataFrame, or ``{column: array}``; definitions there), the steady-state
+    window from the scenario's acceptance ``ss_window`` (default: the last 10 % of the run).  ``{}``
+    for an empty record."""
+    if len(df["time"]) == 0:
         return {}
     columns = {"t": "time", "omega_m": "plant.omega_m", "omega_set": "profile.omega_ref",
                "psi_r_alpha": "plant.psi_r_alpha", "psi_r_beta": "plant.psi_r_beta",
@@ -36,7 +39,7 @@ def compute_metrics(df, scenario):
                "i_s_alpha": "plant.i_s_alpha", "i_s_beta": "plant.i_s_beta",
                "v_s_alpha": "controller.v_s_alpha", "v_s_beta": "controller.v_s_beta", "W": "controller.W"}
     acc = scenario.acceptance
-    return closed_loop_metrics(**{k: df[c].to_numpy() for k, c in columns.items()}, run=_run_phase(df),
+    return closed_loop_metrics(**{k: np.asarray(df[c]) for k, c in columns.items()}, run=_run_phase(df),
                                ss_window=acc.ss_window if acc is not None and acc.ss_window else None)
 
 
@@ -96,17 +99,18 @@ def write_results(result, out_dir, plot=True):
         df = df[[df.columns[i] for i in recorded_selection(sc, list(df.columns))]]
         df.to_csv(d / FILES[0], index=False)
         df.to_parquet(d / FILES[1], index=False)
-    df = rec.frame()
-    metrics = compute_metrics(df, sc) if result.ok else {}
+    df = rec.arrays()  # {column: array}: the metrics and the figure need no DataFrame
+    rows = len(df["time"]) if "time" in df else 0
+    metrics = compute_metrics(df, sc) if result.ok and rows else {}
     acceptance = check_acceptance(metrics, sc)
     summary = {
         "scenario": sc.name, "file": str(sc.path), "status": result.status, "message": result.message,
         "failed_unit": result.failed_unit, "t_end": result.t_end, "stop_time": sc.stop_time,
-        "wall_time": result.wall_time, "rows": len(df), "metrics": metrics, "acceptance": acceptance,
+        "wall_time": result.wall_time, "rows": rows, "metrics": metrics, "acceptance": acceptance,
         "accepted": all(v["pass"] for v in acceptance.values()) if acceptance else None,
     }
     (d / "metrics.json").write_text(json.dumps(summary, indent=2, default=float) + "\n")
-    if plot and len(df) > 1:
+    if plot and rows > 1:
         from .plots import figure
 
         figure(df, d / "figure.png", f"{sc.name}: {sc.description}"[:110])

@@ -173,6 +173,39 @@ class ArctanCurve(_Curve):
         d = self.L_m0 - self.L_m_inf
         return (self.L_m_inf * I + d * self.I_par * math.atan(x), self.L_m_inf + d / (1.0 + x * x))
 
+    def solve(self, a, c):
+        """:meth:`_Curve.solve` with ``_psi_dpsi`` written out: the same operations in the same order
+        (so the same iterates and the same root, bit for bit), without a call per iterate."""
+        if c <= 0.0:
+            return 0.0, 0.0
+        atan, inf = math.atan, math.inf
+        L_inf, I_par = self.L_m_inf, self.I_par
+        d = self.L_m0 - L_inf
+        dI = d * I_par
+        lo = 0.0
+        x = c / (a + self.m0)
+        hi = inf
+        u = x / I_par
+        psi, dpsi = L_inf * x + dI * atan(u), L_inf + d / (1.0 + u * u)
+        for _ in range(_MAX_ITER):
+            g = a * x + psi - c
+            if g > 0.0:
+                hi = x
+            elif g < 0.0:
+                lo = x
+            else:
+                return x, psi
+            x_new = x - g / (a + dpsi)
+            if not (lo < x_new < hi):
+                x_new = 0.5 * (lo + hi) if hi < inf else 2.0 * x
+            step = x_new - x
+            x = x_new
+            u = x / I_par
+            psi, dpsi = L_inf * x + dI * atan(u), L_inf + d / (1.0 + u * u)
+            if abs(step) <= _REL_TOL * x:
+                return x, psi
+        raise ArithmeticError(f"{self.name}: no convergence solving a I + psi(I) = c (a={a}, c={c})")
+
     def m(self, I):
         x = I / self.I_par
         if x < 1e-2:

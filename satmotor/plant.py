@@ -93,7 +93,18 @@ class Plant:
     def derivatives(self, t, x, v_a, v_b, T_load):
         """Right-hand side ``dx/dt`` [SI per s] for constant inputs over the call (state order)."""
         psa, psb, pra, prb, w = x[PSI_S_A], x[PSI_S_B], x[PSI_R_A], x[PSI_R_B], x[OMEGA_M]
-        ima, imb, _, _, m = self.magnetizing(psa, psb, pra, prb)
+        # self.magnetizing written out (same operations): one call less per evaluation
+        ua = psa * self._inv_ls + self._k_lr * pra
+        ub = psb * self._inv_ls + self._k_lr * prb
+        un = math.hypot(ua, ub)
+        le = self._le
+        I, psi = self._curve.solve(le, le * un)
+        if I == 0.0:
+            ima = imb = 0.0
+            m = self._m0
+        else:
+            s = I / un
+            ima, imb, m = s * ua, s * ub, psi / I
         isa = (psa - m * ima) * self._inv_ls
         isb = (psb - m * imb) * self._inv_ls
         km = self._k * m

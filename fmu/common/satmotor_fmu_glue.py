@@ -23,6 +23,7 @@ import json
 import math
 import weakref
 import xml.etree.ElementTree as ET
+from operator import itemgetter
 from pathlib import Path
 
 from pythonfmu import Boolean, Fmi2Causality, Fmi2Initial, Fmi2Slave, Fmi2Variability, Integer, Real, String
@@ -95,6 +96,16 @@ def _guid(resources):
     return guid
 
 
+def _picker(names):
+    """A function ``mapping -> tuple of mapping[name] for names`` (one C-level call)."""
+    if len(names) >= 2:
+        return itemgetter(*names)
+    if len(names) == 1:
+        name = names[0]
+        return lambda d: (d[name],)
+    return lambda d: ()
+
+
 def _tag_text(tag):
     if not isinstance(tag, dict):
         return f"an untagged FMU (tag {tag!r:.60})"
@@ -130,6 +141,8 @@ class UnitSlave(Fmi2Slave):
         self._pending = []  # refusals not yet reported by a doStep
         self._go = False  # doStep may run: initialized, not terminated, no refusal pending
         self._kinds = {v.name: v.type for v in self.VARIABLES}
+        self._take_inputs = _picker(self._inputs)
+        self._plans = {}  # fmi2Get/SetReal fast path: (tuple(vrs), is a set) -> plan (see get_real)
         self._identity = {"model": type(self).__name__, "fingerprint": self.FINGERPRINT or _FINGERPRINT,
                           "guid": _guid(self.resources)}
         type(self)._current = weakref.ref(self)  # for _fmu_state_from_bytes, called on the class
@@ -189,7 +202,7 @@ class UnitSlave(Fmi2Slave):
         if not (self._go and 0.0 < step_size < _INF and -_INF < current_time < _INF):
             return self._refuse_step(current_time, step_size)
         try:
-            self._unit.step(current_time, step_size, tuple(getattr(self, n) for n in self._inputs))
+            self._unit.step(current_time, step_size, self._take_inputs(self.__dict__))
         except Exception as exc:
             self.log(f"{type(self).__name__} at t = {current_time!r} s: {exc}", Fmi2Status.discard)
             return False
@@ -216,8 +229,51 @@ class UnitSlave(Fmi2Slave):
         return False
 
     def _publish(self):
-        for name, value in zip(self._outputs, self._unit.outputs()):
-            setattr(self, name, value)
+        self.__dict__.update(zip(self._outputs, self._unit.outputs()))
+
+    # --- fmi2GetReal / fmi2SetReal --------------------------------------------------------------------
+    # pythonfmu's get_real/set_real call a Python getter or setter per variable.  Here a list of value
+    # references seen before is served by a plan made once for it: the names of the variables, read from
+    # or written to the instance's attributes in one C-level call.  A set_real plan exists only for a
+    # list of Real inputs (settable in every phase); any other list (parameters, outputs, refusals after
+    # initialization, a value reference of another type or unknown) takes pythonfmu's per-variable path,
+    # with its setters (swapped by exit_initialization_mode), its errors and its order of effects.
+
+    _MAX_PLANS = 64
+
+    def _plan(self, key, settable):
+        if len(self._plans) >= self._MAX_PLANS:
+            self._plans.clear()
+        names = []
+        for vr in key:
+            var = self.vars.get(vr)
+            if (not isinstance(var, Real) or "." in var.name
+                    or (settable and var.causality != Fmi2Causality.input)):
+                names = None
+                break
+            names.append(var.local_name)
+        plan = False if names is None else (tuple(names) if settable else _picker(names))
+        self._plans[key, settable] = plan
+        return plan
+
+    def get_real(self, vrs):
+        key = tuple(vrs)
+        plan = self._plans.get((key, False))
+        if plan is None:
+            plan = self._plan(key, False)
+        if plan is False:
+            return super().get_real(vrs)
+        return list(map(float, plan(self.__dict__)))
+
+    def set_real(self, vrs, values):
+        key = tuple(vrs)
+        plan = self._plans.get((key, True))
+        if plan is None:
+            plan = self._plan(key, True)
+        if plan is False or len(values) != len(plan):
+            return super().set_real(vrs, values)
+        self.__dict__.update(zip(plan, values))
+        return None
 
     # --- FMU state -----------------------------------------------------------------------------------
     # A state is a dict: every variable by name, _UNIT (the unit's flat state, None before
