@@ -56,7 +56,10 @@ def check_validate(path):
 
 
 def check_fmutool(path):
-    from fmu_manipulation_toolbox.assistant.fmutools import check_fmu
+    try:
+        from fmu_manipulation_toolbox.assistant.fmutools import check_fmu
+    except ImportError:
+        return "SKIP", "fmu-manipulation-toolbox is not installed (pip install \"satmotor[check]\")"
 
     report = check_fmu(Path(path))
     if report.get("compliant") and report.get("error_count", 0) == 0:
