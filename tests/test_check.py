@@ -119,3 +119,20 @@ def test_a_reference_one_percent_off_fails_reference(fmu_dir, tmp_path, capsys):
     assert verdict == "FAIL" and "omega_m" in detail and "band 1e-09" in detail, detail
     assert all(v == ("KNOWN" if c == "bad-parameter" else "PASS")
                for (n, c), (v, _) in verdicts.items() if c != "reference")
+
+
+def test_a_crashed_probe_is_named_by_its_signal():
+    assert check.died(-6, "") == "the child process killed by SIGABRT"
+    assert check.died(134, "corrupted double-linked list").startswith(
+        "the child process killed by SIGABRT (exit status 134): corrupted")
+    assert check.died(1, "Traceback") == "the child process exit status 1: Traceback"
+
+
+@pytest.mark.slow
+def test_state_declared_false_is_skipped(fmu_dir, tmp_path, capsys):
+    copy = tmp_path / "BacksteppingController.fmu"
+    rewrite_model_description(Path(fmu_dir) / copy.name, copy, lambda md: md.replace(
+        'canGetAndSetFMUstate="true"', 'canGetAndSetFMUstate="false"').replace(
+        'canSerializeFMUstate="true"', 'canSerializeFMUstate="false"'))
+    code, verdicts = run_check(capsys, copy)
+    assert code == 0 and verdicts[(copy.stem, "state")] == ("SKIP", "canGetAndSetFMUstate is false")
