@@ -4,7 +4,7 @@ VENV := .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed
 
-.PHONY: demo test test-fast compare bench clean
+.PHONY: demo test test-fast check compare bench clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -23,6 +23,10 @@ test: $(STAMP)
 	./scripts/system_packages.sh
 	$(PY) -m ruff check .
 	$(PY) -m pytest
+
+check: $(STAMP)
+	$(PY) -m orchestration build --out build/fmus
+	$(PY) -m orchestration check build/fmus/*.fmu --junit build/check.xml
 
 test-fast: $(STAMP)
 	$(PY) -m pytest -m "not slow"

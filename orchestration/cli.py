@@ -1,10 +1,11 @@
-"""Command line: ``python -m orchestration {build,run,batch,validate}`` (also ``satmotor-cosim``).
+"""Command line: ``python -m orchestration {build,run,batch,validate,check}`` (also ``satmotor-cosim``).
 
 Exit codes: 0 success; 1 a run failed (FMI discard/error/fatal, or setup); 2 a scenario file is
 invalid, or ``--out`` cannot be written (found before anything runs); 3 a run completed but
 missed its acceptance bounds; 130 / 143 interrupted by SIGINT (Ctrl-C) / SIGTERM, after writing
 what was computed (status ``interrupted``).  ``batch`` exits with the largest code of its
-scenarios (see :mod:`orchestration.batch`).
+scenarios (see :mod:`orchestration.batch`).  ``check``: 1 if a check FAILs, 2 for a path that is not an
+FMU (see :mod:`orchestration.check`).
 """
 
 from __future__ import annotations
@@ -119,6 +120,17 @@ def cmd_batch(args):
                          algorithm=args.algorithm, stop=stop)
 
 
+def cmd_check(args):
+    from . import check
+
+    problems = [p for p in map(check.usage_problem, args.fmu) if p]
+    for p in problems:
+        print(p, file=sys.stderr)
+    if problems:
+        return INVALID
+    return check.run(args.fmu, args.junit, args.reference)
+
+
 def parser():
     ap = argparse.ArgumentParser(prog="python -m orchestration",
                                  description="Co-simulate the saturated induction motor FMU with the "
@@ -157,6 +169,15 @@ def parser():
     v.add_argument("scenario", nargs="+", help="scenario YAML file(s)")
     v.add_argument("--fmus", default=str(fmus.DEFAULT_DIR), help="FMU directory whose variables to check")
     v.set_defaults(func=cmd_validate)
+    c = sub.add_parser("check", help="check FMUs (any FMI 2.0 co-simulation FMU)", description="Check FMUs: "
+                       "fmpy validate, fmu-manipulation-toolbox, and run-time checks in child processes "
+                       "(instantiate, cycles, state, reset, bad-parameter, non-finite-input, reference); "
+                       "one line per check; exit 1 if any FAILs.")
+    c.add_argument("fmu", nargs="+", help="FMU file(s)")
+    c.add_argument("--junit", metavar="FILE", help="write the results as JUnit XML")
+    c.add_argument("--reference", metavar="DIR", help="directory holding <modelName>/ reference results "
+                   "(default: reference/ of this checkout)")
+    c.set_defaults(func=cmd_check)
     return ap
 
 

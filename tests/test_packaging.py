@@ -14,8 +14,10 @@ import tomllib
 
 ROOT = Path(__file__).resolve().parents[1]
 # import name -> distribution name, where they differ
-DISTRIBUTION = {"yaml": "pyyaml", "fmpy": "fmpy", "pythonfmu": "pythonfmu", "distributed": "dask"}
-OPTIONAL = {"distributed", "dask"}  # batch --scheduler only: the [dask] extra
+DISTRIBUTION = {"yaml": "pyyaml", "fmpy": "fmpy", "pythonfmu": "pythonfmu", "distributed": "dask",
+                "fmu_manipulation_toolbox": "fmu-manipulation-toolbox"}
+# import name -> extra: batch --scheduler (dask), check's fmutool check (SKIP without it)
+OPTIONAL = {"distributed": "dask", "dask": "dask", "fmu_manipulation_toolbox": "check"}
 
 
 def _third_party_imports(package):
@@ -33,11 +35,13 @@ def _third_party_imports(package):
 def test_every_package_the_commands_import_is_a_dependency():
     meta = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]
     required = {d.split(">")[0].split("=")[0].split("[")[0].strip().lower() for d in meta["dependencies"]}
-    extras = {d.split(">")[0].split("[")[0].strip().lower() for d in meta["optional-dependencies"]["dask"]}
+    extras = {extra: {d.split(">")[0].split("[")[0].strip().lower() for d in deps}
+              for extra, deps in meta["optional-dependencies"].items()}
     for package in ("satmotor", "orchestration"):
         for name in _third_party_imports(package):
             dist = DISTRIBUTION.get(name, name)
-            assert dist in (extras if name in OPTIONAL else required), f"{package} imports {name}"
+            wanted = extras[OPTIONAL[name]] if name in OPTIONAL else required
+            assert dist in wanted, f"{package} imports {name}"
     assert _third_party_imports("satmotor") == {"numpy"}
 
 

@@ -1,0 +1,219 @@
+"""``satmotor-cosim check FMU... [--junit FILE] [--reference DIR]``: checks any FMI 2.0 co-simulation
+FMU (ours or anyone's) the way an importing tool or a CI job would, one line per check::
+
+    PASS|FAIL|SKIP|KNOWN  <fmu>  <check>: <detail>
+
+``validate`` (fmpy) and ``fmutool`` (fmu-manipulation-toolbox) read the archive in this process; the
+run-time checks each run in a child process (:mod:`orchestration.check_probes`), so a crash of the
+FMU is a FAIL, not the end of the checker.  ``reference`` runs the FMU against
+``reference/<modelName>/`` (cross-check layout) when that directory exists (ours), else SKIP.
+An FMI 3.0 FMU gets ``validate`` only.  KNOWN: a known limitation, reported, not failing.
+Exit: 1 if any check FAILs, else 0 (usage errors, 2, are found by the caller before any check).
+"""
+
+from __future__ import annotations
+
+import json
+import signal
+import subprocess
+import sys
+import time
+import zipfile
+from pathlib import Path
+from xml.etree import ElementTree as ET
+
+CHECKS = ("validate", "fmutool", "instantiate", "cycles", "state", "reset", "bad-parameter",
+          "non-finite-input", "reference")
+PROBED = CHECKS[2:]
+REFERENCE_DIR = Path(__file__).resolve().parents[1] / "reference"
+REFERENCE_BAND = 1e-9  # of each column's largest |value|
+TIMEOUT = 300.0  # [s] per probe
+
+
+def usage_problem(path):
+    """Why ``path`` cannot be checked at all (missing, not a zip), or None."""
+    p = Path(path)
+    if not p.is_file():
+        return f"{path}: no such file"
+    if not zipfile.is_zipfile(p):
+        return f"{path}: not a zip archive (an FMU is one)"
+    return None
+
+
+def fmi_version(path):
+    with zipfile.ZipFile(path) as z:
+        root = ET.fromstring(z.read("modelDescription.xml"))
+    return root.get("fmiVersion", ""), root
+
+
+def check_validate(path):
+    from fmpy.validation import validate_fmu
+
+    problems = validate_fmu(str(path))
+    if problems:
+        return "FAIL", f"{len(problems)} problem(s): " + "; ".join(str(p).strip() for p in problems)[:500]
+    return "PASS", "fmpy.validation.validate_fmu: no problems"
+
+
+def check_fmutool(path):
+    try:
+        from fmu_manipulation_toolbox.assistant.fmutools import check_fmu
+    except ImportError:
+        return "SKIP", "fmu-manipulation-toolbox is not installed (pip install \"satmotor[check]\")"
+
+    report = check_fmu(Path(path))
+    if report.get("compliant") and report.get("error_count", 0) == 0:
+        return "PASS", "fmu-manipulation-toolbox check_fmu: compliant, 0 errors"
+    return "FAIL", f"fmu-manipulation-toolbox check_fmu: {report}"[:500]
+
+
+def run_probe(mode, path, *extra):
+    """``(returncode, result dict or None, stderr tail)`` of one child probe."""
+    cmd = [sys.executable, "-m", "orchestration.check_probes", mode, str(path), *map(str, extra)]
+    try:
+        proc = subprocess.run(cmd, capture_output=True, text=True, timeout=TIMEOUT)
+    except subprocess.TimeoutExpired:
+        return None, None, f"timed out after {TIMEOUT:g} s"
+    result = None
+    for line in reversed(proc.stdout.splitlines()):
+        try:
+            result = json.loads(line)
+            break
+        except ValueError:
+            continue
+    return proc.returncode, result, proc.stderr.strip()[-300:]
+
+
+def died(code, tail):
+    """The FAIL detail for a probe that did not exit with 0."""
+    if code is None:
+        return tail
+    if code < 0 or code > 128:
+        num = -code if code < 0 else code - 128
+        try:
+            name = signal.Signals(num).name
+        except ValueError:
+            name = f"signal {num}"
+        how = f"killed by {name}" + (f" (exit status {code})" if code > 0 else "")
+    else:
+        how = f"exit status {code}"
+    return f"the child process {how}" + (f": {tail}" if tail else "")
+
+
+def judge(check, result):
+    """``(verdict, detail)`` from a probe's JSON result (the child exited with 0)."""
+    if "skip" in result:
+        return "SKIP", result["skip"]
+    if result.get("ok") is False:
+        return "FAIL", result.get("detail", "")
+    if check == "bad-parameter":
+        st, head = result["status"], f"{result['param']}: {result['status']} at {result['where']}"
+        tail = "; a fresh instance then steps fine" if result["alive"] else "; a fresh instance FAILS"
+        if not result["alive"]:
+            return "FAIL", head + tail
+        if st in ("error", "discard"):
+            return "PASS", head + tail
+        if st == "fatal" and "pythonfmu" in result["generationTool"].lower():
+            return "KNOWN", head + tail + " (pythonfmu reports fmi2Fatal, never fmi2Error: known limitation)"
+        if st == "fatal":
+            return "FAIL", head + tail + " (fmi2Fatal for a bad parameter: expected fmi2Error)"
+        return "FAIL", head + " (the FMU accepted it)"
+    if check == "non-finite-input":
+        res = result["results"]
+        bad = {k: v for k, v in res.items() if v not in ("discard", "error")}
+        detail = ", ".join(f"{k}=NaN: {v}" for k, v in res.items())
+        if not result["alive"]:
+            return "FAIL", detail + "; a fresh instance FAILS"
+        return ("FAIL" if bad else "PASS"), detail + "; a fresh instance then steps fine"
+    if check == "reference":
+        dev, worst = result.get("dev"), result.get("worst")
+        if dev is None:
+            return "FAIL", result.get("detail", "")
+        verdict = "PASS" if dev[worst] <= REFERENCE_BAND else "FAIL"
+        return verdict, (f"{len(dev)} outputs over {result['rows']} rows, worst {worst} "
+                         f"{dev[worst]:.3g} of max|ref| (band {REFERENCE_BAND:g})")
+    return ("PASS" if result.get("ok") else "FAIL"), result.get("detail", "")
+
+
+def reference_dir(md_root, references):
+    name = md_root.get("modelName", "")
+    for base in references:
+        d = Path(base) / name
+        if base is not None and (d / f"{name}_ref.csv").is_file():
+            return d
+    return None
+
+
+def check_fmu(path, references=(REFERENCE_DIR,)):
+    """``[(check, verdict, detail, seconds)]`` for one FMU."""
+    out = []
+
+    def record(check, f, *args):
+        t0 = time.perf_counter()
+        try:
+            verdict, detail = f(*args)
+        except Exception as exc:  # the checker itself could not read the FMU: a FAIL of that check
+            verdict, detail = "FAIL", f"{type(exc).__name__}: {exc}"
+        out.append((check, verdict, detail, time.perf_counter() - t0))
+
+    def probe(check, *extra):
+        code, result, tail = run_probe(check, path, *extra)
+        if code != 0 or result is None:
+            return "FAIL", died(code, tail) if code != 0 else f"no result from the probe: {tail}"
+        return judge(check, result)
+
+    try:
+        version, root = fmi_version(path)
+    except (KeyError, ET.ParseError) as exc:
+        version, root = "", None
+        out.append(("modelDescription", "FAIL", f"cannot read modelDescription.xml: {exc}", 0.0))
+    record("validate", check_validate, path)
+    if root is None:
+        return out
+    if not version.startswith("2."):
+        why = f"FMI {version}: only fmpy validate is run for FMI 3.0 FMUs (the other checks are FMI 2.0)"
+        return out + [(c, "SKIP", why, 0.0) for c in CHECKS[1:]]
+    record("fmutool", check_fmutool, path)
+    if root.find("CoSimulation") is None:
+        return out + [(c, "SKIP", "no CoSimulation element (model exchange only)", 0.0) for c in PROBED]
+    for check in PROBED[:-1]:
+        record(check, probe, check)
+    ref = reference_dir(root, references)
+    if ref is None:
+        out.append(("reference", "SKIP", f"no reference/{root.get('modelName')}/ (not one of ours)", 0.0))
+    else:
+        record("reference", probe, "reference", ref)
+    return out
+
+
+def junit(results, file):
+    """JUnit XML: one testsuite per FMU, one testcase per check."""
+    suites = ET.Element("testsuites", name="satmotor-cosim check")
+    for fmu, rows in results.items():
+        suite = ET.SubElement(suites, "testsuite", name=str(fmu), tests=str(len(rows)),
+                              failures=str(sum(r[1] == "FAIL" for r in rows)), errors="0",
+                              skipped=str(sum(r[1] in ("SKIP", "KNOWN") for r in rows)),
+                              time=f"{sum(r[3] for r in rows):.3f}")
+        for check, verdict, detail, seconds in rows:
+            case = ET.SubElement(suite, "testcase", classname=Path(fmu).stem, name=check,
+                                 time=f"{seconds:.3f}")
+            if verdict == "FAIL":
+                ET.SubElement(case, "failure", message=detail)
+            elif verdict in ("SKIP", "KNOWN"):
+                ET.SubElement(case, "skipped", message=f"{verdict}: {detail}")
+    ET.indent(suites)
+    ET.ElementTree(suites).write(file, encoding="utf-8", xml_declaration=True)
+
+
+def run(paths, junit_file=None, reference=None):
+    """Check every FMU in ``paths``; prints the lines, writes the JUnit file; returns the exit code."""
+    results = {}
+    for path in paths:
+        rows = check_fmu(path, (reference,) if reference else (REFERENCE_DIR,))
+        results[path] = rows
+        for check, verdict, detail, _ in rows:
+            print(f"{verdict:5s}  {path}  {check}: {detail}", flush=True)
+    if junit_file:
+        Path(junit_file).parent.mkdir(parents=True, exist_ok=True)
+        junit(results, junit_file)
+    return 1 if any(r[1] == "FAIL" for rows in results.values() for r in rows) else 0

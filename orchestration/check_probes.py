@@ -1,0 +1,253 @@
+"""The run-time checks of ``satmotor-cosim check``, each in a child process of its own::
+
+    python -m orchestration.check_probes MODE FMU [REFERENCE_DIR]
+
+so that an FMU that crashes or corrupts the heap takes down the probe, not the checker.  A probe
+prints one JSON object (its last line of stdout) and exits normally: the exit code is part of the
+result (:mod:`orchestration.check` reads both).  Modes: ``instantiate``, ``cycles``, ``state``,
+``reset``, ``bad-parameter``, ``non-finite-input``, ``reference``.  Only fmpy here: the probes work
+for any FMI 2.0 co-simulation FMU.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import shutil
+import sys
+import tempfile
+from pathlib import Path
+
+from fmpy import calloc, extract, free, read_model_description
+from fmpy.fmi2 import (
+    FMU2Slave,
+    fmi2CallbackAllocateMemoryTYPE,
+    fmi2CallbackFreeMemoryTYPE,
+    fmi2CallbackFunctions,
+    fmi2CallbackLoggerTYPE,
+)
+
+STEPS = 5  # steps before a state is taken, and steps replayed
+CYCLES = 20
+STATUS = {0: "ok", 1: "warning", 2: "discard", 3: "error", 4: "fatal", 5: "pending"}
+# a parameter our FMUs refuse (when no Real parameter declares a min > 0)
+KNOWN_BAD = {"SaturatedInductionMotor": ("J", 0.0), "BacksteppingController": ("J", 0.0)}
+
+
+def status_of(f, *args):
+    """``(status name, result)`` of an fmpy call: fmpy raises for statuses above warning."""
+    try:
+        return "ok", f(*args)
+    except Exception as exc:  # fmpy.fmi2's FMICallException carries the status
+        return STATUS.get(getattr(exc, "status", None), repr(exc)), None
+
+
+class Probe:
+    """The FMU extracted once, its variables, and a factory of logged fmpy instances."""
+
+    def __init__(self, path):
+        self.md = read_model_description(path)
+        self.unzip = extract(path, unzipdir=tempfile.mkdtemp(prefix="fmucheck_"))
+        self.log = []
+        self._logger = fmi2CallbackLoggerTYPE(self._log)  # kept alive as long as the instances
+        ex = self.md.defaultExperiment
+        self.h = float(ex.stepSize) if ex is not None and ex.stepSize else 1e-4
+        self.reals = [v for v in self.md.modelVariables if v.type == "Real"]
+        self.inputs = [v for v in self.reals if v.causality == "input"]
+        self.outputs = [v.valueReference for v in self.reals if v.causality == "output"]
+        self.count = 0
+
+    def _log(self, env, instance, status, category, message):
+        self.log.append((status, (message or b"").decode("utf-8", "replace")))
+
+    def errors(self):
+        return " | ".join(m for s, m in self.log[-5:] if s >= 2)[:300]
+
+    def instance(self, initialize=True, params=()):
+        self.count += 1
+        s = FMU2Slave(guid=self.md.guid, unzipDirectory=self.unzip, instanceName=f"check{self.count}",
+                      modelIdentifier=self.md.coSimulation.modelIdentifier)
+        cb = fmi2CallbackFunctions()
+        cb.logger = self._logger
+        cb.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
+        cb.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
+        s._keep = cb
+        s.instantiate(callbacks=cb, loggingOn=True)
+        if initialize:
+            self.initialize(s, params)
+        return s
+
+    def initialize(self, s, params=()):
+        for vr, value in params:
+            s.setReal([vr], [value])
+        s.setupExperiment(startTime=0.0)
+        s.enterInitializationMode()
+        s.exitInitializationMode()
+
+    def input_values(self):
+        """The inputs' start values; 1.0 (within min/max) where the start is 0 or missing, so that
+        the replays compare something that moves."""
+        values = []
+        for v in self.inputs:
+            x = float(v.start) if v.start not in (None, "") else 0.0
+            if x == 0.0:
+                x = min(max(1.0, float(v.min) if v.min else -math.inf), float(v.max) if v.max else math.inf)
+            values.append(x)
+        return values
+
+    def run(self, s, k0, n):
+        """``n`` steps from step ``k0`` with the input values; the outputs after each (bit patterns)."""
+        vrs, values, rows = [v.valueReference for v in self.inputs], self.input_values(), []
+        for k in range(k0, k0 + n):
+            if vrs:
+                s.setReal(vrs, values)
+            s.doStep(k * self.h, self.h)
+            rows.append([x.hex() for x in s.getReal(self.outputs)] if self.outputs else [])
+        return rows
+
+
+def probe_instantiate(p):
+    s = p.instance()
+    p.run(s, 0, 1)
+    s.terminate()
+    s.freeInstance()
+    return {"ok": True, "detail": f"one doStep of {p.h:g} s"}
+
+
+def probe_cycles(p):
+    for _ in range(CYCLES):
+        s = p.instance()
+        s.terminate()
+        s.freeInstance()
+    return {"ok": True, "detail": f"{CYCLES} instantiate/initialize/free cycles"}
+
+
+def probe_state(p):
+    cs = p.md.coSimulation
+    if not cs.canGetAndSetFMUstate:
+        return {"skip": "canGetAndSetFMUstate is false"}
+    s = p.instance()
+    p.run(s, 0, STEPS)
+    state = s.getFMUState()
+    first = p.run(s, STEPS, STEPS)
+    s.setFMUState(state)
+    again = p.run(s, STEPS, STEPS)
+    if again != first:
+        return {"ok": False, "detail": "get/set state: the replay differs"}
+    detail = f"get/set state after {STEPS} steps, {STEPS} steps replayed bit-identical"
+    if cs.canSerializeFMUstate:
+        blob = bytes(s.serializeFMUState(state))
+        restored = s.deSerializeFMUstate(blob)
+        s.setFMUState(restored)
+        if p.run(s, STEPS, STEPS) != first:
+            return {"ok": False, "detail": "serialize/deserialize: the replay differs"}
+        s.freeFMUState(restored)
+        detail += f"; serialized ({len(blob)} bytes) round trip too"
+    s.freeFMUState(state)
+    s.terminate()
+    s.freeInstance()
+    return {"ok": True, "detail": detail}
+
+
+def probe_reset(p):
+    s = p.instance()
+    first = p.run(s, 0, 2 * STEPS)
+    s.reset()
+    p.initialize(s)
+    again = p.run(s, 0, 2 * STEPS)
+    s.terminate()
+    s.freeInstance()
+    return {"ok": again == first, "detail": f"{2 * STEPS} steps before and after fmi2Reset"
+            + (" bit-identical" if again == first else ": outputs differ")}
+
+
+def alive(p):
+    """A fresh instance steps fine (the host lives on)."""
+    s = p.instance()
+    p.run(s, 0, 1)
+    s.freeInstance()
+    return True
+
+
+def probe_bad_parameter(p):
+    params = [v for v in p.reals
+              if v.causality == "parameter" and v.min not in (None, "") and float(v.min) > 0]
+    if params:
+        name, value = params[0].name, 0.0
+    elif p.md.modelName in KNOWN_BAD:
+        name, value = KNOWN_BAD[p.md.modelName]
+    else:
+        return {"skip": "no Real parameter with min > 0 (and not one of our FMUs)"}
+    vr = next(v.valueReference for v in p.reals if v.name == name)
+    s = p.instance(initialize=False)
+    status, _ = status_of(s.setReal, [vr], [value])
+    where = "fmi2SetReal"
+    if status == "ok":
+        where = "initialization"
+        status, _ = status_of(p.initialize, s)
+    if status in ("error", "discard"):
+        s.freeInstance()
+    # after fmi2Fatal no further call on that instance (FMI 2.0 section 2.1.3)
+    out = {"status": status, "where": where, "param": f"{name} = {value!r}", "log": p.errors()}
+    out["alive"] = alive(p)
+    out["generationTool"] = p.md.generationTool or ""
+    out["needsExecutionTool"] = bool(p.md.coSimulation.needsExecutionTool)
+    return out
+
+
+def probe_non_finite_input(p):
+    if not p.inputs:
+        return {"skip": "no Real input"}
+    results = {}
+    for i, v in enumerate(p.inputs):
+        s = p.instance()
+        values = p.input_values()
+        values[i] = math.nan
+        s.setReal([u.valueReference for u in p.inputs], values)
+        status, _ = status_of(s.doStep, 0.0, p.h)
+        results[v.name] = status
+        if status != "fatal":
+            s.freeInstance()
+    return {"results": results, "alive": alive(p)}
+
+
+def probe_reference(p, path, ref_dir):
+    import numpy as np
+    from fmpy import simulate_fmu
+    from fmpy.util import read_csv, read_ref_opt_file
+
+    d, name = Path(ref_dir), p.md.modelName
+    opts = read_ref_opt_file(str(d / "ReferenceOptions.txt"))
+    inputs, ref = read_csv(d / f"{name}_in.csv"), read_csv(d / f"{name}_ref.csv")
+    outputs = [n for n in ref.dtype.names if n != "time"]
+    res = simulate_fmu(path, start_time=opts["StartTime"], stop_time=opts["StopTime"],
+                       output_interval=opts["StepSize"], input=inputs, output=outputs)
+    if len(res) != len(ref):
+        return {"ok": False, "detail": f"{len(res)} rows, the reference has {len(ref)}"}
+    dev = {n: float(np.max(np.abs(res[n] - ref[n])) / max(float(np.max(np.abs(ref[n]))), 1e-300))
+           for n in outputs}
+    worst = max(dev, key=dev.get)
+    return {"dev": dev, "worst": worst, "rows": len(ref)}
+
+
+PROBES = {"instantiate": probe_instantiate, "cycles": probe_cycles, "state": probe_state,
+          "reset": probe_reset, "bad-parameter": probe_bad_parameter,
+          "non-finite-input": probe_non_finite_input}
+
+
+def main(argv):
+    mode, path = argv[0], argv[1]
+    p = Probe(path)
+    try:
+        try:
+            out = probe_reference(p, path, argv[2]) if mode == "reference" else PROBES[mode](p)
+        except Exception as exc:  # an FMI call failed: the probe reports it, the exit code stays 0
+            out = {"ok": False, "detail": f"{exc}" + (f" (log: {p.errors()})" if p.errors() else "")}
+    finally:
+        shutil.rmtree(p.unzip, ignore_errors=True)
+    print(json.dumps(out))
+    sys.stdout.flush()
+
+
+if __name__ == "__main__":
+    main(sys.argv[1:])

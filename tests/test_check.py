@@ -1,0 +1,138 @@
+"""``python -m orchestration check``: our two FMUs pass (exit 0, JUnit XML with one testcase per
+check), broken copies FAIL the check that should catch them (exit 1), usage errors exit 2."""
+
+from __future__ import annotations
+
+import re
+import shutil
+import zipfile
+from pathlib import Path
+from xml.etree import ElementTree as ET
+
+import pytest
+
+from orchestration import check, cli
+
+NAMES = ("SaturatedInductionMotor", "BacksteppingController")
+LINE = re.compile(r"^(PASS|FAIL|SKIP|KNOWN) +(\S+)  ([a-z-]+): (.*)$")
+
+
+def run_check(capsys, *argv):
+    code = cli.main(["check", *map(str, argv)])
+    lines = capsys.readouterr().out.splitlines()
+    verdicts = {}
+    for line in lines:
+        m = LINE.match(line)
+        assert m, line
+        verdicts[(Path(m.group(2)).stem, m.group(3))] = (m.group(1), m.group(4))
+    return code, verdicts
+
+
+def rewrite_model_description(src, dst, change):
+    with zipfile.ZipFile(src) as z:
+        files = {n: z.read(n) for n in z.namelist()}
+    files["modelDescription.xml"] = change(files["modelDescription.xml"].decode()).encode()
+    with zipfile.ZipFile(dst, "w", zipfile.ZIP_DEFLATED) as z:
+        for n, data in files.items():
+            z.writestr(n, data)
+
+
+def drop_last_output(md):
+    """The model description without its last output variable (ModelStructure left as it is)."""
+    last = [m for m in re.finditer(r"\s*<ScalarVariable\b.*?</ScalarVariable>", md, re.S)
+            if 'causality="output"' in m.group(0)][-1]
+    return md[:last.start()] + md[last.end():]
+
+
+def test_usage_errors_exit_2(tmp_path, capsys):
+    not_zip = tmp_path / "x.fmu"
+    not_zip.write_text("not a zip")
+    assert cli.main(["check", str(tmp_path / "missing.fmu")]) == cli.INVALID
+    assert cli.main(["check", str(not_zip)]) == cli.INVALID
+    err = capsys.readouterr().err
+    assert "no such file" in err and "not a zip archive" in err
+
+
+def test_junit_layout(tmp_path):
+    rows = [("validate", "PASS", "ok", 0.1), ("state", "SKIP", "declared false", 0.0),
+            ("bad-parameter", "KNOWN", "fatal", 0.2), ("reference", "FAIL", "off by 1 %", 0.3)]
+    check.junit({"a.fmu": rows}, tmp_path / "j.xml")
+    suite = ET.parse(tmp_path / "j.xml").getroot().find("testsuite")
+    assert (suite.get("tests"), suite.get("failures"), suite.get("skipped")) == ("4", "1", "2")
+    cases = {c.get("name"): c for c in suite.iter("testcase")}
+    assert cases["reference"].find("failure").get("message") == "off by 1 %"
+    assert cases["bad-parameter"].find("skipped").get("message").startswith("KNOWN")
+    assert cases["validate"].find("failure") is None and cases["validate"].find("skipped") is None
+
+
+@pytest.mark.slow
+def test_our_fmus_pass_with_a_junit_file(fmu_dir, tmp_path, capsys):
+    paths = [Path(fmu_dir) / f"{n}.fmu" for n in NAMES]
+    code, verdicts = run_check(capsys, *paths, "--junit", tmp_path / "check.xml")
+    assert code == 0, verdicts
+    for name in NAMES:
+        assert {c: verdicts[(name, c)][0] for c in check.CHECKS} == {
+            **{c: "PASS" for c in check.CHECKS}, "bad-parameter": "KNOWN"}, verdicts
+        assert "pythonfmu" in verdicts[(name, "bad-parameter")][1]
+    root = ET.parse(tmp_path / "check.xml").getroot()
+    suites = root.findall("testsuite")
+    assert [s.get("name") for s in suites] == [str(p) for p in paths]
+    for s in suites:
+        assert [c.get("name") for c in s.findall("testcase")] == list(check.CHECKS)
+        assert (s.get("tests"), s.get("failures"), s.get("skipped")) == ("9", "0", "1")
+        assert s.find("testcase/failure") is None
+
+
+@pytest.mark.slow
+def test_a_missing_output_fails_validate_and_fmutool(fmu_dir, tmp_path, capsys):
+    broken = tmp_path / "SaturatedInductionMotor.fmu"
+    rewrite_model_description(Path(fmu_dir) / broken.name, broken, drop_last_output)
+    code, verdicts = run_check(capsys, broken, "--junit", tmp_path / "check.xml")
+    assert code == 1
+    name = broken.stem
+    assert verdicts[(name, "validate")][0] == "FAIL"
+    assert "ModelStructure/Outputs" in verdicts[(name, "validate")][1]
+    assert verdicts[(name, "fmutool")][0] == "FAIL"
+    assert verdicts[(name, "instantiate")][0] == "PASS"  # the binary still runs
+    failed = {c.get("name") for c in ET.parse(tmp_path / "check.xml").getroot().iter("testcase")
+              if c.find("failure") is not None}
+    assert {"validate", "fmutool"} <= failed
+
+
+@pytest.mark.slow
+def test_a_reference_one_percent_off_fails_reference(fmu_dir, tmp_path, capsys):
+    name = "SaturatedInductionMotor"
+    ref = tmp_path / "reference"
+    shutil.copytree(check.REFERENCE_DIR / name, ref / name)
+    csv = ref / name / f"{name}_ref.csv"
+    head, *rows = csv.read_text().splitlines()
+    col = head.split(",").index("omega_m")
+    doctored = []
+    for row in rows:
+        cells = row.split(",")
+        cells[col] = repr(float(cells[col]) * 1.01)
+        doctored.append(",".join(cells))
+    csv.write_text("\n".join([head, *doctored]) + "\n")
+    code, verdicts = run_check(capsys, Path(fmu_dir) / f"{name}.fmu", "--reference", ref)
+    assert code == 1
+    verdict, detail = verdicts[(name, "reference")]
+    assert verdict == "FAIL" and "omega_m" in detail and "band 1e-09" in detail, detail
+    assert all(v == ("KNOWN" if c == "bad-parameter" else "PASS")
+               for (n, c), (v, _) in verdicts.items() if c != "reference")
+
+
+def test_a_crashed_probe_is_named_by_its_signal():
+    assert check.died(-6, "") == "the child process killed by SIGABRT"
+    assert check.died(134, "corrupted double-linked list").startswith(
+        "the child process killed by SIGABRT (exit status 134): corrupted")
+    assert check.died(1, "Traceback") == "the child process exit status 1: Traceback"
+
+
+@pytest.mark.slow
+def test_state_declared_false_is_skipped(fmu_dir, tmp_path, capsys):
+    copy = tmp_path / "BacksteppingController.fmu"
+    rewrite_model_description(Path(fmu_dir) / copy.name, copy, lambda md: md.replace(
+        'canGetAndSetFMUstate="true"', 'canGetAndSetFMUstate="false"').replace(
+        'canSerializeFMUstate="true"', 'canSerializeFMUstate="false"'))
+    code, verdicts = run_check(capsys, copy)
+    assert code == 0 and verdicts[(copy.stem, "state")] == ("SKIP", "canGetAndSetFMUstate is false")
