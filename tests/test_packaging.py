@@ -16,8 +16,8 @@ ROOT = Path(__file__).resolve().parents[1]
 # import name -> distribution name, where they differ
 DISTRIBUTION = {"yaml": "pyyaml", "fmpy": "fmpy", "pythonfmu": "pythonfmu", "distributed": "dask",
                 "fmu_manipulation_toolbox": "fmu-manipulation-toolbox"}
-# import name -> extra: batch --scheduler (dask), check's fmutool check (SKIP without it)
-OPTIONAL = {"distributed": "dask", "dask": "dask", "fmu_manipulation_toolbox": "check"}
+# import name -> extra: batch --scheduler (dask)
+OPTIONAL = {"distributed": "dask", "dask": "dask"}
 
 
 def _third_party_imports(package):
