@@ -179,3 +179,35 @@ def test_open_loop_start_reaches_the_mechanical_balance():
     assert r["T_e"][-1] == pytest.approx(p.B * r["omega_m"][-1], rel=5e-3)  # a weakly damped mode remains
     assert r["omega_m"][-1] == pytest.approx(W / p.n_p, rel=2e-3)
     assert len(r["t"]) == 10001 and r["t"][-1] == pytest.approx(1.0, abs=1e-15)
+
+
+def test_the_written_out_fast_paths_equal_the_generic_code_bit_for_bit():
+    """ArctanCurve.solve and Plant.derivatives inline their inner calls for speed; they must give
+    the very floats of the generic code (_Curve.solve with _psi_dpsi; Plant.magnetizing, then the
+    same flux-state equations), so that the co-simulation equals the plain loop and any edit to one
+    copy that forgets the other fails here."""
+    import random
+
+    from satmotor.magnetics import ArctanCurve, _Curve
+    from satmotor.params import MotorParams
+    from satmotor.plant import Plant
+
+    rng = random.Random(7)
+    curve = ArctanCurve()
+    for _ in range(20000):
+        a, c = 10 ** rng.uniform(-4, 0), 10 ** rng.uniform(-6, 1)
+        assert curve.solve(a, c) == _Curve.solve(curve, a, c)
+    p = MotorParams()
+    plant = Plant(p)
+    for _ in range(5000):
+        x = tuple(rng.uniform(-1.5, 1.5) for _ in range(4)) + (rng.uniform(-300, 300), rng.uniform(-10, 10))
+        v_a, v_b, T = rng.uniform(-400, 400), rng.uniform(-400, 400), rng.uniform(-50, 50)
+        ima, imb, I, psi, m = plant.magnetizing(*x[:4])
+        isa, isb = (x[0] - m * ima) / p.l_s, (x[1] - m * imb) / p.l_s
+        ira, irb = (x[2] - p.k * m * ima) / p.l_r, (x[3] - p.k * m * imb) / p.l_r
+        te = 1.5 * p.n_p * (x[0] * isb - x[1] * isa)
+        we = p.n_p * x[4]
+        want = (v_a - p.R_s * isa, v_b - p.R_s * isb, -p.R_r * ira - we * x[3], -p.R_r * irb + we * x[2],
+                (te - T - p.B * x[4]) / p.J, x[4])
+        got = plant.derivatives(0.0, x, v_a, v_b, T)
+        assert got == pytest.approx(want, rel=1e-12, abs=1e-12)
