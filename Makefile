@@ -35,6 +35,7 @@ bench: $(STAMP)
 	$(PY) bench/bench_plant.py
 	$(PY) bench/bench_controller.py
 	$(PY) bench/bench_cosim.py
+	$(PY) bench/bench_batch.py
 
 clean:
 	rm -rf $(VENV) results build
