@@ -193,7 +193,10 @@ def test_batch_stops_on_a_signal_summarizes_everything_and_leaves_no_process(sig
 
 def test_a_killed_batch_leaves_no_child_behind(tmp_path, fmu_dir):
     d, out = _batch_dir(tmp_path, n_long=2), tmp_path / "out"
-    p = _start("batch", d, "--jobs", 2, "--out", out, "--fmus", fmu_dir, start_new_session=True)
+    tmp = tmp_path / "tmp"  # a killed batch cannot remove its temporary directory: keep it here
+    tmp.mkdir()
+    p = _start("batch", d, "--jobs", 2, "--out", out, "--fmus", fmu_dir, start_new_session=True,
+               env={**os.environ, "TMPDIR": str(tmp)})
     _wait_children(d, 2)
     p.kill()
     p.communicate(timeout=60)
