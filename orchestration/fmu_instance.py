@@ -75,7 +75,7 @@ class RealPort:
 
     :attr:`get_args` and :attr:`set_args` are the argument tuples of the raw ctypes calls
     ``FMUInstance.raw("fmi2GetReal")(*port.get_args)`` (the stepping loop's path, see
-    :meth:`FMUInstance.raw`); :meth:`read` and :meth:`write` go through fmpy."""
+    :meth:`FMUInstance.raw`); :meth:`read` goes through fmpy (initial values)."""
 
     def __init__(self, instance, names):
         self.names = tuple(names)
@@ -84,10 +84,6 @@ class RealPort:
         self.values = (fmi2Real * self.n)()
         self._inst = instance
         self.get_args = self.set_args = (instance.slave.component, self._vr, self.n, self.values)
-
-    def write(self):
-        s = self._inst.slave
-        s.fmi2SetReal(s.component, self._vr, self.n, self.values)
 
     def read(self):
         s = self._inst.slave
@@ -190,7 +186,8 @@ class FMUInstance:
         return getattr(self.slave.dll, function)
 
     def step_failed(self, status, t):
-        """Raise the FMICallException of a failed fmi2DoStep at ``t``, tagged as :meth:`do_step` does."""
+        """Raise the FMICallException of a failed fmi2DoStep at ``t``, tagged ``.unit`` (this
+        instance's name) and ``.time`` (the communication point); remember a fatal status."""
         try:
             check("fmi2DoStep", status)
         except FMICallException as exc:
@@ -199,14 +196,10 @@ class FMUInstance:
             raise
 
     def do_step(self, t, h):
-        """fmi2DoStep; a failure raises FMICallException tagged ``.unit`` (this instance's name)
-        and ``.time`` (the communication point)."""
-        try:
-            self.slave.fmi2DoStep(self.slave.component, t, h, 1)
-        except FMICallException as exc:
-            self.fatal = exc.status >= 4
-            exc.unit, exc.time = self.name, t
-            raise
+        """fmi2DoStep; a failure raises as :meth:`step_failed` says."""
+        status = self.raw("fmi2DoStep")(self.slave.component, t, h, 1)
+        if status > 1:
+            self.step_failed(status, t)
 
     def close(self):
         """Terminate (when initialized), free, and remove an extraction this instance owns; never

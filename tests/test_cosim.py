@@ -199,3 +199,22 @@ def test_cli_run_of_a_failing_scenario_writes_the_partial_results(tmp_path, fmu_
     assert m["status"] == "discard" and "non-finite" in m["message"] and 0.15 < m["t_end"] < 0.3
     csv = pd.read_csv(d / "timeseries.csv")
     assert len(csv) == m["rows"] and csv["time"].iloc[-1] == pytest.approx(m["t_end"])
+
+
+def test_fmu_instance_do_step_raises_tagged_with_the_unit_time_and_the_fmus_words(fmu_dir):
+    from fmpy.fmi1 import FMICallException
+
+    from orchestration.fmu_instance import FMUInstance
+
+    plant, _ = fmus.paths(fmu_dir)
+    inst = FMUInstance(plant, "p")
+    try:
+        inst.initialize(0.0)
+        inst.do_step(0.0, 1e-4)
+        with pytest.raises(FMICallException) as err:
+            inst.do_step(float("nan"), 1e-4)
+        assert err.value.unit == "p" and err.value.status == 2
+        assert "currentCommunicationPoint = nan: must be finite" in inst.first_error()
+    finally:
+        inst.close()
+    assert not Path(inst.unzip_dir).exists()  # its own extraction, removed
