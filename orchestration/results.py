@@ -94,11 +94,11 @@ def write_results(result, out_dir, plot=True):
     d = Path(out_dir) / sc.name
     d.mkdir(parents=True, exist_ok=True)
     rec = result.recorder
-    if not isinstance(rec, StreamingRecorder):
-        df = rec.frame()
-        df = df[[df.columns[i] for i in recorded_selection(sc, list(df.columns))]]
-        df.to_csv(d / FILES[0], index=False)
-        df.to_parquet(d / FILES[1], index=False)
+    if not isinstance(rec, StreamingRecorder):  # the same writer as a streamed run
+        disk = StreamingRecorder(rec.columns, d, keep=recorded_selection(sc, rec.columns))
+        for row in np.column_stack(list(rec.arrays().values())).tolist():
+            disk.append(row)
+        disk.close()
     df = rec.arrays()  # {column: array}: the metrics and the figure need no DataFrame
     rows = len(df["time"]) if "time" in df else 0
     metrics = compute_metrics(df, sc) if result.ok and rows else {}

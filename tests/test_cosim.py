@@ -218,3 +218,20 @@ def test_fmu_instance_do_step_raises_tagged_with_the_unit_time_and_the_fmus_word
     finally:
         inst.close()
     assert not Path(inst.unzip_dir).exists()  # its own extraction, removed
+
+
+def test_a_run_recorded_in_memory_writes_the_same_files_as_a_streamed_run(tmp_path, fmu_dir):
+    from orchestration.results import prepare_dir, streaming_recorder, write_results
+
+    sc = dataclasses.replace(load_scenario(ROOT / "scenarios" / "load_cycle_csv.yaml"), stop_time=0.05)
+    plant, ctrl = fmus.paths(fmu_dir)
+    mem = run(sc, str(plant), str(ctrl))
+    write_results(mem, tmp_path / "mem", plot=False)
+    disk = prepare_dir(tmp_path / "disk", sc)
+    streamed = run(sc, str(plant), str(ctrl), recorder=streaming_recorder(sc, disk))
+    write_results(streamed, tmp_path / "disk", plot=False)
+    a, b = tmp_path / "mem" / sc.name, tmp_path / "disk" / sc.name
+    assert (a / "timeseries.csv").read_bytes() == (b / "timeseries.csv").read_bytes()
+    assert pd.read_parquet(a / "timeseries.parquet").equals(pd.read_parquet(b / "timeseries.parquet"))
+    header = (a / "timeseries.csv").read_text().splitlines()[0].split(",")
+    assert len(header) < 24 and "plant.omega_m" in header  # record.outputs plus what the metrics need
