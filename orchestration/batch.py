@@ -19,7 +19,6 @@ from __future__ import annotations
 
 import json
 import os
-import signal
 import subprocess
 import sys
 import tempfile
@@ -27,7 +26,7 @@ from concurrent.futures import ThreadPoolExecutor, as_completed
 from pathlib import Path
 
 from . import fmus
-from .interrupts import PARENT_ENV, StopRequest
+from .interrupts import PARENT_ENV, StopRequest, signal_name
 
 SUMMARY_METRICS = ("iae_speed", "iae_flux", "ss_speed", "ss_flux", "overshoot_speed", "settling_time_speed",
                    "peak_current", "peak_voltage", "min_W")
@@ -121,7 +120,7 @@ def _child_row(path, name, rc, stdout, stderr, metrics, stopped):
     except (OSError, ValueError):
         summary = None
     if rc < 0:
-        sig = signal.Signals(-rc).name if -rc in signal.Signals._value2member_map_ else str(-rc)
+        sig = signal_name(-rc)
         status = "interrupted" if stopped else "failed"
         return _row(path, name, status, 128 - rc, f"the child process was killed by {sig}" + (
             f"; {tail}" if tail else ""))

@@ -14,13 +14,14 @@ Exit: 1 if any check FAILs, else 0 (usage errors, 2, are found by the caller bef
 from __future__ import annotations
 
 import json
-import signal
 import subprocess
 import sys
 import time
 import zipfile
 from pathlib import Path
 from xml.etree import ElementTree as ET
+
+from .interrupts import signal_name
 
 CHECKS = ("validate", "fmutool", "instantiate", "cycles", "state", "reset", "bad-parameter",
           "non-finite-input", "reference")
@@ -90,11 +91,7 @@ def died(code, tail):
         return tail
     if code < 0 or code > 128:
         num = -code if code < 0 else code - 128
-        try:
-            name = signal.Signals(num).name
-        except ValueError:
-            name = f"signal {num}"
-        how = f"killed by {name}" + (f" (exit status {code})" if code > 0 else "")
+        how = f"killed by {signal_name(num)}" + (f" (exit status {code})" if code > 0 else "")
     else:
         how = f"exit status {code}"
     return f"the child process {how}" + (f": {tail}" if tail else "")

@@ -18,6 +18,14 @@ SIGNALS = (signal.SIGINT, signal.SIGTERM)
 PARENT_ENV = "SATMOTOR_PARENT_PID"  # set by batch for its children: see die_with_parent
 
 
+def signal_name(signum):
+    """``"SIGTERM"`` for 15, ``"signal 99"`` for a number that names no signal."""
+    try:
+        return signal.Signals(signum).name
+    except ValueError:
+        return f"signal {signum}"
+
+
 class StopRequest:
     """``signum``: 0, or the first signal received; ``event`` is set when one arrives."""
 

@@ -29,6 +29,7 @@ from operator import itemgetter
 from fmpy.fmi1 import FMICallException
 
 from .fmu_instance import STATUS, FMUInstance, RealPort, check, extract_owned, remove_extracted
+from .interrupts import signal_name
 from .recorder import Recorder
 from .wiring import CONTROLLER, DEFAULT_CONNECTIONS, PLANT, PROFILE, Connection, inputs_of, resolve
 
@@ -113,7 +114,7 @@ def run(scenario, plant_fmu, controller_fmu, connections=DEFAULT_CONNECTIONS, al
                                     p_out=p_out, c_out=c_out, connections=connections, profiles=profiles,
                                     rec=rec, stop=stop)
         if not complete:
-            status, message = "interrupted", f"stopped by {_signame(stop.signum)} at t = {t_reached:.6g} s"
+            status, message = "interrupted", f"stopped by {signal_name(stop.signum)} at t = {t_reached:.6g} s"
     except FMICallException as exc:
         current = getattr(exc, "unit", current)  # FMUInstance.do_step tags the unit and the time
         t_reached = getattr(exc, "time", t_reached)
@@ -236,12 +237,3 @@ def _loop(sc, jacobi, plant, ctrl, p_out, c_out, connections, profiles, rec, sto
             check("fmi2GetReal", r)
         pv = pvals[:]
     return t, True
-
-
-def _signame(signum):
-    import signal
-
-    try:
-        return signal.Signals(signum).name
-    except ValueError:
-        return f"signal {signum}"

@@ -31,3 +31,9 @@ def test_an_inherited_ignore_is_kept():
         assert signal.getsignal(signal.SIGINT) is signal.SIG_IGN
     finally:
         signal.signal(signal.SIGINT, previous)
+
+
+def test_signal_names():
+    from orchestration.interrupts import signal_name
+
+    assert signal_name(9) == "SIGKILL" and signal_name(15) == "SIGTERM" and signal_name(99) == "signal 99"
