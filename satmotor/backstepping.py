@@ -39,6 +39,22 @@ closed loop has ``z1' = -d1 z1 + z2 + theta_t`` and ``z2' = -d2 z2 - z1 + (d1 - 
 ``|theta_hat| <= theta_max`` (update zeroed at a bound when pushing outward) only adds
 ``theta_t (theta_hat'_proj - theta_hat'_nom) / g_theta <= 0`` when ``|theta| <= theta_max``.
 
+Integral action (gains c0, d0 >= 0; 0 gives the seed's law): the states ``e0 = int e1 dt``,
+``z0 = int z1 dt`` enter the virtual controls, ``alpha1 = -c1 e1 - c0 e0 + a Phi_rd + Phi_ref'`` and
+``gamma1 = -d1 z1 - d0 z0 + theta + b omega_m + omega_ref'``.  Since ``e0' = e1`` is known, it adds
+``c0 e1`` to de2/dt and ``d0 z1`` to dz2/dt; then ``e1' = -c1 e1 - c0 e0 + e2`` and, with
+``V = (e1^2 + e2^2 + z1^2 + z2^2 + c0 e0^2 + d0 z0^2)/2``, V' is as above.  A constant model error
+(plant parameters differ from the controller's) is then absorbed by e0, z0 at e1 = z1 = 0.
+
+Current limit (``i_max``): the virtual controls demand ``i_mu_d* = alpha1 / (a k m)`` and
+``i_mu_q* = gamma1 / (K m Phi_rd)``, i.e. the stator currents (flux frame, ``psi_rq = 0``)
+``i_sd* = (1 + k^2 m/l_r) i_mu_d* - (k/l_r) Phi_rd`` and ``i_sq* = (1 + k^2 m/l_r) i_mu_q*``.  alpha1 is
+bounded so that ``|i_sd*| <= D_SHARE i_max`` (flux first), then gamma1 so that
+``|i_sq*| <= sqrt(i_max^2 - i_sd*^2)`` (m held at its present value).  A bounded virtual control is
+treated as constant: its gradient and time derivative drop out of beta, the Lyapunov cross term
+(e1 in the flux row, z1 in the speed row) is not added, the adaptation and the integral states
+stop (anti-windup).  Away from the bound the law is unchanged.
+
 Singularity: W = 0 only where Phi_rd = 0.  Below ``phi_min`` the controller uses
 ``max(Phi_rd, phi_min)`` in Lambda's second row and in omega_s (never a division by ~0), and a
 W that is tiny relative to its terms is floored; both set ``singular_limited``.
@@ -66,6 +82,7 @@ from .measurements import (
 
 _SQRT3 = math.sqrt(3.0)
 _W_REL_FLOOR = 1e-12
+D_SHARE = 0.9  # share of I_max the flux (d) current may take; the torque (q) current gets the rest
 LOAD_MODES = ("known", "estimated")
 
 
@@ -85,10 +102,14 @@ class BacksteppingGains:
     c2: float = 1000.0
     d1: float = 100.0
     d2: float = 500.0
+    c0: float = 0.0
+    d0: float = 0.0
 
     def __post_init__(self):
         for name in ("c1", "c2", "d1", "d2"):
             require_number(name, getattr(self, name), 0)
+        for name in ("c0", "d0"):
+            require_number(name, getattr(self, name), 0, inclusive=True)
 
 
 @dataclass(frozen=True)
@@ -145,6 +166,8 @@ class ErrorSystem(NamedTuple):
     omega_s: float  # [rad/s]
     theta_dot: float  # theta' used in dz2/dt
     singular_limited: bool
+    flux_limited: bool  # alpha1 bounded by the current limit (its i_sd)
+    torque_limited: bool  # gamma1 bounded by the current limit (its i_sq)
 
 
 class ControlOutput(NamedTuple):
@@ -168,17 +191,26 @@ class ControlOutput(NamedTuple):
     theta_hat_dot: float
     voltage_limited: bool
     singular_limited: bool
+    e0_dot: float  # [Wb] derivative of the flux integral state (0 while a limit holds it)
+    z0_dot: float  # [rad/s] derivative of the speed integral state (0 while a limit holds it)
+    current_limited: bool
 
 
-def _core(p, g, phi_min, phi, imd, imq, w, m, dm, I, ref, theta, theta_dot, adapt):
+def _clip(x, lo, hi):
+    return lo if x < lo else hi if x > hi else x
+
+
+def _core(p, g, phi_min, phi, imd, imq, w, m, dm, I, ref, theta, theta_dot, adapt, e0=0.0, z0=0.0,
+          i_max=math.inf):
     """Error system at ``x = (phi, imd, imq, w)`` with the static m and dm/dI at I = |i_mu|.
 
     ``adapt`` is None (theta' = theta_dot given) or ``(g_theta, theta_max)`` (theta = theta_hat,
-    theta' from the projected update law).  Returns the fields of an :class:`ErrorSystem` as a
-    plain tuple (the per-sample path unpacks it).
+    theta' from the projected update law).  ``e0``, ``z0`` the integral states (used with the gains
+    c0, d0); ``i_max`` [A] the stator current bound on the virtual controls (module docstring).
+    Returns the fields of an :class:`ErrorSystem` as a plain tuple (the per-sample path unpacks it).
     """
     pr, dpr, ddpr, wr, dwr, ddwr = ref
-    c1, d1 = g.c1, g.d1
+    c1, d1, c0, d0 = g.c1, g.d1, g.c0, g.d0
     c = model_constants(p)
     a, ak, K, b = c.a, c.ak, c.K, c.b
     limited = phi < phi_min
@@ -186,20 +218,41 @@ def _core(p, g, phi_min, phi, imd, imq, w, m, dm, I, ref, theta, theta_dot, adap
     # drift F and L^-1 of the control model (Phi_rd floored in omega_s)
     (dphi, Fd, Fq, Fw, a11, a12, a22, ws, Md, Mq, Mdq, _, _, _, _, te_J,
      _) = vector_fields(c, phi, imd, imq, w, m, dm, I, theta, phe)
-    # errors
     e1 = phi - pr
-    e2 = ak * m * imd + c1 * e1 - a * phi - dpr
     z1 = w - wr
-    z2 = te_J + d1 * z1 - theta - b * w - dwr
+    # virtual controls: alpha1 for a k m i_mu_d, gamma1 for T_e/J
+    alpha1 = -c1 * e1 - c0 * e0 + a * phi + dpr
+    gamma1 = -d1 * z1 - d0 * z0 + theta + b * w + dwr
+    d_lim = q_lim = False
+    if i_max < math.inf:  # the currents they demand, bounded (quasi-static: m held at its value)
+        cc = 1.0 + c.k2_lr * m
+        ak_m = ak * m
+        i_sd = cc * alpha1 / ak_m - c.k_lr * phi
+        i_sd_c = _clip(i_sd, -D_SHARE * i_max, D_SHARE * i_max)
+        if i_sd_c != i_sd:
+            d_lim = True
+            alpha1 = ak_m * (i_sd_c + c.k_lr * phi) / cc
+        g_max = K * m * phi * math.sqrt(i_max * i_max - i_sd_c * i_sd_c) / cc
+        if not -g_max <= gamma1 <= g_max:
+            q_lim = True
+            gamma1 = _clip(gamma1, -g_max, g_max)
+    e2 = ak * m * imd - alpha1
+    z2 = te_J - gamma1
     if adapt is not None:
         g_theta, theta_max = adapt
-        theta_dot = -g_theta * (z1 + (d1 - b) * z2)
+        theta_dot = 0.0 if q_lim else -g_theta * (z1 + (d1 - b) * z2)
         if (theta >= theta_max and theta_dot > 0.0) or (theta <= -theta_max and theta_dot < 0.0):
             theta_dot = 0.0
-    ge2 = (c1 - a, ak * Md, ak * Mdq, 0.0)
-    gz2 = (K * m * imq, K * phi * Mdq, K * phi * Mq, d1 - b)
-    dt_e2 = -c1 * dpr - ddpr
-    dt_z2 = -d1 * dwr - ddwr - theta_dot
+    # gradients and explicit time derivatives; a bounded virtual control is held constant
+    if d_lim:
+        ge2, dt_e2 = (0.0, ak * Md, ak * Mdq, 0.0), 0.0
+    else:
+        ge2, dt_e2 = (c1 - a, ak * Md, ak * Mdq, 0.0), -c1 * dpr - ddpr + c0 * e1
+    if q_lim:
+        gz2, dt_z2 = (K * m * imq, K * phi * Mdq, K * phi * Mq, 0.0), 0.0
+    else:
+        gz2 = (K * m * imq, K * phi * Mdq, K * phi * Mq, d1 - b)
+        dt_z2 = -d1 * dwr - ddwr - theta_dot + d0 * z1
     beta1 = ge2[0] * dphi + ge2[1] * Fd + ge2[2] * Fq + dt_e2
     beta2 = gz2[0] * dphi + gz2[1] * Fd + gz2[2] * Fq + gz2[3] * Fw + dt_z2
     # Lambda = diag(a k, K Phi_rd) M L^-1
@@ -213,10 +266,11 @@ def _core(p, g, phi_min, phi, imd, imq, w, m, dm, I, ref, theta, theta_dot, adap
     if not abs(W) > floor:
         limited = True
     return (e1, e2, z1, z2, ge2, gz2, dt_e2, dt_z2, beta1, beta2, ((L11, L12), (L21, L22)),
-            W * (phi / phe), ws, theta_dot, limited)
+            W * (phi / phe), ws, theta_dot, limited, d_lim, q_lim)
 
 
-def error_system(x, ref, params, gains, theta=0.0, theta_dot=0.0, phi_min=0.05, adapt=None):
+def error_system(x, ref, params, gains, theta=0.0, theta_dot=0.0, phi_min=0.05, adapt=None, integ=(0.0, 0.0),
+                 i_max=math.inf):
     """Error system at the flux-oriented state ``x = (Phi_rd, i_mu_d, i_mu_q, omega_m)``.
 
     ``ref = (Phi_ref, Phi_ref', Phi_ref'', omega_ref, omega_ref', omega_ref'')``; theta [rad/s^2]
@@ -227,10 +281,10 @@ def error_system(x, ref, params, gains, theta=0.0, theta_dot=0.0, phi_min=0.05, 
     I = math.hypot(imd, imq)
     _, m, dm, _ = params.curve.evaluate(I)
     return ErrorSystem(*_core(params, gains, phi_min, phi, imd, imq, w, m, dm, I, ref, theta, theta_dot,
-                              adapt))
+                              adapt, integ[0], integ[1], i_max))
 
 
-def control(meas, ref, load, params, gains, cfg, theta_hat=0.0):
+def control(meas, ref, load, params, gains, cfg, theta_hat=0.0, integ=(0.0, 0.0), i_max=math.inf):
     """One backstepping control step (pure function).
 
     Parameters
@@ -252,6 +306,11 @@ def control(meas, ref, load, params, gains, cfg, theta_hat=0.0):
     theta_hat : float
         Estimated T_L/J [rad/s^2] ('estimated' mode); clipped to ``+-cfg.theta_max``.  The caller
         integrates ``theta_hat_dot`` over the sample period (and clips to the bound).
+    integ : tuple
+        The integral states ``(e0, z0)`` [Wb s, rad] (gains c0, d0); the caller integrates
+        ``e0_dot``, ``z0_dot`` (zero while a current or voltage limit holds them: anti-windup).
+    i_max : float
+        [A] bound on the stator current the virtual controls demand (inf: no bound).
 
     Returns
     -------
@@ -275,16 +334,16 @@ def control(meas, ref, load, params, gains, cfg, theta_hat=0.0):
         tm = cfg.theta_max
         theta, theta_dot, adapt = min(max(theta_hat, -tm), tm), 0.0, (cfg.g_theta, tm)
     (e1, e2, z1, z2, _, _, _, _, beta1, beta2, ((L11, L12), (L21, L22)), W_true, ws, theta_dot,
-     singular) = _core(params, gains, cfg.phi_min, ms.Phi_rd, ms.i_mu_d, ms.i_mu_q, w, ms.m, dm, I,
-                       ref, theta, theta_dot, adapt)
+     singular, d_lim, q_lim) = _core(params, gains, cfg.phi_min, ms.Phi_rd, ms.i_mu_d, ms.i_mu_q, w, ms.m,
+                                     dm, I, ref, theta, theta_dot, adapt, integ[0], integ[1], i_max)
     theta_hat_dot = 0.0 if adapt is None else theta_dot
     W = L11 * L22 - L12 * L21
     if singular:
         floor = max(_W_REL_FLOOR * (abs(L11 * L22) + abs(L12 * L21)), 1e-300)
         if not abs(W) > floor:
             W = math.copysign(floor, W) if W == W else floor
-    q1 = -gains.c2 * e2 - e1 - beta1
-    q2 = -gains.d2 * z2 - z1 - beta2
+    q1 = -gains.c2 * e2 - beta1 - (0.0 if d_lim else e1)
+    q2 = -gains.d2 * z2 - beta2 - (0.0 if q_lim else z1)
     vd = (L22 * q1 - L12 * q2) / W
     vq = (L11 * q2 - L21 * q1) / W
     vmax = cfg.V_dc / _SQRT3
@@ -298,9 +357,12 @@ def control(meas, ref, load, params, gains, cfg, theta_hat=0.0):
             vd, vq = (math.copysign(vmax, vd), 0.0) if abs(vd) >= abs(vq) else (0.0, math.copysign(vmax, vq))
     rho_out = ms.rho + 0.5 * ws * cfg.Ts
     c, s = math.cos(rho_out), math.sin(rho_out)
-    V = 0.5 * (e1 * e1 + e2 * e2 + z1 * z1 + z2 * z2)
+    e0, z0 = integ
+    V = 0.5 * (e1 * e1 + e2 * e2 + z1 * z1 + z2 * z2 + gains.c0 * e0 * e0 + gains.d0 * z0 * z0)
+    e0_dot = 0.0 if (d_lim or vlim) else e1
+    z0_dot = 0.0 if (q_lim or vlim) else z1
     return ControlOutput(c * vd - s * vq, s * vd + c * vq, vd, vq, e1, e2, z1, z2, V, W_true, ms.m, I,
-                         ms.Phi_rd, ms.rho, ws, theta_hat_dot, vlim, singular)
+                         ms.Phi_rd, ms.rho, ws, theta_hat_dot, vlim, singular, e0_dot, z0_dot, d_lim or q_lim)
 
 
 __all__ = ["BacksteppingGains", "ControllerConfig", "ControlOutput", "ErrorSystem", "control",

@@ -33,18 +33,19 @@ from dataclasses import dataclass
 from typing import NamedTuple
 
 from .backstepping import BacksteppingGains, ControllerConfig, control
+from .delay import N_STATE as N_DELAY_STATE
+from .delay import DelayCompensator
 from .errors import ParameterError, require_number
 from .fo_model import flux_rate, model_constants
 from .ifoc import IFOCController, IFOCGains
 from .measurements import MEAS_I_S_A, MEAS_I_S_B, MEAS_OMEGA_M, MEAS_PSI_R_A, MEAS_PSI_R_B, from_rotor_flux
+from .observer import RotorFluxObserver
 from .references import REF_VALUE, ReferenceShaper
 
 PREMAG, RUN = 0, 1
-# Layout of the drive state (get_state/set_state): phase, pre-magnetization sample count, the flux
-# and speed shapers' (r, r', r''), then the law's own states.
-STATE_PHASE, STATE_COUNT = 0, 1
-STATE_FLUX, STATE_SPEED, STATE_LAW = slice(2, 5), slice(5, 8), slice(8, None)
+FLUX_SOURCES = ("measured", "observer")
 _SQRT3 = math.sqrt(3.0)
+_FRAME_MIN = 1e-3  # [1] below this fraction of the set-point the premag current stays on alpha
 
 
 @dataclass(frozen=True)
@@ -52,9 +53,14 @@ class DriveConfig:
     """Settings of the drive around the control law (SI units).
 
     ref_bandwidth [rad/s] of both reference shapers (10-90 % rise 4.22/ref_bandwidth);
-    I_max [A] current limit (pre-magnetization current, flux set-points it allows);
-    premag_fraction [1] of the flux set-point at which the law takes over; premag_boost [1];
-    premag_gain [Ohm] K_pm of the pre-magnetization current loop; premag_time_max [s].
+    I_max [A] current limit (pre-magnetization current, flux set-points, the law's virtual
+    controls); premag_fraction [1] of the flux set-point at which the law takes over;
+    premag_min_fraction [1]: the law takes over from this fraction on if the rotor moves by more
+    than premag_speed_tol [rad/s] or premag_time_max [s] has passed, never below it;
+    premag_boost [1]; premag_gain [Ohm] K_pm of the pre-magnetization current loop;
+    flux_source 'measured' (the psi_r inputs, the seed's assumption) or 'observer'
+    (:class:`satmotor.observer.RotorFluxObserver` from i_s and omega_m); delay_samples 0 or 1
+    (:mod:`satmotor.delay`).
     """
 
     ref_bandwidth: float = 40.0
@@ -63,18 +69,30 @@ class DriveConfig:
     premag_boost: float = 1.5
     premag_gain: float = 20.0
     premag_time_max: float = 0.4
+    premag_min_fraction: float = 0.5
+    premag_speed_tol: float = 2.0
+    flux_source: str = "measured"
+    delay_samples: int = 0
 
     def __post_init__(self):
         require_number("ref_bandwidth", self.ref_bandwidth, 0)
         require_number("I_max", self.I_max, 0)
         require_number("premag_fraction", self.premag_fraction, 0, upper=1)
+        require_number("premag_min_fraction", self.premag_min_fraction, 0, upper=self.premag_fraction)
         require_number("premag_boost", self.premag_boost, 1, inclusive=True)
         require_number("premag_gain", self.premag_gain, 0)
         require_number("premag_time_max", self.premag_time_max, 0)
+        require_number("premag_speed_tol", self.premag_speed_tol, 0)
+        if self.flux_source not in FLUX_SOURCES:
+            raise ParameterError("flux_source", self.flux_source, f"must be one of {', '.join(FLUX_SOURCES)}")
+        if self.delay_samples not in (0, 1) or isinstance(self.delay_samples, bool):
+            raise ParameterError("delay_samples", self.delay_samples, "must be 0 or 1")
 
 
 class DriveOutput(NamedTuple):
-    """One sample of a drive (SI units); errors are 0 during pre-magnetization."""
+    """One sample of a drive (SI units); errors are 0 during pre-magnetization.  With a delay,
+    v_s_alpha/beta are the voltages applied now (computed one sample earlier); the other fields
+    belong to this sample's computation (v_sd, v_sq: the command applied from the next sample)."""
 
     v_s_alpha: float  # [V]
     v_s_beta: float  # [V]
@@ -92,10 +110,13 @@ class DriveOutput(NamedTuple):
     phase: int  # PREMAG or RUN
     voltage_limited: bool
     singular_limited: bool
+    current_limited: bool
+    psi_r_hat_alpha: float  # [Wb] rotor flux the drive used (estimate, or the measurement)
+    psi_r_hat_beta: float  # [Wb]
 
 
 class _Drive:
-    """Pre-magnetization, set-point checks and shapers, shared by every law."""
+    """Flux source, pre-magnetization, set-point checks, shapers and delay, shared by every law."""
 
     def __init__(self, params, Ts, V_dc, drive_cfg):
         self.params = params
@@ -107,6 +128,8 @@ class _Drive:
         self._speed = ReferenceShaper(drive_cfg.ref_bandwidth)
         self._checked = (None, 0.0)  # last flux set-point checked, its magnetizing current
         self._n_switch = round(drive_cfg.premag_time_max / Ts)
+        self._observer = (RotorFluxObserver(params, Ts) if drive_cfg.flux_source == "observer" else None)
+        self._delay = DelayCompensator(params, Ts) if drive_cfg.delay_samples else None
         self.reset()
 
     def reset(self):
@@ -114,6 +137,10 @@ class _Drive:
         self._n = 0
         self._flux.reset(0.0)
         self._speed.reset(0.0)
+        if self._observer is not None:
+            self._observer.reset()
+        if self._delay is not None:
+            self._delay.reset()
         self._reset_law()
 
     def magnetizing_current(self, psi_set):
@@ -139,28 +166,58 @@ class _Drive:
         Returns a :class:`DriveOutput`."""
         I_set = self.magnetizing_current(psi_set)
         require_number("omega_ref", omega_set)
+        if self._observer is not None:  # the psi inputs are ignored: the estimate replaces them
+            pa, pb = self._observer.update(meas[MEAS_I_S_A], meas[MEAS_I_S_B], meas[MEAS_OMEGA_M])
+            meas = (meas[MEAS_I_S_A], meas[MEAS_I_S_B], pa, pb, meas[MEAS_OMEGA_M], 0.0, 0.0)
         if self._phase == PREMAG:
             phi = math.hypot(meas[MEAS_PSI_R_A], meas[MEAS_PSI_R_B])
-            if phi < self.dcfg.premag_fraction * psi_set and self._n < self._n_switch:
+            if not self._switch_now(phi, psi_set, meas[MEAS_OMEGA_M]):
                 self._n += 1
-                return self._premag(meas, I_set, phi, psi_set)
+                return self._delayed(self._premag(meas, I_set, phi, psi_set))
             self._switch(meas)
-        out = self._run(meas, self._flux.value, self._speed.value, T_load)
+        if self._delay is None:
+            out = self._run(meas, self._flux.value, self._speed.value, T_load)
+            self._flux.step(psi_set, self.Ts)
+            self._speed.step(omega_set, self.Ts)
+            return out
+        # the command takes effect at the next sample: the state and the references there
+        pred = self._delay.predict(meas, self._model_load(T_load))
         self._flux.step(psi_set, self.Ts)
         self._speed.step(omega_set, self.Ts)
-        return out
+        return self._delayed(self._run(pred, self._flux.value, self._speed.value, T_load))
+
+    def _delayed(self, out):
+        if self._delay is None:
+            return out
+        va, vb = self._delay.swap(out.v_s_alpha, out.v_s_beta)
+        return out._replace(v_s_alpha=va, v_s_beta=vb)
+
+    def _switch_now(self, phi, psi_set, omega_m):
+        """The law takes over at premag_fraction of the set-point; from premag_min_fraction on when
+        the rotor moves or the time is up; never below (no law at near-zero flux)."""
+        c = self.dcfg
+        if phi >= c.premag_fraction * psi_set:
+            return True
+        return phi >= c.premag_min_fraction * psi_set and (
+            self._n >= self._n_switch or abs(omega_m) > c.premag_speed_tol)
 
     def _premag(self, meas, I_set, phi, psi_set):
+        """Current loop in the rotor-flux frame (on alpha until there is a flux to align with):
+        i_sd -> min(boost I_set, I_max), i_sq -> 0, whatever the rotor does."""
         p, K = self.params, self.dcfg.premag_gain
         i_ref = min(self.dcfg.premag_boost * I_set, self.dcfg.I_max)
-        va = p.R_s * i_ref + K * (i_ref - meas[MEAS_I_S_A])
-        vb = -K * meas[MEAS_I_S_B]
-        vn = math.hypot(va, vb)
+        pa, pb = meas[MEAS_PSI_R_A], meas[MEAS_PSI_R_B]
+        c, s = (pa / phi, pb / phi) if phi > _FRAME_MIN * psi_set else (1.0, 0.0)
+        ia, ib = meas[MEAS_I_S_A], meas[MEAS_I_S_B]
+        vd = p.R_s * i_ref + K * (i_ref - (c * ia + s * ib))
+        vq = -K * (c * ib - s * ia)
+        vn = math.hypot(vd, vq)
         lim = vn > self._V_max
         if lim:
-            va, vb = va * self._V_max / vn, vb * self._V_max / vn
-        return DriveOutput(va, vb, va, vb, phi - psi_set, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
-                           meas[MEAS_OMEGA_M], phi, PREMAG, lim, False)
+            vd, vq = vd * self._V_max / vn, vq * self._V_max / vn
+        return DriveOutput(c * vd - s * vq, s * vd + c * vq, vd, vq, phi - psi_set, 0.0, 0.0, 0.0, 0.0,
+                           0.0, 0.0, meas[MEAS_OMEGA_M], phi, PREMAG, lim, False, i_ref >= self.dcfg.I_max,
+                           pa, pb)
 
     def _switch(self, meas):
         p = self.params
@@ -172,18 +229,34 @@ class _Drive:
         self._phase = RUN
         self._on_switch(ms)
 
+    def _model_load(self, T_load):
+        """Load torque [N m] the law's model assumes (used by the delay compensation)."""
+        return 0.0
+
     def get_state(self):
-        """Every internal state as a flat tuple of floats (layout: the ``STATE_*`` constants)."""
+        """Every internal state as a flat tuple of floats: phase, pre-magnetization sample count,
+        the flux and speed shapers' (r, r', r''), the observer's and the delay's states (when
+        configured), then the law's own states."""
+        obs = () if self._observer is None else self._observer.get_state()
+        dly = () if self._delay is None else self._delay.get_state()
         return (float(self._phase), float(self._n)) + self._flux.get_state() + \
-            self._speed.get_state() + self._law_state()
+            self._speed.get_state() + tuple(obs) + tuple(dly) + self._law_state()
 
     def set_state(self, state):
         """Restore a tuple from :meth:`get_state`."""
         s = tuple(float(v) for v in state)
-        self._phase, self._n = int(s[STATE_PHASE]), int(s[STATE_COUNT])
-        self._flux.set_state(s[STATE_FLUX])
-        self._speed.set_state(s[STATE_SPEED])
-        self._set_law_state(s[STATE_LAW])
+        self._phase, self._n = int(s[0]), int(s[1])
+        self._flux.set_state(s[2:5])
+        self._speed.set_state(s[5:8])
+        i = 8
+        if self._observer is not None:
+            n = len(self._observer.get_state())
+            self._observer.set_state(s[i:i + n])
+            i += n
+        if self._delay is not None:
+            self._delay.set_state(s[i:i + N_DELAY_STATE])
+            i += N_DELAY_STATE
+        self._set_law_state(s[i:])
 
 
 class BacksteppingDrive(_Drive):
@@ -208,28 +281,35 @@ class BacksteppingDrive(_Drive):
 
     def _reset_law(self):
         self._theta_hat = 0.0
+        self._e0 = self._z0 = 0.0
 
     def _on_switch(self, ms):
         pass
 
     def _law_state(self):
-        return (self._theta_hat,)
+        return (self._theta_hat, self._e0, self._z0)
 
     def _set_law_state(self, s):
-        (self._theta_hat,) = s
+        self._theta_hat, self._e0, self._z0 = s
+
+    def _model_load(self, T_load):
+        return self._theta_hat * self.params.J if self.cfg.load_mode == "estimated" else T_load
 
     def _run(self, meas, rf, rw, T_load):
         cfg, p = self.cfg, self.params
-        o = control(meas, rf + rw, (T_load, 0.0), p, self.gains, cfg, self._theta_hat)
+        o = control(meas, rf + rw, (T_load, 0.0), p, self.gains, cfg, self._theta_hat, (self._e0, self._z0),
+                    self.dcfg.I_max)
         if cfg.load_mode == "estimated":
             t_load = self._theta_hat * p.J
             th = self._theta_hat + cfg.Ts * o.theta_hat_dot
             self._theta_hat = min(max(th, -cfg.theta_max), cfg.theta_max)
         else:
             t_load = T_load
+        self._e0 += cfg.Ts * o.e0_dot
+        self._z0 += cfg.Ts * o.z0_dot
         return DriveOutput(o.v_s_alpha, o.v_s_beta, o.v_sd, o.v_sq, o.e1, o.e2, o.z1, o.z2, o.V, o.W,
                            t_load, rw[REF_VALUE], rf[REF_VALUE], RUN, o.voltage_limited,
-                           o.singular_limited)
+                           o.singular_limited, o.current_limited, meas[MEAS_PSI_R_A], meas[MEAS_PSI_R_B])
 
 
 class IFOCDrive(_Drive):
@@ -258,4 +338,5 @@ class IFOCDrive(_Drive):
         # diagnostics only: the PI loops never see the flux
         e1 = math.hypot(meas[MEAS_PSI_R_A], meas[MEAS_PSI_R_B]) - psi_ref
         return DriveOutput(va, vb, d.v_sd, d.v_sq, e1, 0.0, w - w_ref, 0.0, 0.0, 0.0, 0.0,
-                           w_ref, psi_ref, RUN, d.voltage_limited, False)
+                           w_ref, psi_ref, RUN, d.voltage_limited, False, d.current_limited,
+                           meas[MEAS_PSI_R_A], meas[MEAS_PSI_R_B])

@@ -107,12 +107,26 @@ CONTROLLER_OUTPUTS = (
     _v("z2", "output", 0.0, "rad/s2", "speed virtual-control error"),
     _v("W", "output", 0.0, "1", "det Lambda of the law (0: not running)"),
     _v("T_load_est", "output", 0.0, "N m", "load torque used by the law (estimate if estimated)"),
+    _v("psi_r_hat_alpha", "output", 0.0, "Wb", "rotor flux the law uses, alpha axis: the observer's "
+       "estimate (flux_source = observer) or the psi_r_alpha input (measured)"),
+    _v("psi_r_hat_beta", "output", 0.0, "Wb", "rotor flux the law uses, beta axis"),
+    _v("omega_ref_shaped", "output", 0.0, "rad/s", "shaped speed reference the law tracks"),
+    _v("psi_ref_shaped", "output", 0.0, "Wb", "shaped rotor flux reference the law tracks"),
+    _v("phase", "output", 0, "", "0: pre-magnetization (current loop), 1: run (the law)", "Integer"),
+    _v("voltage_limited", "output", False, "", "the voltage vector was limited to V_dc/sqrt(3)",
+       "Boolean"),
+    _v("current_limited", "output", False, "", "a virtual control (or the pre-magnetization current) "
+       "was bounded by I_max", "Boolean"),
+    _v("singular_limited", "output", False, "", "the law's singularity guard was active "
+       "(flux below phi_min or det Lambda floored)", "Boolean"),
 )
 CONTROLLER_PARAMETERS = (
     _v("c1", "parameter", _G.c1, "1/s", "flux error gain"),
     _v("c2", "parameter", _G.c2, "1/s", "flux virtual-control gain"),
     _v("d1", "parameter", _G.d1, "1/s", "speed error gain"),
     _v("d2", "parameter", _G.d2, "1/s", "speed virtual-control gain"),
+    _v("c0", "parameter", _G.c0, "1/s2", "flux integral gain (0: no integral action, the seed's law)"),
+    _v("d0", "parameter", _G.d0, "1/s2", "speed integral gain (0: no integral action, the seed's law)"),
     _v("Ts", "parameter", _C.Ts, "s", "sample period; one sample per doStep (dt must equal Ts)"),
     _v("mode", "parameter", "saturated", "", "law: saturated (backstepping with the curve), "
        "constant_m (same law, m = L_m0), pi (indirect field-oriented PI baseline)", "String"),
@@ -121,7 +135,13 @@ CONTROLLER_PARAMETERS = (
     _v("ref_bandwidth", "parameter", _D.ref_bandwidth, "rad/s", "reference shaper bandwidth"),
     _v("g_theta", "parameter", _C.g_theta, "1/s2", "adaptation gain of the load estimate"),
     _v("theta_max", "parameter", _C.theta_max, "rad/s2", "bound of the estimate of T_load/J"),
-    _v("I_max", "parameter", _D.I_max, "A", "current limit (pre-magnetization, flux set-points)"),
+    _v("I_max", "parameter", _D.I_max, "A", "stator current limit: pre-magnetization, flux set-points, "
+       "the law's virtual controls"),
+    _v("flux_source", "parameter", _D.flux_source, "", "rotor flux: measured (the psi_r/psi_s inputs, "
+       "the seed's assumption) or observer (estimated from i_s and omega_m; the psi inputs are ignored)",
+       "String"),
+    _v("delay_samples", "parameter", _D.delay_samples, "1", "computational delay: 0 (voltage applied at "
+       "the sample) or 1 (applied one sample later, compensated by prediction)", "Integer"),
     _v("use_stator_flux", "parameter", _C.use_stator_flux, "", "magnetizing state from the measured "
        "stator flux too (seed H1, eqs 18-19) instead of the curve alone", "Boolean"),
 ) + MOTOR_PARAMETERS
@@ -149,6 +169,9 @@ def motor_params(values):
     curve = make_curve(f["curve"], f["L_m0"], f["L_m_inf"], f["I_par"], f["poly_b"], f["poly_n"],
                        f["table_file"])
     return MotorParams(f["R_s"], f["R_r"], f["l_s"], f["l_r"], f["k"], f["n_p"], f["J"], f["B"], curve)
+
+
+_CAST = {"Real": float, "Integer": int, "Boolean": bool}
 
 
 def _finite_inputs(names, values):
@@ -213,20 +236,24 @@ class ControllerUnit:
         mode = f["mode"]
         if mode not in CONTROLLER_MODES:
             raise ParameterError("mode", mode, f"must be one of {', '.join(CONTROLLER_MODES)}")
-        dcfg = DriveConfig(ref_bandwidth=f["ref_bandwidth"], I_max=f["I_max"])
+        if f["flux_source"] == "observer" and f["use_stator_flux"]:
+            raise ParameterError("use_stator_flux", True, "needs measured fluxes: not with flux_source = "
+                                 "observer")
+        dcfg = DriveConfig(ref_bandwidth=f["ref_bandwidth"], I_max=f["I_max"], flux_source=f["flux_source"],
+                           delay_samples=f["delay_samples"])
         if mode == "pi":
             gains = dataclasses.replace(IFOCGains(), V_dc=f["V_dc"], I_max=f["I_max"])
             self.drive = IFOCDrive(p, gains, f["Ts"], drive_cfg=dcfg)
         else:
             if mode == "constant_m":
                 p = dataclasses.replace(p, curve=LinearCurve(p.curve.m0))
-            gains = BacksteppingGains(f["c1"], f["c2"], f["d1"], f["d2"])
+            gains = BacksteppingGains(f["c1"], f["c2"], f["d1"], f["d2"], f["c0"], f["d0"])
             cfg = ControllerConfig(V_dc=f["V_dc"], Ts=f["Ts"], load_mode=f["load_mode"],
                                    g_theta=f["g_theta"], theta_max=f["theta_max"],
                                    use_stator_flux=f["use_stator_flux"])
             self.drive = BacksteppingDrive(p, gains, cfg, dcfg)
         self.Ts = f["Ts"]
-        self._out = (0.0,) * len(self.OUTPUTS)
+        self._out = tuple(v.start for v in CONTROLLER_OUTPUTS)
 
     def step(self, t, dt, inputs):
         """One sample at ``t`` from the inputs (order of :attr:`INPUTS`); ``dt`` must equal Ts.
@@ -238,16 +265,18 @@ class ControllerUnit:
             _finite_inputs(self.INPUTS, inputs)
         i_a, i_b, pr_a, pr_b, ps_a, ps_b, w, w_set, psi_set, T_load = inputs
         d = self.drive.step((i_a, i_b, pr_a, pr_b, w, ps_a, ps_b), w_set, psi_set, T_load)
-        self._out = (d.v_s_alpha, d.v_s_beta, d.v_sd, d.v_sq, d.e1, d.e2, d.z1, d.z2, d.W, d.T_load_est)
+        self._out = (d.v_s_alpha, d.v_s_beta, d.v_sd, d.v_sq, d.e1, d.e2, d.z1, d.z2, d.W, d.T_load_est,
+                     d.psi_r_hat_alpha, d.psi_r_hat_beta, d.omega_ref, d.psi_ref, d.phase,
+                     d.voltage_limited, d.current_limited, d.singular_limited)
 
     def outputs(self):
         """Output values in the order of :attr:`OUTPUTS` (zeros before the first sample)."""
         return self._out
 
     def get_state(self):
-        return self._out + self.drive.get_state()
+        return tuple(float(v) for v in self._out) + self.drive.get_state()
 
     def set_state(self, state):
         n = len(self.OUTPUTS)
-        self._out = tuple(float(v) for v in state[:n])
+        self._out = tuple(_CAST[v.type](x) for v, x in zip(CONTROLLER_OUTPUTS, state[:n]))
         self.drive.set_state(state[n:])

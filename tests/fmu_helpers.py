@@ -70,7 +70,10 @@ class Slave:
         self.fmu.exitInitializationMode()
 
     def get(self, names):
-        return self.fmu.getReal([self.vars[n].valueReference for n in names])
+        """Values of ``names`` (Reals in one call; Integer/Boolean outputs by their own type, as floats)."""
+        if all(self.vars[n].type == "Real" for n in names):
+            return self.fmu.getReal([self.vars[n].valueReference for n in names])
+        return [float(self.value(n)) for n in names]
 
     def value(self, name):
         """One variable's value, read by its declared type."""

@@ -48,20 +48,23 @@ MOTOR = ("R_s", "R_r", "l_s", "l_r", "k", "n_p", "J", "B", "curve", "L_m0", "L_m
          "poly_n", "table_file")
 CTRL_IN = ("i_s_alpha", "i_s_beta", "psi_r_alpha", "psi_r_beta", "psi_s_alpha", "psi_s_beta", "omega_m",
            "omega_ref", "psi_ref", "T_load")
-CTRL_OUT = ("v_s_alpha", "v_s_beta", "v_sd", "v_sq", "e1", "e2", "z1", "z2", "W", "T_load_est")
+CTRL_OUT = ("v_s_alpha", "v_s_beta", "v_sd", "v_sq", "e1", "e2", "z1", "z2", "W", "T_load_est", "psi_r_hat_alpha",
+            "psi_r_hat_beta", "omega_ref_shaped", "psi_ref_shaped", "phase", "voltage_limited", "current_limited",
+            "singular_limited")
 CONTRACT = {
     "SaturatedInductionMotor": {"input": PLANT_IN, "output": PLANT_OUT,
                                 "parameter": MOTOR + ("omega_m0", "psi_r0", "h_int")},
     "BacksteppingController": {"input": CTRL_IN, "output": CTRL_OUT, "parameter": (
         "c1", "c2", "d1", "d2", "Ts", "mode", "load_mode", "V_dc", "ref_bandwidth", "g_theta", "theta_max",
-        "I_max", "use_stator_flux") + MOTOR},
+        "I_max", "use_stator_flux", "c0", "d0", "flux_source", "delay_samples") + MOTOR},
 }
 UNITS = {"V": "v_s_alpha v_s_beta v_sd v_sq V_dc", "A": "i_s_alpha i_s_beta i_mu I_par I_max",
-         "Wb": "psi_s_alpha psi_s_beta psi_r_alpha psi_r_beta psi_ref psi_r0 e1", "Wb/s": "e2",
-         "rad/s": "omega_m omega_ref omega_m0 z1 ref_bandwidth", "rad": "theta_m", "rad/s2": "z2 theta_max",
-         "N m": "T_load T_e T_load_est", "Ohm": "R_s R_r", "H": "l_s l_r L_m0 L_m_inf", "1": "k W",
+         "Wb": "psi_s_alpha psi_s_beta psi_r_alpha psi_r_beta psi_ref psi_r0 e1 psi_r_hat_alpha psi_r_hat_beta "
+               "psi_ref_shaped", "Wb/s": "e2",
+         "rad/s": "omega_m omega_ref omega_m0 z1 ref_bandwidth omega_ref_shaped", "rad": "theta_m", "rad/s2": "z2 theta_max",
+         "N m": "T_load T_e T_load_est", "Ohm": "R_s R_r", "H": "l_s l_r L_m0 L_m_inf", "1": "k W delay_samples",
          "kg m2": "J", "N m s": "B", "A/Wb^n": "poly_b", "s": "h_int Ts", "1/s": "c1 c2 d1 d2",
-         "1/s2": "g_theta"}
+         "1/s2": "g_theta c0 d0"}
 UNIT_OF = {name: unit for unit, names in UNITS.items() for name in names.split()}
 
 
@@ -71,10 +74,10 @@ def _defaults():
     motor = {n: getattr(m, n) for n in MOTOR[:8]}
     motor |= {n: getattr(m.curve, n) for n in ("L_m0", "L_m_inf", "I_par")}
     motor |= {"curve": m.curve.name, "poly_b": poly.poly_b, "poly_n": poly.poly_n, "table_file": ""}
-    ctrl = motor | {n: getattr(g, n) for n in ("c1", "c2", "d1", "d2")} | {
+    ctrl = motor | {n: getattr(g, n) for n in ("c1", "c2", "d1", "d2", "c0", "d0")} | {
         n: getattr(c, n) for n in ("Ts", "V_dc", "load_mode", "g_theta", "theta_max")} | {
         "ref_bandwidth": d.ref_bandwidth, "I_max": d.I_max, "mode": "saturated",
-        "use_stator_flux": c.use_stator_flux}
+        "use_stator_flux": c.use_stator_flux, "flux_source": d.flux_source, "delay_samples": d.delay_samples}
     # at rest, unmagnetized (closed_loop's x0); one RK4 step per sample (closed_loop's n_sub = 1)
     plant = motor | {"omega_m0": 0.0, "psi_r0": 0.0, "h_int": c.Ts}
     return {"SaturatedInductionMotor": plant, "BacksteppingController": ctrl}
@@ -156,10 +159,16 @@ def ctrl_inputs(rec, k):
     return meas | {"omega_ref": rec["omega_set"][k], "psi_ref": rec["psi_set"][k], "T_load": rec["T_load"][k]}
 
 
+PLAIN_NAME = {"omega_ref_shaped": "omega_ref", "psi_ref_shaped": "psi_ref"}  # FMU output -> plain-loop key
+
+
 def rel_err(got, ref, names):
-    """Largest |got - ref| over all samples, relative to max |ref|, over the variables ``names``."""
-    return max(np.max(np.abs(np.asarray(got[n]) - ref[n])) / max(np.max(np.abs(ref[n])), 1e-300)
-               for n in names)
+    """Largest |got - ref| over all samples, relative to max |ref|, over the variables ``names``
+    (``ref`` keyed by the plain loop's names)."""
+    def r(n):
+        want = np.asarray(ref[PLAIN_NAME.get(n, n)], dtype=float)
+        return np.max(np.abs(np.asarray(got[n], dtype=float) - want)) / max(np.max(np.abs(want)), 1e-300)
+    return max(r(n) for n in names)
 
 
 def run_plant(s, k0, k1):
@@ -200,7 +209,11 @@ def test_model_description_matches_the_contract(fmus, name):
             assert v.description.endswith(f"[{UNIT_OF[v.name]}]"), (v.name, v.description)
         if v.causality == "parameter":
             assert _typed(v, v.start) == DEFAULTS[name][v.name], v.name
-    assert {v.name for v in md.modelVariables if v.type == "Integer"} == {"n_p", "poly_n"}
+    integers = {"n_p", "poly_n"} | ({"delay_samples", "phase"} if name == "BacksteppingController" else set())
+    assert {v.name for v in md.modelVariables if v.type == "Integer"} == integers
+    booleans = {"use_stator_flux", "voltage_limited", "current_limited", "singular_limited"}
+    assert {v.name for v in md.modelVariables if v.type == "Boolean"} == (
+        booleans if name == "BacksteppingController" else set())
     cs = md.coSimulation
     assert cs.canGetAndSetFMUstate and cs.canSerializeFMUstate
     assert cs.canHandleVariableCommunicationStepSize == (name == "SaturatedInductionMotor")
@@ -276,7 +289,7 @@ def test_controller_fmu_under_simulate_fmu_matches_the_plain_loop(fmus):
     res = simulate_fmu(fmus["BacksteppingController"].path, start_time=0.0, stop_time=(n - 1) * H,
                        output_interval=H, input=sig, output=list(CTRL_OUT))
     got = {v: res[v][1:] for v in CTRL_OUT}
-    ref = {v: np.asarray(rec[v][: n - 1]) for v in CTRL_OUT}
+    ref = {PLAIN_NAME.get(v, v): np.asarray(rec[PLAIN_NAME.get(v, v)][: n - 1]) for v in CTRL_OUT}
     err = rel_err(got, ref, CTRL_OUT)
     print(f"controller simulate_fmu: max rel diff {err:.3g}")
     assert err <= 1e-9
@@ -373,7 +386,7 @@ def test_controller_discards_infinite_set_point_and_wrong_step(new):
     with pytest.raises(FMICallException) as exc:
         s.fmu.doStep(0.0, 2 * H)
     assert exc.value.status == 2 and "communicationStepSize = 0.0002" in s.messages(min_status=2)
-    assert run_ctrl(s, 0, 3, rec) == [[rec[n][k] for n in CTRL_OUT] for k in range(3)]
+    assert run_ctrl(s, 0, 3, rec) == [[rec[PLAIN_NAME.get(n, n)][k] for n in CTRL_OUT] for k in range(3)]
 
 
 # --- 10: two closed loops in one process, reset -------------------------------------------------------
@@ -484,7 +497,7 @@ def _run_checked(name, s, k0, k1):
         assert run_plant(s, k0, k1) == [[ref[n][k + 1] for n in PLANT_OUT] for k in range(k0, k1)]
     else:
         rec = ramp_run()
-        assert run_ctrl(s, k0, k1, rec) == [[rec[n][k] for n in CTRL_OUT] for k in range(k0, k1)]
+        assert run_ctrl(s, k0, k1, rec) == [[rec[PLAIN_NAME.get(n, n)][k] for n in CTRL_OUT] for k in range(k0, k1)]
 
 
 @pytest.mark.parametrize("name", list(CONTRACT))
