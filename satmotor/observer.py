@@ -125,7 +125,8 @@ class RotorFluxObserver:
     def update(self, i_s_alpha, i_s_beta, omega_m):
         """Advance the estimate to this sample; returns (psi_hat_alpha, psi_hat_beta) [Wb].
 
-        The first call after :meth:`reset` only stores the inputs and returns the estimate.
+        The first call after :meth:`reset` only stores the inputs and returns the estimate.  The inputs
+        are not checked (per-sample path): a NaN propagates into the estimate.
         """
         isa1, isb1, w1 = float(i_s_alpha), float(i_s_beta), float(omega_m)
         if not self._has_prev:
