@@ -26,6 +26,8 @@ from fmpy.fmi2 import (
     fmi2CallbackFreeMemoryTYPE,
     fmi2CallbackFunctions,
     fmi2CallbackLoggerTYPE,
+    fmi2Boolean,
+    fmi2Integer,
     fmi2Real,
     fmi2ValueReference,
     free,
@@ -89,6 +91,32 @@ class RealPort:
         s = self._inst.slave
         s.fmi2GetReal(s.component, self._vr, self.n, self.values)
         return self.values
+
+
+class DiscretePort:
+    """The Integer and Boolean outputs of an instance (e.g. the controller's phase and limiter
+    flags), read together after a step: :meth:`read` returns their values as floats in the order
+    of :attr:`names` (Integers first, then Booleans)."""
+
+    def __init__(self, instance, integers, booleans):
+        self.names = tuple(integers) + tuple(booleans)
+        self._ni, self._nb = len(integers), len(booleans)
+        c = instance.slave.component
+        self._ivals, self._bvals = (fmi2Integer * self._ni)(), (fmi2Boolean * self._nb)()
+        self._iargs = (c, (fmi2ValueReference * self._ni)(*instance.vr(integers)), self._ni, self._ivals)
+        self._bargs = (c, (fmi2ValueReference * self._nb)(*instance.vr(booleans)), self._nb, self._bvals)
+        self._get_i, self._get_b = instance.raw("fmi2GetInteger"), instance.raw("fmi2GetBoolean")
+
+    def read(self):
+        if self._ni:
+            r = self._get_i(*self._iargs)
+            if r > 1:
+                check("fmi2GetInteger", r)
+        if self._nb:
+            r = self._get_b(*self._bargs)
+            if r > 1:
+                check("fmi2GetBoolean", r)
+        return [float(v) for v in self._ivals] + [float(v) for v in self._bvals]
 
 
 class FMUInstance:

@@ -28,7 +28,7 @@ from operator import itemgetter
 
 from fmpy.fmi1 import FMICallException
 
-from .fmu_instance import STATUS, FMUInstance, RealPort, check, extract_owned, remove_extracted
+from .fmu_instance import STATUS, DiscretePort, FMUInstance, RealPort, check, extract_owned, remove_extracted
 from .interrupts import signal_name
 from .recorder import Recorder
 from .wiring import CONTROLLER, DEFAULT_CONNECTIONS, PLANT, PROFILE, Connection, inputs_of, resolve
@@ -58,8 +58,8 @@ class RunResult:
         return self.recorder.frame()
 
 
-def _outputs(inst):
-    return [v.name for v in inst.md.modelVariables if v.causality == "output"]
+def _outputs(inst, kind="Real"):
+    return [v.name for v in inst.md.modelVariables if v.causality == "output" and v.type == kind]
 
 
 def recorded_columns(plant_outputs, controller_outputs, profile_names):
@@ -107,11 +107,13 @@ def run(scenario, plant_fmu, controller_fmu, connections=DEFAULT_CONNECTIONS, al
             inst.initialize(0.0)
         current = "master"
         p_out, c_out = RealPort(plant, _outputs(plant)), RealPort(ctrl, _outputs(ctrl))
+        c_disc = DiscretePort(ctrl, _outputs(ctrl, "Integer"), _outputs(ctrl, "Boolean"))
         profiles = {k: p.value for k, p in scenario.profiles.items()}
-        columns = recorded_columns(p_out.names, c_out.names, sorted(profiles))
+        columns = recorded_columns(p_out.names, c_out.names + c_disc.names, sorted(profiles))
         rec = recorder(columns) if recorder else Recorder(columns)
         t_reached, complete = _loop(scenario, jacobi=algorithm == "jacobi", plant=plant, ctrl=ctrl,
-                                    p_out=p_out, c_out=c_out, connections=connections, profiles=profiles,
+                                    p_out=p_out, c_out=c_out, c_disc=c_disc, connections=connections,
+                                    profiles=profiles,
                                     rec=rec, stop=stop)
         if not complete:
             status, message = "interrupted", f"stopped by {signal_name(stop.signum)} at t = {t_reached:.6g} s"
@@ -177,12 +179,13 @@ def _picker(indices):
     return lambda seq: ()
 
 
-def _loop(sc, jacobi, plant, ctrl, p_out, c_out, connections, profiles, rec, stop):
+def _loop(sc, jacobi, plant, ctrl, p_out, c_out, c_disc, connections, profiles, rec, stop):
     """The stepping loop; returns (the last communication point reached [s], whether the run
     reached its stop time).  A failing doStep raises FMICallException tagged with the unit and the
     time (:meth:`FMUInstance.step_failed`).  The FMI functions are called through ctypes directly
     (:meth:`FMUInstance.raw`) with argument tuples made once; the profiles are evaluated once per
-    step (pure functions of t); every value exchanged is a plain float."""
+    step (pure functions of t); every value exchanged is a plain float.  The controller's Integer and
+    Boolean outputs (``c_disc``, read as floats) follow its Reals in each row."""
     h, N = sc.step, sc.controller_every
     n = round(sc.stop_time / h)
     every = max(1, round(sc.record.interval / h))
@@ -196,7 +199,8 @@ def _loop(sc, jacobi, plant, ctrl, p_out, c_out, connections, profiles, rec, sto
     comp_p, comp_c = plant.slave.component, ctrl.slave.component
     pg, cg, pvals, cvals = p_out.get_args, c_out.get_args, p_out.values, c_out.values
     ps, cs, p_invals, c_invals = p_in.set_args, c_in.set_args, p_in.values, c_in.values
-    pv, cv = p_out.read()[:], c_out.read()[:]  # lists of floats, new ones after each read
+    read_disc = c_disc.read
+    pv, cv = p_out.read()[:], c_out.read()[:] + read_disc()  # lists of floats, new ones after each read
     held = cv  # controller outputs seen by the plant (Jacobi: one sample old)
     Ts, t0, t = sc.Ts, 0.0, 0.0
     append = rec.append
@@ -218,7 +222,7 @@ def _loop(sc, jacobi, plant, ctrl, p_out, c_out, connections, profiles, rec, sto
             r = get_c(*cg)
             if r > 1:
                 check("fmi2GetReal", r)
-            cv = cvals[:]
+            cv = cvals[:] + read_disc()
             if not jacobi:
                 held = cv
         if k % every == 0:

@@ -8,19 +8,30 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-_COLUMNS = ("time", "plant.psi_r_alpha", "plant.psi_r_beta", "controller.W", "profile.omega_ref",
-            "plant.omega_m", "controller.z1", "profile.psi_ref", "controller.e1", "plant.T_e",
-            "profile.T_load", "controller.T_load_est", "plant.i_s_alpha", "plant.i_s_beta",
-            "controller.v_sd", "controller.v_sq", "controller.v_s_alpha", "controller.v_s_beta", "plant.i_mu")
+_COLUMNS = ("time", "plant.psi_r_alpha", "plant.psi_r_beta", "controller.phase", "profile.omega_ref",
+            "plant.omega_m", "controller.omega_ref_shaped", "profile.psi_ref", "controller.psi_ref_shaped",
+            "plant.T_e", "profile.T_load", "controller.T_load_est", "plant.i_s_alpha", "plant.i_s_beta",
+            "controller.v_sd", "controller.v_sq", "controller.v_s_alpha", "controller.v_s_beta", "plant.i_mu",
+            "controller.psi_r_hat_alpha", "controller.psi_r_hat_beta", "controller.current_limited",
+            "controller.voltage_limited")
+
+
+def _mark(ax, t, flags, y, label):
+    """Dots at ``y`` where a limiter flag is set (nothing if it never is)."""
+    if np.any(flags):
+        ax.plot(t[flags], y[flags], ".", ms=1.5, label=label)
 
 
 def figure(data, path, title):
     """Write a PNG of a recorded run (a DataFrame, or ``{column: array}``, with ``unit.variable``
-    columns) to ``path``."""
+    columns) to ``path``: the run phase and the shaped references are the controller's outputs."""
     df = {c: np.asarray(data[c], dtype=float) for c in _COLUMNS}
     t = df["time"]
     phi = np.hypot(df["plant.psi_r_alpha"], df["plant.psi_r_beta"])
-    running = df["controller.W"] > 0
+    running = df["controller.phase"] == 1
+    phi_hat = np.hypot(df["controller.psi_r_hat_alpha"], df["controller.psi_r_hat_beta"])
+    i_mag = np.hypot(df["plant.i_s_alpha"], df["plant.i_s_beta"])
+    v_mag = np.hypot(df["controller.v_s_alpha"], df["controller.v_s_beta"])
 
     def where_running(x):  # NaN (a gap in the line) outside the run phase
         return np.where(running, x, np.nan)
@@ -30,13 +41,14 @@ def figure(data, path, title):
     fig, ax = plt.subplots(6, 1, sharex=True, figsize=(9, 13))
     fig.subplots_adjust(left=0.08, right=0.994, bottom=0.036, top=0.982, hspace=0.075)
     ax[0].plot(t, df["profile.omega_ref"], "k:", label="set-point omega_ref")
-    ax[0].plot(t, where_running(df["plant.omega_m"] - df["controller.z1"]), "k--", lw=0.8,
-               label="shaped reference")
+    ax[0].plot(t, where_running(df["controller.omega_ref_shaped"]), "k--", lw=0.8, label="shaped reference")
     ax[0].plot(t, df["plant.omega_m"], label="omega_m")
     ax[0].set_ylabel("speed [rad/s]")
     ax[1].plot(t, df["profile.psi_ref"], "k:", label="set-point psi_ref")
-    ax[1].plot(t, where_running(phi - df["controller.e1"]), "k--", lw=0.8, label="shaped reference")
-    ax[1].plot(t, phi, label="|psi_r|")
+    ax[1].plot(t, where_running(df["controller.psi_ref_shaped"]), "k--", lw=0.8, label="shaped reference")
+    ax[1].plot(t, phi, label="|psi_r| (plant)")
+    if np.max(np.abs(phi_hat - phi)) > 1e-6 * max(np.max(phi), 1e-300):  # an estimate, not the measurement
+        ax[1].plot(t, phi_hat, "--", lw=0.9, label="|psi_r_hat| (controller)")
     ax[1].set_ylabel("rotor flux [Wb]")
     ax[2].plot(t, df["plant.T_e"], label="T_e")
     ax[2].plot(t, df["profile.T_load"], label="T_load")
@@ -44,12 +56,13 @@ def figure(data, path, title):
     ax[2].set_ylabel("torque [N m]")
     ax[3].plot(t, df["plant.i_s_alpha"], lw=0.6, label="i_s_alpha")
     ax[3].plot(t, df["plant.i_s_beta"], lw=0.6, label="i_s_beta")
-    ax[3].plot(t, np.hypot(df["plant.i_s_alpha"], df["plant.i_s_beta"]), "k", lw=0.9, label="|i_s|")
+    ax[3].plot(t, i_mag, "k", lw=0.9, label="|i_s|")
+    _mark(ax[3], t, df["controller.current_limited"] != 0, i_mag, "current limited")
     ax[3].set_ylabel("stator current [A]")
     ax[4].plot(t, where_running(df["controller.v_sd"]), label="v_sd")
     ax[4].plot(t, where_running(df["controller.v_sq"]), label="v_sq")
-    ax[4].plot(t, np.hypot(df["controller.v_s_alpha"], df["controller.v_s_beta"]), "k", lw=0.9,
-               label="|v_s|")
+    ax[4].plot(t, v_mag, "k", lw=0.9, label="|v_s|")
+    _mark(ax[4], t, df["controller.voltage_limited"] != 0, v_mag, "voltage limited")
     ax[4].set_ylabel("stator voltage [V]")
     ax[5].plot(t, df["plant.i_mu"], label="|i_mu|")
     ax[5].set_ylabel("magnetizing current [A]")

@@ -13,17 +13,10 @@ from pathlib import Path
 
 import numpy as np
 
-from satmotor.metrics import acceptance, closed_loop_metrics, run_phase
+from satmotor.drive import RUN
+from satmotor.metrics import acceptance, closed_loop_metrics
 
 from .recorder import FILES, StreamingRecorder
-
-
-def _run_phase(df):
-    """Run-phase mask of a recorded run (:func:`satmotor.metrics.run_phase`: from the first W > 0,
-    or for the PI baseline, which reports W = 0, from the first flux error within 10 % of the
-    set-point)."""
-    return run_phase(np.asarray(df["controller.W"]), np.asarray(df["controller.e1"]),
-                     np.asarray(df["profile.psi_ref"]))
 
 
 def compute_metrics(df, scenario):
@@ -39,8 +32,11 @@ def compute_metrics(df, scenario):
                "i_s_alpha": "plant.i_s_alpha", "i_s_beta": "plant.i_s_beta",
                "v_s_alpha": "controller.v_s_alpha", "v_s_beta": "controller.v_s_beta", "W": "controller.W"}
     acc = scenario.acceptance
-    return closed_loop_metrics(**{k: np.asarray(df[c]) for k, c in columns.items()}, run=_run_phase(df),
-                               ss_window=acc.ss_window if acc is not None and acc.ss_window else None)
+    return closed_loop_metrics(**{k: np.asarray(df[c]) for k, c in columns.items()},
+                               run=np.asarray(df["controller.phase"]) == RUN,
+                               ss_window=acc.ss_window if acc is not None and acc.ss_window else None,
+                               voltage_limited=np.asarray(df["controller.voltage_limited"]),
+                               current_limited=np.asarray(df["controller.current_limited"]))
 
 
 def check_acceptance(metrics, scenario):
@@ -57,7 +53,10 @@ RESULT_FILES = (*FILES, "metrics.json", "figure.png")
 # what compute_metrics and the figure read: always recorded, whatever record.outputs lists
 NEEDED = ("plant.omega_m", "plant.psi_r_alpha", "plant.psi_r_beta", "plant.i_s_alpha", "plant.i_s_beta",
           "plant.T_e", "plant.i_mu", "controller.v_s_alpha", "controller.v_s_beta", "controller.v_sd",
-          "controller.v_sq", "controller.e1", "controller.z1", "controller.W", "controller.T_load_est")
+          "controller.v_sq", "controller.e1", "controller.z1", "controller.W", "controller.T_load_est",
+          "controller.phase", "controller.voltage_limited", "controller.current_limited",
+          "controller.omega_ref_shaped", "controller.psi_ref_shaped", "controller.psi_r_hat_alpha",
+          "controller.psi_r_hat_beta")
 
 
 def prepare_dir(out_dir, scenario):

@@ -7,10 +7,8 @@ pulls the columns of its DataFrame and calls :func:`closed_loop_metrics`).
 Definitions (SI units; ``t`` the sample times [s], increasing)
 -------------------------------------------------------------
 run phase
-    The samples from the first one at which the control law runs to the end of the record.  The
-    plain loop knows it (the drive's ``phase``); from the outputs alone (:func:`run_phase`) it
-    starts at the first sample with ``W > 0`` or, for a law that reports ``W = 0`` (the PI
-    baseline), at the first sample whose flux error is within 10 % of the flux set-point.
+    The samples from the first one at which the control law runs (the drive's ``phase`` output
+    is 1) to the end of the record.
 ``t_switch`` [s]
     Time of the first run-phase sample; nan if the law never runs.
 ``iae_speed`` [rad], ``iae_flux`` [Wb s]
@@ -35,6 +33,9 @@ run phase
 ``min_W`` [1]
     Smallest ``W = det Lambda`` over the run phase (0 for the PI baseline); nan if the law never
     runs.
+``voltage_limited_fraction``, ``current_limited_fraction`` [1]
+    Share of all samples whose voltage command was limited to V_dc/sqrt(3), resp. whose current
+    demand was bounded by I_max (the controller's flags; only when the flags are given).
 """
 
 from __future__ import annotations
@@ -49,7 +50,6 @@ SETTLING_BAND = 0.02  # [1] relative band of the settling time
 SS_SPEED_FLOOR = 1.0  # [rad/s] least denominator of ss_speed
 SS_FLUX_FLOOR = 1e-3  # [Wb] least denominator of ss_flux
 SS_DEFAULT_FRACTION = 0.1  # [1] default steady-state window: this last fraction of the record
-RUN_FLUX_FRACTION = 0.1  # [1] PI baseline: the run phase starts once |e1| <= this * |psi_set|
 _T_REL = 1e-9  # relative tolerance of the window bounds (sample times carry rounding)
 #: The series :func:`closed_loop_metrics` reads (also the keys of a closed_loop record).
 SERIES = ("t", "omega_m", "omega_set", "psi_r_alpha", "psi_r_beta", "psi_set", "z1", "e1", "i_s_alpha",
@@ -67,15 +67,6 @@ def iae(t, e):
 def from_first(mask):
     """``mask`` extended from its first True sample to the end (all False if it has none)."""
     return np.cumsum(np.asarray(mask, dtype=bool)) > 0
-
-
-def run_phase(W, e1, psi_set):
-    """Run-phase mask from the outputs (module docstring): from the first ``W > 0`` sample, or,
-    when W is never positive, from the first with ``|e1| <= RUN_FLUX_FRACTION |psi_set|``."""
-    W = np.asarray(W, dtype=float)
-    if np.any(W > 0):
-        return from_first(W > 0)
-    return from_first(np.abs(np.asarray(e1, dtype=float)) <= RUN_FLUX_FRACTION * np.abs(psi_set))
 
 
 def steady_state_window(t, window=None):
@@ -120,12 +111,14 @@ def settling_time(t, y, final, band=SETTLING_BAND):
 
 
 def closed_loop_metrics(*, t, omega_m, omega_set, psi_r_alpha, psi_r_beta, psi_set, z1, e1,
-                        i_s_alpha, i_s_beta, v_s_alpha, v_s_beta, W, run, ss_window=None):
+                        i_s_alpha, i_s_beta, v_s_alpha, v_s_beta, W, run, ss_window=None,
+                        voltage_limited=None, current_limited=None):
     """The figures of the module docstring from the recorded series (1-D arrays of one length).
 
     ``omega_set``, ``psi_set`` the raw set-points; ``z1``, ``e1`` the controller's tracking errors;
-    ``run`` the run-phase mask (the plain loop's ``phase == RUN`` or :func:`run_phase`), extended to
-    the end of the record; ``ss_window = (t_from, t_to)`` [s] or None.  ``{}`` for an empty record.
+    ``run`` the run-phase mask (``phase == RUN``), extended to the end of the record;
+    ``ss_window = (t_from, t_to)`` [s] or None; the limiter flags optional.  ``{}`` for an empty
+    record.
     """
     t = np.asarray(t, dtype=float)
     if t.size == 0:
@@ -135,7 +128,7 @@ def closed_loop_metrics(*, t, omega_m, omega_set, psi_r_alpha, psi_r_beta, psi_s
     running = bool(run.any())
     ss = steady_state_window(t, ss_window)
     w_final = float(w_set[-1])
-    return {
+    out = {
         "t_switch": float(t[np.argmax(run)]) if running else math.nan,
         "iae_speed": iae(t[run], np.asarray(z1)[run]) if running else math.nan,
         "iae_flux": iae(t[run], np.asarray(e1)[run]) if running else math.nan,
@@ -147,17 +140,19 @@ def closed_loop_metrics(*, t, omega_m, omega_set, psi_r_alpha, psi_r_beta, psi_s
         "peak_voltage": float(np.max(np.hypot(v_s_alpha, v_s_beta))),
         "min_W": float(np.min(np.asarray(W, dtype=float)[run])) if running else math.nan,
     }
+    for name, flags in (("voltage_limited_fraction", voltage_limited), ("current_limited_fraction",
+                                                                        current_limited)):
+        if flags is not None:
+            out[name] = float(np.mean(np.asarray(flags, dtype=float) != 0.0))
+    return out
 
 
 def run_metrics(res, ss_window=None):
     """:func:`closed_loop_metrics` of a :func:`satmotor.simulate.closed_loop` record (run phase:
-    the drive's ``phase``), plus ``voltage_limited_fraction`` [1], the share of samples whose
-    voltage command was limited."""
-    m = closed_loop_metrics(**{k: res[k] for k in SERIES}, run=np.asarray(res["phase"]) == RUN,
-                            ss_window=ss_window)
-    if m:
-        m["voltage_limited_fraction"] = float(np.mean(res["voltage_limited"]))
-    return m
+    the drive's ``phase``; the limiter fractions from its flags)."""
+    return closed_loop_metrics(**{k: res[k] for k in SERIES}, run=np.asarray(res["phase"]) == RUN,
+                               ss_window=ss_window, voltage_limited=res["voltage_limited"],
+                               current_limited=res.get("current_limited"))
 
 
 def acceptance(metrics, bounds):

@@ -19,7 +19,6 @@ from satmotor.metrics import (
     iae,
     overshoot,
     run_metrics,
-    run_phase,
     settling_time,
     steady_state_error,
     steady_state_window,
@@ -42,17 +41,6 @@ def test_iae_of_an_error_crossing_zero_counts_both_triangles():
 @pytest.mark.parametrize("n", [0, 1])
 def test_iae_of_fewer_than_two_samples_is_zero(n):
     assert iae(np.zeros(n), np.ones(n)) == 0.0
-
-
-def test_run_phase_from_the_first_positive_W_to_the_end():
-    W = [0.0, 0.0, 0.0, 5.0, 6.0, -1.0, 7.0]  # a dip after the switch stays in the run phase
-    assert run_phase(W, np.ones(7), 0.9).tolist() == [False] * 3 + [True] * 4
-
-
-def test_run_phase_of_the_pi_baseline_from_the_flux_error_within_10_percent():
-    e1 = [-0.9, -0.5, -0.05, 0.2, 0.0]  # |e1| <= 0.09 first at index 2
-    assert run_phase(np.zeros(5), e1, np.full(5, 0.9)).tolist() == [False, False, True, True, True]
-    assert run_phase(np.zeros(5), np.full(5, -0.9), 0.9).tolist() == [False] * 5  # never runs
 
 
 def test_steady_state_window_ends_included_and_default_last_tenth():
@@ -194,6 +182,9 @@ def frame(r):
     df = pd.DataFrame({COSIM[k]: v for k, v in r.items()})
     df["plant.T_e"] = 0.0
     df["profile.T_load"] = 0.0
+    df["controller.phase"] = np.where(r["t"] >= 1.0, RUN, PREMAG)  # the run phase of every record here
+    df["controller.voltage_limited"] = r["t"] >= 7.5  # 6 of 21 samples
+    df["controller.current_limited"] = False
     return df
 
 
@@ -204,16 +195,20 @@ def scenario(**acceptance_bounds):
 def test_compute_metrics_is_the_same_figures_from_the_dataframe():
     r = record()
     m = compute_metrics(frame(r), scenario(ss_window=(8.0, 10.0)))
-    assert m == closed_loop_metrics(**r, run=T >= 1.0, ss_window=(8.0, 10.0))
+    assert m == closed_loop_metrics(**r, run=T >= 1.0, ss_window=(8.0, 10.0), voltage_limited=T >= 7.5,
+                                    current_limited=np.zeros(N))
     assert list(m) == ["t_switch", "iae_speed", "iae_flux", "ss_speed", "ss_flux", "overshoot_speed",
-                       "settling_time_speed", "peak_current", "peak_voltage", "min_W"]
+                       "settling_time_speed", "peak_current", "peak_voltage", "min_W",
+                       "voltage_limited_fraction", "current_limited_fraction"]
+    assert m["voltage_limited_fraction"] == pytest.approx(6 / 21, rel=1e-15)
+    assert m["current_limited_fraction"] == 0.0
     check(m)
     check(compute_metrics(frame(r), scenario()))  # default window: the last 10 %
 
 
-def test_compute_metrics_finds_the_pi_baselines_run_phase():
+def test_compute_metrics_takes_the_run_phase_from_the_controllers_phase_not_from_W():
     r = record()
-    r["W"] = np.zeros(N)  # the PI baseline reports W = 0; e1 is -0.9 before t = 1 s, then small
+    r["W"] = np.zeros(N)  # the PI baseline reports W = 0: its run phase is still the phase output's
     m = compute_metrics(frame(r), scenario())
     check(m, {**EXPECTED, "min_W": 0.0})
 
