@@ -51,9 +51,10 @@ Current limit (``i_max``): the virtual controls demand ``i_mu_d* = alpha1 / (a k
 ``i_sd* = (1 + k^2 m/l_r) i_mu_d* - (k/l_r) Phi_rd`` and ``i_sq* = (1 + k^2 m/l_r) i_mu_q*``.  alpha1 is
 bounded so that ``|i_sd*| <= D_SHARE i_max`` (flux first), then gamma1 so that
 ``|i_sq*| <= sqrt(i_max^2 - i_sd*^2)`` (m held at its present value).  A bounded virtual control is
-treated as constant: its gradient and time derivative drop out of beta, the Lyapunov cross term
-(e1 in the flux row, z1 in the speed row) is not added, the adaptation and the integral states
-stop (anti-windup).  Away from the bound the law is unchanged.
+treated as constant: its gradient and time derivative drop out of beta and the Lyapunov cross term
+(e1 in the flux row, z1 in the speed row) is not added; the adaptation and the integral states stop
+where they would push the virtual control further into its bound, and move where they pull it out
+(anti-windup without a lock-up).  Away from the bound the law is unchanged.
 
 Singularity: W = 0 only where Phi_rd = 0.  Below ``phi_min`` the controller uses
 ``max(Phi_rd, phi_min)`` in Lambda's second row and in omega_s (never a division by ~0), and a
@@ -166,8 +167,8 @@ class ErrorSystem(NamedTuple):
     omega_s: float  # [rad/s]
     theta_dot: float  # theta' used in dz2/dt
     singular_limited: bool
-    flux_limited: bool  # alpha1 bounded by the current limit (its i_sd)
-    torque_limited: bool  # gamma1 bounded by the current limit (its i_sq)
+    flux_limited: int  # alpha1 bounded by the current limit (its i_sd): +1 from above, -1 from below, 0
+    torque_limited: int  # gamma1 bounded by the current limit (its i_sq): +1, -1 or 0
 
 
 class ControlOutput(NamedTuple):
@@ -223,24 +224,26 @@ def _core(p, g, phi_min, phi, imd, imq, w, m, dm, I, ref, theta, theta_dot, adap
     # virtual controls: alpha1 for a k m i_mu_d, gamma1 for T_e/J
     alpha1 = -c1 * e1 - c0 * e0 + a * phi + dpr
     gamma1 = -d1 * z1 - d0 * z0 + theta + b * w + dwr
-    d_lim = q_lim = False
+    d_lim = q_lim = 0  # +1 / -1: the virtual control was bounded from above / below
     if i_max < math.inf:  # the currents they demand, bounded (quasi-static: m held at its value)
         cc = 1.0 + c.k2_lr * m
         ak_m = ak * m
         i_sd = cc * alpha1 / ak_m - c.k_lr * phi
         i_sd_c = _clip(i_sd, -D_SHARE * i_max, D_SHARE * i_max)
         if i_sd_c != i_sd:
-            d_lim = True
+            d_lim = 1 if i_sd > i_sd_c else -1
             alpha1 = ak_m * (i_sd_c + c.k_lr * phi) / cc
         g_max = K * m * phi * math.sqrt(i_max * i_max - i_sd_c * i_sd_c) / cc
         if not -g_max <= gamma1 <= g_max:
-            q_lim = True
+            q_lim = 1 if gamma1 > g_max else -1
             gamma1 = _clip(gamma1, -g_max, g_max)
     e2 = ak * m * imd - alpha1
     z2 = te_J - gamma1
     if adapt is not None:
         g_theta, theta_max = adapt
-        theta_dot = 0.0 if q_lim else -g_theta * (z1 + (d1 - b) * z2)
+        theta_dot = -g_theta * (z1 + (d1 - b) * z2)
+        if q_lim * theta_dot > 0.0:  # anti-windup: no adaptation further into the bound (theta adds to gamma1)
+            theta_dot = 0.0
         if (theta >= theta_max and theta_dot > 0.0) or (theta <= -theta_max and theta_dot < 0.0):
             theta_dot = 0.0
     # gradients and explicit time derivatives; a bounded virtual control is held constant
@@ -359,10 +362,12 @@ def control(meas, ref, load, params, gains, cfg, theta_hat=0.0, integ=(0.0, 0.0)
     c, s = math.cos(rho_out), math.sin(rho_out)
     e0, z0 = integ
     V = 0.5 * (e1 * e1 + e2 * e2 + z1 * z1 + z2 * z2 + gains.c0 * e0 * e0 + gains.d0 * z0 * z0)
-    e0_dot = 0.0 if (d_lim or vlim) else e1
-    z0_dot = 0.0 if (q_lim or vlim) else z1
+    # anti-windup: an integral state stops while the voltage is limited, or while its virtual control
+    # is bounded and integrating would push it further (e0, z0 enter alpha1, gamma1 with a minus sign)
+    e0_dot = 0.0 if (vlim or d_lim * e1 < 0.0) else e1
+    z0_dot = 0.0 if (vlim or q_lim * z1 < 0.0) else z1
     return ControlOutput(c * vd - s * vq, s * vd + c * vq, vd, vq, e1, e2, z1, z2, V, W_true, ms.m, I,
-                         ms.Phi_rd, ms.rho, ws, theta_hat_dot, vlim, singular, e0_dot, z0_dot, d_lim or q_lim)
+                         ms.Phi_rd, ms.rho, ws, theta_hat_dot, vlim, singular, e0_dot, z0_dot, bool(d_lim or q_lim))
 
 
 __all__ = ["BacksteppingGains", "ControllerConfig", "ControlOutput", "ErrorSystem", "control",
