@@ -207,6 +207,8 @@ def _figure(path, source, pts, fits, best):
 def run(path, R_s, l_s, out=DEFAULT_OUT, stream=sys.stdout):
     """Fit the no-load file ``path`` and write the outputs; returns the chosen :class:`Fit`.
     Raises :class:`InputError` for bad input or an unwritable ``out``."""
+    from scipy.optimize import least_squares
+
     from satmotor.curve_fit import choose, fit_all, monotone_table
     from satmotor.errors import ParameterError
 
@@ -214,7 +216,7 @@ def run(path, R_s, l_s, out=DEFAULT_OUT, stream=sys.stdout):
     l_s = _float_option("--l-s", l_s)
     pts, lines, has_p = points_from_file(path, R_s, l_s)
     try:
-        fits, failures = fit_all(pts.i_mu, pts.psi_m)
+        fits, failures = fit_all(pts.i_mu, pts.psi_m, least_squares)
         table = monotone_table(pts.i_mu, pts.psi_m)
     except ParameterError as exc:
         raise InputError(f"{path}: lines {lines[0]}-{lines[-1]}: {exc}") from None

@@ -2,8 +2,9 @@
 
 Every family :func:`satmotor.params.make_curve` builds from parameters is fitted to the points by
 ``scipy.optimize.least_squares`` on the flux residual ``psi_fit(i_mu) - psi_m`` (absolute, in Wb,
-all points weighted alike; scipy is imported inside the functions, so ``satmotor`` itself keeps
-depending on numpy only):
+all points weighted alike).  ``satmotor`` depends on numpy only (``tests/test_packaging.py``
+holds it to that), so the caller hands the solver in: ``fit_all(i, psi, least_squares)`` with
+``from scipy.optimize import least_squares`` (``orchestration.fit_curve`` does).
 
 * ``arctan``, ``exponential``: ``(L_m0, L_m_inf, I_par)``, fitted as ``(L_m_inf, L_m0 - L_m_inf,
   I_par)`` with each bounded below by 1e-9 of its scale, so ``0 < L_m_inf < L_m0`` and
@@ -71,9 +72,7 @@ def _start(i, psi):
     return L0, Linf
 
 
-def _fit_saturating(family, i, psi):
-    from scipy.optimize import least_squares
-
+def _fit_saturating(family, i, psi, least_squares):
     L0, Linf = _start(i, psi)
     imax = float(i.max())
 
@@ -109,9 +108,7 @@ def _poly_psi(L0, b, n, I):
     return y
 
 
-def _fit_polynomial(i, psi):
-    from scipy.optimize import least_squares
-
+def _fit_polynomial(i, psi, least_squares):
     L0, _ = _start(i, psi)
     best = None
     for n in POLY_EXPONENTS:
@@ -132,9 +129,10 @@ def _fit_linear(i, psi):
     return _finish("linear", {"L_m0": float(np.dot(i, psi) / np.dot(i, i))}, i, psi)
 
 
-def fit_all(i_mu, psi_m):
-    """Fit every family; returns ``{family: Fit}`` (families that cannot be fitted are absent,
-    with the reason in ``{family: message}`` as the second element): ``(fits, failures)``."""
+def fit_all(i_mu, psi_m, least_squares):
+    """Fit every family; returns ``(fits, failures)``: ``{family: Fit}`` and, for a family that
+    could not be fitted, ``{family: reason}``.  ``least_squares``: ``scipy.optimize.least_squares``
+    (or a function with its signature and result attributes ``x`` and ``cost``)."""
     i = np.asarray(i_mu, dtype=float)
     psi = np.asarray(psi_m, dtype=float)
     order = np.argsort(i, kind="stable")
@@ -142,9 +140,9 @@ def fit_all(i_mu, psi_m):
     if i.size < 3:
         raise ParameterError("points", i.size, "at least 3 points are needed (3 parameters per family)")
     fits, failures = {}, {}
-    for family, fn in (("arctan", lambda: _fit_saturating("arctan", i, psi)),
-                       ("exponential", lambda: _fit_saturating("exponential", i, psi)),
-                       ("polynomial", lambda: _fit_polynomial(i, psi)),
+    for family, fn in (("arctan", lambda: _fit_saturating("arctan", i, psi, least_squares)),
+                       ("exponential", lambda: _fit_saturating("exponential", i, psi, least_squares)),
+                       ("polynomial", lambda: _fit_polynomial(i, psi, least_squares)),
                        ("linear", lambda: _fit_linear(i, psi))):
         try:
             fits[family] = fn()
