@@ -204,7 +204,7 @@ def _figure(path, source, pts, fits, best):
     plt.close(fig)
 
 
-def run(path, R_s, l_s, out=DEFAULT_OUT, stream=sys.stdout):
+def run(path, R_s, l_s, out=DEFAULT_OUT, stream=None):
     """Fit the no-load file ``path`` and write the outputs; returns the chosen :class:`Fit`.
     Raises :class:`InputError` for bad input or an unwritable ``out``."""
     from scipy.optimize import least_squares
@@ -212,6 +212,7 @@ def run(path, R_s, l_s, out=DEFAULT_OUT, stream=sys.stdout):
     from satmotor.curve_fit import choose, fit_all, monotone_table
     from satmotor.errors import ParameterError
 
+    stream = sys.stdout if stream is None else stream
     R_s = _float_option("--R-s", R_s)
     l_s = _float_option("--l-s", l_s)
     pts, lines, has_p = points_from_file(path, R_s, l_s)
@@ -230,7 +231,9 @@ def run(path, R_s, l_s, out=DEFAULT_OUT, stream=sys.stdout):
         raise InputError(f"--out {out}: cannot write the results: {exc}") from None
     print(f"{path}: {pts.i_mu.size} points, i_mu {pts.i_mu.min():.4g}-{pts.i_mu.max():.4g} A, psi_m "
           f"{pts.psi_m.min():.4g}-{pts.psi_m.max():.4g} Wb"
-          + ("" if has_p else "; no P_in column: the line current is taken as purely magnetizing"),
+          + ("" if has_p else "; no P_in column: the line current is taken as purely magnetizing (too high "
+             "at low voltage, where friction and iron-loss current are a large part of it: record P_in, or "
+             "leave out the rows below about half the rated voltage)"),
           file=stream)
     print(f"  {'family':12s} {'RMS [mWb]':>10s} {'max [mWb]':>10s}  parameters", file=stream)
     for name, f in sorted(fits.items(), key=lambda kv: kv[1].rms):
