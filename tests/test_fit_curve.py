@@ -117,6 +117,7 @@ def test_points_are_the_plants_own_magnetizing_state(noload):
 
     rows, truth = noload
     p = MotorParams()
+    assert p.curve == TRUE  # the truth the fits are compared with is the plant's curve
     pts = magnetizing_points(rows[:, 0], rows[:, 1], rows[:, 2], p.R_s, p.l_s, rows[:, 3])
     assert np.max(np.abs(pts.i_mu / truth[:, 0] - 1)) < 5e-4
     assert np.max(np.abs(pts.psi_m / truth[:, 1] - 1)) < 2e-5
