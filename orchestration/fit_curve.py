@@ -242,6 +242,9 @@ def run(path, R_s, l_s, out=DEFAULT_OUT, stream=None):
               + ("  <- chosen" if f is best else ""), file=stream)
     for name, why in failures.items():
         print(f"  {name:12s} not fitted: {why}", file=stream)
+    if pts.i_mu.size < 5:
+        print(f"  only {pts.i_mu.size} points: the 3-parameter families are barely determined; "
+              "measure 6-10 voltage levels", file=stream)
     if table[2]:
         print(f"  curve_table.csv: {table[2]} point(s) pooled so that psi_m increases with i_mu", file=stream)
     print(f"  written: {Path(out) / 'fit.yaml'}, curve_table.csv, fit.png", file=stream)

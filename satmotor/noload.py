@@ -128,6 +128,10 @@ def magnetizing_points(V_ll_rms, I_rms, f, R_s, l_s, P_in=None, l_r=None):
             if P[k] > S[k]:
                 raise ParameterError(f"P_in[{k}]", float(P[k]), f"is greater than the apparent power "
                                      f"sqrt(3) V_ll_rms I_rms = {S[k]:.6g} VA")
+            copper = 1.5 * R_s * I[k] ** 2  # = 3 R_s I_rms^2
+            if P[k] < copper:
+                raise ParameterError(f"P_in[{k}]", float(P[k]), f"is less than the stator copper loss "
+                                     f"3 R_s I_rms^2 = {copper:.6g} W: check R_s and P_in")
         cos_phi = P / S
         sin_phi = np.sqrt(np.clip(1.0 - cos_phi * cos_phi, 0.0, None))
         Ic = I * (cos_phi - 1j * sin_phi)  # the voltage phasor on the real axis, current lagging by phi

@@ -268,6 +268,29 @@ def test_good_file_passes_the_same_checks(tmp_path):
     assert main(["fit-curve", str(f), "--R-s", "1.405", "--l-s", "5.839e-3", "--out", str(out)]) == 0
 
 
+def test_a_stator_resistance_the_data_cannot_have_is_refused_by_line(tmp_path, capsys):
+    f = tmp_path / "good.csv"
+    f.write_text(GOOD)
+    for R_s, P_in in (("1000", True), ("1000", False)):  # copper loss > P_in; R_s I > V
+        if not P_in:
+            f.write_text("\n".join(",".join(r.split(",")[:3]) for r in GOOD.splitlines()))
+        out = str(tmp_path / "o")
+        assert main(["fit-curve", str(f), "--R-s", R_s, "--l-s", "5.839e-3", "--out", out]) == 2
+        err = capsys.readouterr().err
+        assert str(f) in err and "line 2" in err and ("copper loss" in err if P_in else "R_s I" in err), err
+
+
+def test_the_installed_command_exits_2_on_a_bad_file(tmp_path):
+    import subprocess
+    import sys
+
+    f = tmp_path / "bad.csv"
+    f.write_text(GOOD.replace("200.0,2.2", "200.0,abc"))
+    r = subprocess.run([sys.executable, "-m", "orchestration", "fit-curve", str(f), "--R-s", "1.4", "--l-s",
+                        "0.006", "--out", str(tmp_path / "o")], capture_output=True, text=True, timeout=60)
+    assert r.returncode == 2 and "line 3" in r.stderr and "abc" in r.stderr
+
+
 @pytest.mark.parametrize("opt,value", [("--R-s", "-1"), ("--R-s", "nan"), ("--l-s", "inf"), ("--l-s", "x")])
 def test_bad_options_exit_2(tmp_path, capsys, opt, value):
     f = tmp_path / "good.csv"
