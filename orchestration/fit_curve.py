@@ -184,13 +184,18 @@ def _figure(path, source, pts, fits, best):
     grid = np.linspace(0.0, 1.05 * float(i.max()), 200)
     fig, (ax, ar) = plt.subplots(2, 1, figsize=(7, 7), sharex=True, gridspec_kw={"height_ratios": [3, 2]})
     ax.plot(i, psi, "ko", label="no-load points")
+    # residual axis: the families within 10x the best RMS set the scale, the others may run off it
+    near = [f for f in fits.values() if f.rms <= 10.0 * best.rms] or [best]
+    lim = 1.2e3 * max(max(f.max_abs for f in near), 1e-9)
     for name, f in sorted(fits.items(), key=lambda kv: kv[1].rms):
         style = "-" if f is best else "--"
         lw = 2.0 if f is best else 1.0
         ax.plot(grid, [f.curve.psi(float(g)) for g in grid], style, lw=lw,
                 label=f"{name} (RMS {f.rms * 1e3:.3g} mWb){' chosen' if f is best else ''}")
         ar.plot(i, [1e3 * (f.curve.psi(float(a)) - b) for a, b in zip(i, psi)], style + "o", lw=lw, ms=3,
-                label=name)
+                label=name + ("" if f in near else " (off scale)"))
+    ar.set_ylim(-lim, lim)
+    ar.legend(fontsize=7, ncol=2)
     ax.set_ylabel("psi_m [Wb] (peak)")
     ax.set_title(f"Magnetizing curve from {Path(source).name}")
     ax.grid(True, alpha=0.3)
