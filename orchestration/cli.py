@@ -1,11 +1,13 @@
-"""Command line: ``python -m orchestration {build,run,batch,validate,check}`` (also ``satmotor-cosim``).
+"""Command line: ``python -m orchestration {build,run,batch,validate,check,fit-curve}``
+(also ``satmotor-cosim``).
 
 Exit codes: 0 success; 1 a run failed (FMI discard/error/fatal, or setup); 2 a scenario file is
 invalid, or ``--out`` cannot be written (found before anything runs); 3 a run completed but
 missed its acceptance bounds; 130 / 143 interrupted by SIGINT (Ctrl-C) / SIGTERM, after writing
 what was computed (status ``interrupted``).  ``batch`` exits with the largest code of its
 scenarios (see :mod:`orchestration.batch`).  ``check``: 1 if a check FAILs, 2 for a path that is not an
-FMU (see :mod:`orchestration.check`).
+FMU (see :mod:`orchestration.check`).  ``fit-curve``: 2 for a bad no-load file or option (see
+:mod:`orchestration.fit_curve`).
 """
 
 from __future__ import annotations
@@ -131,6 +133,17 @@ def cmd_check(args):
     return check.run(args.fmu, args.junit, args.reference)
 
 
+def cmd_fit_curve(args):
+    from .fit_curve import InputError, run
+
+    try:
+        run(args.noload, args.R_s, args.l_s, args.out)
+    except InputError as exc:
+        print(exc, file=sys.stderr)
+        return INVALID
+    return OK
+
+
 def parser():
     ap = argparse.ArgumentParser(prog="python -m orchestration",
                                  description="Co-simulate the saturated induction motor FMU with the "
@@ -178,6 +191,14 @@ def parser():
     c.add_argument("--reference", metavar="DIR", help="directory holding <modelName>/ reference results "
                    "(default: reference/ of this checkout)")
     c.set_defaults(func=cmd_check)
+    fc = sub.add_parser("fit-curve", help="magnetizing curve from a no-load test", description="Fit every "
+                        "magnetizing-curve family to a no-load test (CSV: V_ll_rms, I_rms, f[, P_in]); write "
+                        "fit.yaml (scenario overrides), curve_table.csv (for curve: table) and fit.png.")
+    fc.add_argument("noload", help="no-load test CSV file")
+    fc.add_argument("--R-s", dest="R_s", required=True, metavar="OHM", help="stator resistance [Ohm]")
+    fc.add_argument("--l-s", dest="l_s", required=True, metavar="H", help="stator leakage inductance [H]")
+    fc.add_argument("--out", default="results/fit_curve", help="output directory (default results/fit_curve)")
+    fc.set_defaults(func=cmd_fit_curve)
     return ap
 
 

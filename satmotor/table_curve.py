@@ -59,11 +59,14 @@ class TableCurve(_Curve):
         Main flux linkages [Wb] at those currents, strictly increasing, 0 at 0.
     source : str, optional
         Where the points came from (a file name), quoted in error messages.
+    lines : tuple of int, optional
+        The file line of each point, quoted in error messages.
     """
 
     i_mu: tuple
     psi_m: tuple
     source: str | None = None
+    lines: tuple | None = field(default=None, repr=False, compare=False)
     name = "table"
     _x: tuple = field(init=False, repr=False, compare=False)
     _seg: tuple = field(init=False, repr=False, compare=False)
@@ -75,9 +78,15 @@ class TableCurve(_Curve):
         ym = np.concatenate([-y[:0:-1], y])
         d = _pchip_slopes(xm, ym)[len(x) - 1 :]
         if not d[-1] > 0.0:
+            s_last = (y[-1] - y[-2]) / (x[-1] - x[-2])
+            s_prev = (y[-2] - y[-3]) / (x[-2] - x[-3])
             raise ParameterError(
-                "psi_m", tuple(self.psi_m),
-                f"the interpolated end slope is {d[-1]!r} H, not > 0; add points in saturation",
+                f"psi_m[{len(x) - 1}]", float(y[-1]),
+                f"the monotone interpolation ends flat (end slope {float(d[-1])!r} H, must be > 0): the "
+                f"last point{self._where(len(x) - 1)} (i_mu = {float(x[-1])!r}) rises with slope "
+                f"{float(s_last):.4g} H, less than about a third of the slope {float(s_prev):.4g} H of the "
+                "segment before; noisy points in saturation? smooth them (satmotor-cosim fit-curve "
+                "writes a table that loads) or drop the last point",
                 self.source,
             )
         segs, cum = [], [0.0]
@@ -118,26 +127,55 @@ class TableCurve(_Curve):
             bad = np.nonzero(np.diff(v) <= 0)[0]
             if bad.size:
                 k = int(bad[0]) + 1
+                what = ("i_mu must increase from point to point (sorted, no repeats)" if name == "i_mu"
+                        else "psi_m must increase with i_mu")
                 raise ParameterError(
-                    f"{name}[{k}]", float(v[k]), f"must be > the previous value {float(v[k - 1])!r} "
-                    "(the curve must be strictly increasing)", src,
+                    f"{name}[{k}]", float(v[k]), f"{what}: point{self._where(k)} (i_mu = {float(x[k])!r}, "
+                    f"psi_m = {float(y[k])!r}) is not above the previous one{self._where(k - 1)} "
+                    f"(i_mu = {float(x[k - 1])!r}, psi_m = {float(y[k - 1])!r}); noisy no-load points? "
+                    "make them monotone (satmotor-cosim fit-curve writes such a table)", src,
                 )
         return x, y
 
+    def _where(self, k):
+        """Where point ``k`` of the validated points (which start at the origin) was given: `` on line
+        N`` of the file, else `` N`` (1-based among the given points), `` 0 (the origin)``."""
+        j = k - (0 if len(self.i_mu) and float(self.i_mu[0]) == 0.0 else 1)
+        if self.lines and 0 <= j < len(self.lines):
+            return f" on line {self.lines[j]}"
+        return f" {j + 1}" if j >= 0 else " 0 (the origin, added)"
+
     @classmethod
     def from_csv(cls, path):
-        """Read a two-column CSV (i_mu [A], psi_m [Wb]); a header line is allowed."""
+        """Read a two-column CSV (i_mu [A], psi_m [Wb]); a header line, blank lines and ``#`` comments
+        are allowed.  Errors name the file and the line."""
         try:
-            data = np.genfromtxt(path, delimiter=",", dtype=float, comments="#")
-        except OSError as exc:
+            with open(path, encoding="utf-8-sig") as fh:
+                text = fh.read()
+        except (OSError, UnicodeDecodeError) as exc:
             raise ParameterError("table_file", str(path), f"cannot be read: {exc}") from None
-        if data.ndim == 2 and data.shape[0] and np.isnan(data[0]).all():
-            data = data[1:]
-        if data.ndim != 2 or data.shape[1] != 2 or np.isnan(data).any():
-            raise ParameterError(
-                "table_file", str(path), "must hold two numeric columns i_mu, psi_m", str(path)
-            )
-        return cls(tuple(data[:, 0].tolist()), tuple(data[:, 1].tolist()), source=str(path))
+        src, rows, lines = str(path), [], []
+        for lineno, line in enumerate(text.splitlines(), start=1):
+            cells = [c.strip() for c in line.split("#", 1)[0].split(",")]
+            if cells == [""]:
+                continue
+            try:
+                values = [float(c) for c in cells]
+            except ValueError:
+                if not rows and not lines:  # the header
+                    lines.append(None)
+                    continue
+                values = None
+            if values is None or len(values) != 2:
+                raise ParameterError("table_file", f"line {lineno}: {line.strip()!r}",
+                                     "must hold two numeric columns i_mu, psi_m", src)
+            rows.append(values)
+            lines.append(lineno)
+        lines = [n for n in lines if n is not None]
+        if not rows:
+            raise ParameterError("table_file", src, "holds no points i_mu, psi_m", src)
+        data = np.array(rows)
+        return cls(tuple(data[:, 0].tolist()), tuple(data[:, 1].tolist()), source=src, lines=tuple(lines))
 
     @property
     def m0(self):

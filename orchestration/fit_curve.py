@@ -1,0 +1,256 @@
+"""``satmotor-cosim fit-curve NOLOAD.csv --R-s OHM --l-s H [--out DIR]``: the magnetizing curve
+from a no-load test.
+
+Input: a CSV file with a header line and one row per voltage level of a no-load test (star
+connection, motor uncoupled): ``V_ll_rms`` [V] line-to-line rms voltage, ``I_rms`` [A] line rms
+current, ``f`` [Hz] supply frequency, optionally ``P_in`` [W] input power.  Lines starting with
+``#`` and blank lines are skipped.  ``--R-s`` [Ohm] and ``--l-s`` [H] are the stator resistance and
+leakage inductance (finite, >= 0), from a DC and a locked-rotor test.
+
+The rows become magnetizing points by :func:`satmotor.noload.magnetizing_points` (the corrections
+are listed in its module docstring); every family is fitted by :mod:`satmotor.curve_fit`.  Written
+into ``--out`` (default ``results/fit_curve``):
+
+* ``fit.yaml``: ``plant:`` and ``controller:`` overrides of the chosen curve, to paste into a
+  scenario, plus ``chosen``, ``fits`` (every family's parameters and residuals) and ``input``;
+* ``curve_table.csv``: the points ``i_mu, psi_m`` for ``curve: table`` (made strictly increasing,
+  see :func:`satmotor.curve_fit.monotone_table`);
+* ``fit.png``: the points, every fit, and the residuals.
+
+Exit codes: 0 written; 2 an input problem (the message names the file, the line and the value) or
+``--out`` cannot be written.
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+import sys
+from pathlib import Path
+
+import numpy as np
+
+REQUIRED = ("V_ll_rms", "I_rms", "f")
+OPTIONAL = ("P_in",)
+DEFAULT_OUT = "results/fit_curve"
+
+
+class InputError(ValueError):
+    """A bad no-load file or option; the message names the file, the line and the value."""
+
+
+def read_noload(path):
+    """``(columns, lines)`` of the no-load CSV ``path``: ``columns`` maps each present column name to
+    a float array, ``lines`` the file line number (1-based) of each data row.  Raises
+    :class:`InputError` for a missing column, a non-numeric / non-finite / non-positive value, a
+    row of the wrong length, P_in outside [0, sqrt(3) V_ll_rms I_rms], or fewer than 3 rows."""
+    file = str(path)
+    try:
+        text = Path(path).read_text(encoding="utf-8-sig")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise InputError(f"{file}: cannot read: {exc}") from None
+    header, hline, rows = None, None, []
+    for lineno, fields in _csv_lines(text):
+        if header is None:
+            header, hline = [h.strip() for h in fields], lineno
+            continue
+        rows.append((lineno, fields))
+    if header is None:
+        raise InputError(f"{file}: line 1: empty file: a header line {','.join(REQUIRED)}[,P_in] is needed")
+    for name in REQUIRED:
+        if name not in header:
+            raise InputError(f"{file}: line {hline}: missing column {name!r} (header {header!r}; "
+                             f"the columns are {', '.join(REQUIRED)} and optionally P_in)")
+    for name in header:
+        if name not in REQUIRED + OPTIONAL:
+            raise InputError(f"{file}: line {hline}: unknown column {name!r} (the columns are "
+                             f"{', '.join(REQUIRED)} and optionally P_in)")
+        if header.count(name) > 1:
+            raise InputError(f"{file}: line {hline}: column {name!r} appears twice")
+    values = {name: [] for name in header}
+    lines = []
+    for lineno, fields in rows:
+        if len(fields) != len(header):
+            raise InputError(f"{file}: line {lineno}: {len(fields)} values {fields!r}, the header has "
+                             f"{len(header)} columns")
+        for name, raw in zip(header, fields):
+            try:
+                v = float(raw)
+            except ValueError:
+                raise InputError(f"{file}: line {lineno}: {name} = {raw.strip()!r} is not a number") from None
+            if not math.isfinite(v):
+                raise InputError(f"{file}: line {lineno}: {name} = {raw.strip()!r} is not finite")
+            if name == "P_in":
+                if v < 0.0:
+                    raise InputError(f"{file}: line {lineno}: P_in = {raw.strip()!r} must be >= 0 [W]")
+            elif v <= 0.0:
+                raise InputError(f"{file}: line {lineno}: {name} = {raw.strip()!r} must be > 0")
+            values[name].append(v)
+        lines.append(lineno)
+    cols = {k: np.array(v) for k, v in values.items()}
+    if "P_in" in cols:
+        S = math.sqrt(3.0) * cols["V_ll_rms"] * cols["I_rms"]
+        for k in np.nonzero(cols["P_in"] > S)[0]:
+            raise InputError(f"{file}: line {lines[k]}: P_in = {cols['P_in'][k]!r} W is greater than the "
+                             f"apparent power sqrt(3) V_ll_rms I_rms = {S[k]:.6g} VA")
+    if len(lines) < 3:
+        where = f"line {lines[-1]}" if lines else f"line {hline}"
+        raise InputError(f"{file}: {where}: {len(lines)} data row(s): at least 3 are needed (a curve family "
+                         "has up to 3 parameters)")
+    return cols, lines
+
+
+def _csv_lines(text):
+    for lineno, line in enumerate(text.splitlines(), start=1):
+        s = line.strip()
+        if not s or s.startswith("#"):
+            continue
+        yield lineno, next(csv.reader([s]))
+
+
+def _float_option(name, raw):
+    try:
+        v = float(raw)
+    except (TypeError, ValueError):
+        v = None
+    if v is None or not math.isfinite(v) or v < 0.0:
+        raise InputError(f"{name} = {raw!r}: must be a finite number >= 0")
+    return v
+
+
+def points_from_file(path, R_s, l_s):
+    """``(MagnetizingPoints, lines, has_P_in)`` of a no-load file; :class:`InputError` on bad input."""
+    from satmotor.errors import ParameterError
+    from satmotor.noload import magnetizing_points
+
+    cols, lines = read_noload(path)
+    try:
+        pts = magnetizing_points(cols["V_ll_rms"], cols["I_rms"], cols["f"], R_s, l_s, cols.get("P_in"))
+    except ParameterError as exc:
+        field = exc.field
+        if "[" in field:
+            k = int(field.split("[")[1].rstrip("]"))
+            raise InputError(f"{path}: line {lines[k]}: {field.split('[')[0]} = {exc.value!r}: "
+                             f"{exc.reason}") from None
+        raise InputError(f"{path}: {exc}") from None
+    return pts, lines, "P_in" in cols
+
+
+def _overrides(fit):
+    return {"curve": fit.family,
+            **{k: (int(v) if k == "poly_n" else float(v)) for k, v in fit.params.items()}}
+
+
+def write_outputs(out, source, pts, has_p, fits, failures, best, table, R_s, l_s):
+    import yaml
+
+    out = Path(out)
+    i_t, psi_t, pooled = table
+    with open(out / "curve_table.csv", "w", encoding="utf-8") as fh:
+        fh.write(f"# magnetizing points of {source} (satmotor-cosim fit-curve); "
+                 f"{pooled} point(s) pooled to make psi_m increase with i_mu\n")
+        fh.write("i_mu,psi_m\n")
+        for a, b in zip(i_t, psi_t):
+            fh.write(f"{float(a)!r},{float(b)!r}\n")
+    ov = _overrides(best)
+    doc = {
+        "plant": ov,
+        "controller": dict(ov),
+        "chosen": best.family,
+        "fits": {name: {"rms_Wb": f.rms, "max_abs_Wb": f.max_abs, "params": _overrides(f)}
+                 for name, f in sorted(fits.items(), key=lambda kv: kv[1].rms)},
+        "input": {"file": str(source), "rows": int(pts.i_mu.size), "P_in": has_p, "R_s": R_s, "l_s": l_s},
+    }
+    if failures:
+        doc["failed"] = dict(failures)
+    head = (f"# satmotor-cosim fit-curve {source} --R-s {R_s!r} --l-s {l_s!r}\n"
+            "# Paste `plant:` and `controller:` into a scenario (both units use the same curve).\n"
+            "# To use the measured points instead: {curve: table, table_file: <curve_table.csv of this\n"
+            "# directory, relative to the scenario file>}.  `fits`: every family, RMS and largest residual\n"
+            "# of psi_m [Wb], best first.\n")
+    (out / "fit.yaml").write_text(head + yaml.safe_dump(doc, sort_keys=False, default_flow_style=None),
+                                  encoding="utf-8")
+    _figure(out / "fit.png", source, pts, fits, best)
+
+
+def _figure(path, source, pts, fits, best):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    order = np.argsort(pts.i_mu)
+    i, psi = pts.i_mu[order], pts.psi_m[order]
+    grid = np.linspace(0.0, 1.05 * float(i.max()), 200)
+    fig, (ax, ar) = plt.subplots(2, 1, figsize=(7, 7), sharex=True, gridspec_kw={"height_ratios": [3, 2]})
+    ax.plot(i, psi, "ko", label="no-load points")
+    # residual axis: the families within 10x the best RMS set the scale, the others may run off it
+    near = [f for f in fits.values() if f.rms <= 10.0 * best.rms] or [best]
+    lim = 1.2e3 * max(max(f.max_abs for f in near), 1e-9)
+    for name, f in sorted(fits.items(), key=lambda kv: kv[1].rms):
+        style = "-" if f is best else "--"
+        lw = 2.0 if f is best else 1.0
+        ax.plot(grid, [f.curve.psi(float(g)) for g in grid], style, lw=lw,
+                label=f"{name} (RMS {f.rms * 1e3:.3g} mWb){' chosen' if f is best else ''}")
+        ar.plot(i, [1e3 * (f.curve.psi(float(a)) - b) for a, b in zip(i, psi)], style + "o", lw=lw, ms=3,
+                label=name + ("" if f in near else " (off scale)"))
+    ar.set_ylim(-lim, lim)
+    ar.legend(fontsize=7, ncol=2)
+    ax.set_ylabel("psi_m [Wb] (peak)")
+    ax.set_title(f"Magnetizing curve from {Path(source).name}")
+    ax.grid(True, alpha=0.3)
+    ax.legend(fontsize=8)
+    ar.axhline(0.0, color="k", lw=0.5)
+    ar.set_xlabel("i_mu [A] (peak)")
+    ar.set_ylabel("fit - point [mWb]")
+    ar.grid(True, alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def run(path, R_s, l_s, out=DEFAULT_OUT, stream=None):
+    """Fit the no-load file ``path`` and write the outputs; returns the chosen :class:`Fit`.
+    Raises :class:`InputError` for bad input or an unwritable ``out``."""
+    from scipy.optimize import least_squares
+
+    from satmotor.curve_fit import choose, fit_all, monotone_table
+    from satmotor.errors import ParameterError
+
+    stream = sys.stdout if stream is None else stream
+    R_s = _float_option("--R-s", R_s)
+    l_s = _float_option("--l-s", l_s)
+    pts, lines, has_p = points_from_file(path, R_s, l_s)
+    try:
+        fits, failures = fit_all(pts.i_mu, pts.psi_m, least_squares)
+        table = monotone_table(pts.i_mu, pts.psi_m)
+    except ParameterError as exc:
+        raise InputError(f"{path}: lines {lines[0]}-{lines[-1]}: {exc}") from None
+    if not fits:
+        raise InputError(f"{path}: no curve family could be fitted: {failures}")
+    best = choose(fits)
+    try:
+        Path(out).mkdir(parents=True, exist_ok=True)
+        write_outputs(out, path, pts, has_p, fits, failures, best, table, R_s, l_s)
+    except OSError as exc:
+        raise InputError(f"--out {out}: cannot write the results: {exc}") from None
+    print(f"{path}: {pts.i_mu.size} points, i_mu {pts.i_mu.min():.4g}-{pts.i_mu.max():.4g} A, psi_m "
+          f"{pts.psi_m.min():.4g}-{pts.psi_m.max():.4g} Wb"
+          + ("" if has_p else "; no P_in column: the line current is taken as purely magnetizing (too high "
+             "at low voltage, where friction and iron-loss current are a large part of it: record P_in, or "
+             "leave out the rows below about half the rated voltage)"),
+          file=stream)
+    print(f"  {'family':12s} {'RMS [mWb]':>10s} {'max [mWb]':>10s}  parameters", file=stream)
+    for name, f in sorted(fits.items(), key=lambda kv: kv[1].rms):
+        params = ", ".join(f"{k}={v:.6g}" for k, v in f.params.items())
+        print(f"  {name:12s} {f.rms * 1e3:10.4g} {f.max_abs * 1e3:10.4g}  {params}"
+              + ("  <- chosen" if f is best else ""), file=stream)
+    for name, why in failures.items():
+        print(f"  {name:12s} not fitted: {why}", file=stream)
+    if pts.i_mu.size < 5:
+        print(f"  only {pts.i_mu.size} points: the 3-parameter families are barely determined; "
+              "measure 6-10 voltage levels", file=stream)
+    if table[2]:
+        print(f"  curve_table.csv: {table[2]} point(s) pooled so that psi_m increases with i_mu", file=stream)
+    print(f"  written: {Path(out) / 'fit.yaml'}, curve_table.csv, fit.png", file=stream)
+    return best
