@@ -46,7 +46,7 @@ def check_acceptance(metrics, scenario):
     if acc is None or not metrics:
         return {}
     return acceptance(metrics, {key: getattr(acc, key) for key in
-                                ("ss_speed", "ss_flux", "overshoot_speed", "peak_current")})
+                                ("ss_speed", "ss_flux", "overshoot_speed", "peak_current", "peak_current_run")})
 
 
 RESULT_FILES = (*FILES, "metrics.json", "figure.png")

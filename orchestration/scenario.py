@@ -11,7 +11,7 @@ required; ``T_load`` [N m], default 0; see :mod:`orchestration.profiles`), ``rec
 (``interval`` [s], a multiple of ``step``, default ``step``; ``outputs``: ``plant.NAME`` /
 ``controller.NAME``, default all), ``acceptance`` (bounds checked after the run: ``ss_speed``,
 ``ss_flux`` relative steady-state errors over ``ss_window: [t_from, t_to]`` [s],
-``overshoot_speed`` relative, ``peak_current`` [A]).
+``overshoot_speed`` relative, ``peak_current``, ``peak_current_run`` [A]).
 
 Once the file is well formed, :func:`orchestration.feasibility.physics_problems` builds the
 plain-Python units from the overrides (the ranges live in :mod:`satmotor`), checks that the flux
@@ -42,7 +42,7 @@ PROFILE_NAMES = ("omega_ref", "psi_ref", "T_load")
 UNITS = ("plant", "controller")
 TOP_KEYS = ("name", "description", "stop_time", "step", "controller_every", "algorithm", "plant",
             "controller", "profiles", "record", "acceptance")
-ACCEPTANCE_KEYS = ("ss_speed", "ss_flux", "ss_window", "overshoot_speed", "peak_current")
+ACCEPTANCE_KEYS = ("ss_speed", "ss_flux", "ss_window", "overshoot_speed", "peak_current", "peak_current_run")
 _NAME = re.compile(r"[A-Za-z0-9_.-]+")
 _REL = 1e-9  # relative tolerance of "a multiple of step"
 
@@ -66,6 +66,7 @@ class Acceptance:
     ss_window: tuple[float, float] | None = None  # [s] (t_from, t_to); None: the last 10 % of the run
     overshoot_speed: float | None = None  # [1] relative to the total speed change
     peak_current: float | None = None  # [A] largest |i_s|
+    peak_current_run: float | None = None  # [A] largest |i_s| once the law runs (the current limit)
 
 
 @dataclass(frozen=True)
@@ -209,7 +210,7 @@ def _acceptance(chk, raw, stop_time):
     if not chk.mapping(raw, "acceptance", (), ACCEPTANCE_KEYS):
         return None
     vals = {}
-    for key in ("ss_speed", "ss_flux", "overshoot_speed", "peak_current"):
+    for key in ("ss_speed", "ss_flux", "overshoot_speed", "peak_current", "peak_current_run"):
         if key in raw:
             vals[key] = chk.number(raw[key], f"acceptance.{key}", low=0.0, strict=True)
     if "ss_window" in raw:

@@ -32,7 +32,7 @@ import math
 from dataclasses import dataclass
 from typing import NamedTuple
 
-from .backstepping import BacksteppingGains, ControllerConfig, control
+from .backstepping import D_SHARE, BacksteppingGains, ControllerConfig, control
 from .delay import N_STATE as N_DELAY_STATE
 from .delay import DelayCompensator
 from .errors import ParameterError, require_number
@@ -203,9 +203,15 @@ class _Drive:
 
     def _premag(self, meas, I_set, phi, psi_set):
         """Current loop in the rotor-flux frame (on alpha until there is a flux to align with):
-        i_sd -> min(boost I_set, I_max), i_sq -> 0, whatever the rotor does."""
-        p, K = self.params, self.dcfg.premag_gain
-        i_ref = min(self.dcfg.premag_boost * I_set, self.dcfg.I_max)
+        i_sd -> min(boost I_set, I_max), i_sq -> 0, whatever the rotor does; when a load drives the
+        rotor (|omega_m| > premag_speed_tol) i_sd -> D_SHARE I_max, the fastest flux build-up the
+        limit allows, so that the law can take over and hold the rotor sooner."""
+        p, cfg = self.params, self.dcfg
+        K = cfg.premag_gain
+        bounded = cfg.premag_boost * I_set > cfg.I_max
+        i_ref = min(cfg.premag_boost * I_set, cfg.I_max)
+        if abs(meas[MEAS_OMEGA_M]) > cfg.premag_speed_tol:
+            i_ref = max(i_ref, D_SHARE * cfg.I_max)
         pa, pb = meas[MEAS_PSI_R_A], meas[MEAS_PSI_R_B]
         c, s = (pa / phi, pb / phi) if phi > _FRAME_MIN * psi_set else (1.0, 0.0)
         ia, ib = meas[MEAS_I_S_A], meas[MEAS_I_S_B]
@@ -216,8 +222,8 @@ class _Drive:
         if lim:
             vd, vq = vd * self._V_max / vn, vq * self._V_max / vn
         return DriveOutput(c * vd - s * vq, s * vd + c * vq, vd, vq, phi - psi_set, 0.0, 0.0, 0.0, 0.0,
-                           0.0, 0.0, meas[MEAS_OMEGA_M], phi, PREMAG, lim, False, i_ref >= self.dcfg.I_max,
-                           pa, pb)
+                           0.0, 0.0, meas[MEAS_OMEGA_M], phi, PREMAG, lim, False, bounded, pa,
+                           pb)
 
     def _switch(self, meas):
         p = self.params

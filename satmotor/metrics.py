@@ -30,6 +30,9 @@ run phase
     final set-point is 0).
 ``peak_current`` [A], ``peak_voltage`` [V]
     Largest ``|i_s|`` and ``|v_s|`` over the whole record (pre-magnetization included).
+``peak_current_run`` [A]
+    Largest ``|i_s|`` over the run phase (what the law's current limit bounds); nan if the law
+    never runs.
 ``min_W`` [1]
     Smallest ``W = det Lambda`` over the run phase (0 for the PI baseline); nan if the law never
     runs.
@@ -138,6 +141,7 @@ def closed_loop_metrics(*, t, omega_m, omega_set, psi_r_alpha, psi_r_beta, psi_s
         "settling_time_speed": settling_time(t, w, w_final),
         "peak_current": float(np.max(np.hypot(i_s_alpha, i_s_beta))),
         "peak_voltage": float(np.max(np.hypot(v_s_alpha, v_s_beta))),
+        "peak_current_run": float(np.max(np.hypot(i_s_alpha, i_s_beta)[run])) if running else math.nan,
         "min_W": float(np.min(np.asarray(W, dtype=float)[run])) if running else math.nan,
     }
     for name, flags in (("voltage_limited_fraction", voltage_limited), ("current_limited_fraction",

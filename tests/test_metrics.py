@@ -97,7 +97,8 @@ def record():
     w[:9] = [0.0, 30.0, 70.0, 95.0, 110.0, 104.0, 99.0, 97.5, 103.0]  # last out of +-2 at t = 4 s
     ang = 0.3 * T
     i_a, i_b = np.full(N, 1.0), np.zeros(N)
-    i_a[3], i_b[3] = 3.0, 4.0  # |i_s| = 5 A, the peak
+    i_a[3], i_b[3] = 3.0, 4.0  # |i_s| = 5 A, the peak of the run phase
+    i_a[1] = 6.0  # 6 A at t = 0.5 s, before the law runs: the peak of the record
     v_a, v_b = np.full(N, 2.0), np.zeros(N)
     v_a[6], v_b[6] = -6.0, 8.0  # |v_s| = 10 V, the peak
     run = T >= 1.0
@@ -119,8 +120,9 @@ EXPECTED = {
     "ss_flux": 0.009 / 0.9,
     "overshoot_speed": 0.1,
     "settling_time_speed": 4.0,
-    "peak_current": 5.0,
+    "peak_current": 6.0,
     "peak_voltage": 10.0,
+    "peak_current_run": 5.0,
     "min_W": 4.0,
 }
 
@@ -150,7 +152,7 @@ def test_a_law_that_never_runs_has_no_run_phase_figures():
     m = closed_loop_metrics(**r, run=np.zeros(N, dtype=bool))
     for k in ("t_switch", "iae_speed", "iae_flux", "min_W"):
         assert math.isnan(m[k]), k
-    assert m["peak_current"] == 5.0
+    assert m["peak_current"] == 6.0 and math.isnan(m["peak_current_run"])
 
 
 def test_empty_and_one_sample_records():
@@ -198,7 +200,7 @@ def test_compute_metrics_is_the_same_figures_from_the_dataframe():
     assert m == closed_loop_metrics(**r, run=T >= 1.0, ss_window=(8.0, 10.0), voltage_limited=T >= 7.5,
                                     current_limited=np.zeros(N))
     assert list(m) == ["t_switch", "iae_speed", "iae_flux", "ss_speed", "ss_flux", "overshoot_speed",
-                       "settling_time_speed", "peak_current", "peak_voltage", "min_W",
+                       "settling_time_speed", "peak_current", "peak_voltage", "peak_current_run", "min_W",
                        "voltage_limited_fraction", "current_limited_fraction"]
     assert m["voltage_limited_fraction"] == pytest.approx(6 / 21, rel=1e-15)
     assert m["current_limited_fraction"] == 0.0
@@ -227,7 +229,7 @@ def test_check_acceptance_pass_and_fail_at_the_bound(limit, passes):
     out = check_acceptance(m, sc)
     assert out["ss_speed"] == {"limit": limit, "value": m["ss_speed"], "pass": passes}
     assert out["ss_flux"]["pass"] and out["overshoot_speed"]["pass"]
-    assert out["peak_current"] == {"limit": 4.9, "value": 5.0, "pass": False}
+    assert out["peak_current"] == {"limit": 4.9, "value": 6.0, "pass": False}
     assert check_acceptance(m, scenario(ss_window=(8.0, 10.0))) == {}  # no bounds given
     assert check_acceptance(m, scenario()) == {}  # no acceptance section
     assert check_acceptance({}, sc) == {}  # a failed run has no metrics
