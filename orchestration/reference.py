@@ -27,7 +27,8 @@ COLUMNS = {
 
 def plain_reference(scenario):
     """Run ``scenario`` with :func:`satmotor.simulate.closed_loop`; a DataFrame with the
-    co-simulation's column names, one row per controller sample."""
+    co-simulation's column names (the profiles as sampled by the controller), one row per
+    controller sample."""
     plant = PlantUnit(dict(scenario.plant))
     ctrl = ControllerUnit({**scenario.controller, "Ts": scenario.Ts})
     prof = scenario.profiles
@@ -35,5 +36,7 @@ def plain_reference(scenario):
     rec = closed_loop(plant.params, ctrl.drive, scenario.stop_time, prof["omega_ref"].value,
                       prof["psi_ref"].value, prof["T_load"].value, n_sub=n_sub, x0=plant.x0,
                       plant_steps=scenario.controller_every)
-    frame = pd.DataFrame({"time": rec["t"], **{col: rec[key] for col, key in COLUMNS.items()}})
+    frame = pd.DataFrame({"time": rec["t"], **{col: rec[key] for col, key in COLUMNS.items()},
+                          "profile.T_load": rec["T_load"], "profile.omega_ref": rec["omega_set"],
+                          "profile.psi_ref": rec["psi_set"]})
     return frame
