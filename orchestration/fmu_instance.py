@@ -22,11 +22,11 @@ from fmpy.fmi1 import FMICallException
 from fmpy.fmi2 import (
     FMU2Slave,
     calloc,
+    fmi2Boolean,
     fmi2CallbackAllocateMemoryTYPE,
     fmi2CallbackFreeMemoryTYPE,
     fmi2CallbackFunctions,
     fmi2CallbackLoggerTYPE,
-    fmi2Boolean,
     fmi2Integer,
     fmi2Real,
     fmi2ValueReference,

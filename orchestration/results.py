@@ -45,8 +45,8 @@ def check_acceptance(metrics, scenario):
     acc = scenario.acceptance
     if acc is None or not metrics:
         return {}
-    return acceptance(metrics, {key: getattr(acc, key) for key in
-                                ("ss_speed", "ss_flux", "overshoot_speed", "peak_current", "peak_current_run")})
+    keys = ("ss_speed", "ss_flux", "overshoot_speed", "peak_current", "peak_current_run")
+    return acceptance(metrics, {key: getattr(acc, key) for key in keys})
 
 
 RESULT_FILES = (*FILES, "metrics.json", "figure.png")

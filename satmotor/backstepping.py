@@ -242,7 +242,7 @@ def _core(p, g, phi_min, phi, imd, imq, w, m, dm, I, ref, theta, theta_dot, adap
     if adapt is not None:
         g_theta, theta_max = adapt
         theta_dot = -g_theta * (z1 + (d1 - b) * z2)
-        if q_lim * theta_dot > 0.0:  # anti-windup: no adaptation further into the bound (theta adds to gamma1)
+        if q_lim * theta_dot > 0.0:  # anti-windup: not further into the bound (theta adds to gamma1)
             theta_dot = 0.0
         if (theta >= theta_max and theta_dot > 0.0) or (theta <= -theta_max and theta_dot < 0.0):
             theta_dot = 0.0
@@ -367,7 +367,8 @@ def control(meas, ref, load, params, gains, cfg, theta_hat=0.0, integ=(0.0, 0.0)
     e0_dot = 0.0 if (vlim or d_lim * e1 < 0.0) else e1
     z0_dot = 0.0 if (vlim or q_lim * z1 < 0.0) else z1
     return ControlOutput(c * vd - s * vq, s * vd + c * vq, vd, vq, e1, e2, z1, z2, V, W_true, ms.m, I,
-                         ms.Phi_rd, ms.rho, ws, theta_hat_dot, vlim, singular, e0_dot, z0_dot, bool(d_lim or q_lim))
+                         ms.Phi_rd, ms.rho, ws, theta_hat_dot, vlim, singular, e0_dot, z0_dot,
+                         bool(d_lim or q_lim))
 
 
 __all__ = ["BacksteppingGains", "ControllerConfig", "ControlOutput", "ErrorSystem", "control",
