@@ -120,3 +120,23 @@ def test_validate_refuses_a_bad_b2_naming_file_field_and_value(tmp_path, text, v
     p = problems[0]
     assert p.file == str(f) and reason in p.message
     assert (math.isnan(p.value) if value is None else p.value == value)
+
+
+def test_the_fan_load_scenario_settles_on_the_mechanical_balance():
+    """scenarios/fan_load.yaml through the plain-Python twin: at steady state (1.3-1.5 s) the motor
+    torque equals B w + B_2 w^2 computed from the speed, and the controller's load estimate, which
+    knows B but not B_2, equals the fan torque B_2 w^2."""
+    from pathlib import Path
+
+    from orchestration.reference import plain_reference
+    from orchestration.scenario import load_scenario
+
+    sc = load_scenario(Path(__file__).resolve().parents[1] / "scenarios" / "fan_load.yaml")
+    b2, B = sc.plant["B_2"], MotorParams().B
+    df = plain_reference(sc)
+    s = df[df["time"] >= 1.3]
+    w = s["plant.omega_m"].to_numpy()
+    assert w.min() > 99.0
+    assert s["plant.T_e"].mean() == pytest.approx(B * w.mean() + b2 * w.mean() ** 2, rel=1e-3)
+    assert s["controller.T_load_est"].mean() == pytest.approx(b2 * w.mean() ** 2, rel=2e-3)
+    assert b2 * 100.0**2 == pytest.approx(RATED.T_n, rel=0.01)  # the fan takes the rated torque at 100 rad/s
