@@ -28,8 +28,6 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-import numpy as np
-
 from .wiring import MEASUREMENTS
 
 __all__ = ["Measurements", "MeasurementNoise", "COLUMN_PREFIX", "BLOCK_ROWS", "quantize"]
@@ -44,7 +42,7 @@ class Measurements:
     ``((name, value), ...)`` in the order of :data:`MEASUREMENTS` (tuples: the scenario pickles)."""
 
     seed: int = 0
-    noise: tuple[tuple[str, float], ...] = ()  # (name, std > = 0 in the signal's unit)
+    noise: tuple[tuple[str, float], ...] = ()  # (name, std >= 0 in the signal's unit)
     quantization: tuple[tuple[str, float], ...] = ()  # (name, step > 0 in the signal's unit)
 
     @property
@@ -73,6 +71,8 @@ class MeasurementNoise:
     """
 
     def __init__(self, spec, names, block=BLOCK_ROWS):
+        import numpy as np  # here: reading and checking scenarios needs no numpy
+
         names = list(names)
         std = dict(spec.noise)
         step = dict(spec.quantization)
