@@ -76,12 +76,13 @@ PLANT_OUTPUTS = (
     _v("i_mu", "output", 0.0, "A", "magnitude of the magnetizing current i_s + k i_r"),
 )
 PLANT_PARAMETERS = MOTOR_PARAMETERS + (
-    _v("B_2", "parameter", 0.0, "N m s2/rad2", "quadratic (fan/pump) load: torque B_2 omega_m |omega_m| "
-       "opposing motion, >= 0; plant only (the controller sees it as an unknown load)"),
     _v("omega_m0", "parameter", 0.0, "rad/s", "initial mechanical speed"),
     _v("psi_r0", "parameter", 0.0, "Wb", "initial rotor flux (DC, on the alpha axis; 0: unmagnetized)"),
     _v("h_int", "parameter", 1e-4, "s", "largest internal RK4 step; a communication step dt uses "
        "ceil(dt/h_int) equal sub-steps"),
+    # last: the earlier variables keep their value references
+    _v("B_2", "parameter", 0.0, "N m s2/rad2", "quadratic (fan/pump) load: torque B_2 omega_m |omega_m| "
+       "opposing motion, >= 0; plant only (the controller sees it as an unknown load)"),
 )
 
 _G, _C, _D = BacksteppingGains(), ControllerConfig(), DriveConfig()
