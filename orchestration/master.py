@@ -12,6 +12,11 @@ and the stepping loop here.
   that shrinks with the step.
 * Row ``k`` of the record holds the plant outputs at ``t_k``, the controller outputs computed at
   ``t_k`` and the profiles at ``t_k``, as in :func:`satmotor.simulate.closed_loop`.
+* Measurements (the scenario's ``measurements:`` section, :mod:`orchestration.measurement_noise`):
+  at each controller sample the clean plant outputs are read, then the noise and quantization are
+  applied to the values passed to the controller only (the plant and the ``plant.*`` columns keep
+  the clean values); the measured signals are recorded as ``measured.NAME`` columns after the
+  profiles.  Without the section the loop passes the plant outputs through untouched.
 * An FMI discard, error or fatal status stops the run: what was recorded so far is kept, with the
   status, the time and the first error the failing FMU logged.  A stop request (``stop.signum``
   set, e.g. by a signal handler) ends the run at the next controller sample with status
@@ -30,6 +35,7 @@ from fmpy.fmi1 import FMICallException
 
 from .fmu_instance import STATUS, DiscretePort, FMUInstance, RealPort, check, extract_owned, remove_extracted
 from .interrupts import signal_name
+from .measurement_noise import MeasurementNoise
 from .recorder import Recorder
 from .wiring import CONTROLLER, DEFAULT_CONNECTIONS, PLANT, PROFILE, Connection, inputs_of, resolve
 
@@ -62,10 +68,12 @@ def _outputs(inst, kind="Real"):
     return [v.name for v in inst.md.modelVariables if v.causality == "output" and v.type == kind]
 
 
-def recorded_columns(plant_outputs, controller_outputs, profile_names):
-    """Column names of a row: time, the plant and controller outputs, the profiles."""
+def recorded_columns(plant_outputs, controller_outputs, profile_names, measured=()):
+    """Column names of a row: time, the plant and controller outputs, the profiles, then the
+    measured signals (``measured``: their column names, ``measured.NAME``)."""
     return (["time"] + [f"{PLANT}.{v}" for v in plant_outputs]
-            + [f"{CONTROLLER}.{v}" for v in controller_outputs] + [f"{PROFILE}.{v}" for v in profile_names])
+            + [f"{CONTROLLER}.{v}" for v in controller_outputs] + [f"{PROFILE}.{v}" for v in profile_names]
+            + list(measured))
 
 
 class _NoStop:
@@ -109,12 +117,14 @@ def run(scenario, plant_fmu, controller_fmu, connections=DEFAULT_CONNECTIONS, al
         p_out, c_out = RealPort(plant, _outputs(plant)), RealPort(ctrl, _outputs(ctrl))
         c_disc = DiscretePort(ctrl, _outputs(ctrl, "Integer"), _outputs(ctrl, "Boolean"))
         profiles = {k: p.value for k, p in scenario.profiles.items()}
-        columns = recorded_columns(p_out.names, c_out.names + c_disc.names, sorted(profiles))
+        meas = getattr(scenario, "measurements", None)
+        measure = MeasurementNoise(meas, p_out.names) if meas is not None and meas.signals else None
+        columns = recorded_columns(p_out.names, c_out.names + c_disc.names, sorted(profiles),
+                                   measure.columns if measure else ())
         rec = recorder(columns) if recorder else Recorder(columns)
         t_reached, complete = _loop(scenario, jacobi=algorithm == "jacobi", plant=plant, ctrl=ctrl,
                                     p_out=p_out, c_out=c_out, c_disc=c_disc, connections=connections,
-                                    profiles=profiles,
-                                    rec=rec, stop=stop)
+                                    profiles=profiles, rec=rec, stop=stop, measure=measure)
         if not complete:
             status, message = "interrupted", f"stopped by {signal_name(stop.signum)} at t = {t_reached:.6g} s"
     except FMICallException as exc:
@@ -179,13 +189,15 @@ def _picker(indices):
     return lambda seq: ()
 
 
-def _loop(sc, jacobi, plant, ctrl, p_out, c_out, c_disc, connections, profiles, rec, stop):
+def _loop(sc, jacobi, plant, ctrl, p_out, c_out, c_disc, connections, profiles, rec, stop, measure=None):
     """The stepping loop; returns (the last communication point reached [s], whether the run
     reached its stop time).  A failing doStep raises FMICallException tagged with the unit and the
     time (:meth:`FMUInstance.step_failed`).  The FMI functions are called through ctypes directly
     (:meth:`FMUInstance.raw`) with argument tuples made once; the profiles are evaluated once per
     step (pure functions of t); every value exchanged is a plain float.  The controller's Integer and
-    Boolean outputs (``c_disc``, read as floats) follow its Reals in each row."""
+    Boolean outputs (``c_disc``, read as floats) follow its Reals in each row.  ``measure``: None, or
+    a :class:`MeasurementNoise` giving, at each controller sample, the plant outputs as the controller
+    receives them and the row of measured values."""
     h, N = sc.step, sc.controller_every
     n = round(sc.stop_time / h)
     every = max(1, round(sc.record.interval / h))
@@ -202,6 +214,7 @@ def _loop(sc, jacobi, plant, ctrl, p_out, c_out, c_disc, connections, profiles, 
     read_disc = c_disc.read
     pv, cv = p_out.read()[:], c_out.read()[:] + read_disc()  # lists of floats, new ones after each read
     held = cv  # controller outputs seen by the plant (Jacobi: one sample old)
+    mrow = ()  # the measured signals' values at the last sample (recorded after the profiles)
     Ts, t0, t = sc.Ts, 0.0, 0.0
     append = rec.append
     for k in range(n + 1):
@@ -210,7 +223,11 @@ def _loop(sc, jacobi, plant, ctrl, p_out, c_out, c_disc, connections, profiles, 
         if k % N == 0:
             if stop.signum:
                 return t, False
-            c_invals[:] = c_values(pv, held, fv)
+            if measure is None:
+                c_invals[:] = c_values(pv, held, fv)
+            else:
+                mv, mrow = measure(pv)
+                c_invals[:] = c_values(mv, held, fv)
             r = set_c(*cs)
             if r > 1:
                 check("fmi2SetReal", r)
@@ -226,7 +243,7 @@ def _loop(sc, jacobi, plant, ctrl, p_out, c_out, c_disc, connections, profiles, 
             if not jacobi:
                 held = cv
         if k % every == 0:
-            append((t, *pv, *cv, *fv))
+            append((t, *pv, *cv, *fv, *mrow))
         if k == n:
             break
         p_invals[:] = p_values(pv, held, fv)

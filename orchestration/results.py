@@ -2,7 +2,8 @@
 
 Files per run, under ``OUT/<scenario name>/``: ``timeseries.csv`` and ``timeseries.parquet`` (the
 recorded outputs, streamed as the run goes; column names ``unit.variable``, SI units as in the
-FMUs' descriptions),
+FMUs' descriptions; with a ``measurements:`` section also ``measured.NAME``, the values the controller
+received),
 ``metrics.json`` (metrics, acceptance verdicts and how the run ended) and ``figure.png``.
 """
 
@@ -16,6 +17,7 @@ import numpy as np
 from satmotor.drive import RUN
 from satmotor.metrics import acceptance, closed_loop_metrics
 
+from .measurement_noise import COLUMN_PREFIX as MEASURED
 from .recorder import FILES, StreamingRecorder
 
 
@@ -73,11 +75,11 @@ def prepare_dir(out_dir, scenario):
 
 
 def recorded_selection(scenario, columns):
-    """Indices of ``columns`` to record: time, the profiles, ``record.outputs`` (all outputs when
-    empty) and the columns the metrics and the figure need."""
+    """Indices of ``columns`` to record: time, the profiles, the measured signals (``measured.NAME``),
+    ``record.outputs`` (all outputs when empty) and the columns the metrics and the figure need."""
     wanted = set(scenario.record.outputs) | set(NEEDED) if scenario.record.outputs else None
-    return [i for i, c in enumerate(columns)
-            if c == "time" or c.startswith("profile.") or wanted is None or c in wanted]
+    return [i for i, c in enumerate(columns) if c == "time" or c.startswith(("profile.", MEASURED))
+            or wanted is None or c in wanted]
 
 
 def streaming_recorder(scenario, directory):

@@ -11,7 +11,11 @@ required; ``T_load`` [N m], default 0; see :mod:`orchestration.profiles`), ``rec
 (``interval`` [s], a multiple of ``step``, default ``step``; ``outputs``: ``plant.NAME`` /
 ``controller.NAME``, default all), ``acceptance`` (bounds checked after the run: ``ss_speed``,
 ``ss_flux`` relative steady-state errors over ``ss_window: [t_from, t_to]`` [s],
-``overshoot_speed`` relative, ``peak_current``, ``peak_current_run`` [A]).
+``overshoot_speed`` relative, ``peak_current``, ``peak_current_run`` [A]), ``measurements``
+(noise and quantization the master applies to the plant outputs it passes to the controller:
+``seed`` (integer >= 0, default 0), ``noise: {NAME: std}`` (Gaussian standard deviation >= 0) and
+``quantization: {NAME: step}`` (step > 0), each in the signal's unit, NAME one of :data:`orchestration.wiring.MEASUREMENTS`; see
+:mod:`orchestration.measurement_noise`).
 
 Once the file is well formed, :func:`orchestration.feasibility.physics_problems` builds the
 plain-Python units from the overrides (the ranges live in :mod:`satmotor`), checks that the flux
@@ -32,16 +36,17 @@ from types import MappingProxyType
 import yaml
 
 from .feasibility import physics_problems
+from .measurement_noise import Measurements
 from .profiles import Checker, Constant, Problem, parse_profile
 
-__all__ = ["Problem", "ScenarioError", "Acceptance", "Record", "Scenario", "load_scenario",
+__all__ = ["Problem", "ScenarioError", "Acceptance", "Record", "Scenario", "Measurements", "load_scenario",
            "validate_scenario_file", "interface_variables", "ALGORITHMS", "PROFILE_NAMES"]
 
 ALGORITHMS = ("gauss-seidel", "jacobi")
 PROFILE_NAMES = ("omega_ref", "psi_ref", "T_load")
 UNITS = ("plant", "controller")
 TOP_KEYS = ("name", "description", "stop_time", "step", "controller_every", "algorithm", "plant",
-            "controller", "profiles", "record", "acceptance")
+            "controller", "profiles", "record", "acceptance", "measurements")
 ACCEPTANCE_KEYS = ("ss_speed", "ss_flux", "ss_window", "overshoot_speed", "peak_current", "peak_current_run")
 _NAME = re.compile(r"[A-Za-z0-9_.-]+")
 _REL = 1e-9  # relative tolerance of "a multiple of step"
@@ -89,6 +94,7 @@ class Scenario:
     profiles: MappingProxyType = field(default_factory=lambda: MappingProxyType({}))  # name -> profile
     record: Record | None = None  # None: every step, all outputs
     acceptance: Acceptance | None = None
+    measurements: Measurements | None = None  # None: the controller gets the clean plant outputs
 
     @property
     def Ts(self):
@@ -230,6 +236,39 @@ def _acceptance(chk, raw, stop_time):
     return Acceptance(**vals)
 
 
+def _measurements(chk, raw):
+    """The ``measurements:`` section: seed, noise and quantization by measured signal."""
+    from .wiring import MEASUREMENTS
+
+    if raw is None:
+        return None
+    if not chk.mapping(raw, "measurements", (), ("seed", "noise", "quantization")):
+        return None
+    seed = chk.integer(raw.get("seed", 0), "measurements.seed", low=0)
+    tables = {}
+    for key, strict, what in (("noise", False, "standard deviation"), ("quantization", True, "step")):
+        table = raw.get(key)
+        if table is None:
+            tables[key] = ()
+            continue
+        if not isinstance(table, dict):
+            chk.add(f"measurements.{key}", table, f"must be a mapping {{signal: {what}}}")
+            continue
+        vals = {}
+        for name, value in table.items():
+            where = f"measurements.{key}.{name}"
+            if name not in MEASUREMENTS:
+                chk.add(where, value, f"not a measured signal; allowed: {', '.join(MEASUREMENTS)}")
+                continue
+            v = chk.number(value, where, low=0.0, strict=strict)
+            if v is not None:
+                vals[name] = v
+        tables[key] = tuple((n, vals[n]) for n in MEASUREMENTS if n in vals)
+    if seed is None or len(tables) < 2:
+        return None
+    return Measurements(seed, tables["noise"], tables["quantization"])
+
+
 def _check(data, file, variables):
     """``(Scenario or None, problems)`` from the parsed YAML ``data`` of ``file``."""
     chk = Checker(file)
@@ -270,11 +309,13 @@ def _check(data, file, variables):
                 profiles[key] = p
     record = _record(chk, data.get("record"), step, variables)
     acceptance = _acceptance(chk, data.get("acceptance"), stop_time)
+    measurements = _measurements(chk, data.get("measurements"))
     if chk.problems:
         return None, chk.problems
     sc = Scenario(name, description, Path(file), stop_time, step, every, algorithm,
                   MappingProxyType(plant), MappingProxyType(controller),
-                  MappingProxyType({k: profiles[k] for k in PROFILE_NAMES}), record, acceptance)
+                  MappingProxyType({k: profiles[k] for k in PROFILE_NAMES}), record, acceptance,
+                  measurements)
     problems = physics_problems(sc)
     return (None, problems) if problems else (sc, [])
 

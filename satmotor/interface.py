@@ -80,6 +80,9 @@ PLANT_PARAMETERS = MOTOR_PARAMETERS + (
     _v("psi_r0", "parameter", 0.0, "Wb", "initial rotor flux (DC, on the alpha axis; 0: unmagnetized)"),
     _v("h_int", "parameter", 1e-4, "s", "largest internal RK4 step; a communication step dt uses "
        "ceil(dt/h_int) equal sub-steps"),
+    # last: the earlier variables keep their value references
+    _v("B_2", "parameter", 0.0, "N m s2/rad2", "quadratic (fan/pump) load: torque B_2 omega_m |omega_m| "
+       "opposing motion, >= 0; plant only (the controller sees it as an unknown load)"),
 )
 
 _G, _C, _D = BacksteppingGains(), ControllerConfig(), DriveConfig()
@@ -188,10 +191,12 @@ class PlantUnit:
 
     def __init__(self, values):
         self.params = motor_params(values)
-        w0, psi0, h = (_number(values, v) for v in PLANT_PARAMETERS[-3:])
+        f = {v.name: _number(values, v) for v in PLANT_PARAMETERS[len(MOTOR_PARAMETERS):]}
+        w0, psi0 = f["omega_m0"], f["psi_r0"]
         require_number("psi_r0", psi0, 0, inclusive=True)
-        self.h_int = h = require_number("h_int", h, 0)
-        self.plant = Plant(self.params)
+        self.h_int = require_number("h_int", f["h_int"], 0)
+        # B_2 is the plant's alone: not in MotorParams, which is also the controller's model
+        self.plant = Plant(self.params, f["B_2"])
         self.x0 = initial_state(self.params, omega_m=w0, psi_r_alpha=psi0)
         self.x = self.x0
         self._dt, self._n_sub = None, 1  # the last step size and its sub-step count

@@ -8,13 +8,17 @@ Conventions
   (fluxes [Wb], mechanical speed [rad/s], mechanical angle [rad]); indices are the
   constants ``PSI_S_A`` ... ``THETA_M``.
 * Inputs: stator voltages ``v_s_alpha``, ``v_s_beta`` [V], load torque ``T_load`` [N m].
+* Plant-only parameter ``B_2`` [N m s2/rad2] (>= 0, default 0): a quadratic (fan/pump) load
+  torque ``B_2 omega_m |omega_m|`` opposing motion.  It is an argument of :class:`Plant`, not a
+  field of :class:`~satmotor.params.MotorParams`, because MotorParams is also the controller's
+  model: the controller does not know the fan load and sees it as part of an unknown load.
 
 Equations (seed eqs 1, 4, 10-13 with the factor k of the errata)::
 
     psi_s = l_s i_s + m(I) i_mu,  psi_r = l_r i_r + k m(I) i_mu,  i_mu = i_s + k i_r
     d psi_s/dt = v_s - R_s i_s
     d psi_r/dt = -R_r i_r + n_p omega_m J2 psi_r          (J2 = rotation by +90 deg)
-    J d omega_m/dt = T_e - T_load - B omega_m,   d theta_m/dt = omega_m
+    J d omega_m/dt = T_e - T_load - B omega_m - B_2 omega_m |omega_m|,   d theta_m/dt = omega_m
     T_e = 3/2 n_p (psi_s_alpha i_s_beta - psi_s_beta i_s_alpha)
 
 Currents from fluxes: eliminating i_s and i_r gives
@@ -28,6 +32,7 @@ from __future__ import annotations
 import math
 from typing import NamedTuple
 
+from .errors import require_number
 from .integrate import rk4
 
 PSI_S_A, PSI_S_B, PSI_R_A, PSI_R_B, OMEGA_M, THETA_M = range(6)
@@ -56,13 +61,17 @@ class Plant:
     Parameters
     ----------
     params : satmotor.params.MotorParams
+    B_2 : float
+        Quadratic (fan/pump) load coefficient [N m s2/rad2], >= 0: load torque
+        ``B_2 omega_m |omega_m|`` opposing motion (default 0: none).
     """
 
-    __slots__ = ("p", "_curve", "_inv_ls", "_k_lr", "_le", "_k", "_ls", "_lr", "_Rs", "_Rr",
-                 "_np", "_kappa", "_inv_J", "_B", "_m0")
+    __slots__ = ("p", "B_2", "_curve", "_inv_ls", "_k_lr", "_le", "_k", "_ls", "_lr", "_Rs", "_Rr",
+                 "_np", "_kappa", "_inv_J", "_B", "_B2", "_m0")
 
-    def __init__(self, params):
+    def __init__(self, params, B_2=0.0):
         self.p = params
+        self.B_2 = self._B2 = require_number("B_2", B_2, 0, inclusive=True)
         self._curve = params.curve
         self._inv_ls = 1.0 / params.l_s
         self._k_lr = params.k / params.l_r
@@ -117,7 +126,8 @@ class Plant:
             v_b - self._Rs * isb,
             -self._Rr * ira - we * prb,
             -self._Rr * irb + we * pra,
-            (te - T_load - self._B * w) * self._inv_J,
+            # (B + B_2 |w|) w: with B_2 = 0 exactly B w (B + 0.0 = B), so the same floats as without
+            (te - T_load - (self._B + self._B2 * abs(w)) * w) * self._inv_J,
             w,
         )
 

@@ -53,7 +53,7 @@ CTRL_OUT = ("v_s_alpha", "v_s_beta", "v_sd", "v_sq", "e1", "e2", "z1", "z2", "W"
             "voltage_limited", "current_limited", "singular_limited")
 CONTRACT = {
     "SaturatedInductionMotor": {"input": PLANT_IN, "output": PLANT_OUT,
-                                "parameter": MOTOR + ("omega_m0", "psi_r0", "h_int")},
+                                "parameter": MOTOR + ("B_2", "omega_m0", "psi_r0", "h_int")},
     "BacksteppingController": {"input": CTRL_IN, "output": CTRL_OUT, "parameter": (
         "c1", "c2", "d1", "d2", "Ts", "mode", "load_mode", "V_dc", "ref_bandwidth", "g_theta", "theta_max",
         "I_max", "use_stator_flux", "c0", "d0", "flux_source", "delay_samples") + MOTOR},
@@ -67,7 +67,7 @@ UNITS = {"V": "v_s_alpha v_s_beta v_sd v_sq V_dc", "A": "i_s_alpha i_s_beta i_mu
          "N m": "T_load T_e T_load_est", "Ohm": "R_s R_r", "H": "l_s l_r L_m0 L_m_inf",
          "1": "k W delay_samples",
          "kg m2": "J", "N m s": "B", "A/Wb^n": "poly_b", "s": "h_int Ts", "1/s": "c1 c2 d1 d2",
-         "1/s2": "g_theta c0 d0"}
+         "1/s2": "g_theta c0 d0", "N m s2/rad2": "B_2"}
 UNIT_OF = {name: unit for unit, names in UNITS.items() for name in names.split()}
 
 
@@ -82,7 +82,7 @@ def _defaults():
         "ref_bandwidth": d.ref_bandwidth, "I_max": d.I_max, "mode": "saturated",
         "use_stator_flux": c.use_stator_flux, "flux_source": d.flux_source, "delay_samples": d.delay_samples}
     # at rest, unmagnetized (closed_loop's x0); one RK4 step per sample (closed_loop's n_sub = 1)
-    plant = motor | {"omega_m0": 0.0, "psi_r0": 0.0, "h_int": c.Ts}
+    plant = motor | {"B_2": 0.0, "omega_m0": 0.0, "psi_r0": 0.0, "h_int": c.Ts}
     return {"SaturatedInductionMotor": plant, "BacksteppingController": ctrl}
 
 
