@@ -14,8 +14,8 @@ required; ``T_load`` [N m], default 0; see :mod:`orchestration.profiles`), ``rec
 ``overshoot_speed`` relative, ``peak_current``, ``peak_current_run`` [A]), ``measurements``
 (noise and quantization the master applies to the plant outputs it passes to the controller:
 ``seed`` (integer >= 0, default 0), ``noise: {NAME: std}`` (Gaussian standard deviation >= 0) and
-``quantization: {NAME: step}`` (step > 0), each in the signal's unit, NAME one of :data:`orchestration.wiring.MEASUREMENTS`; see
-:mod:`orchestration.measurement_noise`).
+``quantization: {NAME: step}`` (step > 0), each in the signal's unit, NAME one of
+:data:`orchestration.wiring.MEASUREMENTS`; see :mod:`orchestration.measurement_noise`).
 
 Once the file is well formed, :func:`orchestration.feasibility.physics_problems` builds the
 plain-Python units from the overrides (the ranges live in :mod:`satmotor`), checks that the flux
