@@ -47,10 +47,36 @@ def fmi_version(path):
     return root.get("fmiVersion", ""), root
 
 
+def structure_problems(root):
+    """FMI 2.0 ModelStructure indices that do not point where they must (an Outputs entry to an
+    output, every index and dependency to an existing variable), read from the XML itself: fmpy's
+    reader stops at the first out-of-range index with a bare IndexError."""
+    if root.get("fmiVersion", "").split(".")[0] != "2":
+        return []
+    variables = root.findall("./ModelVariables/ScalarVariable")
+    n, out = len(variables), []
+    for section in ("Outputs", "Derivatives", "InitialUnknowns"):
+        for u in root.findall(f"./ModelStructure/{section}/Unknown"):
+            refs = [u.get("index", "")] + (u.get("dependencies") or "").split()
+            for ref in refs:
+                if not ref.isdigit() or not 1 <= int(ref) <= n:
+                    out.append(f"ModelStructure/{section}: index {ref!r} is not one of the {n} variables")
+            idx = u.get("index", "")
+            if (section == "Outputs" and idx.isdigit() and 1 <= int(idx) <= n
+                    and variables[int(idx) - 1].get("causality") != "output"):
+                name = variables[int(idx) - 1].get("name")
+                out.append(f"ModelStructure/Outputs: index {idx} is {name!r}, not an output")
+    return out
+
+
 def check_validate(path):
     from fmpy.validation import validate_fmu
 
-    problems = validate_fmu(str(path))
+    problems = structure_problems(fmi_version(path)[1])
+    try:
+        problems += [p for p in validate_fmu(str(path)) if p not in problems]
+    except Exception as exc:  # noqa: BLE001 - fmpy's reader on a malformed description
+        problems.append(f"fmpy.validation.validate_fmu: {type(exc).__name__}: {exc}")
     if problems:
         return "FAIL", f"{len(problems)} problem(s): " + "; ".join(str(p).strip() for p in problems)[:500]
     return "PASS", "fmpy.validation.validate_fmu: no problems"
@@ -209,7 +235,8 @@ def run(paths, junit_file=None, reference=None):
         rows = check_fmu(path, (reference,) if reference else (REFERENCE_DIR,))
         results[path] = rows
         for check, verdict, detail, _ in rows:
-            print(f"{verdict:5s}  {path}  {check}: {detail}", flush=True)
+            one_line = " | ".join(part.strip() for part in str(detail).splitlines() if part.strip())
+            print(f"{verdict:5s}  {path}  {check}: {one_line}", flush=True)
     if junit_file:
         Path(junit_file).parent.mkdir(parents=True, exist_ok=True)
         junit(results, junit_file)

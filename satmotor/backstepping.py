@@ -70,6 +70,8 @@ from typing import NamedTuple
 from .errors import ParameterError, require_number
 from .fo_model import model_constants, vector_fields
 from .measurements import (
+    MEAS_I_MU_A,
+    MEAS_I_MU_B,
     MEAS_I_S_A,
     MEAS_I_S_B,
     MEAS_OMEGA_M,
@@ -77,6 +79,7 @@ from .measurements import (
     MEAS_PSI_R_B,
     MEAS_PSI_S_A,
     MEAS_PSI_S_B,
+    from_magnetizing_current,
     from_rotor_flux,
     from_stator_flux,
 )
@@ -121,7 +124,9 @@ class ControllerConfig:
     hold (0: continuous, no mid-sample compensation); phi_min [Wb] flux floor of the
     singularity guard; load_mode 'known' (uses T_L, dT_L/dt) or 'estimated' (adaptive theta_hat);
     g_theta [1/s^2] adaptation gain; theta_max [rad/s^2] bound on theta_hat = T_L/J;
-    use_stator_flux: magnetizing state from psi_s as well (seed H1) instead of the curve.
+    use_stator_flux: magnetizing state from psi_s as well (seed H1) instead of the curve;
+    true_i_mu: the plant's true i_mu, appended to the measurements by the plain-Python loop (the
+    design comparison only: no drive measures it, the FMU does not offer it).
 
     g_theta = 5 1/s^2: with the default gains the linear (z1, z2, theta_t) error system then has
     real eigenvalues (about -100, -137, -363 1/s); larger g_theta only adds an oscillation
@@ -136,6 +141,7 @@ class ControllerConfig:
     g_theta: float = 5.0
     theta_max: float = 1.0e4
     use_stator_flux: bool = False
+    true_i_mu: bool = False
 
     def __post_init__(self):
         require_number("V_dc", self.V_dc, 0)
@@ -145,8 +151,9 @@ class ControllerConfig:
             raise ParameterError("load_mode", self.load_mode, f"must be one of {LOAD_MODES}")
         require_number("g_theta", self.g_theta, 0)
         require_number("theta_max", self.theta_max, 0)
-        if not isinstance(self.use_stator_flux, bool):
-            raise ParameterError("use_stator_flux", self.use_stator_flux, "must be a bool")
+        for name in ("use_stator_flux", "true_i_mu"):
+            if not isinstance(getattr(self, name), bool):
+                raise ParameterError(name, getattr(self, name), "must be a bool")
 
 
 class ErrorSystem(NamedTuple):
@@ -321,7 +328,10 @@ def control(meas, ref, load, params, gains, cfg, theta_hat=0.0, integ=(0.0, 0.0)
         Voltages (v_s rotated by ``rho + omega_s Ts / 2``), errors, V, W, the magnetizing state,
         theta_hat_dot (0 in the known mode) and the limiter flags.
     """
-    if cfg.use_stator_flux:
+    if cfg.true_i_mu:
+        ms = from_magnetizing_current(meas[MEAS_I_MU_A], meas[MEAS_I_MU_B], meas[MEAS_PSI_R_A],
+                                      meas[MEAS_PSI_R_B], params)
+    elif cfg.use_stator_flux:
         ms = from_stator_flux(meas[MEAS_I_S_A], meas[MEAS_I_S_B], meas[MEAS_PSI_R_A], meas[MEAS_PSI_R_B],
                               meas[MEAS_PSI_S_A], meas[MEAS_PSI_S_B], params)
     else:

@@ -284,6 +284,9 @@ class BacksteppingDrive(_Drive):
         if self.cfg.Ts <= 0:
             raise ParameterError("Ts", self.cfg.Ts, "must be > 0 for a sampled drive")
         super().__init__(params, self.cfg.Ts, self.cfg.V_dc, drive_cfg)
+        if self.cfg.true_i_mu and (self.dcfg.flux_source == "observer" or self.dcfg.delay_samples):
+            raise ParameterError("true_i_mu", True, "is a comparison setting of the plain loop: not with "
+                                 "the observer or the delay compensation")
 
     def _reset_law(self):
         self._theta_hat = 0.0

@@ -21,7 +21,10 @@ Both return a :class:`MagnetizingState` that also gives the rotor-flux frame:
 The measurement tuple a drive reads every sample is
 ``meas = (i_s_alpha, i_s_beta, psi_r_alpha, psi_r_beta, omega_m[, psi_s_alpha, psi_s_beta])``
 [A, A, Wb, Wb, rad/s, Wb, Wb]; its indices are the constants ``MEAS_I_S_A`` ... ``MEAS_PSI_S_B``
-(psi_s is needed only with the stator-flux variant).
+(psi_s is needed only with the stator-flux variant).  The plain-Python loop appends the plant's true
+magnetizing current ``(i_mu_alpha, i_mu_beta)`` [A] (``MEAS_I_MU_A``, ``MEAS_I_MU_B``), which
+:func:`from_magnetizing_current` takes as it is: the design comparison's "true i_mu" setting (no
+drive can measure it).
 """
 
 from __future__ import annotations
@@ -30,6 +33,7 @@ import math
 from typing import NamedTuple
 
 MEAS_I_S_A, MEAS_I_S_B, MEAS_PSI_R_A, MEAS_PSI_R_B, MEAS_OMEGA_M, MEAS_PSI_S_A, MEAS_PSI_S_B = range(7)
+MEAS_I_MU_A, MEAS_I_MU_B = 7, 8  # the plant's true i_mu, carried by the plain loop for the comparison
 
 
 class MagnetizingState(NamedTuple):
@@ -67,6 +71,13 @@ def from_rotor_flux(i_sa, i_sb, psi_ra, psi_rb, params):
     return _in_flux_frame(s * wa, s * wb, I, psi / I, psi_ra, psi_rb)
 
 
+def from_magnetizing_current(i_mu_a, i_mu_b, psi_ra, psi_rb, params):
+    """Magnetizing state from a given i_mu [A] (the plant's true one) and psi_r [Wb]; m from the
+    curve of ``params`` at |i_mu| (``L_m0`` for a constant-m design)."""
+    I = math.hypot(i_mu_a, i_mu_b)
+    return _in_flux_frame(i_mu_a, i_mu_b, I, params.curve.m(I), psi_ra, psi_rb)
+
+
 def from_stator_flux(i_sa, i_sb, psi_ra, psi_rb, psi_sa, psi_sb, params):
     """Magnetizing state from i_s [A], psi_r and psi_s [Wb] (alpha, beta); no curve inversion."""
     k, ls = params.k, params.l_s
@@ -82,6 +93,7 @@ def from_stator_flux(i_sa, i_sb, psi_ra, psi_rb, psi_sa, psi_sb, params):
     return _in_flux_frame(ima, imb, I, m, psi_ra, psi_rb)
 
 
-__all__ = ["MagnetizingState", "from_rotor_flux", "from_stator_flux",
+__all__ = ["MagnetizingState", "from_rotor_flux", "from_stator_flux", "from_magnetizing_current",
+           "MEAS_I_MU_A", "MEAS_I_MU_B",
            "MEAS_I_S_A", "MEAS_I_S_B", "MEAS_PSI_R_A", "MEAS_PSI_R_B", "MEAS_OMEGA_M", "MEAS_PSI_S_A",
            "MEAS_PSI_S_B"]
