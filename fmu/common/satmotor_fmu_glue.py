@@ -231,7 +231,7 @@ class UnitSlave(Fmi2Slave):
     def _publish(self):
         self.__dict__.update(zip(self._outputs, self._unit.outputs()))
 
-    # --- fmi2GetReal / fmi2SetReal --------------------------------------------------------------------
+    # --- fmi2GetReal / fmi2SetReal (and fmi2GetInteger / fmi2GetBoolean) ------------------------------
     # pythonfmu's get_real/set_real call a Python getter or setter per variable.  Here a list of value
     # references seen before is served by a plan made once for it: the names of the variables, read from
     # or written to the instance's attributes in one C-level call.  A set_real plan exists only for a
@@ -241,33 +241,42 @@ class UnitSlave(Fmi2Slave):
 
     _MAX_PLANS = 64
 
-    def _plan(self, key, settable):
+    def _plan(self, key, settable, kind=Real):
         if len(self._plans) >= self._MAX_PLANS:
             self._plans.clear()
         names = []
         for vr in key:
             var = self.vars.get(vr)
-            if (not isinstance(var, Real) or "." in var.name
+            if (not isinstance(var, kind) or "." in var.name
                     or (settable and var.causality != Fmi2Causality.input)):
                 names = None
                 break
             names.append(var.local_name)
         plan = False if names is None else (tuple(names) if settable else _picker(names))
-        self._plans[key, settable] = plan
+        self._plans[key, settable, kind] = plan
         return plan
 
-    def get_real(self, vrs):
+    def _get(self, vrs, kind, cast, fallback):
         key = tuple(vrs)
-        plan = self._plans.get((key, False))
+        plan = self._plans.get((key, False, kind))
         if plan is None:
-            plan = self._plan(key, False)
+            plan = self._plan(key, False, kind)
         if plan is False:
-            return super().get_real(vrs)
-        return list(map(float, plan(self.__dict__)))
+            return fallback(vrs)
+        return list(map(cast, plan(self.__dict__)))
+
+    def get_real(self, vrs):
+        return self._get(vrs, Real, float, super().get_real)
+
+    def get_integer(self, vrs):  # the controller's phase: read once per sample, as the Reals
+        return self._get(vrs, Integer, int, super().get_integer)
+
+    def get_boolean(self, vrs):  # the controller's limiter flags
+        return self._get(vrs, Boolean, bool, super().get_boolean)
 
     def set_real(self, vrs, values):
         key = tuple(vrs)
-        plan = self._plans.get((key, True))
+        plan = self._plans.get((key, True, Real))
         if plan is None:
             plan = self._plan(key, True)
         if plan is False or len(values) != len(plan):
