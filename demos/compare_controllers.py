@@ -76,7 +76,8 @@ def designs(p):
         "backstepping, saturated model, known load": lambda: BacksteppingDrive(p),
         "backstepping, saturated model, estimated load": lambda: BacksteppingDrive(
             p, cfg=ControllerConfig(load_mode="estimated")),
-        "constant m = L_m0, i_mu via the controller's curve": lambda: BacksteppingDrive(p_lin, cfg=curve_i_mu),
+        "constant m = L_m0, i_mu via the controller's curve": lambda: BacksteppingDrive(
+            p_lin, cfg=curve_i_mu),
         "constant m = L_m0, true i_mu": lambda: BacksteppingDrive(p_lin, cfg=true_i_mu),
         "constant m = m(rated i_mu), i_mu via the controller's curve": lambda: BacksteppingDrive(
             p_rated, cfg=curve_i_mu),
