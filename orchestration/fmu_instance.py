@@ -1,11 +1,13 @@
-"""One FMI 2.0 co-simulation FMU instance, driven through fmpy's low-level FMU2Slave API.
+"""One FMI 2.0 or 3.0 co-simulation FMU instance, driven through fmpy's low-level FMU2Slave /
+FMU3Slave API.
 
 Value references are looked up by name in the model description.  Each instance keeps its own
 log: FMUs call the logger with a variadic format, which ctypes cannot receive, so fmpy's native
 proxy formats the message and calls one process-wide Python function; that function
 (:func:`_route`) hands the message to the instance whose ``componentEnvironment`` token it
-carries.  The per-step calls go through prebuilt ctypes arrays (one allocation per instance, none
-per step).
+carries.  FMI 3.0's log callback has no variadic arguments: each instance passes its own.  The
+per-step calls go through prebuilt ctypes arrays and argument tuples (one allocation per instance,
+none per step); :attr:`FMUInstance.calls` names the functions of the instance's FMI version.
 """
 
 from __future__ import annotations
@@ -15,7 +17,7 @@ import shutil
 import sys
 import tempfile
 import weakref
-from ctypes import byref, c_void_p
+from ctypes import byref, c_bool, c_double, c_int, c_void_p
 
 from fmpy import extract, read_model_description
 from fmpy.fmi1 import FMICallException
@@ -32,6 +34,7 @@ from fmpy.fmi2 import (
     fmi2ValueReference,
     free,
 )
+from fmpy.fmi3 import FMU3Slave
 
 STATUS = ("ok", "warning", "discard", "error", "fatal", "pending")
 _FAILED = ("discard", "error", "fatal")
@@ -54,6 +57,13 @@ def _route(env, instance_name, status, category, message):
 
 
 _LOGGER = fmi2CallbackLoggerTYPE(_route)  # one ctypes callback for the whole process, never freed
+
+# the functions the stepping loop calls, and the declared type names, per FMI version
+FMI2_CALLS = {"get_real": "fmi2GetReal", "set_real": "fmi2SetReal", "get_int": "fmi2GetInteger",
+              "get_bool": "fmi2GetBoolean", "step": "fmi2DoStep"}
+FMI3_CALLS = {"get_real": "fmi3GetFloat64", "set_real": "fmi3SetFloat64", "get_int": "fmi3GetInt32",
+              "get_bool": "fmi3GetBoolean", "step": "fmi3DoStep"}
+FMI3_TYPES = {"Real": "Float64", "Integer": "Int32", "Boolean": "Boolean", "String": "String"}
 
 
 def extract_owned(path):
@@ -85,11 +95,13 @@ class RealPort:
         self._vr = (fmi2ValueReference * self.n)(*instance.vr(self.names))
         self.values = (fmi2Real * self.n)()
         self._inst = instance
-        self.get_args = self.set_args = (instance.slave.component, self._vr, self.n, self.values)
+        args = (instance.slave.component, self._vr, self.n, self.values)
+        self.get_args = self.set_args = args + (self.n,) if instance.fmi3 else args  # FMI 3: nValues
 
     def read(self):
-        s = self._inst.slave
-        s.fmi2GetReal(s.component, self._vr, self.n, self.values)
+        r = self._inst.raw(self._inst.calls["get_real"])(*self.get_args)
+        if r > 1:
+            check(self._inst.calls["get_real"], r)
         return self.values
 
 
@@ -102,20 +114,24 @@ class DiscretePort:
         self.names = tuple(integers) + tuple(booleans)
         self._ni, self._nb = len(integers), len(booleans)
         c = instance.slave.component
-        self._ivals, self._bvals = (fmi2Integer * self._ni)(), (fmi2Boolean * self._nb)()
+        int_t, bool_t = (c_int, c_bool) if instance.fmi3 else (fmi2Integer, fmi2Boolean)
+        self._ivals, self._bvals = (int_t * self._ni)(), (bool_t * self._nb)()
         self._iargs = (c, (fmi2ValueReference * self._ni)(*instance.vr(integers)), self._ni, self._ivals)
         self._bargs = (c, (fmi2ValueReference * self._nb)(*instance.vr(booleans)), self._nb, self._bvals)
-        self._get_i, self._get_b = instance.raw("fmi2GetInteger"), instance.raw("fmi2GetBoolean")
+        if instance.fmi3:  # nValues
+            self._iargs, self._bargs = self._iargs + (self._ni,), self._bargs + (self._nb,)
+        self._calls = instance.calls
+        self._get_i, self._get_b = instance.raw(self._calls["get_int"]), instance.raw(self._calls["get_bool"])
 
     def read(self):
         if self._ni:
             r = self._get_i(*self._iargs)
             if r > 1:
-                check("fmi2GetInteger", r)
+                check(self._calls["get_int"], r)
         if self._nb:
             r = self._get_b(*self._bargs)
             if r > 1:
-                check("fmi2GetBoolean", r)
+                check(self._calls["get_bool"], r)
         return [float(v) for v in self._ivals] + [float(v) for v in self._bvals]
 
 
@@ -135,6 +151,8 @@ class FMUInstance:
         self.path = str(path)
         self.name = instance_name
         self.md = read_model_description(self.path)
+        self.fmi3 = self.md.fmiVersion.startswith("3")
+        self.calls = FMI3_CALLS if self.fmi3 else FMI2_CALLS
         self._owned_dir = unzip_dir is None
         self.unzip_dir = extract_owned(self.path) if unzip_dir is None else unzip_dir
         self.variables = {v.name: v for v in self.md.modelVariables}
@@ -156,15 +174,38 @@ class FMUInstance:
         except Exception:  # noqa: BLE001 - the proxy only formats variadic messages
             pass
         try:
-            self.slave = FMU2Slave(guid=self.md.guid, unzipDirectory=self.unzip_dir,
-                                   modelIdentifier=self.md.coSimulation.modelIdentifier,
-                                   instanceName=instance_name)
-            self.slave.instantiate(callbacks=self._callbacks, loggingOn=True)
+            kind = FMU3Slave if self.fmi3 else FMU2Slave
+            self.slave = kind(guid=self.md.guid, unzipDirectory=self.unzip_dir, instanceName=instance_name,
+                              modelIdentifier=self.md.coSimulation.modelIdentifier)
+            if self.fmi3:
+                self.slave.instantiate(loggingOn=True, logMessage=self._log3)
+            else:
+                self.slave.instantiate(callbacks=self._callbacks, loggingOn=True)
+            self._step_fn = self.raw(self.calls["step"])
+            if self.fmi3:  # the out-arguments of fmi3DoStep, made once
+                self._step_out = tuple(byref(v) for v in (c_bool(), c_bool(), c_bool(), c_double()))
         except Exception as exc:
             self.slave = None
             self._remove_dir()
             detail = self.first_error() or "no message from the FMU (see the host's stderr)"
             raise RuntimeError(f"{self.md.modelName}: instantiation failed ({exc}): {detail}") from None
+
+    def _log3(self, env, status, category, message):
+        """FMI 3.0 log callback of this instance (not variadic: no proxy needed)."""
+        text = message.decode("utf-8", "replace") if isinstance(message, bytes) else str(message)
+        self.messages.append((STATUS[status] if 0 <= status < len(STATUS) else str(status), text))
+
+    def declared_type(self, kind):
+        """The type name this FMU declares for ``kind`` ('Real', 'Integer', 'Boolean', 'String')."""
+        return FMI3_TYPES[kind] if self.fmi3 else kind
+
+    def stepper(self):
+        """``(t, h) -> status`` of the doStep of this instance's FMI version (the loop's call)."""
+        fn, comp = self._step_fn, self.slave.component
+        if self.fmi3:
+            out = self._step_out
+            return lambda t, h: fn(comp, t, h, True, *out)
+        return lambda t, h: fn(comp, t, h, 1)
 
     def first_error(self):
         """The first message logged with a discard, error or fatal status (else the last message),
@@ -187,20 +228,23 @@ class FMUInstance:
             var = self.variables[name] if name in self.variables else None
             if var is None:
                 raise KeyError(f"{self.md.modelName} has no variable {name!r}")
-            vr = [var.valueReference]
-            if var.type == "Real":
-                self.slave.setReal(vr, [float(value)])
-            elif var.type == "Integer":
-                self.slave.setInteger(vr, [int(value)])
+            vr, s = [var.valueReference], self.slave
+            if var.type in ("Real", "Float64"):
+                (s.setFloat64 if self.fmi3 else s.setReal)(vr, [float(value)])
+            elif var.type in ("Integer", "Int32"):
+                (s.setInt32 if self.fmi3 else s.setInteger)(vr, [int(value)])
             elif var.type == "Boolean":
-                self.slave.setBoolean(vr, [bool(value)])
+                s.setBoolean(vr, [bool(value)])
             else:
-                self.slave.setString(vr, [str(value)])
+                s.setString(vr, [str(value)])
 
     def initialize(self, start_time):
         try:
-            self.slave.setupExperiment(startTime=start_time)
-            self.slave.enterInitializationMode()
+            if self.fmi3:
+                self.slave.enterInitializationMode(startTime=start_time)
+            else:
+                self.slave.setupExperiment(startTime=start_time)
+                self.slave.enterInitializationMode()
             self.slave.exitInitializationMode()
         except FMICallException as exc:
             self.fatal = exc.status >= 4
@@ -217,15 +261,15 @@ class FMUInstance:
         """Raise the FMICallException of a failed fmi2DoStep at ``t``, tagged ``.unit`` (this
         instance's name) and ``.time`` (the communication point); remember a fatal status."""
         try:
-            check("fmi2DoStep", status)
+            check(self.calls["step"], status)
         except FMICallException as exc:
             self.fatal = exc.status >= 4
             exc.unit, exc.time = self.name, t
             raise
 
     def do_step(self, t, h):
-        """fmi2DoStep; a failure raises as :meth:`step_failed` says."""
-        status = self.raw("fmi2DoStep")(self.slave.component, t, h, 1)
+        """doStep; a failure raises as :meth:`step_failed` says."""
+        status = self.stepper()(t, h)
         if status > 1:
             self.step_failed(status, t)
 

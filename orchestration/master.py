@@ -65,7 +65,8 @@ class RunResult:
 
 
 def _outputs(inst, kind="Real"):
-    return [v.name for v in inst.md.modelVariables if v.causality == "output" and v.type == kind]
+    declared = inst.declared_type(kind)
+    return [v.name for v in inst.md.modelVariables if v.causality == "output" and v.type == declared]
 
 
 def recorded_columns(plant_outputs, controller_outputs, profile_names, measured=()):
@@ -205,10 +206,9 @@ def _loop(sc, jacobi, plant, ctrl, p_out, c_out, c_disc, connections, profiles, 
     prof = [profiles[p] for p in sorted(profiles)]
     c_in, c_values = _input_port(ctrl, CONTROLLER, connections, outputs, profiles, prof)
     p_in, p_values = _input_port(plant, PLANT, connections, outputs, profiles, prof)
-    get_p, get_c = plant.raw("fmi2GetReal"), ctrl.raw("fmi2GetReal")
-    set_p, set_c = plant.raw("fmi2SetReal"), ctrl.raw("fmi2SetReal")
-    step_p, step_c = plant.raw("fmi2DoStep"), ctrl.raw("fmi2DoStep")
-    comp_p, comp_c = plant.slave.component, ctrl.slave.component
+    get_p, get_c = plant.raw(plant.calls["get_real"]), ctrl.raw(ctrl.calls["get_real"])
+    set_p, set_c = plant.raw(plant.calls["set_real"]), ctrl.raw(ctrl.calls["set_real"])
+    step_p, step_c = plant.stepper(), ctrl.stepper()
     pg, cg, pvals, cvals = p_out.get_args, c_out.get_args, p_out.values, c_out.values
     ps, cs, p_invals, c_invals = p_in.set_args, c_in.set_args, p_in.values, c_in.values
     read_disc = c_disc.read
@@ -230,15 +230,15 @@ def _loop(sc, jacobi, plant, ctrl, p_out, c_out, c_disc, connections, profiles, 
                 c_invals[:] = c_values(mv, held, fv)
             r = set_c(*cs)
             if r > 1:
-                check("fmi2SetReal", r)
+                check("setReal", r)
             if jacobi:
                 held = cv  # the previous sample's voltages
-            r = step_c(comp_c, t, Ts, 1)
+            r = step_c(t, Ts)
             if r > 1:
                 ctrl.step_failed(r, t)
             r = get_c(*cg)
             if r > 1:
-                check("fmi2GetReal", r)
+                check("getReal", r)
             cv = cvals[:] + read_disc()
             if not jacobi:
                 held = cv
@@ -249,12 +249,12 @@ def _loop(sc, jacobi, plant, ctrl, p_out, c_out, c_disc, connections, profiles, 
         p_invals[:] = p_values(pv, held, fv)
         r = set_p(*ps)
         if r > 1:
-            check("fmi2SetReal", r)
-        r = step_p(comp_p, t, h, 1)
+            check("setReal", r)
+        r = step_p(t, h)
         if r > 1:
             plant.step_failed(r, t)
         r = get_p(*pg)
         if r > 1:
-            check("fmi2GetReal", r)
+            check("getReal", r)
         pv = pvals[:]
     return t, True
