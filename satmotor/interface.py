@@ -38,6 +38,13 @@ def _v(name, causality, start, unit, description, type_="Real"):
     return Variable(name, causality, type_, start, unit, description)
 
 
+PLANT_DESCRIPTION = ("Induction motor with main-flux saturation and cross-saturation, stationary alpha-beta "
+                     "frame, flux states, RK4 (Ouadi, Giri, Ikhouane model, corrected)")
+CONTROLLER_DESCRIPTION = ("Backstepping speed and rotor-flux controller for the saturated induction motor "
+                          "(seed eq 67, corrected), with pre-magnetization, reference shaping, adaptive load "
+                          "estimate and the constant-m and IFOC PI baselines")
+AUTHOR = "satmotor"
+
 _M, _A, _P = MotorParams(), ArctanCurve(), PolynomialCurve()
 MOTOR_PARAMETERS = (
     _v("R_s", "parameter", _M.R_s, "Ohm", "stator resistance"),

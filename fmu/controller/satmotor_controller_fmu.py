@@ -7,14 +7,19 @@ drive logic: satmotor.drive.
 
 from satmotor_fmu_glue import UnitSlave, pin_namespace
 
-from satmotor.interface import CONTROLLER_INPUTS, CONTROLLER_OUTPUTS, CONTROLLER_PARAMETERS, ControllerUnit
+from satmotor.interface import (
+    AUTHOR,
+    CONTROLLER_DESCRIPTION,
+    CONTROLLER_INPUTS,
+    CONTROLLER_OUTPUTS,
+    CONTROLLER_PARAMETERS,
+    ControllerUnit,
+)
 
 
 class BacksteppingController(UnitSlave):
-    author = "satmotor"
-    description = ("Backstepping speed and rotor-flux controller for the saturated induction motor "
-                   "(seed eq 67, corrected), with pre-magnetization, reference shaping, adaptive load "
-                   "estimate and the constant-m and IFOC PI baselines")
+    author = AUTHOR
+    description = CONTROLLER_DESCRIPTION
     VARIABLES = CONTROLLER_INPUTS + CONTROLLER_OUTPUTS + CONTROLLER_PARAMETERS
     UNIT = ControllerUnit
     FINGERPRINT = "@SATMOTOR_FINGERPRINT@"

@@ -5,13 +5,19 @@ Variables, units and defaults: satmotor.interface (PLANT_*).  Equations: satmoto
 
 from satmotor_fmu_glue import UnitSlave, pin_namespace
 
-from satmotor.interface import PLANT_INPUTS, PLANT_OUTPUTS, PLANT_PARAMETERS, PlantUnit
+from satmotor.interface import (
+    AUTHOR,
+    PLANT_DESCRIPTION,
+    PLANT_INPUTS,
+    PLANT_OUTPUTS,
+    PLANT_PARAMETERS,
+    PlantUnit,
+)
 
 
 class SaturatedInductionMotor(UnitSlave):
-    author = "satmotor"
-    description = ("Induction motor with main-flux saturation and cross-saturation, stationary alpha-beta "
-                   "frame, flux states, RK4 (Ouadi, Giri, Ikhouane model, corrected)")
+    author = AUTHOR
+    description = PLANT_DESCRIPTION
     VARIABLES = PLANT_INPUTS + PLANT_OUTPUTS + PLANT_PARAMETERS
     UNIT = PlantUnit
     FINGERPRINT = "@SATMOTOR_FINGERPRINT@"
