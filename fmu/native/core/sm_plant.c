@@ -1,0 +1,269 @@
+/* satmotor/plant.py, satmotor/integrate.py and the PlantUnit checks of satmotor/interface.py. */
+#include "sm_plant.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+
+static int all_finite(const double *v, int n)
+{
+    int i;
+    for (i = 0; i < n; ++i)
+        if (!isfinite(v[i])) return 0;
+    return 1;
+}
+
+int sm_motor_init(sm_motor *p, double R_s, double R_r, double l_s, double l_r, double k, int n_p,
+                  double J, double B, const char *curve, double L_m0, double L_m_inf, double I_par,
+                  double poly_b, int poly_n, const char *table_file, double omega_m0, double psi_r0,
+                  double h_int, double B_2, char *msg, size_t msg_len)
+{
+    sm_motor q;
+    int st, i;
+    const char *names[] = {"R_s", "R_r", "l_s", "l_r", "k"};
+    const double vals[] = {R_s, R_r, l_s, l_r, k};
+    if (msg != NULL && msg_len > 0) msg[0] = '\0';
+    if (p == NULL) {
+        if (msg != NULL && msg_len > 0) snprintf(msg, msg_len, "sm_motor_init: NULL motor");
+        return SM_ERR_ARG;
+    }
+    /* interface._number over MOTOR_PARAMETERS (Real: finite; Integer: any int) */
+    for (i = 0; i < 5; ++i)
+        if (sm_require_number(names[i], vals[i], 0, 0.0, 0, msg, msg_len)) return SM_ERR_PARAM;
+    if (sm_require_number("J", J, 0, 0.0, 0, msg, msg_len)) return SM_ERR_PARAM;
+    if (sm_require_number("B", B, 0, 0.0, 0, msg, msg_len)) return SM_ERR_PARAM;
+    if (sm_require_number("L_m0", L_m0, 0, 0.0, 0, msg, msg_len)) return SM_ERR_PARAM;
+    if (sm_require_number("L_m_inf", L_m_inf, 0, 0.0, 0, msg, msg_len)) return SM_ERR_PARAM;
+    if (sm_require_number("I_par", I_par, 0, 0.0, 0, msg, msg_len)) return SM_ERR_PARAM;
+    if (sm_require_number("poly_b", poly_b, 0, 0.0, 0, msg, msg_len)) return SM_ERR_PARAM;
+    /* make_curve */
+    memset(&q, 0, sizeof q);
+    st = sm_curve_init(&q.curve, curve, L_m0, L_m_inf, I_par, poly_b, poly_n, table_file, msg, msg_len);
+    if (st) return st;
+    /* MotorParams.__post_init__ */
+    for (i = 0; i < 5; ++i)
+        if (sm_require_number(names[i], vals[i], 1, 0.0, 0, msg, msg_len)) return SM_ERR_PARAM;
+    if (sm_require_number("J", J, 1, 0.0, 0, msg, msg_len)) return SM_ERR_PARAM;
+    if (sm_require_integer("n_p", n_p, 1, msg, msg_len)) return SM_ERR_PARAM;
+    if (sm_require_number("B", B, 1, 0.0, 1, msg, msg_len)) return SM_ERR_PARAM;
+    /* PlantUnit: _number of omega_m0, psi_r0, h_int, B_2, then the bounds */
+    if (sm_require_number("omega_m0", omega_m0, 0, 0.0, 0, msg, msg_len)) return SM_ERR_PARAM;
+    if (sm_require_number("psi_r0", psi_r0, 0, 0.0, 0, msg, msg_len)) return SM_ERR_PARAM;
+    if (sm_require_number("h_int", h_int, 0, 0.0, 0, msg, msg_len)) return SM_ERR_PARAM;
+    if (sm_require_number("B_2", B_2, 0, 0.0, 0, msg, msg_len)) return SM_ERR_PARAM;
+    if (sm_require_number("psi_r0", psi_r0, 1, 0.0, 1, msg, msg_len)) return SM_ERR_PARAM;
+    if (sm_require_number("h_int", h_int, 1, 0.0, 0, msg, msg_len)) return SM_ERR_PARAM;
+    if (sm_require_number("B_2", B_2, 1, 0.0, 1, msg, msg_len)) return SM_ERR_PARAM;
+    q.R_s = R_s;
+    q.R_r = R_r;
+    q.l_s = l_s;
+    q.l_r = l_r;
+    q.k = k;
+    q.n_p = n_p;
+    q.J = J;
+    q.B = B;
+    q.B_2 = B_2;
+    /* Plant.__init__ */
+    q.inv_ls = 1.0 / l_s;
+    q.k_lr = k / l_r;
+    q.le = 1.0 / (1.0 / l_s + k * k / l_r); /* MotorParams.l_e */
+    q.kappa = 1.5 * (double)n_p;
+    q.inv_J = 1.0 / J;
+    q.m0 = q.curve.m0;
+    q.omega_m0 = omega_m0;
+    q.psi_r0 = psi_r0;
+    q.h_int = h_int;
+    st = sm_plant_initial_state(&q, omega_m0, 0.0, psi_r0, 0.0, q.x0);
+    if (st) {
+        if (msg != NULL && msg_len > 0)
+            snprintf(msg, msg_len, "the initial state (psi_r0 = %.17g Wb) could not be solved", psi_r0);
+        return st;
+    }
+    memcpy(p, &q, sizeof q);
+    return SM_OK;
+}
+
+/* Plant.magnetizing: (i_mu_alpha, i_mu_beta, I, psi_m, m) */
+static int magnetizing(const sm_motor *p, double psa, double psb, double pra, double prb, double *ima,
+                       double *imb, double *I_out, double *psi_out, double *m_out)
+{
+    double ua = psa * p->inv_ls + p->k_lr * pra;
+    double ub = psb * p->inv_ls + p->k_lr * prb;
+    double un = sm_hypot(ua, ub);
+    double le = p->le, I, psi, s;
+    int st = sm_curve_solve(&p->curve, le, le * un, &I, &psi);
+    if (st) return st;
+    if (I == 0.0) {
+        *ima = 0.0;
+        *imb = 0.0;
+        *I_out = 0.0;
+        *psi_out = 0.0;
+        *m_out = p->m0;
+        return SM_OK;
+    }
+    s = I / un;
+    *ima = s * ua;
+    *imb = s * ub;
+    *I_out = I;
+    *psi_out = psi;
+    *m_out = psi / I;
+    return SM_OK;
+}
+
+int sm_plant_derivatives(const sm_motor *p, const double x[6], double v_a, double v_b, double T_load,
+                         double dx[6])
+{
+    double psa, psb, pra, prb, w, ima, imb, I, psi, m, isa, isb, km, ira, irb, we, te;
+    int st, i;
+    if (p == NULL || x == NULL || dx == NULL) return SM_ERR_ARG;
+    if (!all_finite(x, 6) || !isfinite(v_a) || !isfinite(v_b) || !isfinite(T_load)) {
+        for (i = 0; i < 6; ++i) dx[i] = NAN;
+        return SM_ERR_NONFINITE;
+    }
+    psa = x[SM_PSI_S_A];
+    psb = x[SM_PSI_S_B];
+    pra = x[SM_PSI_R_A];
+    prb = x[SM_PSI_R_B];
+    w = x[SM_OMEGA_M];
+    st = magnetizing(p, psa, psb, pra, prb, &ima, &imb, &I, &psi, &m);
+    if (st) {
+        for (i = 0; i < 6; ++i) dx[i] = NAN;
+        return st;
+    }
+    isa = (psa - m * ima) * p->inv_ls;
+    isb = (psb - m * imb) * p->inv_ls;
+    km = p->k * m;
+    ira = (pra - km * ima) / p->l_r;
+    irb = (prb - km * imb) / p->l_r;
+    we = (double)p->n_p * w;
+    te = p->kappa * (psa * isb - psb * isa);
+    dx[0] = v_a - p->R_s * isa;
+    dx[1] = v_b - p->R_s * isb;
+    dx[2] = -p->R_r * ira - we * prb;
+    dx[3] = -p->R_r * irb + we * pra;
+    dx[4] = (te - T_load - (p->B + p->B_2 * fabs(w)) * w) * p->inv_J;
+    dx[5] = w;
+    return all_finite(dx, 6) ? SM_OK : SM_ERR_NONFINITE;
+}
+
+int sm_plant_outputs_of(const sm_motor *p, const double x[6], sm_plant_outputs *o)
+{
+    double psa, psb, pra, prb, ima, imb, I, psi, m, isa, isb, km;
+    int st;
+    if (p == NULL || x == NULL || o == NULL) return SM_ERR_ARG;
+    if (!all_finite(x, 6)) {
+        o->i_s_alpha = o->i_s_beta = o->i_r_alpha = o->i_r_beta = NAN;
+        o->i_mu_alpha = o->i_mu_beta = o->i_mu = o->psi_m = o->m = o->T_e = NAN;
+        return SM_ERR_NONFINITE;
+    }
+    psa = x[SM_PSI_S_A];
+    psb = x[SM_PSI_S_B];
+    pra = x[SM_PSI_R_A];
+    prb = x[SM_PSI_R_B];
+    st = magnetizing(p, psa, psb, pra, prb, &ima, &imb, &I, &psi, &m);
+    if (st) {
+        o->i_s_alpha = o->i_s_beta = o->i_r_alpha = o->i_r_beta = NAN;
+        o->i_mu_alpha = o->i_mu_beta = o->i_mu = o->psi_m = o->m = o->T_e = NAN;
+        return st;
+    }
+    isa = (psa - m * ima) * p->inv_ls;
+    isb = (psb - m * imb) * p->inv_ls;
+    km = p->k * m;
+    o->i_s_alpha = isa;
+    o->i_s_beta = isb;
+    o->i_r_alpha = (pra - km * ima) / p->l_r;
+    o->i_r_beta = (prb - km * imb) / p->l_r;
+    o->i_mu_alpha = ima;
+    o->i_mu_beta = imb;
+    o->i_mu = I;
+    o->psi_m = psi;
+    o->m = m;
+    o->T_e = p->kappa * (psa * isb - psb * isa);
+    return SM_OK;
+}
+
+int sm_plant_step(const sm_motor *p, double x[6], double v_a, double v_b, double T_load, double dt,
+                  int n_sub)
+{
+    double xc[6], xt[6], k1[6], k2[6], k3[6], k4[6], h, half, sixth;
+    int j, i, st;
+    if (p == NULL || x == NULL || n_sub < 1) return SM_ERR_ARG;
+    if (!isfinite(dt)) return SM_ERR_NONFINITE;
+    h = dt / (double)n_sub;
+    half = 0.5 * h;
+    sixth = h / 6.0;
+    memcpy(xc, x, sizeof xc);
+    for (j = 0; j < n_sub; ++j) {
+        if ((st = sm_plant_derivatives(p, xc, v_a, v_b, T_load, k1)) != SM_OK) return st;
+        for (i = 0; i < 6; ++i) xt[i] = xc[i] + half * k1[i];
+        if ((st = sm_plant_derivatives(p, xt, v_a, v_b, T_load, k2)) != SM_OK) return st;
+        for (i = 0; i < 6; ++i) xt[i] = xc[i] + half * k2[i];
+        if ((st = sm_plant_derivatives(p, xt, v_a, v_b, T_load, k3)) != SM_OK) return st;
+        for (i = 0; i < 6; ++i) xt[i] = xc[i] + h * k3[i];
+        if ((st = sm_plant_derivatives(p, xt, v_a, v_b, T_load, k4)) != SM_OK) return st;
+        for (i = 0; i < 6; ++i) xc[i] = xc[i] + sixth * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]);
+    }
+    if (!all_finite(xc, 6)) return SM_ERR_NONFINITE;
+    memcpy(x, xc, sizeof xc);
+    return SM_OK;
+}
+
+int sm_plant_initial_state(const sm_motor *p, double omega_m, double theta_m, double psi_r_alpha,
+                           double psi_r_beta, double x[6])
+{
+    double phi, I, m, ca, sb;
+    int st, i;
+    if (p == NULL || x == NULL) return SM_ERR_ARG;
+    if (!isfinite(omega_m) || !isfinite(theta_m) || !isfinite(psi_r_alpha) || !isfinite(psi_r_beta))
+        return SM_ERR_NONFINITE;
+    phi = sm_hypot(psi_r_alpha, psi_r_beta);
+    for (i = 0; i < 6; ++i) x[i] = 0.0;
+    x[SM_OMEGA_M] = omega_m;
+    x[SM_THETA_M] = theta_m;
+    if (phi == 0.0) return SM_OK;
+    st = sm_curve_current(&p->curve, phi / p->k, &I);
+    if (st) return st;
+    m = sm_curve_m(&p->curve, I);
+    ca = psi_r_alpha / phi;
+    sb = psi_r_beta / phi;
+    x[SM_PSI_S_A] = (p->l_s + m) * I * ca;
+    x[SM_PSI_S_B] = (p->l_s + m) * I * sb;
+    x[SM_PSI_R_A] = psi_r_alpha;
+    x[SM_PSI_R_B] = psi_r_beta;
+    return SM_OK;
+}
+
+int sm_plant_check_step(const sm_motor *p, double v_a, double v_b, double T_load, double dt,
+                        int *n_sub, char *msg, size_t msg_len)
+{
+    double q;
+    if (p == NULL || n_sub == NULL) return SM_ERR_ARG;
+    if (sm_require_number("v_s_alpha", v_a, 0, 0.0, 0, msg, msg_len)) return SM_ERR_PARAM;
+    if (sm_require_number("v_s_beta", v_b, 0, 0.0, 0, msg, msg_len)) return SM_ERR_PARAM;
+    if (sm_require_number("T_load", T_load, 0, 0.0, 0, msg, msg_len)) return SM_ERR_PARAM;
+    if (sm_require_number("communicationStepSize", dt, 1, 0.0, 0, msg, msg_len)) return SM_ERR_PARAM;
+    q = ceil(dt / p->h_int - 1e-9);
+    if (!(q < 2147483647.0)) {
+        char v[40];
+        return sm_param_error(msg, msg_len, NULL, "communicationStepSize", sm_repr_double(dt, v, sizeof v),
+                              "needs more than 2**31 sub-steps of h_int");
+    }
+    *n_sub = q > 1.0 ? (int)q : 1;
+    return SM_OK;
+}
+
+void sm_plant_nonfinite_message(double t, double dt, const double x[6], char *msg, size_t msg_len)
+{
+    char a[40], b[40], v[6][40];
+    int i;
+    if (msg == NULL || msg_len == 0) return;
+    for (i = 0; i < 6; ++i) sm_repr_double(x != NULL ? x[i] : NAN, v[i], sizeof v[i]);
+    snprintf(msg, msg_len, "the plant state became non-finite over [%s, %s] s: (%s, %s, %s, %s, %s, %s)",
+             sm_repr_double(t, a, sizeof a), sm_repr_double(t + dt, b, sizeof b), v[0], v[1], v[2], v[3],
+             v[4], v[5]);
+}
+
+size_t sm_motor_size(void)
+{
+    return sizeof(sm_motor);
+}

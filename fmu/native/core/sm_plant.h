@@ -1,0 +1,71 @@
+/* The stationary-frame saturated induction motor of satmotor/plant.py (flux states) and the
+ * checks of satmotor/interface.py PlantUnit, in C99.  Caller-owned structs, no pointers inside
+ * (a byte copy of sm_motor is a valid copy); the same floats as the Python. */
+#ifndef SM_PLANT_H
+#define SM_PLANT_H
+
+#include <stddef.h>
+
+#include "sm_common.h"
+#include "sm_curves.h"
+
+/* state x = [psi_s_alpha, psi_s_beta, psi_r_alpha, psi_r_beta, omega_m, theta_m] */
+enum { SM_PSI_S_A, SM_PSI_S_B, SM_PSI_R_A, SM_PSI_R_B, SM_OMEGA_M, SM_THETA_M, SM_N_STATES };
+
+typedef struct {
+    double R_s, R_r, l_s, l_r, k;
+    int n_p;
+    double J, B, B_2;
+    sm_curve curve;
+    /* derived constants, as Plant.__init__ precomputes them */
+    double inv_ls, k_lr, le, kappa, inv_J, m0;
+    /* PlantUnit parameters */
+    double omega_m0, psi_r0, h_int;
+    double x0[SM_N_STATES]; /* initial_state(params, omega_m0, psi_r_alpha = psi_r0) */
+} sm_motor;
+
+/* The checks of PlantUnit(values) in its order: finiteness of every flat Real parameter
+ * (interface._number, in the order of PLANT_PARAMETERS), make_curve, MotorParams, psi_r0 >= 0,
+ * h_int > 0, B_2 >= 0, then the initial state.  Returns SM_OK, SM_ERR_PARAM (msg: the
+ * ParameterError text), SM_ERR_NOCONV (the initial state's inverse curve did not converge). */
+int sm_motor_init(sm_motor *p, double R_s, double R_r, double l_s, double l_r, double k, int n_p,
+                  double J, double B, const char *curve, double L_m0, double L_m_inf, double I_par,
+                  double poly_b, int poly_n, const char *table_file, double omega_m0, double psi_r0,
+                  double h_int, double B_2, char *msg, size_t msg_len);
+
+/* sizeof(sm_motor), for hosts that allocate it without the header (ctypes). */
+size_t sm_motor_size(void);
+
+typedef struct {
+    double i_s_alpha, i_s_beta, i_r_alpha, i_r_beta, i_mu_alpha, i_mu_beta, i_mu, psi_m, m, T_e;
+} sm_plant_outputs;
+
+/* Plant.derivatives (its inlined fast path).  SM_OK; SM_ERR_NONFINITE if x or an input is not
+ * finite (dx is then filled with NaN); SM_ERR_NOCONV if the curve solve did not converge. */
+int sm_plant_derivatives(const sm_motor *p, const double x[6], double v_a, double v_b, double T_load,
+                         double dx[6]);
+
+/* Plant.outputs.  Same statuses as sm_plant_derivatives. */
+int sm_plant_outputs_of(const sm_motor *p, const double x[6], sm_plant_outputs *o);
+
+/* Plant.step: RK4 over dt in n_sub equal sub-steps (integrate.rk4), x updated in place only on
+ * success.  SM_OK; SM_ERR_NONFINITE if the state became (or an input is) non-finite;
+ * SM_ERR_NOCONV; SM_ERR_ARG for n_sub < 1 or a NULL pointer. */
+int sm_plant_step(const sm_motor *p, double x[6], double v_a, double v_b, double T_load, double dt,
+                  int n_sub);
+
+/* plant.initial_state(params, omega_m, theta_m, psi_r_alpha, psi_r_beta) into x.  SM_OK,
+ * SM_ERR_NONFINITE, SM_ERR_NOCONV. */
+int sm_plant_initial_state(const sm_motor *p, double omega_m, double theta_m, double psi_r_alpha,
+                           double psi_r_beta, double x[6]);
+
+/* PlantUnit.step's per-step checks: finite inputs (msg "v_s_alpha = nan: must be a finite
+ * number"), dt > 0 ("communicationStepSize = ..."); *n_sub = max(1, ceil(dt / h_int - 1e-9)). */
+int sm_plant_check_step(const sm_motor *p, double v_a, double v_b, double T_load, double dt,
+                        int *n_sub, char *msg, size_t msg_len);
+
+/* PlantUnit.step's message for a non-finite state after a step over [t, t + dt]:
+ * "the plant state became non-finite over [t, t+dt] s: (x0, ..., x5)". */
+void sm_plant_nonfinite_message(double t, double dt, const double x[6], char *msg, size_t msg_len);
+
+#endif

@@ -1,0 +1,92 @@
+"""Test helper: the native core (``fmu/native/core/*.c``) compiled with gcc into one shared library,
+loaded with ctypes, argument types declared.  One build per flag set per pytest session."""
+
+from __future__ import annotations
+
+import ctypes
+import shutil
+import subprocess
+import tempfile
+from pathlib import Path
+
+CORE = Path(__file__).resolve().parents[1] / "fmu" / "native" / "core"
+FLAGS = ["-std=c99", "-O2", "-fPIC", "-shared", "-Wall", "-Wextra", "-Werror", "-pedantic", "-Wconversion",
+         "-Wshadow"]
+SANITIZE = ["-fsanitize=address,undefined", "-fno-sanitize-recover=undefined", "-fno-omit-frame-pointer", "-g"]
+SM_TABLE_MAX = 512
+
+_cache: dict = {}
+
+D, I, P, S = ctypes.c_double, ctypes.c_int, ctypes.POINTER(ctypes.c_double), ctypes.c_size_t
+C = ctypes.c_char_p
+
+
+class Outputs(ctypes.Structure):
+    _fields_ = [(n, ctypes.c_double) for n in ("i_s_alpha", "i_s_beta", "i_r_alpha", "i_r_beta", "i_mu_alpha",
+                                                "i_mu_beta", "i_mu", "psi_m", "m", "T_e")]
+
+
+def build(extra_flags=(), out_dir=None):
+    """Compile every ``fmu/native/core/*.c`` into one shared library; return its path."""
+    gcc = shutil.which("gcc")
+    if gcc is None:
+        raise RuntimeError("gcc not found")
+    out_dir = Path(out_dir or tempfile.mkdtemp(prefix="sm_native_core_"))
+    lib = out_dir / ("libsmcore_san.so" if extra_flags else "libsmcore.so")
+    sources = sorted(str(p) for p in CORE.glob("*.c"))
+    cmd = [gcc, *FLAGS, *extra_flags, "-o", str(lib), *sources, "-lm"]
+    res = subprocess.run(cmd, capture_output=True, text=True)
+    if res.returncode != 0:
+        raise RuntimeError(f"native core build failed:\n{' '.join(cmd)}\n{res.stderr}")
+    return lib
+
+
+def declare(lib):
+    """Set the ctypes signatures of the public functions; returns lib."""
+    sig = {
+        "sm_curve_init": (I, [ctypes.c_void_p, C, D, D, D, D, I, C, ctypes.c_char_p, S]),
+        "sm_curve_init_table": (I, [ctypes.c_void_p, P, P, I, ctypes.c_char_p, S]),
+        "sm_curve_psi": (D, [ctypes.c_void_p, D]),
+        "sm_curve_m": (D, [ctypes.c_void_p, D]),
+        "sm_curve_dm_dI": (D, [ctypes.c_void_p, D]),
+        "sm_curve_L_dyn": (D, [ctypes.c_void_p, D]),
+        "sm_curve_evaluate": (None, [ctypes.c_void_p, D, P, P, P, P]),
+        "sm_curve_current": (I, [ctypes.c_void_p, D, P]),
+        "sm_curve_solve": (I, [ctypes.c_void_p, D, D, P, P]),
+        "sm_inductance_matrix": (None, [D, D, D, D, D, P, P, P]),
+        "sm_hypot": (D, [D, D]),
+        "sm_curve_size": (S, []),
+        "sm_motor_size": (S, []),
+        "sm_repr_double": (ctypes.c_char_p, [D, ctypes.c_char_p, S]),
+        "sm_motor_init": (I, [ctypes.c_void_p, D, D, D, D, D, I, D, D, C, D, D, D, D, I, C, D, D, D, D,
+                              ctypes.c_char_p, S]),
+        "sm_plant_derivatives": (I, [ctypes.c_void_p, P, D, D, D, P]),
+        "sm_plant_outputs_of": (I, [ctypes.c_void_p, P, ctypes.POINTER(Outputs)]),
+        "sm_plant_step": (I, [ctypes.c_void_p, P, D, D, D, D, I]),
+        "sm_plant_initial_state": (I, [ctypes.c_void_p, D, D, D, D, P]),
+        "sm_plant_check_step": (I, [ctypes.c_void_p, D, D, D, D, ctypes.POINTER(I), ctypes.c_char_p, S]),
+        "sm_plant_nonfinite_message": (None, [D, D, P, ctypes.c_char_p, S]),
+    }
+    for name, (res, args) in sig.items():
+        f = getattr(lib, name)
+        f.restype, f.argtypes = res, args
+    return lib
+
+
+def load(sanitize=False):
+    """The ctypes library, built once per session (per flag set)."""
+    key = bool(sanitize)
+    if key not in _cache:
+        path = build(SANITIZE if sanitize else ())
+        _cache[key] = path if sanitize else declare(ctypes.CDLL(str(path)))
+    return _cache[key]
+
+
+def new_curve(lib):
+    """A zeroed, 8-byte aligned buffer of sizeof(sm_curve) (the structs hold no pointers)."""
+    return (ctypes.c_double * ((lib.sm_curve_size() + 7) // 8))()
+
+
+def new_motor(lib):
+    """A zeroed, 8-byte aligned buffer of sizeof(sm_motor)."""
+    return (ctypes.c_double * ((lib.sm_motor_size() + 7) // 8))()
