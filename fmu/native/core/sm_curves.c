@@ -686,9 +686,12 @@ static char *strip(char *s)
 
 static int bad_line(const char *src, int lineno, const char *line, char *msg, size_t msg_len)
 {
-    char copy[SM_TABLE_LINE_MAX + 1], val[SM_TABLE_LINE_MAX + 32], rep[2 * SM_TABLE_LINE_MAX + 64];
+    /* Python: ParameterError("table_file", f"line {lineno}: {line.strip()!r}", ...): a repr in a repr */
+    char copy[SM_TABLE_LINE_MAX + 2], inner[4 * SM_TABLE_LINE_MAX + 8], val[4 * SM_TABLE_LINE_MAX + 32];
+    char rep[8 * SM_TABLE_LINE_MAX + 64];
     snprintf(copy, sizeof copy, "%s", line);
-    snprintf(val, sizeof val, "line %d: %s", lineno, strip(copy));
+    sm_repr_str(strip(copy), inner, sizeof inner);
+    snprintf(val, sizeof val, "line %d: %s", lineno, inner);
     sm_repr_str(val, rep, sizeof rep);
     return sm_param_error(msg, msg_len, src, "table_file", rep, "must hold two numeric columns i_mu, psi_m");
 }
@@ -738,7 +741,7 @@ static int table_from_csv(sm_curve *c, const char *path, char *msg, size_t msg_l
     }
     while (!eof) {
         size_t len = 0;
-        int nul = 0, any = 0, st;
+        int nul = 0, any = 0, toolong = 0, st;
         double a, b;
         /* str.splitlines: \n, \r, \r\n, \v, \f, \x1c, \x1d, \x1e end a line */
         for (;;) {
@@ -753,21 +756,32 @@ static int table_from_csv(sm_curve *c, const char *path, char *msg, size_t msg_l
             }
             if (ch == 0) nul = 1;
             if (len < SM_TABLE_LINE_MAX) line[len++] = (char)ch;
-            else len = SM_TABLE_LINE_MAX + 1;
+            else toolong = 1;
         }
         if (!any) break;
-        if (len > SM_TABLE_LINE_MAX) len = SM_TABLE_LINE_MAX; /* flagged below */
         line[len] = '\0';
         ++lineno;
         if (first) { /* utf-8-sig: drop a BOM */
             first = 0;
             if ((unsigned char)line[0] == 0xEF && (unsigned char)line[1] == 0xBB && (unsigned char)line[2] == 0xBF)
-                memmove(line, line + 3, strlen(line + 3) + 1);
+            {
+                memmove(line, line + 3, len - 3 + 1);
+                len -= 3;
+            }
+        }
+        if (toolong) {
+            char val[64];
+            fclose(fh);
+            snprintf(val, sizeof val, "line %d", lineno);
+            snprintf(reason, sizeof reason, "is longer than %d bytes (the native limit SM_TABLE_LINE_MAX)",
+                     SM_TABLE_LINE_MAX);
+            return sm_param_error(msg, msg_len, path, "table_file", sm_repr_str(val, rp, sizeof rp), reason);
         }
         memcpy(work, line, sizeof work);
-        st = (nul || strlen(line) != len) ? 2 : parse_line(work, &a, &b);
+        /* a NUL byte: Python's float() fails on the cell, so the line is not numeric */
+        st = nul ? 2 : parse_line(work, &a, &b);
         if (st == 0) continue;
-        if (st == 2 && rows == 0 && !header && !nul) {
+        if (st == 2 && rows == 0 && !header) {
             header = 1;
             continue;
         }
