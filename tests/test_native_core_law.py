@@ -12,10 +12,16 @@ from __future__ import annotations
 
 import ctypes
 import math
+import os
 import random
+import shutil
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
 
 import pytest
-from native_core import load, new_motor
+from native_core import SANITIZE, build, load, new_motor
 
 from satmotor.backstepping import BacksteppingGains, ControllerConfig, control, error_system
 from satmotor.errors import ParameterError
@@ -85,9 +91,8 @@ class Shaper(ctypes.Structure):
 # --------------------------------------------------------------------------------------------------
 
 
-@pytest.fixture(scope="module")
-def lib():
-    L = load()
+def declare_law(L):
+    """Set the ctypes signatures of the law's and the shaper's functions on L; returns L."""
     L.sm_model_constants_of.argtypes = [ctypes.c_void_p, ctypes.POINTER(ModelConsts)]
     L.sm_model_constants_of.restype = None
     L.sm_flux_rate.argtypes = [D] * 5
@@ -118,6 +123,11 @@ def lib():
     L.sm_shaper_get_state.restype = None
     L.sm_shaper_set_state.argtypes = [SP, DP, ctypes.c_char_p, ctypes.c_size_t]
     return L
+
+
+@pytest.fixture(scope="module")
+def lib():
+    return declare_law(load())
 
 
 def arr(values):
@@ -294,7 +304,7 @@ def test_error_system(lib, motors):
     w = Worst("error_system")
     seen = {"d+": 0, "d-": 0, "q+": 0, "q-": 0, "singular": 0, "adapt": 0}
     for label, p, buf in motors:
-        for _ in range(500):
+        for _ in range(800):
             g, cg = random_gains(rng)
             phi = rng.choice((rng.uniform(0.0, 1.3), rng.uniform(0.0, 0.06), 0.0))
             x = (phi, rng.uniform(-12, 15), rng.uniform(-30, 30), rng.uniform(-400, 400))
@@ -334,7 +344,7 @@ def test_control(lib, motors):
     seen = {"vlim": 0, "singular": 0, "current": 0, "stator_flux": 0, "estimated": 0, "e0_held": 0,
             "z0_held": 0, "phi0": 0, "plain": 0}
     for label, p, buf in motors:
-        for _ in range(500):
+        for _ in range(800):
             g, cg = random_gains(rng)
             cfg = ControllerConfig(V_dc=rng.choice((540.0, rng.uniform(50, 2000), 1e6)),
                                    Ts=rng.choice((0.0, 1e-4, rng.uniform(1e-5, 5e-4))),
@@ -595,3 +605,84 @@ def test_shaper_errors(lib):
     z = (D * 3)()
     lib.sm_shaper_get_state(ctypes.byref(c), z)
     assert tuple(z) == py.get_state() == (1.0, 0.0, 0.0)  # nothing moved on an error
+
+
+# ------------------------------------------------------------------------------- sanitizers
+
+SANITIZED_LAW_RUN = textwrap.dedent("""
+    import ctypes, itertools, math, random, sys
+    sys.path.insert(0, {tests!r})
+    import native_core as nc
+    import test_native_core_law as t
+    lib = nc.declare(ctypes.CDLL({lib!r}))
+    t.declare_law(lib)
+    D, arr = ctypes.c_double, t.arr
+    msg, big = ctypes.create_string_buffer(8), ctypes.create_string_buffer(4096)
+    rng = random.Random(3)
+    specials = (math.nan, math.inf, -math.inf, 0.0, -0.0, 1e-300, 1e300, 5e-324)
+    g, cfg = t.Gains(), t.LawConfig()
+    lib.sm_gains_default(ctypes.byref(g))
+    lib.sm_law_config_default(ctypes.byref(cfg))
+    for n in (0, 1, 8, 4096):
+        buf = ctypes.create_string_buffer(max(n, 1))
+        for f in ("c1", "c0"):
+            gg = t.Gains(); lib.sm_gains_default(ctypes.byref(gg)); setattr(gg, f, math.nan)
+            lib.sm_gains_check(ctypes.byref(gg), buf, n)
+        cc = t.LawConfig(); lib.sm_law_config_default(ctypes.byref(cc)); cc.load_estimated = -7
+        lib.sm_law_config_check(ctypes.byref(cc), buf, n)
+        s = t.Shaper()
+        lib.sm_shaper_init(ctypes.byref(s), math.nan, 0.0, buf, n)
+        lib.sm_shaper_init(ctypes.byref(s), 100.0, 0.0, buf, n)
+        lib.sm_shaper_set_state(ctypes.byref(s), arr((math.nan, -math.inf, 1e-300)), buf, n)
+    for name in ("arctan", "exponential", "polynomial", "linear"):
+        p = nc.new_motor(lib)
+        st = lib.sm_motor_init(p, 1.405, 1.395, 5.839e-3, 5.839e-3, 0.9, 2, 0.0131, 2.985e-3, name.encode(),
+                               0.2772, 0.01, 3.31, 2.46, 7, b"", 0.0, 0.0, 1e-4, 0.0, big, 4096)
+        assert st == 0, big.value
+        for k in range(3000):
+            meas = [rng.uniform(-30, 30) for _ in range(7)]
+            ref = [rng.uniform(-300, 300) for _ in range(6)]
+            load = [rng.uniform(-30, 30), rng.uniform(-1e3, 1e3)]
+            integ = [rng.uniform(-1, 1), rng.uniform(-1, 1)]
+            if k % 2:  # one special value in one input
+                v = rng.choice(specials)
+                which = rng.randrange(4)
+                [meas, ref, load, integ][which][rng.randrange(2)] = v
+            cfg.load_estimated, cfg.use_stator_flux = k % 3 == 0, k % 5 == 0
+            i_max = rng.choice((math.inf, 5.0, math.nan, 0.0, -3.0, 1e300))
+            out = t.ControlOut()
+            lib.sm_control(arr(meas), arr(ref), arr(load), p, ctypes.byref(g), ctypes.byref(cfg),
+                           rng.choice((0.0, math.nan, 1e9)), arr(integ), i_max, ctypes.byref(out))
+            es = t.ErrorState()
+            lib.sm_error_system(arr(meas[:4]), arr(ref), p, ctypes.byref(g), load[0], load[1],
+                                rng.choice((0.05, 0.0, math.nan)), arr((5.0, 1e4)) if k % 2 else None, None,
+                                i_max, ctypes.byref(es))
+        lib.sm_control(None, None, None, None, None, None, 0.0, None, 0.0, None)
+        lib.sm_error_system(None, None, None, None, 0.0, 0.0, 0.0, None, None, 0.0, None)
+        lib.sm_control(arr(meas), arr(ref), None, p, ctypes.byref(g), ctypes.byref(cfg), 0.0, None, 1.0, None)
+    s = t.Shaper()
+    lib.sm_shaper_init(ctypes.byref(s), 300.0, 0.0, msg, 8)
+    out = (D * 3)()
+    for k in range(3000):
+        u = rng.choice(specials) if k % 7 == 0 else rng.uniform(-100, 100)
+        h = rng.choice(specials) if k % 11 == 0 else rng.choice((1e-4, 1e-3))
+        lib.sm_shaper_step(ctypes.byref(s), u, h, out if k % 2 else None, msg, 8)
+    lib.sm_shaper_step(None, 0.0, 1e-4, None, None, 0)
+    print("SANITIZED LAW RUN OK")
+""")
+
+
+def test_under_address_and_undefined_behaviour_sanitizers(tmp_path):
+    gcc = shutil.which("gcc")
+    asan = subprocess.run([gcc, "-print-file-name=libasan.so"], capture_output=True, text=True).stdout.strip()
+    if not os.path.isabs(asan) or not os.path.exists(asan):
+        pytest.skip("no libasan runtime")
+    lib = build(SANITIZE, tmp_path)
+    script = tmp_path / "run.py"
+    script.write_text(SANITIZED_LAW_RUN.format(tests=str(Path(__file__).parent), lib=str(lib)))
+    env = dict(os.environ, LD_PRELOAD=asan, ASAN_OPTIONS="detect_leaks=0:abort_on_error=0:exitcode=99",
+               UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1:exitcode=98")
+    res = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, env=env, timeout=120)
+    report = res.stdout + res.stderr
+    assert res.returncode == 0 and "SANITIZED LAW RUN OK" in res.stdout, report[-4000:]
+    assert "AddressSanitizer" not in report and "runtime error" not in report, report[-4000:]
