@@ -4,6 +4,7 @@
 
 #include <errno.h>
 #include <float.h>
+#include <locale.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -660,9 +661,19 @@ int sm_curve_init_table(sm_curve *c, const double *i_mu, const double *psi_m, in
  * the C locale, without its extensions (hex floats, nan(...)); underscores are not accepted. */
 static int py_float(const char *s, double *v)
 {
-    char *end;
+    char *end, buf[SM_TABLE_LINE_MAX + 2];
+    const char *dp = localeconv()->decimal_point;
     if (*s == '\0') return 0;
     if (strpbrk(s, "xX(_") != NULL) return 0;
+    if (dp != NULL && dp[0] != '.' && dp[0] != '\0' && dp[1] == '\0') {
+        /* a host that set LC_NUMERIC (decimal comma): the file's '.' is strtod's dp[0] */
+        size_t i;
+        if (strchr(s, dp[0]) != NULL) return 0;
+        snprintf(buf, sizeof buf, "%s", s);
+        for (i = 0; buf[i] != '\0'; ++i)
+            if (buf[i] == '.') buf[i] = dp[0];
+        s = buf;
+    }
     errno = 0;
     *v = strtod(s, &end);
     return *end == '\0';
