@@ -394,6 +394,18 @@ BAD_TABLES = {
     "one_point.csv": "1.0,0.2\n",
     "tab_quote.csv": "1.0,0.2\n2.0\t,'x\"\n",
 }
+BAD_BYTES = {  # files Python cannot decode as utf-8-sig: the UnicodeDecodeError text, its positions
+    "bad_start.csv": b"i_mu,psi_m\n1.0,0.2 # \xff\n",
+    "bad_start_bom.csv": b"\xef\xbb\xbf1.0,0.2\n\x80\n",
+    "bad_cont.csv": b"1,2\n\xe2\x28\xa1",
+    "bad_cont2.csv": b"1,2\n\xf0\x9f\x28",
+    "surrogate.csv": b"1,2\n\xed\xa0\x80",
+    "truncated.csv": b"1,2\n\xe2\x82",
+    "truncated4.csv": b"# \xf0\x9f\x98",
+    "overlong.csv": b"\xc0\x80",
+    "too_big.csv": b"\xf4\x90\x80\x80",
+    "overlong3.csv": b"\xe0\x80\x80,1",
+}
 
 
 @pytest.mark.parametrize("name", list(BAD_TABLES))
@@ -407,6 +419,25 @@ def test_bad_table_files_are_rejected_naming_file_line_and_value(lib, tmp_path, 
     text = msg.value.decode()
     assert text == str(err.value)
     assert err.value.field in text and path in text
+
+
+@pytest.mark.parametrize("name", list(BAD_BYTES) + ["directory", "good_utf8.csv"])
+def test_table_files_python_cannot_read(lib, tmp_path, name):
+    if name == "directory":
+        path = str(tmp_path)
+    else:
+        path = str(tmp_path / name)
+        Path(path).write_bytes(BAD_BYTES.get(name, "# µ-metal, Ψ\n1.0,0.2\n2.0,0.3\n".encode()))
+    c, msg = nc.new_curve(lib), ctypes.create_string_buffer(4096)
+    st = lib.sm_curve_init(c, b"table", 0.2772, 0.01, 3.31, 2.46, 7, path.encode(), msg, 4096)
+    if name == "good_utf8.csv":
+        assert st == 0, msg.value
+        assert lib.sm_curve_psi(c, 1.5) == make_curve("table", table_file=path).psi(1.5)
+        return
+    with pytest.raises(ParameterError) as err:
+        make_curve("table", table_file=path)
+    assert st != 0
+    assert msg.value.decode() == str(err.value)
 
 
 def test_table_from_points_matches_table_curve(lib):
