@@ -44,7 +44,8 @@ def _record(name, c, py, floor=FLOOR):
     worst = float(np.max(rel)) if rel.size else 0.0
     WORST[name] = max(WORST.get(name, 0.0), worst)
     print(f"worst relative difference {name}: {worst:.3g} over {rel.size} values")
-    assert worst <= TOL, f"{name}: C and Python differ by {worst:.3g} (relative) at index {int(np.argmax(rel))}"
+    where = int(np.argmax(rel))
+    assert worst <= TOL, f"{name}: C and Python differ by {worst:.3g} (relative) at index {where}"
 
 
 @pytest.fixture(scope="session")
@@ -184,7 +185,8 @@ def motor_cases(table_csv):
 
 
 MOTOR_DEFAULTS = dict(R_s=1.405, R_r=1.395, l_s=5.839e-3, l_r=5.839e-3, k=1.0, n_p=2, J=0.0131, B=2.985e-3,
-                      curve="arctan", L_m0=0.2772, L_m_inf=0.01, I_par=3.31, poly_b=2.46, poly_n=7, table_file="",
+                      curve="arctan", L_m0=0.2772, L_m_inf=0.01, I_par=3.31, poly_b=2.46, poly_n=7,
+                      table_file="",
                       omega_m0=0.0, psi_r0=0.0, h_int=1e-4, B_2=0.0)
 ORDER = tuple(MOTOR_DEFAULTS)
 
@@ -201,7 +203,8 @@ def c_motor(lib, values, msg_len=1024):
 def py_plant(values, B_2):
     v = dict(MOTOR_DEFAULTS)
     v.update(values)
-    curve = make_curve(v["curve"], v["L_m0"], v["L_m_inf"], v["I_par"], v["poly_b"], v["poly_n"], v["table_file"])
+    curve = make_curve(v["curve"], v["L_m0"], v["L_m_inf"], v["I_par"], v["poly_b"], v["poly_n"],
+                       v["table_file"])
     params = MotorParams(v["R_s"], v["R_r"], v["l_s"], v["l_r"], v["k"], v["n_p"], v["J"], v["B"], curve)
     return Plant(params, B_2), params
 
@@ -343,10 +346,12 @@ BAD_PARAMETERS = [
     dict(R_s=-1.0), dict(R_s=0.0), dict(R_r=float("nan")), dict(l_s=float("inf")), dict(k=0.0),
     dict(J=float("nan")), dict(J=-0.0131), dict(B=-1.0), dict(n_p=0), dict(L_m_inf=0.5), dict(L_m_inf=0.2772),
     dict(L_m0=-0.1), dict(I_par=float("nan")), dict(I_par=0.0), dict(curve="exponential", I_par=-3.0),
-    dict(curve="polynomial", poly_n=4), dict(curve="polynomial", poly_n=1), dict(curve="polynomial", poly_b=-1.0),
+    dict(curve="polynomial", poly_n=4), dict(curve="polynomial", poly_n=1),
+    dict(curve="polynomial", poly_b=-1.0),
     dict(curve="linear", L_m0=0.0), dict(curve="linear", L_m_inf=float("nan")), dict(curve="tanh"),
     dict(curve="table"), dict(curve="table", table_file="/nonexistent/no_load.csv"), dict(psi_r0=-0.1),
-    dict(h_int=0.0), dict(omega_m0=float("inf")), dict(B_2=-1.0), dict(B_2=float("nan")), dict(l_r=1e-310 * -1),
+    dict(h_int=0.0), dict(omega_m0=float("inf")), dict(B_2=-1.0), dict(B_2=float("nan")),
+    dict(l_r=1e-310 * -1),
     dict(L_m_inf=1e-5, L_m0=1e-5), dict(R_s=1e16 * -1.0), dict(R_s=-123456789.125),
 ]
 
@@ -377,7 +382,8 @@ BAD_TABLES = {
     "empty_cell.csv": "1.0,0.27\n2.0,\n",
     "header_only.csv": "i_mu,psi_m\n# nothing\n\n",
     "empty.csv": "",
-    "noisy.csv": "i_mu,psi_m\n1.0,0.27\n2.0,0.49\n3.0,0.68\n4.0,0.81\n5.0,0.93\n6.0,0.99\n7.0,0.985\n8.0,1.10\n",
+    "noisy.csv": ("i_mu,psi_m\n1.0,0.27\n2.0,0.49\n3.0,0.68\n4.0,0.81\n5.0,0.93\n6.0,0.99\n7.0,0.985\n"
+                  "8.0,1.10\n"),
     "flat_end.csv": ("i_mu,psi_m\n1.0,0.275\n2.0,0.488\n3.0,0.684\n4.0,0.813\n5.0,0.918\n6.0,0.983\n"
                      "7.0,1.059\n8.0,1.160\n9.1,1.170\n"),
     "repeat.csv": "1.0,0.2\n2.0,0.3\n2.0,0.4\n",
@@ -387,6 +393,18 @@ BAD_TABLES = {
     "origin.csv": "0.0,0.1\n1.0,0.3\n2.0,0.4\n",
     "one_point.csv": "1.0,0.2\n",
     "tab_quote.csv": "1.0,0.2\n2.0\t,'x\"\n",
+}
+BAD_BYTES = {  # files Python cannot decode as utf-8-sig: the UnicodeDecodeError text, its positions
+    "bad_start.csv": b"i_mu,psi_m\n1.0,0.2 # \xff\n",
+    "bad_start_bom.csv": b"\xef\xbb\xbf1.0,0.2\n\x80\n",
+    "bad_cont.csv": b"1,2\n\xe2\x28\xa1",
+    "bad_cont2.csv": b"1,2\n\xf0\x9f\x28",
+    "surrogate.csv": b"1,2\n\xed\xa0\x80",
+    "truncated.csv": b"1,2\n\xe2\x82",
+    "truncated4.csv": b"# \xf0\x9f\x98",
+    "overlong.csv": b"\xc0\x80",
+    "too_big.csv": b"\xf4\x90\x80\x80",
+    "overlong3.csv": b"\xe0\x80\x80,1",
 }
 
 
@@ -401,6 +419,25 @@ def test_bad_table_files_are_rejected_naming_file_line_and_value(lib, tmp_path, 
     text = msg.value.decode()
     assert text == str(err.value)
     assert err.value.field in text and path in text
+
+
+@pytest.mark.parametrize("name", list(BAD_BYTES) + ["directory", "good_utf8.csv"])
+def test_table_files_python_cannot_read(lib, tmp_path, name):
+    if name == "directory":
+        path = str(tmp_path)
+    else:
+        path = str(tmp_path / name)
+        Path(path).write_bytes(BAD_BYTES.get(name, "# µ-metal, Ψ\n1.0,0.2\n2.0,0.3\n".encode()))
+    c, msg = nc.new_curve(lib), ctypes.create_string_buffer(4096)
+    st = lib.sm_curve_init(c, b"table", 0.2772, 0.01, 3.31, 2.46, 7, path.encode(), msg, 4096)
+    if name == "good_utf8.csv":
+        assert st == 0, msg.value
+        assert lib.sm_curve_psi(c, 1.5) == make_curve("table", table_file=path).psi(1.5)
+        return
+    with pytest.raises(ParameterError) as err:
+        make_curve("table", table_file=path)
+    assert st != 0
+    assert msg.value.decode() == str(err.value)
 
 
 def test_table_from_points_matches_table_curve(lib):
@@ -472,6 +509,16 @@ SANITIZED_RUN = textwrap.dedent("""
     assert lib.sm_motor_init(p, *bad, msg, 8) != 0
     xb = (D * 600)(*[0.1 * (k + 1) for k in range(600)])
     lib.sm_curve_init_table(nc.new_curve(lib), xb, xb, 600, msg, 8)
+    for path in {bad_files!r}:
+        for n in (1, 8, 4096):
+            m = ctypes.create_string_buffer(n)
+            st = lib.sm_curve_init(nc.new_curve(lib), b"table", 0.2772, 0.01, 3.31, 2.46, 7, path.encode(),
+                                   m, n)
+            assert st != 0, path
+    rb = ctypes.create_string_buffer(40)
+    for v in (0.1, -1.0, 1e-5, 1e16, 5e-324, -1.7976931348623157e308, float("nan"), float("-inf"), -0.0):
+        lib.sm_repr_double(v, rb, 40)
+        lib.sm_repr_double(v, rb, 3)
     print("SANITIZED RUN OK")
 """)
 
@@ -483,15 +530,20 @@ def test_under_address_and_undefined_behaviour_sanitizers(tmp_path, table_csv):
         pytest.skip("no libasan runtime")
     lib = nc.build(nc.SANITIZE, tmp_path)
     bad = _write(tmp_path, "garbled.csv", BAD_TABLES["garbled.csv"] + "x" * 5000 + "\n")
+    bad_files = [_write(tmp_path, name, text) for name, text in BAD_TABLES.items()]
+    bad_files.append(_write(tmp_path, "long_line.csv", "1.0,0.2\n" + "9" * 5000 + ",1.0\n"))
+    rows = "".join(f"{0.1 * (k + 1)!r},{math.atan(0.1 * (k + 1))!r}\n" for k in range(600))
+    bad_files.append(_write(tmp_path, "too_many.csv", rows))
+    bad_files.append(_write(tmp_path, "nul.csv", "1.0,0.2\x00\n2.0,0.3\n"))
     script = tmp_path / "run.py"
     script.write_text(SANITIZED_RUN.format(tests=str(Path(__file__).parent), lib=str(lib),
-                                           table=str(table_csv[0]), bad=bad))
+                                           table=str(table_csv[0]), bad=bad, bad_files=bad_files))
     env = dict(os.environ, LD_PRELOAD=asan, ASAN_OPTIONS="detect_leaks=0:abort_on_error=0:exitcode=99",
                UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1:exitcode=98")
     res = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, env=env, timeout=120)
     report = res.stdout + res.stderr
-    assert res.returncode == 0 and "SANITIZED RUN OK" in res.stdout, report[-4000:]
-    assert "AddressSanitizer" not in report and "runtime error" not in report, report[-4000:]
+    assert res.returncode == 0 and "SANITIZED RUN OK" in res.stdout, report[:4000]
+    assert "AddressSanitizer" not in report and "runtime error" not in report, report[:4000]
 
 
 def test_zz_print_worst_differences():

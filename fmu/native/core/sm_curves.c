@@ -4,6 +4,7 @@
 
 #include <errno.h>
 #include <float.h>
+#include <locale.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -660,9 +661,19 @@ int sm_curve_init_table(sm_curve *c, const double *i_mu, const double *psi_m, in
  * the C locale, without its extensions (hex floats, nan(...)); underscores are not accepted. */
 static int py_float(const char *s, double *v)
 {
-    char *end;
+    char *end, buf[SM_TABLE_LINE_MAX + 2];
+    const char *dp = localeconv()->decimal_point;
     if (*s == '\0') return 0;
     if (strpbrk(s, "xX(_") != NULL) return 0;
+    if (dp != NULL && dp[0] != '.' && dp[0] != '\0' && dp[1] == '\0') {
+        /* a host that set LC_NUMERIC (decimal comma): the file's '.' is strtod's dp[0] */
+        size_t i;
+        if (strchr(s, dp[0]) != NULL) return 0;
+        snprintf(buf, sizeof buf, "%s", s);
+        for (i = 0; buf[i] != '\0'; ++i)
+            if (buf[i] == '.') buf[i] = dp[0];
+        s = buf;
+    }
     errno = 0;
     *v = strtod(s, &end);
     return *end == '\0';
@@ -684,12 +695,18 @@ static char *strip(char *s)
     return s;
 }
 
+#define SM_LINE_QUOTE_MAX 1024
+
 static int bad_line(const char *src, int lineno, const char *line, char *msg, size_t msg_len)
 {
     /* Python: ParameterError("table_file", f"line {lineno}: {line.strip()!r}", ...): a repr in a repr */
-    char copy[SM_TABLE_LINE_MAX + 2], inner[4 * SM_TABLE_LINE_MAX + 8], val[4 * SM_TABLE_LINE_MAX + 32];
-    char rep[8 * SM_TABLE_LINE_MAX + 64];
-    snprintf(copy, sizeof copy, "%s", line);
+    /* the line is quoted up to SM_LINE_QUOTE_MAX bytes (a message buffer is shorter anyway) */
+    char copy[SM_LINE_QUOTE_MAX + 1], inner[4 * SM_LINE_QUOTE_MAX + 8], val[4 * SM_LINE_QUOTE_MAX + 32];
+    char rep[8 * SM_LINE_QUOTE_MAX + 64];
+    size_t i = 0;
+    while (*line != '\0' && is_space((unsigned char)*line)) ++line;
+    for (; i < SM_LINE_QUOTE_MAX && line[i] != '\0'; ++i) copy[i] = line[i];
+    copy[i] = '\0';
     sm_repr_str(strip(copy), inner, sizeof inner);
     snprintf(val, sizeof val, "line %d: %s", lineno, inner);
     sm_repr_str(val, rep, sizeof rep);
@@ -724,6 +741,57 @@ static int parse_line(char *line, double *a, double *b)
     return 1;
 }
 
+/* The file decodes as utf-8-sig (Python reads it so before any line): 0, or 1 with the text of
+ * Python's UnicodeDecodeError in why (positions counted after a BOM). */
+static int utf8_invalid(FILE *fh, char *why, size_t why_len)
+{
+    long pos = 0;
+    int ch, k, need;
+    unsigned char head[3];
+    size_t nh = fread(head, 1, 3, fh);
+    if (!(nh == 3 && head[0] == 0xEF && head[1] == 0xBB && head[2] == 0xBF)) {
+        rewind(fh);
+    }
+    while ((ch = getc(fh)) != EOF) {
+        unsigned lo = 0x80, hi = 0xBF;
+        const char *reason = NULL;
+        if (ch < 0x80) {
+            ++pos;
+            continue;
+        }
+        if (ch < 0xC2 || ch > 0xF4) {
+            snprintf(why, why_len, "'utf-8' codec can't decode byte 0x%02x in position %ld: invalid start byte",
+                     (unsigned)ch, pos);
+            return 1;
+        }
+        need = ch < 0xE0 ? 1 : (ch < 0xF0 ? 2 : 3);
+        if (ch == 0xE0) lo = 0xA0;
+        else if (ch == 0xED) hi = 0x9F;
+        else if (ch == 0xF0) lo = 0x90;
+        else if (ch == 0xF4) hi = 0x8F;
+        for (k = 1; k <= need; ++k) {
+            int c2 = getc(fh);
+            if (c2 == EOF) reason = "unexpected end of data";
+            else if ((unsigned)c2 < lo || (unsigned)c2 > hi) reason = "invalid continuation byte";
+            if (reason != NULL) break;
+            lo = 0x80;
+            hi = 0xBF;
+        }
+        if (reason != NULL) {
+            if (k == 1)
+                snprintf(why, why_len, "'utf-8' codec can't decode byte 0x%02x in position %ld: %s", (unsigned)ch,
+                         pos, reason);
+            else
+                snprintf(why, why_len, "'utf-8' codec can't decode bytes in position %ld-%ld: %s", pos,
+                         pos + k - 1, reason);
+            return 1;
+        }
+        pos += need + 1;
+    }
+    rewind(fh);
+    return 0;
+}
+
 static int table_from_csv(sm_curve *c, const char *path, char *msg, size_t msg_len)
 {
     double xs[SM_TABLE_MAX + 1], ys[SM_TABLE_MAX + 1];
@@ -738,6 +806,14 @@ static int table_from_csv(sm_curve *c, const char *path, char *msg, size_t msg_l
         snprintf(reason, sizeof reason, "cannot be read: [Errno %d] %s: %s", e, strerror(e),
                  sm_repr_str(path, rq, sizeof rq));
         return sm_param_error(msg, msg_len, NULL, "table_file", sm_repr_str(path, rp, sizeof rp), reason);
+    }
+    {
+        char why[200];
+        if (utf8_invalid(fh, why, sizeof why)) {
+            fclose(fh);
+            snprintf(reason, sizeof reason, "cannot be read: %s", why);
+            return sm_param_error(msg, msg_len, NULL, "table_file", sm_repr_str(path, rp, sizeof rp), reason);
+        }
     }
     while (!eof) {
         size_t len = 0;
