@@ -263,7 +263,7 @@ static void core(const sm_model_constants *c, const sm_gains *g, double phi_min,
     /* virtual controls: alpha1 for a k m i_mu_d, gamma1 for T_e/J */
     alpha1 = -c1 * e1 - c0 * e0 + a * phi + dpr;
     gamma1 = -d1 * z1 - d0 * z0 + theta + b * w + dwr;
-    if (i_max < INFINITY) { /* the currents they demand, bounded (m held at its value) */
+    if (i_max < (double)INFINITY) { /* the currents they demand, bounded (m held at its value) */
         double cc = 1.0 + c->k2_lr * m;
         double ak_m = ak * m;
         double i_sd = cc * alpha1 / ak_m - c->k_lr * phi;
