@@ -131,7 +131,7 @@ int sm_from_rotor_flux(double i_sa, double i_sb, double psi_ra, double psi_rb, c
         s = I / wn;
         in_flux_frame(s * wa, s * wb, I, psi / I, psi_ra, psi_rb, ms);
     }
-    return all_finite(in, 4) ? SM_OK : SM_ERR_NONFINITE;
+    return (st == SM_OK && all_finite(in, 4)) ? SM_OK : SM_ERR_NONFINITE; /* |w| may overflow */
 }
 
 int sm_from_magnetizing_current(double i_mu_a, double i_mu_b, double psi_ra, double psi_rb,
