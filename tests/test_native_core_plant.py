@@ -393,6 +393,10 @@ BAD_TABLES = {
     "origin.csv": "0.0,0.1\n1.0,0.3\n2.0,0.4\n",
     "one_point.csv": "1.0,0.2\n",
     "tab_quote.csv": "1.0,0.2\n2.0\t,'x\"\n",
+    "underscore.csv": "1.0,0.2\n2_.0,0.3\n",
+    "underscore2.csv": "1.0,0.2\n2.0,_0.3\n",
+    "underscore3.csv": "1.0,0.2\n2.0,0.3__1\n",
+    "unicode_lines.csv": "1.0,0.2\u20282.0,0.3\u0085 \u00a0 3.0,abc\u00a0\n",
 }
 BAD_BYTES = {  # files Python cannot decode as utf-8-sig: the UnicodeDecodeError text, its positions
     "bad_start.csv": b"i_mu,psi_m\n1.0,0.2 # \xff\n",
@@ -427,12 +431,17 @@ def test_table_files_python_cannot_read(lib, tmp_path, name):
         path = str(tmp_path)
     else:
         path = str(tmp_path / name)
-        Path(path).write_bytes(BAD_BYTES.get(name, "# µ-metal, Ψ\n1.0,0.2\n2.0,0.3\n".encode()))
+        good = ("# µ-metal, Ψ\u2028\u00a00_1.0e-1,0.2\u3000\u2029 1.0_0 , 0.3 \x85\n2.0,\u20030.3_5\n"
+                "3.0,\t0.4\u00a0\n")
+        Path(path).write_bytes(BAD_BYTES.get(name, good.encode()))
     c, msg = nc.new_curve(lib), ctypes.create_string_buffer(4096)
     st = lib.sm_curve_init(c, b"table", 0.2772, 0.01, 3.31, 2.46, 7, path.encode(), msg, 4096)
     if name == "good_utf8.csv":
         assert st == 0, msg.value
-        assert lib.sm_curve_psi(c, 1.5) == make_curve("table", table_file=path).psi(1.5)
+        py = make_curve("table", table_file=path)
+        assert py._x == (0.0, 0.1, 1.0, 2.0, 3.0)
+        pts = (0.05, 1.5, 2.5, 4.0)
+        assert [lib.sm_curve_psi(c, v) for v in pts] == [py.psi(v) for v in pts]
         return
     with pytest.raises(ParameterError) as err:
         make_curve("table", table_file=path)

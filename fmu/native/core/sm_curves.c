@@ -663,8 +663,22 @@ static int py_float(const char *s, double *v)
 {
     char *end, buf[SM_TABLE_LINE_MAX + 2];
     const char *dp = localeconv()->decimal_point;
+    char us[SM_TABLE_LINE_MAX + 2];
     if (*s == '\0') return 0;
-    if (strpbrk(s, "xX(_") != NULL) return 0;
+    if (strpbrk(s, "xX(") != NULL) return 0;
+    if (strchr(s, '_') != NULL) { /* PEP 515: an underscore only between two digits, then dropped */
+        size_t i, o = 0;
+        for (i = 0; s[i] != '\0' && o + 1 < sizeof us; ++i) {
+            if (s[i] == '_') {
+                if (i == 0 || !(s[i - 1] >= '0' && s[i - 1] <= '9') || !(s[i + 1] >= '0' && s[i + 1] <= '9'))
+                    return 0;
+                continue;
+            }
+            us[o++] = s[i];
+        }
+        us[o] = '\0';
+        s = us;
+    }
     if (dp != NULL && dp[0] != '.' && dp[0] != '\0' && dp[1] == '\0') {
         /* a host that set LC_NUMERIC (decimal comma): the file's '.' is strtod's dp[0] */
         size_t i;
@@ -685,13 +699,34 @@ static int is_space(int ch)
            || (ch >= 0x1c && ch <= 0x1f);
 }
 
-/* strip in place: returns the start, cuts the end */
+/* length of the UTF-8 encoded non-ASCII Unicode whitespace (str.isspace) starting at s, else 0 */
+static size_t uspace_at(const unsigned char *s)
+{
+    if (s[0] == 0xC2 && (s[1] == 0x85 || s[1] == 0xA0)) return 2;
+    if (s[0] == 0xE1 && s[1] == 0x9A && s[2] == 0x80) return 3;
+    if (s[0] == 0xE2 && s[1] == 0x80 && ((s[2] >= 0x80 && s[2] <= 0x8A) || s[2] == 0xA8 || s[2] == 0xA9
+                                         || s[2] == 0xAF)) return 3;
+    if (s[0] == 0xE2 && s[1] == 0x81 && s[2] == 0x9F) return 3;
+    if (s[0] == 0xE3 && s[1] == 0x80 && s[2] == 0x80) return 3;
+    return 0;
+}
+
+/* str.strip() in place on UTF-8: returns the start, cuts the end */
 static char *strip(char *s)
 {
-    size_t l;
-    while (*s != '\0' && is_space((unsigned char)*s)) ++s;
+    size_t l, u;
+    for (;;) {
+        if (*s != '\0' && is_space((unsigned char)*s)) ++s;
+        else if ((u = uspace_at((const unsigned char *)s)) > 0) s += u;
+        else break;
+    }
     l = strlen(s);
-    while (l > 0 && is_space((unsigned char)s[l - 1])) s[--l] = '\0';
+    for (;;) {
+        if (l > 0 && is_space((unsigned char)s[l - 1])) s[--l] = '\0';
+        else if (l >= 2 && uspace_at((const unsigned char *)s + l - 2) == 2) s[l -= 2] = '\0';
+        else if (l >= 3 && uspace_at((const unsigned char *)s + l - 3) == 3) s[l -= 3] = '\0';
+        else break;
+    }
     return s;
 }
 
@@ -819,7 +854,7 @@ static int table_from_csv(sm_curve *c, const char *path, char *msg, size_t msg_l
         size_t len = 0;
         int nul = 0, any = 0, toolong = 0, st;
         double a, b;
-        /* str.splitlines: \n, \r, \r\n, \v, \f, \x1c, \x1d, \x1e end a line */
+        /* str.splitlines: \n, \r, \r\n, \v, \f, \x1c, \x1d, \x1e, U+0085, U+2028, U+2029 end a line */
         for (;;) {
             ch = getc(fh);
             if (ch == EOF) { eof = 1; break; }
@@ -829,6 +864,19 @@ static int table_from_csv(sm_curve *c, const char *path, char *msg, size_t msg_l
                 int nx = getc(fh);
                 if (nx != '\n' && nx != EOF) ungetc(nx, fh);
                 break;
+            }
+            if (ch == 0xC2 || ch == 0xE2) { /* U+0085, U+2028, U+2029 (the file is valid UTF-8) */
+                int c2 = getc(fh), c3 = ch == 0xE2 ? getc(fh) : EOF;
+                if ((ch == 0xC2 && c2 == 0x85) || (ch == 0xE2 && c2 == 0x80 && (c3 == 0xA8 || c3 == 0xA9)))
+                    break;
+                if (len + 3 <= SM_TABLE_LINE_MAX) {
+                    line[len++] = (char)ch;
+                    if (c2 != EOF) line[len++] = (char)c2;
+                    if (c3 != EOF) line[len++] = (char)c3;
+                } else {
+                    toolong = 1;
+                }
+                continue;
             }
             if (ch == 0) nul = 1;
             if (len < SM_TABLE_LINE_MAX) line[len++] = (char)ch;
