@@ -12,7 +12,8 @@ from pathlib import Path
 CORE = Path(__file__).resolve().parents[1] / "fmu" / "native" / "core"
 FLAGS = ["-std=c99", "-O2", "-fPIC", "-shared", "-Wall", "-Wextra", "-Werror", "-pedantic", "-Wconversion",
          "-Wshadow"]
-SANITIZE = ["-fsanitize=address,undefined", "-fno-sanitize-recover=undefined", "-fno-omit-frame-pointer", "-g"]
+SANITIZE = ["-fsanitize=address,undefined", "-fno-sanitize-recover=undefined", "-fno-omit-frame-pointer",
+            "-g"]
 SM_TABLE_MAX = 512
 
 _cache: dict = {}
