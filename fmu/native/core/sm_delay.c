@@ -1,0 +1,107 @@
+/* satmotor/delay.py in C: the same operations in the same order (see sm_delay.h). */
+#include "sm_delay.h"
+
+#include "sm_common.h"
+#include "sm_law.h"
+
+int sm_delay_init(sm_delay *d, double Ts, double bias_gain, char *msg, size_t msg_len)
+{
+    if (d == NULL) {
+        return SM_ERR_ARG;
+    }
+    if (sm_require_number("Ts", Ts, 1, 0.0, 0, msg, msg_len) != SM_OK) {
+        return SM_ERR_PARAM;
+    }
+    if (!(bias_gain >= 0.0 && bias_gain <= 1.0)) {
+        char repr[32];
+        return sm_param_error(msg, msg_len, NULL, "bias_gain", sm_repr_double(bias_gain, repr, sizeof repr),
+                              "must be a finite number >= 0 and <= 1");
+    }
+    d->Ts = Ts;
+    d->bias_gain = bias_gain;
+    sm_delay_reset(d);
+    return SM_OK;
+}
+
+void sm_delay_reset(sm_delay *d)
+{
+    int j;
+    d->pending[0] = d->pending[1] = 0.0;
+    d->has_pred = 0;
+    for (j = 0; j < 5; ++j) {
+        d->pred[j] = 0.0;
+        d->corr[j] = 0.0;
+    }
+}
+
+void sm_delay_swap(sm_delay *d, double v_alpha, double v_beta, double *va, double *vb)
+{
+    *va = d->pending[0];
+    *vb = d->pending[1];
+    d->pending[0] = v_alpha;
+    d->pending[1] = v_beta;
+}
+
+int sm_delay_predict(sm_delay *d, const sm_motor *p, const double meas[7], double T_load, double out[7])
+{
+    double i_a = meas[0], i_b = meas[1], pr_a = meas[2], pr_b = meas[3], w = meas[4];
+    double phi = sm_hypot(pr_a, pr_b), c = 1.0, s = 0.0, c1, s1, qa, qb, phi1, x[6], v[5];
+    sm_magnetizing ms;
+    sm_plant_outputs o;
+    int j, st;
+    if (phi > 0.0) {
+        c = pr_a / phi;
+        s = pr_b / phi;
+    }
+    if (d->has_pred && d->bias_gain > 0.0) { /* correction, in this sample's flux frame */
+        double y[5];
+        double g = d->bias_gain;
+        y[0] = c * i_a + s * i_b;
+        y[1] = c * i_b - s * i_a;
+        y[2] = phi;
+        y[3] = 0.0;
+        y[4] = w;
+        for (j = 0; j < 5; ++j) {
+            d->corr[j] = d->corr[j] + g * (y[j] - d->pred[j] - d->corr[j]);
+        }
+    }
+    if ((st = sm_from_rotor_flux(i_a, i_b, pr_a, pr_b, p, &ms)) != SM_OK) {
+        return st;
+    }
+    x[0] = p->l_s * i_a + ms.m * ms.i_mu_alpha;
+    x[1] = p->l_s * i_b + ms.m * ms.i_mu_beta;
+    x[2] = pr_a;
+    x[3] = pr_b;
+    x[4] = w;
+    x[5] = 0.0;
+    if ((st = sm_plant_step(p, x, d->pending[0], d->pending[1], T_load, d->Ts, 1)) != SM_OK ||
+        (st = sm_plant_outputs_of(p, x, &o)) != SM_OK) {
+        return st;
+    }
+    qa = x[SM_PSI_R_A];
+    qb = x[SM_PSI_R_B];
+    phi1 = sm_hypot(qa, qb);
+    c1 = c;
+    s1 = s;
+    if (phi1 > 0.0) {
+        c1 = qa / phi1;
+        s1 = qb / phi1;
+    }
+    d->pred[0] = c1 * o.i_s_alpha + s1 * o.i_s_beta;
+    d->pred[1] = c1 * o.i_s_beta - s1 * o.i_s_alpha;
+    d->pred[2] = phi1;
+    d->pred[3] = 0.0;
+    d->pred[4] = x[SM_OMEGA_M];
+    d->has_pred = 1;
+    for (j = 0; j < 5; ++j) {
+        v[j] = d->pred[j] + d->corr[j];
+    }
+    out[0] = c1 * v[0] - s1 * v[1];
+    out[1] = s1 * v[0] + c1 * v[1];
+    out[2] = c1 * v[2] - s1 * v[3];
+    out[3] = s1 * v[2] + c1 * v[3];
+    out[4] = v[4];
+    out[5] = x[SM_PSI_S_A];
+    out[6] = x[SM_PSI_S_B];
+    return SM_OK;
+}
