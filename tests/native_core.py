@@ -1,9 +1,11 @@
 """Test helper: the native core (``fmu/native/core/*.c``) compiled with gcc into one shared library,
-loaded with ctypes, argument types declared.  One build per flag set per pytest session."""
+loaded with ctypes, argument types declared.  One build per flag set per pytest session.
+Extra compiler flags (appended) from the environment variable ``SM_CORE_EXTRA_CFLAGS``."""
 
 from __future__ import annotations
 
 import ctypes
+import os
 import shutil
 import subprocess
 import tempfile
@@ -35,7 +37,8 @@ def build(extra_flags=(), out_dir=None):
     out_dir = Path(out_dir or tempfile.mkdtemp(prefix="sm_native_core_"))
     lib = out_dir / ("libsmcore_san.so" if extra_flags else "libsmcore.so")
     sources = sorted(str(p) for p in CORE.glob("*.c"))
-    cmd = [gcc, *FLAGS, *extra_flags, "-o", str(lib), *sources, "-lm"]
+    env_flags = os.environ.get("SM_CORE_EXTRA_CFLAGS", "").split()  # e.g. "-O3 -march=native"
+    cmd = [gcc, *FLAGS, *env_flags, *extra_flags, "-o", str(lib), *sources, "-lm"]
     res = subprocess.run(cmd, capture_output=True, text=True)
     if res.returncode != 0:
         raise RuntimeError(f"native core build failed:\n{' '.join(cmd)}\n{res.stderr}")
