@@ -1,0 +1,404 @@
+/* satmotor/drive.py in C: the same operations in the same order (see sm_drive.h). */
+#include "sm_drive.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+
+#include "sm_common.h"
+
+static const double FRAME_MIN = 1e-3; /* drive._FRAME_MIN */
+
+size_t sm_drive_size(void)
+{
+    return sizeof(sm_drive);
+}
+
+void sm_drive_config_default(sm_drive_config *dc)
+{
+    dc->ref_bandwidth = 40.0;
+    dc->I_max = 30.0;
+    dc->premag_fraction = 0.9;
+    dc->premag_boost = 1.5;
+    dc->premag_gain = 20.0;
+    dc->premag_time_max = 0.4;
+    dc->premag_min_fraction = 0.5;
+    dc->premag_speed_tol = 2.0;
+    dc->observer = 0;
+    dc->delay_samples = 0;
+}
+
+static const char *curve_name(const sm_curve *c)
+{
+    switch (c->kind) {
+    case SM_CURVE_LINEAR: return "linear";
+    case SM_CURVE_ARCTAN: return "arctan";
+    case SM_CURVE_EXPONENTIAL: return "exponential";
+    case SM_CURVE_POLYNOMIAL: return "polynomial";
+    default: return "table";
+    }
+}
+
+static int range_error(char *msg, size_t len, const char *field, double value, const char *reason)
+{
+    char repr[32];
+    return sm_param_error(msg, len, NULL, field, sm_repr_double(value, repr, sizeof repr), reason);
+}
+
+/* DriveConfig.__post_init__ */
+static int check_config(const sm_drive_config *c, char *msg, size_t len)
+{
+    char reason[96], repr[32];
+    if (sm_require_number("ref_bandwidth", c->ref_bandwidth, 1, 0.0, 0, msg, len) ||
+        sm_require_number("I_max", c->I_max, 1, 0.0, 0, msg, len)) {
+        return SM_ERR_PARAM;
+    }
+    if (!(c->premag_fraction > 0.0 && c->premag_fraction <= 1.0)) {
+        return range_error(msg, len, "premag_fraction", c->premag_fraction, "must be a finite number > 0 and <= 1");
+    }
+    if (!(c->premag_min_fraction > 0.0 && c->premag_min_fraction <= c->premag_fraction)) {
+        (void)snprintf(reason, sizeof reason, "must be a finite number > 0 and <= %s",
+                       sm_repr_double(c->premag_fraction, repr, sizeof repr));
+        return range_error(msg, len, "premag_min_fraction", c->premag_min_fraction, reason);
+    }
+    if (sm_require_number("premag_boost", c->premag_boost, 1, 1.0, 1, msg, len) ||
+        sm_require_number("premag_gain", c->premag_gain, 1, 0.0, 0, msg, len) ||
+        sm_require_number("premag_time_max", c->premag_time_max, 1, 0.0, 0, msg, len) ||
+        sm_require_number("premag_speed_tol", c->premag_speed_tol, 1, 0.0, 0, msg, len)) {
+        return SM_ERR_PARAM;
+    }
+    if (c->observer != 0 && c->observer != 1) {
+        return range_error(msg, len, "flux_source", (double)c->observer, "must be one of measured, observer");
+    }
+    if (c->delay_samples != 0 && c->delay_samples != 1) {
+        return sm_param_error(msg, len, NULL, "delay_samples", c->delay_samples ? "2" : "0", "must be 0 or 1");
+    }
+    return SM_OK;
+}
+
+int sm_drive_init(sm_drive *d, sm_mode mode, const sm_motor *p, const sm_gains *g, const sm_law_config *cfg,
+                  const sm_ifoc_gains *ig, const sm_drive_config *dc, char *msg, size_t msg_len)
+{
+    int st;
+    double V_dc;
+    if (d == NULL || p == NULL || g == NULL || cfg == NULL || ig == NULL || dc == NULL) {
+        return SM_ERR_ARG;
+    }
+    memset(d, 0, sizeof *d);
+    d->mode = mode;
+    d->p = *p;
+    d->g = *g;
+    d->cfg = *cfg;
+    d->dc = *dc;
+    if (mode == SM_MODE_CONSTANT_M) { /* the same law with the line m = m(0) */
+        if ((st = sm_curve_init(&d->p.curve, "linear", p->curve.m0, 0.01, 3.31, 2.46, 7, "", msg, msg_len))) {
+            return st;
+        }
+        d->p.m0 = d->p.curve.m0;
+    }
+    if (mode == SM_MODE_PI) {
+        double L_m = sm_curve_m(&p->curve, 5.7); /* RatedData().I_mu_n */
+        if ((st = sm_ifoc_init(&d->ifoc, p->R_s, p->R_r, p->l_s, p->l_r, p->k, p->n_p, p->J, ig, cfg->Ts, L_m,
+                               msg, msg_len))) {
+            return SM_ERR_PARAM;
+        }
+        V_dc = ig->V_dc;
+    } else {
+        if ((st = sm_gains_check(g, msg, msg_len)) || (st = sm_law_config_check(cfg, msg, msg_len))) {
+            return st;
+        }
+        if (cfg->Ts <= 0.0) {
+            return range_error(msg, msg_len, "Ts", cfg->Ts, "must be > 0 for a sampled drive");
+        }
+        V_dc = cfg->V_dc;
+    }
+    if ((st = check_config(dc, msg, msg_len))) {
+        return st;
+    }
+    if ((st = sm_require_number("Ts", cfg->Ts, 1, 0.0, 0, msg, msg_len))) {
+        return st;
+    }
+    d->Ts = cfg->Ts;
+    d->V_max = V_dc / sqrt(3.0);
+    if ((st = sm_shaper_init(&d->flux, dc->ref_bandwidth, 0.0, msg, msg_len)) ||
+        (st = sm_shaper_init(&d->speed, dc->ref_bandwidth, 0.0, msg, msg_len))) {
+        return st;
+    }
+    d->n_switch = (long)nearbyint(dc->premag_time_max / d->Ts); /* Python round(): half to even */
+    if (dc->observer &&
+        (st = sm_observer_init(&d->obs, d->p.R_r, d->p.l_r, d->p.k, d->p.n_p, d->Ts, 1, msg, msg_len))) {
+        return st;
+    }
+    if (dc->delay_samples && (st = sm_delay_init(&d->delay, d->Ts, SM_DELAY_BIAS_GAIN, msg, msg_len))) {
+        return st;
+    }
+    sm_drive_reset(d);
+    return SM_OK;
+}
+
+void sm_drive_reset(sm_drive *d)
+{
+    d->phase = SM_PREMAG;
+    d->n = 0;
+    (void)sm_shaper_reset(&d->flux, 0.0, NULL, 0);
+    (void)sm_shaper_reset(&d->speed, 0.0, NULL, 0);
+    if (d->dc.observer) {
+        (void)sm_observer_reset(&d->obs, 0.0, 0.0, NULL, 0);
+    }
+    if (d->dc.delay_samples) {
+        sm_delay_reset(&d->delay);
+    }
+    d->theta_hat = d->e0 = d->z0 = 0.0;
+    if (d->mode == SM_MODE_PI) {
+        (void)sm_ifoc_reset(&d->ifoc, 0.0, 0.0, NULL, 0);
+    }
+}
+
+/* _Drive.magnetizing_current */
+static int magnetizing_current(sm_drive *d, double psi_set, double *I, char *msg, size_t len)
+{
+    int st;
+    char reason[160], repr[32];
+    if (d->has_checked && psi_set == d->checked_psi) {
+        *I = d->checked_I;
+        return SM_OK;
+    }
+    if ((st = sm_require_number("psi_ref", psi_set, 1, 0.0, 0, msg, len))) {
+        return st;
+    }
+    if ((st = sm_curve_current(&d->p.curve, psi_set / d->p.k, I))) {
+        return st;
+    }
+    if (*I > d->dc.I_max) {
+        (void)snprintf(reason, sizeof reason, "needs a magnetizing current of %.4g A on the '%s' curve, more than "
+                       "I_max = %s A", *I, curve_name(&d->p.curve), sm_repr_double(d->dc.I_max, repr, sizeof repr));
+        return range_error(msg, len, "psi_ref", psi_set, reason);
+    }
+    d->has_checked = 1;
+    d->checked_psi = psi_set;
+    d->checked_I = *I;
+    return SM_OK;
+}
+
+static int switch_now(const sm_drive *d, double phi, double psi_set, double omega_m)
+{
+    const sm_drive_config *c = &d->dc;
+    if (phi >= c->premag_fraction * psi_set) {
+        return 1;
+    }
+    return phi >= c->premag_min_fraction * psi_set && (d->n >= d->n_switch || fabs(omega_m) > c->premag_speed_tol);
+}
+
+static void premag(const sm_drive *d, const double meas[7], double I_set, double phi, double psi_set,
+                   sm_drive_output *o)
+{
+    const sm_drive_config *cfg = &d->dc;
+    double K = cfg->premag_gain, i_ref, pa = meas[2], pb = meas[3], c = 1.0, s = 0.0, ia = meas[0], ib = meas[1];
+    double vd, vq, vn;
+    int bounded = cfg->premag_boost * I_set > cfg->I_max, lim;
+    i_ref = fmin(cfg->premag_boost * I_set, cfg->I_max);
+    if (fabs(meas[4]) > cfg->premag_speed_tol) {
+        i_ref = fmax(i_ref, SM_D_SHARE * cfg->I_max);
+    }
+    if (phi > FRAME_MIN * psi_set) {
+        c = pa / phi;
+        s = pb / phi;
+    }
+    vd = d->p.R_s * i_ref + K * (i_ref - (c * ia + s * ib));
+    vq = -K * (c * ib - s * ia);
+    vn = sm_hypot(vd, vq);
+    lim = vn > d->V_max;
+    if (lim) {
+        vd = vd * d->V_max / vn;
+        vq = vq * d->V_max / vn;
+    }
+    memset(o, 0, sizeof *o);
+    o->v_s_alpha = c * vd - s * vq;
+    o->v_s_beta = s * vd + c * vq;
+    o->v_sd = vd;
+    o->v_sq = vq;
+    o->e1 = phi - psi_set;
+    o->omega_ref = meas[4];
+    o->psi_ref = phi;
+    o->phase = SM_PREMAG;
+    o->voltage_limited = lim;
+    o->singular_limited = 0;
+    o->current_limited = bounded;
+    o->psi_r_hat_alpha = pa;
+    o->psi_r_hat_beta = pb;
+}
+
+static int do_switch(sm_drive *d, const double meas[7])
+{
+    sm_magnetizing ms;
+    sm_model_constants mc;
+    double z[3];
+    int st = sm_from_rotor_flux(meas[0], meas[1], meas[2], meas[3], &d->p, &ms);
+    if (st) {
+        return st;
+    }
+    sm_model_constants_of(&d->p, &mc);
+    z[0] = ms.Phi_rd;
+    z[1] = sm_flux_rate(mc.a, mc.k, ms.Phi_rd, ms.i_mu_d, ms.m);
+    z[2] = 0.0;
+    if ((st = sm_shaper_set_state(&d->flux, z, NULL, 0)) || (st = sm_shaper_reset(&d->speed, meas[4], NULL, 0))) {
+        return st;
+    }
+    d->phase = SM_RUN;
+    if (d->mode == SM_MODE_PI) {
+        return sm_ifoc_reset(&d->ifoc, ms.rho, ms.Phi_rd, NULL, 0);
+    }
+    return SM_OK;
+}
+
+static double model_load(const sm_drive *d, double T_load)
+{
+    if (d->mode == SM_MODE_PI) {
+        return 0.0;
+    }
+    return d->cfg.load_estimated ? d->theta_hat * d->p.J : T_load;
+}
+
+static int run(sm_drive *d, const double meas[7], const double rf[3], const double rw[3], double T_load,
+               sm_drive_output *o, char *msg, size_t len)
+{
+    memset(o, 0, sizeof *o);
+    if (d->mode == SM_MODE_PI) {
+        double w = meas[4], w_ref = rw[0], psi_ref = rf[0], va, vb;
+        sm_ifoc_diagnostics dg;
+        int st = sm_ifoc_step(&d->ifoc, meas[0], meas[1], w, w_ref, psi_ref, &va, &vb, &dg, msg, len);
+        if (st) {
+            return SM_ERR_PARAM;
+        }
+        o->v_s_alpha = va;
+        o->v_s_beta = vb;
+        o->v_sd = dg.v_sd;
+        o->v_sq = dg.v_sq;
+        o->e1 = sm_hypot(meas[2], meas[3]) - psi_ref; /* diagnostics only */
+        o->z1 = w - w_ref;
+        o->omega_ref = w_ref;
+        o->psi_ref = psi_ref;
+        o->voltage_limited = dg.voltage_limited;
+        o->current_limited = dg.current_limited;
+    } else {
+        double ref[6], load[2], integ[2], t_load;
+        sm_control_output c;
+        int st;
+        ref[0] = rf[0];
+        ref[1] = rf[1];
+        ref[2] = rf[2];
+        ref[3] = rw[0];
+        ref[4] = rw[1];
+        ref[5] = rw[2];
+        load[0] = T_load;
+        load[1] = 0.0;
+        integ[0] = d->e0;
+        integ[1] = d->z0;
+        st = sm_control(meas, ref, load, &d->p, &d->g, &d->cfg, d->theta_hat, integ, d->dc.I_max, &c);
+        if (st != SM_OK && st != SM_ERR_NONFINITE) {
+            return st;
+        }
+        if (d->cfg.load_estimated) {
+            double th;
+            t_load = d->theta_hat * d->p.J;
+            th = d->theta_hat + d->cfg.Ts * c.theta_hat_dot;
+            d->theta_hat = fmin(fmax(th, -d->cfg.theta_max), d->cfg.theta_max);
+        } else {
+            t_load = T_load;
+        }
+        d->e0 += d->cfg.Ts * c.e0_dot;
+        d->z0 += d->cfg.Ts * c.z0_dot;
+        o->v_s_alpha = c.v_s_alpha;
+        o->v_s_beta = c.v_s_beta;
+        o->v_sd = c.v_sd;
+        o->v_sq = c.v_sq;
+        o->e1 = c.e1;
+        o->e2 = c.e2;
+        o->z1 = c.z1;
+        o->z2 = c.z2;
+        o->V = c.V;
+        o->W = c.W;
+        o->T_load_est = t_load;
+        o->omega_ref = rw[0];
+        o->psi_ref = rf[0];
+        o->voltage_limited = c.voltage_limited;
+        o->singular_limited = c.singular_limited;
+        o->current_limited = c.current_limited;
+    }
+    o->phase = SM_RUN;
+    o->psi_r_hat_alpha = meas[2];
+    o->psi_r_hat_beta = meas[3];
+    return SM_OK;
+}
+
+static void delayed(sm_drive *d, sm_drive_output *o)
+{
+    if (d->dc.delay_samples) {
+        double va, vb;
+        sm_delay_swap(&d->delay, o->v_s_alpha, o->v_s_beta, &va, &vb);
+        o->v_s_alpha = va;
+        o->v_s_beta = vb;
+    }
+}
+
+int sm_drive_step(sm_drive *d, const double meas_in[7], double omega_set, double psi_set, double T_load,
+                  sm_drive_output *out, char *msg, size_t msg_len)
+{
+    double I_set, meas[7], rf[3], rw[3];
+    int st, j;
+    if (d == NULL || meas_in == NULL || out == NULL) {
+        return SM_ERR_ARG;
+    }
+    if ((st = magnetizing_current(d, psi_set, &I_set, msg, msg_len)) ||
+        (st = sm_require_number("omega_ref", omega_set, 0, 0.0, 0, msg, msg_len))) {
+        return st;
+    }
+    for (j = 0; j < 7; ++j) {
+        meas[j] = meas_in[j];
+    }
+    if (d->dc.observer) { /* the psi inputs are ignored: the estimate replaces them */
+        double pa, pb;
+        if ((st = sm_observer_update(&d->obs, &d->p.curve, meas[0], meas[1], meas[4], &pa, &pb))) {
+            return st;
+        }
+        meas[2] = pa;
+        meas[3] = pb;
+        meas[5] = meas[6] = 0.0;
+    }
+    if (d->phase == SM_PREMAG) {
+        double phi = sm_hypot(meas[2], meas[3]);
+        if (!switch_now(d, phi, psi_set, meas[4])) {
+            d->n += 1;
+            premag(d, meas, I_set, phi, psi_set, out);
+            delayed(d, out);
+            return SM_OK;
+        }
+        if ((st = do_switch(d, meas))) {
+            return st;
+        }
+    }
+    if (!d->dc.delay_samples) {
+        sm_shaper_get_state(&d->flux, rf);
+        sm_shaper_get_state(&d->speed, rw);
+        if ((st = run(d, meas, rf, rw, T_load, out, msg, msg_len))) {
+            return st;
+        }
+        (void)sm_shaper_step(&d->flux, psi_set, d->Ts, NULL, NULL, 0);
+        (void)sm_shaper_step(&d->speed, omega_set, d->Ts, NULL, NULL, 0);
+        return SM_OK;
+    } else { /* the command takes effect at the next sample: the state and the references there */
+        double pred[7];
+        if ((st = sm_delay_predict(&d->delay, &d->p, meas, model_load(d, T_load), pred))) {
+            return st;
+        }
+        (void)sm_shaper_step(&d->flux, psi_set, d->Ts, NULL, NULL, 0);
+        (void)sm_shaper_step(&d->speed, omega_set, d->Ts, NULL, NULL, 0);
+        sm_shaper_get_state(&d->flux, rf);
+        sm_shaper_get_state(&d->speed, rw);
+        if ((st = run(d, pred, rf, rw, T_load, out, msg, msg_len))) {
+            return st;
+        }
+        delayed(d, out);
+        return SM_OK;
+    }
+}

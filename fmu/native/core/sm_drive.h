@@ -1,0 +1,69 @@
+/* The sampled drive around the control law, and the controller unit: satmotor/drive.py and the
+ * ControllerUnit of satmotor/interface.py in C (their docstrings are the specification).  Modes:
+ * saturated (the backstepping law with the curve), constant_m (the same law, m = m(0)), pi (the IFOC
+ * baseline).  Plain struct (byte-copyable: the FMU state).  C99, no global mutable state. */
+#ifndef SM_DRIVE_H
+#define SM_DRIVE_H
+
+#include <stddef.h>
+
+#include "sm_delay.h"
+#include "sm_ifoc.h"
+#include "sm_law.h"
+#include "sm_observer.h"
+#include "sm_references.h"
+
+typedef enum { SM_MODE_SATURATED = 0, SM_MODE_CONSTANT_M = 1, SM_MODE_PI = 2 } sm_mode;
+enum { SM_PREMAG = 0, SM_RUN = 1 };
+
+/* drive.DriveConfig */
+typedef struct {
+    double ref_bandwidth, I_max, premag_fraction, premag_boost, premag_gain, premag_time_max;
+    double premag_min_fraction, premag_speed_tol;
+    int observer;      /* flux_source: 0 measured, 1 observer */
+    int delay_samples; /* 0 or 1 */
+} sm_drive_config;
+
+void sm_drive_config_default(sm_drive_config *dc);
+
+/* drive.DriveOutput (flags 0/1). */
+typedef struct {
+    double v_s_alpha, v_s_beta, v_sd, v_sq, e1, e2, z1, z2, V, W, T_load_est, omega_ref, psi_ref;
+    int phase, voltage_limited, singular_limited, current_limited;
+    double psi_r_hat_alpha, psi_r_hat_beta;
+} sm_drive_output;
+
+typedef struct {
+    sm_mode mode;
+    sm_motor p; /* the controller's model (constant_m: its curve replaced by the line m(0)) */
+    sm_gains g;
+    sm_law_config cfg;
+    sm_ifoc ifoc;
+    sm_drive_config dc;
+    double Ts, V_max;
+    long n_switch;
+    int has_checked;
+    double checked_psi, checked_I;
+    sm_shaper flux, speed;
+    sm_observer obs;
+    sm_delay delay;
+    /* state */
+    int phase;
+    long n;
+    double theta_hat, e0, z0;
+} sm_drive;
+
+/* The drive of one mode around the motor model p (copied), gains, law config (Ts > 0: a sampled
+ * drive), IFOC gains (pi mode) and the drive config.  SM_OK or SM_ERR_PARAM with the message. */
+int sm_drive_init(sm_drive *d, sm_mode mode, const sm_motor *p, const sm_gains *g, const sm_law_config *cfg,
+                  const sm_ifoc_gains *ig, const sm_drive_config *dc, char *msg, size_t msg_len);
+void sm_drive_reset(sm_drive *d);
+/* One sample (drive._Drive.step): meas[7] = (i_s_alpha, i_s_beta, psi_r_alpha, psi_r_beta,
+ * omega_m, psi_s_alpha, psi_s_beta); set-points [rad/s], [Wb]; load torque [N m].  SM_OK; on
+ * SM_ERR_PARAM (a bad or unreachable set-point) nothing changed; other statuses: a solve failed. */
+int sm_drive_step(sm_drive *d, const double meas[7], double omega_set, double psi_set, double T_load,
+                  sm_drive_output *out, char *msg, size_t msg_len);
+
+size_t sm_drive_size(void);
+
+#endif

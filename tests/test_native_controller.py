@@ -1,0 +1,158 @@
+"""The controller unit in C (fmu/native/core/sm_controller.c, sm_drive.c, sm_delay.c, ...) against
+satmotor.interface.ControllerUnit: a plain-Python closed loop (PlantUnit + ControllerUnit) runs a
+scenario; the C controller receives the same inputs at every sample and must give the same 18
+outputs.  Every mode and option of the drive: the Python is the specification."""
+
+import ctypes
+import math
+
+import numpy as np
+import pytest
+from native_core import build
+
+from satmotor.interface import CONTROLLER_OUTPUTS, ControllerUnit, PlantUnit
+
+STR = 1024
+
+
+class Params(ctypes.Structure):
+    _fields_ = ([(n, ctypes.c_double) for n in ("c1", "c2", "d1", "d2", "c0", "d0", "Ts", "V_dc",
+                                                 "ref_bandwidth", "g_theta", "theta_max", "I_max")]
+                + [("delay_samples", ctypes.c_int), ("use_stator_flux", ctypes.c_int)]
+                + [(n, ctypes.c_char * STR) for n in ("mode", "load_mode", "flux_source")]
+                + [(n, ctypes.c_double) for n in ("R_s", "R_r", "l_s", "l_r", "k", "J", "B", "L_m0",
+                                                   "L_m_inf", "I_par", "poly_b")]
+                + [("n_p", ctypes.c_int), ("poly_n", ctypes.c_int)]
+                + [(n, ctypes.c_char * STR) for n in ("curve", "table_file")])
+
+
+@pytest.fixture(scope="module", params=["plain", "sanitized"])
+def lib(request):
+    extra = ("-fsanitize=undefined", "-fno-sanitize-recover=all") if request.param == "sanitized" else ()
+    so = ctypes.CDLL(str(build(extra)))
+    so.sm_controller_size.restype = so.sm_controller_params_size.restype = ctypes.c_size_t
+    assert so.sm_controller_params_size() == ctypes.sizeof(Params)
+    so.sm_controller_params_default.argtypes = [ctypes.POINTER(Params)]
+    so.sm_controller_init.argtypes = [ctypes.c_void_p, ctypes.POINTER(Params), ctypes.c_char_p,
+                                      ctypes.c_size_t]
+    so.sm_controller_step.argtypes = [ctypes.c_void_p, ctypes.c_double, ctypes.c_double,
+                                      ctypes.POINTER(ctypes.c_double), ctypes.c_char_p, ctypes.c_size_t]
+    return so
+
+
+def _params(lib, values):
+    p = Params()
+    lib.sm_controller_params_default(ctypes.byref(p))
+    for name, value in values.items():
+        setattr(p, name, value.encode() if isinstance(value, str) else value)
+    return p
+
+
+def _c_controller(lib, values):
+    buf = ctypes.create_string_buffer(lib.sm_controller_size())
+    msg = ctypes.create_string_buffer(256)
+    status = lib.sm_controller_init(buf, ctypes.byref(_params(lib, values)), msg, 256)
+    return buf, status, msg.value.decode()
+
+
+def _out(buf, lib):
+    # the outputs array is the last member of sm_controller: read it from the end of the struct
+    n = len(CONTROLLER_OUTPUTS)
+    arr = (ctypes.c_double * n).from_buffer(buf, lib.sm_controller_size() - 8 * n)
+    return list(arr)
+
+
+def _closed_loop(values, plant_values, t_end, omega, psi, load):
+    """Python plant + Python controller; yields (t, inputs, Python outputs)."""
+    plant, ctrl = PlantUnit(plant_values), ControllerUnit(values)
+    Ts = ctrl.Ts
+    for k in range(round(t_end / Ts) + 1):
+        t = k * Ts
+        o = plant.outputs()
+        inputs = (o[0], o[1], o[4], o[5], o[2], o[3], o[6], omega(t), psi(t), load(t))
+        ctrl.step(t, Ts, inputs)
+        yield t, inputs, ctrl.outputs()
+        out = ctrl.outputs()
+        plant.step(t, Ts, (out[0], out[1], load(t)))
+
+
+def _ramp(t):
+    return 0.0 if t < 0.15 else min(100.0, (t - 0.15) * 400.0)
+
+
+def _load(t):
+    return 20.0 if t >= 0.35 else 0.0
+
+
+EXP = {"curve": "exponential", "k": 0.9, "l_r": 5.839e-3 * 0.81, "R_r": 1.395 * 0.81}
+CASES = {
+    "saturated known": ({}, {}),
+    "estimated load, integral action": ({"load_mode": "estimated", "c0": 1e4, "d0": 2500.0}, {"R_r": 2.0}),
+    "constant m": ({"mode": "constant_m"}, {}),
+    "IFOC PI": ({"mode": "pi"}, {}),
+    "observer": ({"flux_source": "observer"}, {}),
+    "delay, integral action, mismatch": ({"delay_samples": 1, "c0": 1e4, "d0": 2500.0}, {"R_s": 1.8}),
+    "observer and delay": ({"flux_source": "observer", "delay_samples": 1}, {}),
+    "stator flux (H1)": ({"use_stator_flux": True}, {}),
+    "current limit binding": ({"I_max": 12.0, "ref_bandwidth": 400.0}, {}),
+    "exponential curve, k = 0.9": (EXP, EXP),
+}
+
+
+@pytest.mark.parametrize("case", list(CASES))
+def test_c_controller_matches_python_sample_by_sample(lib, case):
+    values, plant_values = CASES[case]
+    buf, status, msg = _c_controller(lib, values)
+    assert status == 0, msg
+    msgbuf = ctypes.create_string_buffer(256)
+    worst, n, phases = 0.0, 0, set()
+    for t, inputs, want in _closed_loop(values, plant_values, 0.5, _ramp, lambda t: 0.95, _load):
+        arr = (ctypes.c_double * 10)(*inputs)
+        assert lib.sm_controller_step(buf, t, 1e-4, arr, msgbuf, 256) == 0, msgbuf.value
+        got = _out(buf, lib)
+        for g, w in zip(got, want):
+            worst = max(worst, abs(g - float(w)) / max(abs(float(w)), 1e-9))
+        phases.add(int(got[14]))
+        n += 1
+    print(f"{case}: {n} samples, worst relative difference {worst:.3g}")
+    assert phases == {0, 1}  # pre-magnetization and the law
+    assert worst <= 1e-12
+
+
+BAD = [({"mode": "fuzzy"}, "mode"), ({"flux_source": "estimated"}, "flux_source"),
+       ({"delay_samples": 2}, "delay_samples"), ({"c1": -1.0}, "c1"), ({"d0": math.nan}, "d0"),
+       ({"J": 0.0}, "J"),
+       ({"flux_source": "observer", "use_stator_flux": True}, "use_stator_flux"),
+       ({"load_mode": "guess"}, "load_mode"), ({"curve": "spline"}, "curve")]
+
+
+@pytest.mark.parametrize("values, field", BAD)
+def test_c_controller_refuses_what_python_refuses_with_the_same_message(lib, values, field):
+    _, status, msg = _c_controller(lib, values)
+    assert status != 0
+    with pytest.raises(Exception) as exc:
+        ControllerUnit(values)
+    assert getattr(exc.value, "field", None) == field
+    assert msg == str(exc.value), (msg, str(exc.value))
+
+
+def test_c_controller_refuses_bad_inputs_and_steps_and_changes_nothing(lib):
+    buf, status, _ = _c_controller(lib, {})
+    msg = ctypes.create_string_buffer(256)
+    good = (ctypes.c_double * 10)(1.0, 0.0, 0.1, 0.0, 0.1, 0.0, 0.0, 0.0, 0.95, 0.0)
+    assert lib.sm_controller_step(buf, 0.0, 1e-4, good, msg, 256) == 0
+    before = bytes(buf)
+    bad = (ctypes.c_double * 10)(*good)
+    bad[6] = math.nan
+    assert lib.sm_controller_step(buf, 1e-4, 1e-4, bad, msg, 256) != 0
+    assert msg.value.decode() == "omega_m = nan: must be a finite number"
+    assert lib.sm_controller_step(buf, 1e-4, 2e-4, good, msg, 256) != 0
+    assert msg.value.decode() == "communicationStepSize = 0.0002: must equal the sample period Ts = 0.0001 s"
+    unreachable = (ctypes.c_double * 10)(*good)
+    unreachable[8] = 5.0
+    assert lib.sm_controller_step(buf, 1e-4, 1e-4, unreachable, msg, 256) != 0
+    with pytest.raises(Exception) as exc:
+        ControllerUnit({}).step(0.0, 1e-4, tuple(unreachable))
+    assert msg.value.decode() == str(exc.value)
+    assert bytes(buf) == before
+    assert np.isfinite(_out(buf, lib)).all()
