@@ -1,0 +1,105 @@
+/* The plant as a native FMU model: PlantUnit of satmotor/interface.py on the C core
+ * (fmu/native/core/sm_plant.c), behind the FMI glue of fmu/native/fmi (sm_model.h). */
+#include <math.h>
+
+#include "sm_common.h"
+#include "sm_plant.h"
+#include "sm_vars.h"
+
+#include "sm_values_access.h"
+
+typedef struct {
+    sm_values v; /* first: the generated value store */
+    sm_motor p;
+    double x[SM_N_STATES];
+    int ready;
+} plant_data;
+
+const size_t SM_MODEL_DATA_SIZE = sizeof(plant_data);
+
+static void publish(plant_data *d)
+{
+    sm_plant_outputs o;
+    double *r = d->v.r;
+    if (sm_plant_outputs_of(&d->p, d->x, &o) != 0) {
+        o.i_s_alpha = o.i_s_beta = o.T_e = o.i_mu = NAN;
+    }
+    r[SM_VR_i_s_alpha] = o.i_s_alpha;
+    r[SM_VR_i_s_beta] = o.i_s_beta;
+    r[SM_VR_psi_s_alpha] = d->x[SM_PSI_S_A];
+    r[SM_VR_psi_s_beta] = d->x[SM_PSI_S_B];
+    r[SM_VR_psi_r_alpha] = d->x[SM_PSI_R_A];
+    r[SM_VR_psi_r_beta] = d->x[SM_PSI_R_B];
+    r[SM_VR_omega_m] = d->x[SM_OMEGA_M];
+    r[SM_VR_theta_m] = d->x[SM_THETA_M];
+    r[SM_VR_T_e] = o.T_e;
+    r[SM_VR_i_mu] = o.i_mu;
+}
+
+void sm_model_start(sm_instance *inst, void *data)
+{
+    (void)inst;
+    sm_vars_start(&((plant_data *)data)->v);
+}
+
+sm_status sm_model_exit_initialization(sm_instance *inst, void *data, double start_time)
+{
+    plant_data *d = (plant_data *)data;
+    const double *r = d->v.r;
+    char msg[SM_MSG_LEN], table[SM_VAR_STRING_MAX + 512];
+    int st;
+    d->v.r[SM_VR_time] = start_time;
+    sm_resolve_file(inst, d->v.s[SM_SLOT_table_file], table, sizeof table);
+    st = sm_motor_init(&d->p, r[SM_VR_R_s], r[SM_VR_R_r], r[SM_VR_l_s], r[SM_VR_l_r], r[SM_VR_k],
+                       d->v.i[SM_VR_n_p], r[SM_VR_J], r[SM_VR_B], d->v.s[SM_SLOT_curve], r[SM_VR_L_m0],
+                       r[SM_VR_L_m_inf], r[SM_VR_I_par], r[SM_VR_poly_b], d->v.i[SM_VR_poly_n], table,
+                       r[SM_VR_omega_m0], r[SM_VR_psi_r0], r[SM_VR_h_int], r[SM_VR_B_2], msg, sizeof msg);
+    if (st != 0) {
+        sm_log(inst, SM_ERROR, "logStatusError", "%s", msg);
+        return SM_ERROR;
+    }
+    for (st = 0; st < SM_N_STATES; ++st) {
+        d->x[st] = d->p.x0[st];
+    }
+    d->ready = 1;
+    publish(d);
+    return SM_OK;
+}
+
+sm_status sm_model_do_step(sm_instance *inst, void *data, double t, double h)
+{
+    plant_data *d = (plant_data *)data;
+    const double *r = d->v.r;
+    double x[SM_N_STATES];
+    char msg[SM_MSG_LEN];
+    int n_sub = 1, st, j;
+    if (!d->ready) {
+        sm_log(inst, SM_ERROR, "logStatusError", "doStep before initialization");
+        return SM_ERROR;
+    }
+    st = sm_plant_check_step(&d->p, r[SM_VR_v_s_alpha], r[SM_VR_v_s_beta], r[SM_VR_T_load], h, &n_sub, msg,
+                             sizeof msg);
+    if (st != 0) {
+        sm_log(inst, SM_DISCARD, "logStatusDiscard", "SaturatedInductionMotor at t = %.17g s: %s", t, msg);
+        return SM_DISCARD;
+    }
+    for (j = 0; j < SM_N_STATES; ++j) {
+        x[j] = d->x[j];
+    }
+    st = sm_plant_step(&d->p, x, r[SM_VR_v_s_alpha], r[SM_VR_v_s_beta], r[SM_VR_T_load], h, n_sub);
+    if (st != 0) {
+        double y[SM_N_STATES];
+        for (j = 0; j < SM_N_STATES; ++j) {
+            y[j] = NAN;
+        }
+        sm_plant_nonfinite_message(t, h, y, msg, sizeof msg);
+        sm_log(inst, SM_DISCARD, "logStatusDiscard", "SaturatedInductionMotor at t = %.17g s: %s", t, msg);
+        return SM_DISCARD;
+    }
+    for (j = 0; j < SM_N_STATES; ++j) {
+        d->x[j] = x[j];
+    }
+    d->v.r[SM_VR_time] = t + h;
+    publish(d);
+    return SM_OK;
+}
