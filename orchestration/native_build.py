@@ -129,8 +129,8 @@ def _platform(name: str) -> Platform:
     return PLATFORMS[name]
 
 
-def compile_binary(staging: Path, c_files: Sequence[str], model_identifier: str, token: str, platform: Platform,
-                   out: Path, extra_cflags: Sequence[str] = ()) -> None:
+def compile_binary(staging: Path, c_files: Sequence[str], model_identifier: str, token: str,
+                   platform: Platform, out: Path, extra_cflags: Sequence[str] = ()) -> None:
     """Compile the C files (names relative to ``staging``, where the headers are) into ``out``."""
     cmd = [*_compiler(platform), *CFLAGS, *extra_cflags, "-I.", f"-DMODEL_IDENTIFIER={model_identifier}",
            f'-DINSTANTIATION_TOKEN="{token}"', *c_files, "-o", str(out)]
@@ -140,7 +140,8 @@ def compile_binary(staging: Path, c_files: Sequence[str], model_identifier: str,
         cmd.append("-lm")
     r = subprocess.run(cmd, cwd=staging, capture_output=True, text=True)
     if r.returncode != 0 or not out.is_file():
-        raise NativeBuildError(f"compilation for {platform.fmi3} failed:\n{' '.join(cmd)}\n{r.stdout}{r.stderr}")
+        raise NativeBuildError(
+            f"compilation for {platform.fmi3} failed:\n{' '.join(cmd)}\n{r.stdout}{r.stderr}")
 
 
 def write_reproducible_zip(files: Mapping[str, bytes], out_path: Path) -> None:
@@ -163,7 +164,8 @@ def _resource_files(resources) -> dict[str, bytes]:
         return {}
     if isinstance(resources, str | Path):
         root = Path(resources)
-        return {p.relative_to(root).as_posix(): p.read_bytes() for p in sorted(root.rglob("*")) if p.is_file()}
+        return {p.relative_to(root).as_posix(): p.read_bytes()
+                for p in sorted(root.rglob("*")) if p.is_file()}
     out = {}
     for name, content in resources.items():
         if isinstance(content, Path):
@@ -207,7 +209,8 @@ def build_native_fmu(model_identifier: str, sources: Iterable[str | Path], model
     xml = model_description_xml
     attr = _token_attribute(major)
     if f'{attr}="{GUID_PLACEHOLDER}"' in xml:
-        h = hashlib.sha256(f"{model_identifier}\0{major}\0{sorted(platforms)}\0{list(extra_cflags)}\0".encode())
+        seed = f"{model_identifier}\0{major}\0{sorted(platforms)}\0{list(extra_cflags)}\0"
+        h = hashlib.sha256(seed.encode())
         h.update(xml.encode())
         for n in sorted(src_files):
             h.update(n.encode() + b"\0" + src_files[n] + b"\0")
