@@ -132,12 +132,18 @@ def _platform(name: str) -> Platform:
 def compile_binary(staging: Path, c_files: Sequence[str], model_identifier: str, token: str,
                    platform: Platform, out: Path, extra_cflags: Sequence[str] = ()) -> None:
     """Compile the C files (names relative to ``staging``, where the headers are) into ``out``."""
-    cmd = [*_compiler(platform), *CFLAGS, *extra_cflags, "-I.", f"-DMODEL_IDENTIFIER={model_identifier}",
-           f'-DINSTANTIATION_TOKEN="{token}"', *c_files, "-o", str(out)]
+    flags = [*CFLAGS, *extra_cflags]
+    libs = [] if platform.suffix == ".dll" else ["-lm"]
     if platform.zig_target is None:
-        cmd.insert(1, "-fPIC")
-    if not platform.suffix == ".dll":
-        cmd.append("-lm")
+        flags.insert(0, "-fPIC")
+    else:
+        # clang warns on the () prototypes of fmi3FunctionTypes.h; -s drops the debug info and stabs
+        # that name the temporary directory (and makes the PE/Mach-O output reproducible)
+        flags += ["-Wno-strict-prototypes", "-s"]
+        if platform.suffix == ".dylib":  # a fixed install name instead of the output path
+            libs.append(f"-Wl,-install_name,@rpath/{model_identifier}.dylib")
+    cmd = [*_compiler(platform), *flags, "-I.", f"-DMODEL_IDENTIFIER={model_identifier}",
+           f'-DINSTANTIATION_TOKEN="{token}"', *c_files, "-o", str(out), *libs]
     r = subprocess.run(cmd, cwd=staging, capture_output=True, text=True)
     if r.returncode != 0 or not out.is_file():
         raise NativeBuildError(
