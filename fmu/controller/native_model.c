@@ -34,7 +34,13 @@ void sm_model_start(sm_instance *inst, void *data)
 
 static void copy_str(char *dst, const char *src)
 {
-    (void)snprintf(dst, SM_STR_MAX, "%s", src);
+    size_t n = strlen(src);
+    if (n >= SM_STR_MAX) {
+        n = SM_STR_MAX - 1; /* the model's strings are shorter (sm_model_set_string); a table path in
+                               the resources may not be: sm_model_exit_initialization refuses it */
+    }
+    memcpy(dst, src, n);
+    dst[n] = '\0';
 }
 
 sm_status sm_model_exit_initialization(sm_instance *inst, void *data, double start_time)
@@ -78,6 +84,11 @@ sm_status sm_model_exit_initialization(sm_instance *inst, void *data, double sta
     p->poly_n = d->v.i[SM_VR_poly_n];
     copy_str(p->curve, d->v.s[SM_SLOT_curve]);
     sm_resolve_file(inst, d->v.s[SM_SLOT_table_file], table, sizeof table);
+    if (strlen(table) >= SM_STR_MAX) {
+        sm_log(inst, SM_ERROR, "logStatusError", "table_file: the path %s is longer than %d bytes", table,
+               SM_STR_MAX - 1);
+        return SM_ERROR;
+    }
     copy_str(p->table_file, table);
     st = sm_controller_init(&d->u, p, msg, sizeof msg);
     if (st != 0) {

@@ -15,7 +15,7 @@
 #include <stddef.h>
 
 enum {
-    SM_OK = 0,
+    SM_CORE_OK = 0,
     SM_ERR_PARAM = 1,     /* a bad parameter: msg names it and its value (a ParameterError) */
     SM_ERR_NOCONV = 2,    /* an iteration did not converge (Python: ArithmeticError) */
     SM_ERR_NONFINITE = 3, /* a non-finite input or state (Python: ArithmeticError / ParameterError) */
@@ -35,7 +35,7 @@ char *sm_repr_double(double v, char *buf, size_t buf_len);
 char *sm_repr_str(const char *s, char *buf, size_t buf_len);
 
 /* "{field} = {repr(value)}: must be a finite number{bound}" as errors.require_number: lower bound
- * (has_lower), inclusive or not; returns SM_OK or SM_ERR_PARAM (message written). */
+ * (has_lower), inclusive or not; returns SM_CORE_OK or SM_ERR_PARAM (message written). */
 int sm_require_number(const char *field, double value, int has_lower, double lower, int inclusive,
                       char *msg, size_t msg_len);
 

@@ -155,7 +155,7 @@ int sm_controller_init(sm_controller *u, const sm_controller_params *v, char *ms
     for (j = 0; j < SM_CTRL_N_OUT; ++j) {
         u->out[j] = 0.0;
     }
-    return SM_OK;
+    return SM_CORE_OK;
 }
 
 int sm_controller_step(sm_controller *u, double t, double dt, const double in[SM_CTRL_N_IN], char *msg,
@@ -210,5 +210,5 @@ int sm_controller_step(sm_controller *u, double t, double dt, const double in[SM
     u->out[15] = (double)d.voltage_limited;
     u->out[16] = (double)d.current_limited;
     u->out[17] = (double)d.singular_limited;
-    return SM_OK;
+    return SM_CORE_OK;
 }

@@ -30,7 +30,7 @@ typedef struct {
 
 /* The defaults of the interface tables. */
 void sm_controller_params_default(sm_controller_params *v);
-/* ControllerUnit(values): every check in its order; SM_OK or SM_ERR_PARAM with the message. */
+/* ControllerUnit(values): every check in its order; SM_CORE_OK or SM_ERR_PARAM with the message. */
 int sm_controller_init(sm_controller *u, const sm_controller_params *v, char *msg, size_t msg_len);
 /* ControllerUnit.step(t, dt, inputs): dt must equal Ts; non-finite inputs and bad set-points give
  * SM_ERR_PARAM with the message and change nothing. */

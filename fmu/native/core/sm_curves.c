@@ -116,7 +116,7 @@ int sm_require_number(const char *field, double value, int has_lower, double low
     int ok = isfinite(value);
     char v[40], b[40], reason[96];
     if (ok && has_lower) ok = inclusive ? value >= lower : value > lower;
-    if (ok) return SM_OK;
+    if (ok) return SM_CORE_OK;
     sm_repr_double(value, v, sizeof v);
     if (has_lower) {
         bound_str(lower, b, sizeof b);
@@ -130,7 +130,7 @@ int sm_require_number(const char *field, double value, int has_lower, double low
 int sm_require_integer(const char *field, int value, int lower, char *msg, size_t msg_len)
 {
     char v[24], reason[64];
-    if (value >= lower) return SM_OK;
+    if (value >= lower) return SM_CORE_OK;
     snprintf(v, sizeof v, "%d", value);
     snprintf(reason, sizeof reason, "must be an integer >= %d", lower);
     return sm_param_error(msg, msg_len, NULL, field, v, reason);
@@ -348,7 +348,7 @@ static int generic_solve(const sm_curve *c, double a, double cc, double *I, doub
         else {
             *I = x;
             *psi_out = psi;
-            return SM_OK;
+            return SM_CORE_OK;
         }
         x_new = x - g / (a + dpsi);
         if (!(lo < x_new && x_new < hi)) x_new = (hi < INFINITY) ? 0.5 * (lo + hi) : 2.0 * x;
@@ -358,7 +358,7 @@ static int generic_solve(const sm_curve *c, double a, double cc, double *I, doub
         if (fabs(step) <= SM_REL_TOL * x) {
             *I = x;
             *psi_out = psi;
-            return SM_OK;
+            return SM_CORE_OK;
         }
     }
     *I = NAN;
@@ -373,7 +373,7 @@ static int poly_flux(const sm_curve *c, double a, double cc, double *y_out)
     int n = c->poly_n, it;
     if (cc <= 0.0) {
         *y_out = 0.0;
-        return SM_OK;
+        return SM_CORE_OK;
     }
     y = cc / (1.0 + a * inv_l);
     for (it = 0; it < SM_MAX_ITER; ++it) {
@@ -383,7 +383,7 @@ static int poly_flux(const sm_curve *c, double a, double cc, double *y_out)
         y -= step;
         if (fabs(step) <= SM_REL_TOL * y) {
             *y_out = y;
-            return SM_OK;
+            return SM_CORE_OK;
         }
     }
     *y_out = NAN;
@@ -398,13 +398,13 @@ static double poly_current(const sm_curve *c, double psi)
 int sm_curve_solve(const sm_curve *c, double a, double cc, double *I, double *psi)
 {
     double Iv = NAN, pv = NAN;
-    int st = SM_OK;
+    int st = SM_CORE_OK;
     if (c == NULL) return SM_ERR_ARG;
     if (!isfinite(a) || !isfinite(cc)) {
         st = SM_ERR_NONFINITE;
     } else if (c->kind == SM_CURVE_POLYNOMIAL) {
         st = poly_flux(c, a, cc, &pv);
-        if (st == SM_OK) Iv = poly_current(c, pv);
+        if (st == SM_CORE_OK) Iv = poly_current(c, pv);
     } else if (cc <= 0.0) {
         Iv = 0.0;
         pv = 0.0;
@@ -429,7 +429,7 @@ int sm_curve_current(const sm_curve *c, double psi, double *I)
     }
     if (c->kind == SM_CURVE_POLYNOMIAL) {
         if (I != NULL) *I = poly_current(c, psi);
-        return SM_OK;
+        return SM_CORE_OK;
     }
     return sm_curve_solve(c, 0.0, psi, I, &p);
 }
@@ -456,7 +456,7 @@ static int check_saturating(double L_m0, double L_m_inf, double I_par, char *msg
                  sm_repr_double(L_m0, b, sizeof b));
         return sm_param_error(msg, msg_len, NULL, "L_m_inf", sm_repr_double(L_m_inf, v, sizeof v), r);
     }
-    return SM_OK;
+    return SM_CORE_OK;
 }
 
 /* numpy.sign of a double: -1, 0, 1, NaN for NaN */
@@ -644,7 +644,7 @@ static int table_build(sm_curve *c, const double *xi, const double *yi, int n_in
         c->m0 = c->d0[0];
         c->L_m0 = c->m0;
     }
-    return SM_OK;
+    return SM_CORE_OK;
 }
 
 int sm_curve_init_table(sm_curve *c, const double *i_mu, const double *psi_m, int n_points, char *msg,
@@ -965,7 +965,7 @@ int sm_curve_init(sm_curve *c, const char *name, double L_m0, double L_m_inf, do
         c->L_m_inf = L_m_inf;
         c->I_par = I_par;
         c->m0 = L_m0;
-        return SM_OK;
+        return SM_CORE_OK;
     }
     if (strcmp(name, "polynomial") == 0) {
         if (sm_require_number("L_m0", L_m0, 1, 0.0, 0, msg, msg_len)) return SM_ERR_PARAM;
@@ -981,7 +981,7 @@ int sm_curve_init(sm_curve *c, const char *name, double L_m0, double L_m_inf, do
         c->poly_b = poly_b;
         c->poly_n = poly_n;
         c->m0 = L_m0;
-        return SM_OK;
+        return SM_CORE_OK;
     }
     if (strcmp(name, "linear") == 0) {
         if (sm_require_number("L_m0", L_m0, 1, 0.0, 0, msg, msg_len)) return SM_ERR_PARAM;
@@ -989,7 +989,7 @@ int sm_curve_init(sm_curve *c, const char *name, double L_m0, double L_m_inf, do
         c->kind = SM_CURVE_LINEAR;
         c->L_m0 = L_m0;
         c->m0 = L_m0;
-        return SM_OK;
+        return SM_CORE_OK;
     }
     return sm_param_error(msg, msg_len, NULL, "curve", sm_repr_str(name, v, sizeof v),
                           "must be one of arctan, exponential, polynomial, table, linear");

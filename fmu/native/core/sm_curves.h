@@ -34,7 +34,7 @@ typedef struct {
 
 /* Mirrors params.make_curve: name is one of arctan, exponential, polynomial, table, linear; the
  * parameters a family does not use are ignored.  table_path: CSV file read as
- * TableCurve.from_csv.  Returns SM_OK or SM_ERR_PARAM with the ParameterError text in msg. */
+ * TableCurve.from_csv.  Returns SM_CORE_OK or SM_ERR_PARAM with the ParameterError text in msg. */
 int sm_curve_init(sm_curve *c, const char *name, double L_m0, double L_m_inf, double I_par,
                   double poly_b, int poly_n, const char *table_path, char *msg, size_t msg_len);
 
@@ -51,10 +51,10 @@ double sm_curve_m(const sm_curve *c, double I);
 double sm_curve_dm_dI(const sm_curve *c, double I);
 double sm_curve_L_dyn(const sm_curve *c, double I);
 
-/* Inverse: the I >= 0 with psi(I) = psi.  SM_OK, SM_ERR_NOCONV or SM_ERR_NONFINITE (*I = NaN). */
+/* Inverse: the I >= 0 with psi(I) = psi.  SM_CORE_OK, SM_ERR_NOCONV or SM_ERR_NONFINITE (*I = NaN). */
 int sm_curve_current(const sm_curve *c, double psi, double *I);
 
-/* Root I >= 0 of a I + psi(I) = cc (a >= 0), and psi(I).  SM_OK; SM_ERR_NONFINITE for a non-finite
+/* Root I >= 0 of a I + psi(I) = cc (a >= 0), and psi(I).  SM_CORE_OK; SM_ERR_NONFINITE for a non-finite
  * a or cc; SM_ERR_NOCONV when the iteration does not converge (Python: ArithmeticError). */
 int sm_curve_solve(const sm_curve *c, double a, double cc, double *I, double *psi);
 

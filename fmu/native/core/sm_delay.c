@@ -9,7 +9,7 @@ int sm_delay_init(sm_delay *d, double Ts, double bias_gain, char *msg, size_t ms
     if (d == NULL) {
         return SM_ERR_ARG;
     }
-    if (sm_require_number("Ts", Ts, 1, 0.0, 0, msg, msg_len) != SM_OK) {
+    if (sm_require_number("Ts", Ts, 1, 0.0, 0, msg, msg_len) != SM_CORE_OK) {
         return SM_ERR_PARAM;
     }
     if (!(bias_gain >= 0.0 && bias_gain <= 1.0)) {
@@ -20,7 +20,7 @@ int sm_delay_init(sm_delay *d, double Ts, double bias_gain, char *msg, size_t ms
     d->Ts = Ts;
     d->bias_gain = bias_gain;
     sm_delay_reset(d);
-    return SM_OK;
+    return SM_CORE_OK;
 }
 
 void sm_delay_reset(sm_delay *d)
@@ -65,7 +65,7 @@ int sm_delay_predict(sm_delay *d, const sm_motor *p, const double meas[7], doubl
             d->corr[j] = d->corr[j] + g * (y[j] - d->pred[j] - d->corr[j]);
         }
     }
-    if ((st = sm_from_rotor_flux(i_a, i_b, pr_a, pr_b, p, &ms)) != SM_OK) {
+    if ((st = sm_from_rotor_flux(i_a, i_b, pr_a, pr_b, p, &ms)) != SM_CORE_OK) {
         return st;
     }
     x[0] = p->l_s * i_a + ms.m * ms.i_mu_alpha;
@@ -74,8 +74,8 @@ int sm_delay_predict(sm_delay *d, const sm_motor *p, const double meas[7], doubl
     x[3] = pr_b;
     x[4] = w;
     x[5] = 0.0;
-    if ((st = sm_plant_step(p, x, d->pending[0], d->pending[1], T_load, d->Ts, 1)) != SM_OK ||
-        (st = sm_plant_outputs_of(p, x, &o)) != SM_OK) {
+    if ((st = sm_plant_step(p, x, d->pending[0], d->pending[1], T_load, d->Ts, 1)) != SM_CORE_OK ||
+        (st = sm_plant_outputs_of(p, x, &o)) != SM_CORE_OK) {
         return st;
     }
     qa = x[SM_PSI_R_A];
@@ -103,5 +103,5 @@ int sm_delay_predict(sm_delay *d, const sm_motor *p, const double meas[7], doubl
     out[4] = v[4];
     out[5] = x[SM_PSI_S_A];
     out[6] = x[SM_PSI_S_B];
-    return SM_OK;
+    return SM_CORE_OK;
 }

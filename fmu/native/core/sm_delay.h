@@ -22,7 +22,7 @@ void sm_delay_reset(sm_delay *d);
 /* Store the voltage just computed; *va, *vb the one to apply now (the pending one). */
 void sm_delay_swap(sm_delay *d, double v_alpha, double v_beta, double *va, double *vb);
 /* The measurement vector (SM_MEAS_LEN values) predicted at the next sample under the pending
- * voltage with T_load [N m] held, by the controller's model p.  SM_OK or a solve/step status. */
+ * voltage with T_load [N m] held, by the controller's model p.  SM_CORE_OK or a solve/step status. */
 int sm_delay_predict(sm_delay *d, const sm_motor *p, const double meas[7], double T_load, double out[7]);
 
 #endif

@@ -73,7 +73,7 @@ static int check_config(const sm_drive_config *c, char *msg, size_t len)
     if (c->delay_samples != 0 && c->delay_samples != 1) {
         return sm_param_error(msg, len, NULL, "delay_samples", c->delay_samples ? "2" : "0", "must be 0 or 1");
     }
-    return SM_OK;
+    return SM_CORE_OK;
 }
 
 int sm_drive_init(sm_drive *d, sm_mode mode, const sm_motor *p, const sm_gains *g, const sm_law_config *cfg,
@@ -133,7 +133,7 @@ int sm_drive_init(sm_drive *d, sm_mode mode, const sm_motor *p, const sm_gains *
         return st;
     }
     sm_drive_reset(d);
-    return SM_OK;
+    return SM_CORE_OK;
 }
 
 void sm_drive_reset(sm_drive *d)
@@ -161,7 +161,7 @@ static int magnetizing_current(sm_drive *d, double psi_set, double *I, char *msg
     char reason[160], repr[32];
     if (d->has_checked && psi_set == d->checked_psi) {
         *I = d->checked_I;
-        return SM_OK;
+        return SM_CORE_OK;
     }
     if ((st = sm_require_number("psi_ref", psi_set, 1, 0.0, 0, msg, len))) {
         return st;
@@ -177,7 +177,7 @@ static int magnetizing_current(sm_drive *d, double psi_set, double *I, char *msg
     d->has_checked = 1;
     d->checked_psi = psi_set;
     d->checked_I = *I;
-    return SM_OK;
+    return SM_CORE_OK;
 }
 
 static int switch_now(const sm_drive *d, double phi, double psi_set, double omega_m)
@@ -248,7 +248,7 @@ static int do_switch(sm_drive *d, const double meas[7])
     if (d->mode == SM_MODE_PI) {
         return sm_ifoc_reset(&d->ifoc, ms.rho, ms.Phi_rd, NULL, 0);
     }
-    return SM_OK;
+    return SM_CORE_OK;
 }
 
 static double model_load(const sm_drive *d, double T_load)
@@ -295,7 +295,7 @@ static int run(sm_drive *d, const double meas[7], const double rf[3], const doub
         integ[0] = d->e0;
         integ[1] = d->z0;
         st = sm_control(meas, ref, load, &d->p, &d->g, &d->cfg, d->theta_hat, integ, d->dc.I_max, &c);
-        if (st != SM_OK && st != SM_ERR_NONFINITE) {
+        if (st != SM_CORE_OK && st != SM_ERR_NONFINITE) {
             return st;
         }
         if (d->cfg.load_estimated) {
@@ -328,7 +328,7 @@ static int run(sm_drive *d, const double meas[7], const double rf[3], const doub
     o->phase = SM_RUN;
     o->psi_r_hat_alpha = meas[2];
     o->psi_r_hat_beta = meas[3];
-    return SM_OK;
+    return SM_CORE_OK;
 }
 
 static void delayed(sm_drive *d, sm_drive_output *o)
@@ -371,7 +371,7 @@ int sm_drive_step(sm_drive *d, const double meas_in[7], double omega_set, double
             d->n += 1;
             premag(d, meas, I_set, phi, psi_set, out);
             delayed(d, out);
-            return SM_OK;
+            return SM_CORE_OK;
         }
         if ((st = do_switch(d, meas))) {
             return st;
@@ -385,7 +385,7 @@ int sm_drive_step(sm_drive *d, const double meas_in[7], double omega_set, double
         }
         (void)sm_shaper_step(&d->flux, psi_set, d->Ts, NULL, NULL, 0);
         (void)sm_shaper_step(&d->speed, omega_set, d->Ts, NULL, NULL, 0);
-        return SM_OK;
+        return SM_CORE_OK;
     } else { /* the command takes effect at the next sample: the state and the references there */
         double pred[7];
         if ((st = sm_delay_predict(&d->delay, &d->p, meas, model_load(d, T_load), pred))) {
@@ -399,6 +399,6 @@ int sm_drive_step(sm_drive *d, const double meas_in[7], double omega_set, double
             return st;
         }
         delayed(d, out);
-        return SM_OK;
+        return SM_CORE_OK;
     }
 }

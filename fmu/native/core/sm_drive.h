@@ -54,12 +54,12 @@ typedef struct {
 } sm_drive;
 
 /* The drive of one mode around the motor model p (copied), gains, law config (Ts > 0: a sampled
- * drive), IFOC gains (pi mode) and the drive config.  SM_OK or SM_ERR_PARAM with the message. */
+ * drive), IFOC gains (pi mode) and the drive config.  SM_CORE_OK or SM_ERR_PARAM with the message. */
 int sm_drive_init(sm_drive *d, sm_mode mode, const sm_motor *p, const sm_gains *g, const sm_law_config *cfg,
                   const sm_ifoc_gains *ig, const sm_drive_config *dc, char *msg, size_t msg_len);
 void sm_drive_reset(sm_drive *d);
 /* One sample (drive._Drive.step): meas[7] = (i_s_alpha, i_s_beta, psi_r_alpha, psi_r_beta,
- * omega_m, psi_s_alpha, psi_s_beta); set-points [rad/s], [Wb]; load torque [N m].  SM_OK; on
+ * omega_m, psi_s_alpha, psi_s_beta); set-points [rad/s], [Wb]; load torque [N m].  SM_CORE_OK; on
  * SM_ERR_PARAM (a bad or unreachable set-point) nothing changed; other statuses: a solve failed. */
 int sm_drive_step(sm_drive *d, const double meas[7], double omega_set, double psi_set, double T_load,
                   sm_drive_output *out, char *msg, size_t msg_len);

@@ -121,7 +121,7 @@ int sm_from_rotor_flux(double i_sa, double i_sb, double psi_ra, double psi_rb, c
         in_flux_frame(NAN, NAN, NAN, NAN, psi_ra, psi_rb, ms);
         return st;
     }
-    if (st != SM_OK) { /* a non-finite |w|: Python's solve returns NaN (or inf) iterates */
+    if (st != SM_CORE_OK) { /* a non-finite |w|: Python's solve returns NaN (or inf) iterates */
         I = NAN;
         psi = NAN;
     }
@@ -131,7 +131,7 @@ int sm_from_rotor_flux(double i_sa, double i_sb, double psi_ra, double psi_rb, c
         s = I / wn;
         in_flux_frame(s * wa, s * wb, I, psi / I, psi_ra, psi_rb, ms);
     }
-    return (st == SM_OK && all_finite(in, 4)) ? SM_OK : SM_ERR_NONFINITE; /* |w| may overflow */
+    return (st == SM_CORE_OK && all_finite(in, 4)) ? SM_CORE_OK : SM_ERR_NONFINITE; /* |w| may overflow */
 }
 
 int sm_from_magnetizing_current(double i_mu_a, double i_mu_b, double psi_ra, double psi_rb,
@@ -145,7 +145,7 @@ int sm_from_magnetizing_current(double i_mu_a, double i_mu_b, double psi_ra, dou
     in[3] = psi_rb;
     I = sm_hypot(i_mu_a, i_mu_b);
     in_flux_frame(i_mu_a, i_mu_b, I, sm_curve_m(&p->curve, I), psi_ra, psi_rb, ms);
-    return all_finite(in, 4) ? SM_OK : SM_ERR_NONFINITE;
+    return all_finite(in, 4) ? SM_CORE_OK : SM_ERR_NONFINITE;
 }
 
 int sm_from_stator_flux(double i_sa, double i_sb, double psi_ra, double psi_rb, double psi_sa,
@@ -171,7 +171,7 @@ int sm_from_stator_flux(double i_sa, double i_sb, double psi_ra, double psi_rb, 
     else
         m = sm_hypot(psi_sa - ls * i_sa, psi_sb - ls * i_sb) / I;
     in_flux_frame(ima, imb, I, m, psi_ra, psi_rb, ms);
-    return all_finite(in, 6) ? SM_OK : SM_ERR_NONFINITE;
+    return all_finite(in, 6) ? SM_CORE_OK : SM_ERR_NONFINITE;
 }
 
 /* ---- backstepping.py: parameters --------------------------------------------------------------- */
@@ -190,11 +190,11 @@ int sm_gains_check(const sm_gains *g, char *msg, size_t msg_len)
 {
     int st;
     if (g == NULL) return SM_ERR_ARG;
-    if ((st = sm_require_number("c1", g->c1, 1, 0.0, 0, msg, msg_len)) != SM_OK) return st;
-    if ((st = sm_require_number("c2", g->c2, 1, 0.0, 0, msg, msg_len)) != SM_OK) return st;
-    if ((st = sm_require_number("d1", g->d1, 1, 0.0, 0, msg, msg_len)) != SM_OK) return st;
-    if ((st = sm_require_number("d2", g->d2, 1, 0.0, 0, msg, msg_len)) != SM_OK) return st;
-    if ((st = sm_require_number("c0", g->c0, 1, 0.0, 1, msg, msg_len)) != SM_OK) return st;
+    if ((st = sm_require_number("c1", g->c1, 1, 0.0, 0, msg, msg_len)) != SM_CORE_OK) return st;
+    if ((st = sm_require_number("c2", g->c2, 1, 0.0, 0, msg, msg_len)) != SM_CORE_OK) return st;
+    if ((st = sm_require_number("d1", g->d1, 1, 0.0, 0, msg, msg_len)) != SM_CORE_OK) return st;
+    if ((st = sm_require_number("d2", g->d2, 1, 0.0, 0, msg, msg_len)) != SM_CORE_OK) return st;
+    if ((st = sm_require_number("c0", g->c0, 1, 0.0, 1, msg, msg_len)) != SM_CORE_OK) return st;
     return sm_require_number("d0", g->d0, 1, 0.0, 1, msg, msg_len);
 }
 
@@ -212,7 +212,7 @@ void sm_law_config_default(sm_law_config *cfg)
 static int require_flag(const char *field, int value, const char *reason, char *msg, size_t msg_len)
 {
     char v[24];
-    if (value == 0 || value == 1) return SM_OK;
+    if (value == 0 || value == 1) return SM_CORE_OK;
     snprintf(v, sizeof v, "%d", value);
     return sm_param_error(msg, msg_len, NULL, field, v, reason);
 }
@@ -221,14 +221,14 @@ int sm_law_config_check(const sm_law_config *cfg, char *msg, size_t msg_len)
 {
     int st;
     if (cfg == NULL) return SM_ERR_ARG;
-    if ((st = sm_require_number("V_dc", cfg->V_dc, 1, 0.0, 0, msg, msg_len)) != SM_OK) return st;
-    if ((st = sm_require_number("Ts", cfg->Ts, 1, 0.0, 1, msg, msg_len)) != SM_OK) return st;
-    if ((st = sm_require_number("phi_min", cfg->phi_min, 1, 0.0, 0, msg, msg_len)) != SM_OK) return st;
+    if ((st = sm_require_number("V_dc", cfg->V_dc, 1, 0.0, 0, msg, msg_len)) != SM_CORE_OK) return st;
+    if ((st = sm_require_number("Ts", cfg->Ts, 1, 0.0, 1, msg, msg_len)) != SM_CORE_OK) return st;
+    if ((st = sm_require_number("phi_min", cfg->phi_min, 1, 0.0, 0, msg, msg_len)) != SM_CORE_OK) return st;
     if ((st = require_flag("load_estimated", cfg->load_estimated,
-                           "must be 0 ('known') or 1 ('estimated')", msg, msg_len)) != SM_OK)
+                           "must be 0 ('known') or 1 ('estimated')", msg, msg_len)) != SM_CORE_OK)
         return st;
-    if ((st = sm_require_number("g_theta", cfg->g_theta, 1, 0.0, 0, msg, msg_len)) != SM_OK) return st;
-    if ((st = sm_require_number("theta_max", cfg->theta_max, 1, 0.0, 0, msg, msg_len)) != SM_OK)
+    if ((st = sm_require_number("g_theta", cfg->g_theta, 1, 0.0, 0, msg, msg_len)) != SM_CORE_OK) return st;
+    if ((st = sm_require_number("theta_max", cfg->theta_max, 1, 0.0, 0, msg, msg_len)) != SM_CORE_OK)
         return st;
     return require_flag("use_stator_flux", cfg->use_stator_flux, "must be a bool (0 or 1)", msg,
                         msg_len);
@@ -356,7 +356,7 @@ int sm_error_system(const double x[4], const double ref[6], const sm_motor *p, c
          i_max, es);
     finite = all_finite(x, 4) && all_finite(ref, 6) && isfinite(theta) && isfinite(e0)
              && isfinite(z0) && (adapt != NULL || isfinite(theta_dot));
-    return finite ? SM_OK : SM_ERR_NONFINITE;
+    return finite ? SM_CORE_OK : SM_ERR_NONFINITE;
 }
 
 /* ---- backstepping.py: control ---------------------------------------------------------------- */
@@ -472,7 +472,7 @@ int sm_control(const double meas[SM_MEAS_LEN], const double ref[6], const double
     out->e0_dot = (vlim || es.flux_limited * es.e1 < 0.0) ? 0.0 : es.e1;
     out->z0_dot = (vlim || es.torque_limited * es.z1 < 0.0) ? 0.0 : es.z1;
     out->current_limited = es.flux_limited != 0 || es.torque_limited != 0;
-    finite = st == SM_OK && isfinite(w) && all_finite(ref, 6) && isfinite(e0) && isfinite(z0)
+    finite = st == SM_CORE_OK && isfinite(w) && all_finite(ref, 6) && isfinite(e0) && isfinite(z0)
              && (cfg->load_estimated ? isfinite(theta_hat) : (isfinite(load[0]) && isfinite(load[1])));
-    return finite ? SM_OK : SM_ERR_NONFINITE;
+    return finite ? SM_CORE_OK : SM_ERR_NONFINITE;
 }

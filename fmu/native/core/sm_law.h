@@ -87,12 +87,12 @@ typedef struct {
     double rho;                   /* [rad] rotor flux angle */
 } sm_magnetizing;
 
-/* from_rotor_flux: i_mu via the curve of p (sm_curve_solve).  SM_OK; a non-finite input gives
+/* from_rotor_flux: i_mu via the curve of p (sm_curve_solve).  SM_CORE_OK; a non-finite input gives
  * SM_ERR_NONFINITE with the state computed as far as it goes (NaN where Python has NaN); a solve
  * that does not converge SM_ERR_NOCONV (Python: ArithmeticError). */
 int sm_from_rotor_flux(double i_sa, double i_sb, double psi_ra, double psi_rb, const sm_motor *p,
                        sm_magnetizing *ms);
-/* from_stator_flux: i_mu by algebra, m = |psi_s - l_s i_s| / |i_mu|.  SM_OK or SM_ERR_NONFINITE. */
+/* from_stator_flux: i_mu by algebra, m = |psi_s - l_s i_s| / |i_mu|.  SM_CORE_OK or SM_ERR_NONFINITE. */
 int sm_from_stator_flux(double i_sa, double i_sb, double psi_ra, double psi_rb, double psi_sa,
                         double psi_sb, const sm_motor *p, sm_magnetizing *ms);
 /* from_magnetizing_current: a given i_mu (the plant's true one), m from the curve at |i_mu|. */
@@ -108,7 +108,7 @@ typedef struct {
 
 /* The Python defaults (200, 1000, 100, 500, 0, 0). */
 void sm_gains_default(sm_gains *g);
-/* BacksteppingGains.__post_init__: SM_OK or SM_ERR_PARAM ("c1 = -1.0: must be a finite number
+/* BacksteppingGains.__post_init__: SM_CORE_OK or SM_ERR_PARAM ("c1 = -1.0: must be a finite number
  * > 0"). */
 int sm_gains_check(const sm_gains *g, char *msg, size_t msg_len);
 
@@ -126,7 +126,7 @@ typedef struct {
 
 /* The Python defaults (540 V, 1e-4 s, 0.05 Wb, known, 5, 1e4, rotor flux). */
 void sm_law_config_default(sm_law_config *cfg);
-/* ControllerConfig.__post_init__ in the same order: SM_OK or SM_ERR_PARAM. */
+/* ControllerConfig.__post_init__ in the same order: SM_CORE_OK or SM_ERR_PARAM. */
 int sm_law_config_check(const sm_law_config *cfg, char *msg, size_t msg_len);
 
 /* backstepping.ErrorSystem. */
@@ -148,7 +148,7 @@ typedef struct {
  * x = (Phi_rd, i_mu_d, i_mu_q, omega_m); ref = (Phi_ref, Phi_ref', Phi_ref'', omega_ref,
  * omega_ref', omega_ref''); adapt NULL (theta_dot given) or (g_theta, theta_max); integ NULL
  * (0, 0) or (e0, z0); i_max [A] (INFINITY: no current limit).  m, dm/dI from p's curve at |i_mu|.
- * SM_OK, SM_ERR_ARG (NULL pointer) or SM_ERR_NONFINITE (a non-finite input; es still filled). */
+ * SM_CORE_OK, SM_ERR_ARG (NULL pointer) or SM_ERR_NONFINITE (a non-finite input; es still filled). */
 int sm_error_system(const double x[4], const double ref[6], const sm_motor *p, const sm_gains *g,
                     double theta, double theta_dot, double phi_min, const double *adapt,
                     const double *integ, double i_max, sm_error_state *es);
@@ -176,7 +176,7 @@ typedef struct {
  * theta_hat [rad/s^2] the estimate (estimated mode; clipped to +-theta_max); integ (e0, z0) or
  * NULL; i_max [A] (INFINITY: none).  p, g, cfg are taken as checked (sm_motor_init,
  * sm_gains_check, sm_law_config_check).
- * Returns SM_OK; SM_ERR_ARG for a NULL pointer (out zeroed); SM_ERR_NOCONV when the curve solve
+ * Returns SM_CORE_OK; SM_ERR_ARG for a NULL pointer (out zeroed); SM_ERR_NOCONV when the curve solve
  * did not converge (out filled with NaN; Python raises); SM_ERR_NONFINITE when an input read is not
  * finite (out filled as Python computes it: NaN, or the voltage limit's fallback direction). */
 int sm_control(const double meas[SM_MEAS_LEN], const double ref[6], const double load[2],

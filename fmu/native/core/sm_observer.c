@@ -16,12 +16,12 @@ int sm_observer_init(sm_observer *o, double R_r, double l_r, double k, int n_p, 
     if (o == NULL) {
         return SM_ERR_ARG;
     }
-    if (sm_require_number("Ts", Ts, 1, 0.0, 0, msg, msg_len) != SM_OK ||
-        sm_require_integer("n_sub", n_sub, 1, msg, msg_len) != SM_OK ||
-        sm_require_number("R_r", R_r, 1, 0.0, 0, msg, msg_len) != SM_OK ||
-        sm_require_number("l_r", l_r, 1, 0.0, 0, msg, msg_len) != SM_OK ||
-        sm_require_number("k", k, 1, 0.0, 0, msg, msg_len) != SM_OK ||
-        sm_require_integer("n_p", n_p, 1, msg, msg_len) != SM_OK) {
+    if (sm_require_number("Ts", Ts, 1, 0.0, 0, msg, msg_len) != SM_CORE_OK ||
+        sm_require_integer("n_sub", n_sub, 1, msg, msg_len) != SM_CORE_OK ||
+        sm_require_number("R_r", R_r, 1, 0.0, 0, msg, msg_len) != SM_CORE_OK ||
+        sm_require_number("l_r", l_r, 1, 0.0, 0, msg, msg_len) != SM_CORE_OK ||
+        sm_require_number("k", k, 1, 0.0, 0, msg, msg_len) != SM_CORE_OK ||
+        sm_require_integer("n_p", n_p, 1, msg, msg_len) != SM_CORE_OK) {
         return SM_ERR_PARAM;
     }
     o->Ts = Ts;
@@ -36,15 +36,15 @@ int sm_observer_init(sm_observer *o, double R_r, double l_r, double k, int n_p, 
 
 int sm_observer_reset(sm_observer *o, double psi_r_alpha, double psi_r_beta, char *msg, size_t msg_len)
 {
-    if (sm_require_number("psi_r_alpha", psi_r_alpha, 0, 0.0, 0, msg, msg_len) != SM_OK ||
-        sm_require_number("psi_r_beta", psi_r_beta, 0, 0.0, 0, msg, msg_len) != SM_OK) {
+    if (sm_require_number("psi_r_alpha", psi_r_alpha, 0, 0.0, 0, msg, msg_len) != SM_CORE_OK ||
+        sm_require_number("psi_r_beta", psi_r_beta, 0, 0.0, 0, msg, msg_len) != SM_CORE_OK) {
         return SM_ERR_PARAM;
     }
     o->pa = psi_r_alpha;
     o->pb = psi_r_beta;
     o->isa = o->isb = o->w = 0.0;
     o->has_prev = 0;
-    return SM_OK;
+    return SM_CORE_OK;
 }
 
 /* phi' = R(-theta)(-R_r i_r) at phi = (fa, fb), cos/sin theta = (c, s), i_s = (isa, isb) */
@@ -58,7 +58,7 @@ static int rhs(const sm_observer *o, const sm_curve *curve, double c, double s, 
     double wn = sm_hypot(wa, wb);
     double a = o->a, I = 0.0, psi = 0.0, q, ga, gb;
     int status = sm_curve_solve(curve, a, a * wn, &I, &psi);
-    if (status != SM_OK) {
+    if (status != SM_CORE_OK) {
         return status;
     }
     q = wn > 0.0 ? o->k * psi / wn : 0.0;
@@ -66,7 +66,7 @@ static int rhs(const sm_observer *o, const sm_curve *curve, double c, double s, 
     gb = -o->Rr_lr * (pb - q * wb);
     *da = c * ga + s * gb;
     *db = c * gb - s * ga;
-    return SM_OK;
+    return SM_CORE_OK;
 }
 
 int sm_observer_update(sm_observer *o, const sm_curve *curve, double i_s_alpha, double i_s_beta,
@@ -81,7 +81,7 @@ int sm_observer_update(sm_observer *o, const sm_curve *curve, double i_s_alpha, 
         o->has_prev = 1;
         *pa = o->pa;
         *pb = o->pb;
-        return SM_OK;
+        return SM_CORE_OK;
     }
     Ts = o->Ts;
     n = o->n_sub;
@@ -107,11 +107,11 @@ int sm_observer_update(sm_observer *o, const sm_curve *curve, double i_s_alpha, 
         double cm = cos(thm), sm = sin(thm), c1 = cos(th), s1 = sin(th);
         double iam = isa0 + dia * tm, ibm = isb0 + dib * tm;
         double k1a, k1b, k2a, k2b, k3a, k3b, k4a, k4b;
-        if ((st = rhs(o, curve, c0, s0, fa, fb, isa0 + dia * t0, isb0 + dib * t0, &k1a, &k1b)) != SM_OK ||
-            (st = rhs(o, curve, cm, sm, fa + hh * k1a, fb + hh * k1b, iam, ibm, &k2a, &k2b)) != SM_OK ||
-            (st = rhs(o, curve, cm, sm, fa + hh * k2a, fb + hh * k2b, iam, ibm, &k3a, &k3b)) != SM_OK ||
+        if ((st = rhs(o, curve, c0, s0, fa, fb, isa0 + dia * t0, isb0 + dib * t0, &k1a, &k1b)) != SM_CORE_OK ||
+            (st = rhs(o, curve, cm, sm, fa + hh * k1a, fb + hh * k1b, iam, ibm, &k2a, &k2b)) != SM_CORE_OK ||
+            (st = rhs(o, curve, cm, sm, fa + hh * k2a, fb + hh * k2b, iam, ibm, &k3a, &k3b)) != SM_CORE_OK ||
             (st = rhs(o, curve, c1, s1, fa + h * k3a, fb + h * k3b, isa0 + dia * t1, isb0 + dib * t1, &k4a,
-                      &k4b)) != SM_OK) {
+                      &k4b)) != SM_CORE_OK) {
             return st;
         }
         fa += h / 6.0 * (k1a + 2.0 * (k2a + k3a) + k4a);
@@ -127,5 +127,5 @@ int sm_observer_update(sm_observer *o, const sm_curve *curve, double i_s_alpha, 
     o->w = omega_m;
     *pa = o->pa;
     *pb = o->pb;
-    return SM_OK;
+    return SM_CORE_OK;
 }

@@ -22,7 +22,7 @@ int sm_observer_init(sm_observer *o, double R_r, double l_r, double k, int n_p, 
                      char *msg, size_t msg_len);
 /* Set the estimate [Wb], forget the previous sample. */
 int sm_observer_reset(sm_observer *o, double psi_r_alpha, double psi_r_beta, char *msg, size_t msg_len);
-/* Advance to this sample; the estimate in *pa, *pb [Wb].  SM_OK, or the curve solve's status (the
+/* Advance to this sample; the estimate in *pa, *pb [Wb].  SM_CORE_OK, or the curve solve's status (the
  * estimate is then left as it was). */
 int sm_observer_update(sm_observer *o, const sm_curve *curve, double i_s_alpha, double i_s_beta,
                        double omega_m, double *pa, double *pb);

@@ -80,7 +80,7 @@ int sm_motor_init(sm_motor *p, double R_s, double R_r, double l_s, double l_r, d
         return st;
     }
     memcpy(p, &q, sizeof q);
-    return SM_OK;
+    return SM_CORE_OK;
 }
 
 /* Plant.magnetizing: (i_mu_alpha, i_mu_beta, I, psi_m, m) */
@@ -99,7 +99,7 @@ static int magnetizing(const sm_motor *p, double psa, double psb, double pra, do
         *I_out = 0.0;
         *psi_out = 0.0;
         *m_out = p->m0;
-        return SM_OK;
+        return SM_CORE_OK;
     }
     s = I / un;
     *ima = s * ua;
@@ -107,7 +107,7 @@ static int magnetizing(const sm_motor *p, double psa, double psb, double pra, do
     *I_out = I;
     *psi_out = psi;
     *m_out = psi / I;
-    return SM_OK;
+    return SM_CORE_OK;
 }
 
 int sm_plant_derivatives(const sm_motor *p, const double x[6], double v_a, double v_b, double T_load,
@@ -143,7 +143,7 @@ int sm_plant_derivatives(const sm_motor *p, const double x[6], double v_a, doubl
     dx[3] = -p->R_r * irb + we * pra;
     dx[4] = (te - T_load - (p->B + p->B_2 * fabs(w)) * w) * p->inv_J;
     dx[5] = w;
-    return all_finite(dx, 6) ? SM_OK : SM_ERR_NONFINITE;
+    return all_finite(dx, 6) ? SM_CORE_OK : SM_ERR_NONFINITE;
 }
 
 int sm_plant_outputs_of(const sm_motor *p, const double x[6], sm_plant_outputs *o)
@@ -179,7 +179,7 @@ int sm_plant_outputs_of(const sm_motor *p, const double x[6], sm_plant_outputs *
     o->psi_m = psi;
     o->m = m;
     o->T_e = p->kappa * (psa * isb - psb * isa);
-    return SM_OK;
+    return SM_CORE_OK;
 }
 
 int sm_plant_step(const sm_motor *p, double x[6], double v_a, double v_b, double T_load, double dt,
@@ -194,18 +194,18 @@ int sm_plant_step(const sm_motor *p, double x[6], double v_a, double v_b, double
     sixth = h / 6.0;
     memcpy(xc, x, sizeof xc);
     for (j = 0; j < n_sub; ++j) {
-        if ((st = sm_plant_derivatives(p, xc, v_a, v_b, T_load, k1)) != SM_OK) return st;
+        if ((st = sm_plant_derivatives(p, xc, v_a, v_b, T_load, k1)) != SM_CORE_OK) return st;
         for (i = 0; i < 6; ++i) xt[i] = xc[i] + half * k1[i];
-        if ((st = sm_plant_derivatives(p, xt, v_a, v_b, T_load, k2)) != SM_OK) return st;
+        if ((st = sm_plant_derivatives(p, xt, v_a, v_b, T_load, k2)) != SM_CORE_OK) return st;
         for (i = 0; i < 6; ++i) xt[i] = xc[i] + half * k2[i];
-        if ((st = sm_plant_derivatives(p, xt, v_a, v_b, T_load, k3)) != SM_OK) return st;
+        if ((st = sm_plant_derivatives(p, xt, v_a, v_b, T_load, k3)) != SM_CORE_OK) return st;
         for (i = 0; i < 6; ++i) xt[i] = xc[i] + h * k3[i];
-        if ((st = sm_plant_derivatives(p, xt, v_a, v_b, T_load, k4)) != SM_OK) return st;
+        if ((st = sm_plant_derivatives(p, xt, v_a, v_b, T_load, k4)) != SM_CORE_OK) return st;
         for (i = 0; i < 6; ++i) xc[i] = xc[i] + sixth * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]);
     }
     if (!all_finite(xc, 6)) return SM_ERR_NONFINITE;
     memcpy(x, xc, sizeof xc);
-    return SM_OK;
+    return SM_CORE_OK;
 }
 
 int sm_plant_initial_state(const sm_motor *p, double omega_m, double theta_m, double psi_r_alpha,
@@ -220,7 +220,7 @@ int sm_plant_initial_state(const sm_motor *p, double omega_m, double theta_m, do
     for (i = 0; i < 6; ++i) x[i] = 0.0;
     x[SM_OMEGA_M] = omega_m;
     x[SM_THETA_M] = theta_m;
-    if (phi == 0.0) return SM_OK;
+    if (phi == 0.0) return SM_CORE_OK;
     st = sm_curve_current(&p->curve, phi / p->k, &I);
     if (st) return st;
     m = sm_curve_m(&p->curve, I);
@@ -230,7 +230,7 @@ int sm_plant_initial_state(const sm_motor *p, double omega_m, double theta_m, do
     x[SM_PSI_S_B] = (p->l_s + m) * I * sb;
     x[SM_PSI_R_A] = psi_r_alpha;
     x[SM_PSI_R_B] = psi_r_beta;
-    return SM_OK;
+    return SM_CORE_OK;
 }
 
 int sm_plant_check_step(const sm_motor *p, double v_a, double v_b, double T_load, double dt,
@@ -249,7 +249,7 @@ int sm_plant_check_step(const sm_motor *p, double v_a, double v_b, double T_load
                               "needs more than 2**31 sub-steps of h_int");
     }
     *n_sub = q > 1.0 ? (int)q : 1;
-    return SM_OK;
+    return SM_CORE_OK;
 }
 
 void sm_plant_nonfinite_message(double t, double dt, const double x[6], char *msg, size_t msg_len)

@@ -26,7 +26,7 @@ typedef struct {
 
 /* The checks of PlantUnit(values) in its order: finiteness of every flat Real parameter
  * (interface._number, in the order of PLANT_PARAMETERS), make_curve, MotorParams, psi_r0 >= 0,
- * h_int > 0, B_2 >= 0, then the initial state.  Returns SM_OK, SM_ERR_PARAM (msg: the
+ * h_int > 0, B_2 >= 0, then the initial state.  Returns SM_CORE_OK, SM_ERR_PARAM (msg: the
  * ParameterError text), SM_ERR_NOCONV (the initial state's inverse curve did not converge). */
 int sm_motor_init(sm_motor *p, double R_s, double R_r, double l_s, double l_r, double k, int n_p,
                   double J, double B, const char *curve, double L_m0, double L_m_inf, double I_par,
@@ -40,7 +40,7 @@ typedef struct {
     double i_s_alpha, i_s_beta, i_r_alpha, i_r_beta, i_mu_alpha, i_mu_beta, i_mu, psi_m, m, T_e;
 } sm_plant_outputs;
 
-/* Plant.derivatives (its inlined fast path).  SM_OK; SM_ERR_NONFINITE if x or an input is not
+/* Plant.derivatives (its inlined fast path).  SM_CORE_OK; SM_ERR_NONFINITE if x or an input is not
  * finite (dx is then filled with NaN); SM_ERR_NOCONV if the curve solve did not converge. */
 int sm_plant_derivatives(const sm_motor *p, const double x[6], double v_a, double v_b, double T_load,
                          double dx[6]);
@@ -49,12 +49,12 @@ int sm_plant_derivatives(const sm_motor *p, const double x[6], double v_a, doubl
 int sm_plant_outputs_of(const sm_motor *p, const double x[6], sm_plant_outputs *o);
 
 /* Plant.step: RK4 over dt in n_sub equal sub-steps (integrate.rk4), x updated in place only on
- * success.  SM_OK; SM_ERR_NONFINITE if the state became (or an input is) non-finite;
+ * success.  SM_CORE_OK; SM_ERR_NONFINITE if the state became (or an input is) non-finite;
  * SM_ERR_NOCONV; SM_ERR_ARG for n_sub < 1 or a NULL pointer. */
 int sm_plant_step(const sm_motor *p, double x[6], double v_a, double v_b, double T_load, double dt,
                   int n_sub);
 
-/* plant.initial_state(params, omega_m, theta_m, psi_r_alpha, psi_r_beta) into x.  SM_OK,
+/* plant.initial_state(params, omega_m, theta_m, psi_r_alpha, psi_r_beta) into x.  SM_CORE_OK,
  * SM_ERR_NONFINITE, SM_ERR_NOCONV. */
 int sm_plant_initial_state(const sm_motor *p, double omega_m, double theta_m, double psi_r_alpha,
                            double psi_r_beta, double x[6]);

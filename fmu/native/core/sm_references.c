@@ -10,8 +10,8 @@ int sm_transition_matrix(double bandwidth, double h, double P[9], char *msg, siz
     double w = bandwidth, w2, w3, N[3][3], N2[3][3], e, hh;
     int st, i, j;
     if (P == NULL) return SM_ERR_ARG;
-    if ((st = sm_require_number("bandwidth", bandwidth, 1, 0.0, 0, msg, msg_len)) != SM_OK) return st;
-    if ((st = sm_require_number("h", h, 1, 0.0, 0, msg, msg_len)) != SM_OK) return st;
+    if ((st = sm_require_number("bandwidth", bandwidth, 1, 0.0, 0, msg, msg_len)) != SM_CORE_OK) return st;
+    if ((st = sm_require_number("h", h, 1, 0.0, 0, msg, msg_len)) != SM_CORE_OK) return st;
     w2 = w * w;
     w3 = w * w * w;
     N[0][0] = w;     N[0][1] = 1.0;        N[0][2] = 0.0;
@@ -25,7 +25,7 @@ int sm_transition_matrix(double bandwidth, double h, double P[9], char *msg, siz
     for (i = 0; i < 3; ++i)
         for (j = 0; j < 3; ++j)
             P[3 * i + j] = e * ((i == j ? 1.0 : 0.0) + h * N[i][j] + hh * N2[i][j]);
-    return SM_OK;
+    return SM_CORE_OK;
 }
 
 /* references._cdf3: 1 - exp(-x)(1 + x + x^2/2) */
@@ -57,11 +57,11 @@ int sm_shaper_reset(sm_shaper *s, double value, char *msg, size_t msg_len)
 {
     int st;
     if (s == NULL) return SM_ERR_ARG;
-    if ((st = sm_require_number("value", value, 0, 0.0, 0, msg, msg_len)) != SM_OK) return st;
+    if ((st = sm_require_number("value", value, 0, 0.0, 0, msg, msg_len)) != SM_CORE_OK) return st;
     s->z[0] = value;
     s->z[1] = 0.0;
     s->z[2] = 0.0;
-    return SM_OK;
+    return SM_CORE_OK;
 }
 
 int sm_shaper_init(sm_shaper *s, double bandwidth, double initial, char *msg, size_t msg_len)
@@ -69,7 +69,7 @@ int sm_shaper_init(sm_shaper *s, double bandwidth, double initial, char *msg, si
     int st;
     if (s == NULL) return SM_ERR_ARG;
     memset(s, 0, sizeof *s);
-    if ((st = sm_require_number("bandwidth", bandwidth, 1, 0.0, 0, msg, msg_len)) != SM_OK) return st;
+    if ((st = sm_require_number("bandwidth", bandwidth, 1, 0.0, 0, msg, msg_len)) != SM_CORE_OK) return st;
     s->bandwidth = bandwidth;
     s->has_h = 0;
     s->h_cached = 0.0;
@@ -84,7 +84,7 @@ int sm_shaper_step(sm_shaper *s, double u, double h, double r[3], char *msg, siz
     if (s == NULL) return SM_ERR_ARG;
     if (!(s->has_h && h == s->h_cached)) {
         double P[9];
-        if ((st = sm_transition_matrix(s->bandwidth, h, P, msg, msg_len)) != SM_OK) return st;
+        if ((st = sm_transition_matrix(s->bandwidth, h, P, msg, msg_len)) != SM_CORE_OK) return st;
         memcpy(s->phi, P, sizeof P);
         s->h_cached = h;
         s->has_h = 1;
@@ -102,7 +102,7 @@ int sm_shaper_step(sm_shaper *s, double u, double h, double r[3], char *msg, siz
         r[1] = s->z[1];
         r[2] = s->z[2];
     }
-    return SM_OK;
+    return SM_CORE_OK;
 }
 
 void sm_shaper_get_state(const sm_shaper *s, double z[3])
@@ -126,5 +126,5 @@ int sm_shaper_set_state(sm_shaper *s, const double z[3], char *msg, size_t msg_l
     s->z[0] = z[0];
     s->z[1] = z[1];
     s->z[2] = z[2];
-    return SM_OK;
+    return SM_CORE_OK;
 }

@@ -22,14 +22,14 @@ typedef struct {
     double z[3];      /* (r, r', r'') */
 } sm_shaper;
 
-/* references.transition_matrix(bandwidth, h) into P (row major).  SM_OK or SM_ERR_PARAM
+/* references.transition_matrix(bandwidth, h) into P (row major).  SM_CORE_OK or SM_ERR_PARAM
  * ("bandwidth = ...", "h = ...: must be a finite number > 0"). */
 int sm_transition_matrix(double bandwidth, double h, double P[9], char *msg, size_t msg_len);
 
 /* references.RISE_TIME_PRODUCT (w_n t_r of the 10-90 % rise), by the same bisection. */
 double sm_rise_time_product(void);
 
-/* ReferenceShaper(bandwidth, initial): SM_OK or SM_ERR_PARAM (bandwidth, then "value"). */
+/* ReferenceShaper(bandwidth, initial): SM_CORE_OK or SM_ERR_PARAM (bandwidth, then "value"). */
 int sm_shaper_init(sm_shaper *s, double bandwidth, double initial, char *msg, size_t msg_len);
 
 /* ReferenceShaper.step(u, h): advance by h [s] with u held; r = (r, r', r'') after the step (may be
@@ -38,13 +38,13 @@ int sm_shaper_init(sm_shaper *s, double bandwidth, double initial, char *msg, si
  * for h are kept, as the Python's cache keeps them). */
 int sm_shaper_step(sm_shaper *s, double u, double h, double r[3], char *msg, size_t msg_len);
 
-/* ReferenceShaper.reset(value): at rest at value.  SM_OK or SM_ERR_PARAM ("value = ..."). */
+/* ReferenceShaper.reset(value): at rest at value.  SM_CORE_OK or SM_ERR_PARAM ("value = ..."). */
 int sm_shaper_reset(sm_shaper *s, double value, char *msg, size_t msg_len);
 
 /* ReferenceShaper.get_state / value: (r, r', r''). */
 void sm_shaper_get_state(const sm_shaper *s, double z[3]);
 
-/* ReferenceShaper.set_state: SM_OK or SM_ERR_PARAM ("state = (1.0, nan, 0.0): must be finite"). */
+/* ReferenceShaper.set_state: SM_CORE_OK or SM_ERR_PARAM ("state = (1.0, nan, 0.0): must be finite"). */
 int sm_shaper_set_state(sm_shaper *s, const double z[3], char *msg, size_t msg_len);
 
 #endif

@@ -1,0 +1,54 @@
+"""Build the native (C, Python-free) FMUs of the plant and the controller, FMI 2.0 and FMI 3.0.
+
+Each FMU is the model-agnostic glue (``fmu/native/fmi``), the C core (``fmu/native/core``), the
+shared value accessors (``fmu/native/common``), the unit's model (``fmu/plant/native_model.c`` or
+``fmu/controller/native_model.c``) and its variable table ``sm_vars.h``, generated from the
+interface tables (:mod:`orchestration.native_vars`); the model description comes from the same
+tables (:mod:`orchestration.native_model_description`).  Compiled and packed by
+:func:`orchestration.native_build.build_native_fmu` (reproducible; the GUID is derived from the
+inputs).
+
+Layout under the build directory: ``native/<Name>.fmu`` (FMI 2.0) and ``native-fmi3/<Name>.fmu``
+(FMI 3.0).
+"""
+
+from __future__ import annotations
+
+import tempfile
+from pathlib import Path
+
+from . import native_model_description as nmd
+from .native_build import build_native_fmu
+from .native_vars import header
+
+ROOT = Path(__file__).resolve().parents[1]
+FMU_DIR = ROOT / "fmu"
+NAMES = {"SaturatedInductionMotor": "plant", "BacksteppingController": "controller"}
+DIRS = {"2.0": "native", "3.0": "native-fmi3"}
+DEFAULT_PLATFORMS = {"2.0": ("linux64",), "3.0": ("x86_64-linux",)}
+
+
+def sources(name):
+    """The C files of the native FMU ``name`` besides the glue and the generated sm_vars.h."""
+    core = sorted((FMU_DIR / "native" / "core").glob("*.[ch]"))
+    common = sorted((FMU_DIR / "native" / "common").glob("*.h"))
+    return [*core, *common, FMU_DIR / NAMES[name] / "native_model.c"]
+
+
+def build(name, out_dir, fmi_version="2.0", platforms=None):
+    """Build the native FMU ``name`` into ``out_dir/native[-fmi3]/``; returns its path."""
+    xml = (nmd.fmi2 if fmi_version == "2.0" else nmd.fmi3)(name).decode("utf-8")
+    target = Path(out_dir) / DIRS[fmi_version] / f"{name}.fmu"
+    target.parent.mkdir(parents=True, exist_ok=True)
+    with tempfile.TemporaryDirectory(prefix="sm_vars_") as tmp:
+        vars_h = Path(tmp) / "sm_vars.h"
+        vars_h.write_text(header(name))
+        path, _ = build_native_fmu(name, [*sources(name), vars_h], xml, target, fmi_version,
+                                   platforms or DEFAULT_PLATFORMS[fmi_version])
+    return path
+
+
+def build_all(out_dir, platforms=None):
+    """Both native FMUs in both FMI versions; returns the paths."""
+    return [build(name, out_dir, version, (platforms or {}).get(version))
+            for version in DIRS for name in NAMES]
