@@ -466,3 +466,36 @@ def exported_symbols(binary: Path) -> list[str] | None:
     out = subprocess.run(["llvm-nm", "--defined-only", "--extern-only", str(binary)], capture_output=True,
                          text=True).stdout
     return [line.split()[-1] for line in out.splitlines() if line.strip()]
+
+
+@pytest.mark.skipif(shutil.which("gcc") is None or shutil.which("nm") is None, reason="needs gcc and nm")
+def test_no_global_mutable_state(tmp_path):
+    """No writable data (bss/data/common symbols) in the objects of the glue and the test model."""
+    inc = native_build.fmi_headers_dir()
+    for src in [*native_build.GLUE_DIR.glob("*.c"), MODEL]:
+        obj = tmp_path / (src.stem + ".o")
+        subprocess.run(["gcc", "-std=c99", "-O2", "-fPIC", "-c", f"-I{inc}", f"-I{native_build.GLUE_DIR}",
+                        "-DMODEL_IDENTIFIER=lag", '-DINSTANTIATION_TOKEN="{x}"', str(src), "-o", str(obj)],
+                       check=True, capture_output=True)
+        out = subprocess.run(["nm", "-f", "sysv", str(obj)], capture_output=True, text=True,
+                             check=True).stdout
+        rows = [[c.strip() for c in line.split("|")] for line in out.splitlines() if line.count("|") == 6]
+        # name|value|class|type|size|line|section; .data.rel.ro is read-only after relocation (const tables
+        # of pointers, with -fPIC)
+        writable = [r for r in rows if r[2] in "bBdDcC" and not r[6].startswith(".data.rel.ro")]
+        assert writable == [], (src.name, writable)
+
+
+@pytest.mark.parametrize("version", VERSIONS)
+def test_debug_logging_and_percent_in_messages(fmus, version):
+    """Debug (OK) messages only with logging on; FMI 2 messages are printf formats, so '%' is doubled."""
+    h = Host(fmus[version]["lag"], version)
+    h.init(label="100% lag")
+    assert h.messages == []  # logging off: no OK-level message
+    h.free()
+    h = Host(fmus[version]["lag"], version, "verbose")
+    h.call("setDebugLogging", True, [])
+    h.init(label="100% lag")
+    assert h.messages and h.messages[-1][0] == 0
+    assert ("100%% lag" if version == "2.0" else "100% lag") in h.last()
+    h.free()

@@ -8,11 +8,19 @@
 
 #define INST ((sm_instance *)c)
 
-/* the logger of FMI 2 takes a printf format: pass the formatted message through "%s"-safe text */
+/* the message of the FMI 2 logger is a printf format (importers, fmpy's proxy among them, format it
+ * with the variadic arguments): pass the already formatted text with every '%' doubled */
 static void emit2(sm_instance *inst, sm_status status, const char *category, const char *message)
 {
     fmi2CallbackLogger logger = (fmi2CallbackLogger)inst->logger;
-    logger((fmi2ComponentEnvironment)inst->env, inst->name, (fmi2Status)status, category, message);
+    char buf[2048];
+    size_t i = 0;
+    for (; *message != '\0' && i + 2 < sizeof buf; message++) {
+        if (*message == '%') buf[i++] = '%';
+        buf[i++] = *message;
+    }
+    buf[i] = '\0';
+    logger((fmi2ComponentEnvironment)inst->env, inst->name, (fmi2Status)status, category, buf);
 }
 
 const char *fmi2GetTypesPlatform(void) { return fmi2TypesPlatform; }
