@@ -169,8 +169,10 @@ def build_one(name, out_dir):
     return out
 
 
-def build_all(out_dir="build/fmus"):
-    """Build both FMUs into ``out_dir``, each in a child process; returns their paths."""
+def build_all(out_dir="build/fmus", native=True, cross=None):
+    """Build both pythonfmu FMUs into ``out_dir`` (each in a child process) and, with ``native``, the
+    native ones into ``out_dir/native`` (FMI 2.0) and ``out_dir/native-fmi3`` (FMI 3.0): Linux, plus
+    Windows and macOS when ``cross`` (default: when zig is installed).  Returns the paths."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     paths = []
@@ -178,19 +180,28 @@ def build_all(out_dir="build/fmus"):
         subprocess.run([sys.executable, "-m", "orchestration.fmu_build", "--one", name, "--out", str(out)],
                        check=True)
         paths.append(out / f"{name}.fmu")
+    if native:
+        from .native_fmus import build_all as build_native
+
+        for p in build_native(out, cross):
+            print(f"built {p}")
+            paths.append(p)
     return paths
 
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description="Build SaturatedInductionMotor.fmu and "
-                                 "BacksteppingController.fmu (FMI 2.0 co-simulation, pythonfmu).")
+                                 "BacksteppingController.fmu: FMI 2.0 co-simulation with pythonfmu in OUT, "
+                                 "native C ones in OUT/native (FMI 2.0) and OUT/native-fmi3 (FMI 3.0).")
     ap.add_argument("--out", default="build/fmus", help="output directory (default build/fmus)")
+    ap.add_argument("--no-native", action="store_true", help="only the pythonfmu FMUs")
+    ap.add_argument("--no-cross", action="store_true", help="native FMUs for Linux only (no zig cc)")
     ap.add_argument("--one", choices=sorted(FMUS), help=argparse.SUPPRESS)  # internal: build one, in-process
     args = ap.parse_args(argv)
     if args.one:
         build_one(args.one, args.out)
     else:
-        build_all(args.out)
+        build_all(args.out, native=not args.no_native, cross=False if args.no_cross else None)
 
 
 if __name__ == "__main__":

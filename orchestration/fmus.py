@@ -14,27 +14,40 @@ from pathlib import Path
 
 DEFAULT_DIR = Path("build") / "fmus"  # relative to the working directory
 PLANT, CONTROLLER = "SaturatedInductionMotor.fmu", "BacksteppingController.fmu"
+# variant -> subdirectory of the FMU directory.  python: the pythonfmu FMUs (the executable
+# specification, the default); native: C, FMI 2.0; native-fmi3: C, FMI 3.0 (bit-identical results)
+VARIANTS = {"python": "", "native": "native", "native-fmi3": "native-fmi3"}
+DEFAULT_VARIANT = "python"
 
 
-def paths(fmu_dir=DEFAULT_DIR):
-    """(plant, controller) FMU paths in ``fmu_dir``."""
-    d = Path(fmu_dir)
+def paths(fmu_dir=DEFAULT_DIR, variant=DEFAULT_VARIANT):
+    """(plant, controller) FMU paths of ``variant`` in ``fmu_dir``."""
+    d = Path(fmu_dir) / VARIANTS[variant]
     return d / PLANT, d / CONTROLLER
 
 
+def _built_from(path, member):
+    try:
+        with zipfile.ZipFile(path) as z:
+            return z.read(member).decode().strip()
+    except (OSError, KeyError, zipfile.BadZipFile):
+        return None
+
+
 def up_to_date(fmu_dir=DEFAULT_DIR):
-    """True when both FMUs exist and were built from the current sources: satmotor, the glue, the
-    slave scripts and the build logic (:func:`orchestration.fmu_build.inputs_fingerprint`)."""
+    """True when every FMU of every variant exists and was built from the current sources
+    (:func:`orchestration.fmu_build.inputs_fingerprint`, :func:`orchestration.native_fmus.inputs_fingerprint`)."""
+    from . import native_fmus
     from .fmu_build import BUILD_INPUTS, inputs_fingerprint
 
-    for p in paths(fmu_dir):
-        try:
-            with zipfile.ZipFile(p) as z:
-                built = z.read(BUILD_INPUTS).decode().strip()
-        except (OSError, KeyError, zipfile.BadZipFile):
-            return False
-        if built != inputs_fingerprint(p.stem):
-            return False
+    for variant in VARIANTS:
+        for p in paths(fmu_dir, variant):
+            if variant == "python":
+                ok = _built_from(p, BUILD_INPUTS) == inputs_fingerprint(p.stem)
+            else:
+                ok = _built_from(p, "resources/" + native_fmus.BUILD_INPUTS) == native_fmus.inputs_fingerprint(p.stem)
+            if not ok:
+                return False
     return True
 
 
@@ -45,8 +58,8 @@ def build(fmu_dir=DEFAULT_DIR, quiet=False):
     return paths(fmu_dir)
 
 
-def ensure(fmu_dir=DEFAULT_DIR, quiet=False):
-    """The FMU paths, built first when missing or stale."""
+def ensure(fmu_dir=DEFAULT_DIR, quiet=False, variant=DEFAULT_VARIANT):
+    """The FMU paths of ``variant``, every variant built first when missing or stale."""
     if not up_to_date(fmu_dir):
         build(fmu_dir, quiet)
-    return paths(fmu_dir)
+    return paths(fmu_dir, variant)

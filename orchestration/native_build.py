@@ -31,7 +31,15 @@ from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-GLUE_DIR = Path(__file__).resolve().parents[1] / "fmu" / "native" / "fmi"
+def _fmu_sources() -> Path:
+    """The FMU sources: the installed ``satmotor_fmu_sources`` (``fmu/`` in a checkout)."""
+    spec = importlib.util.find_spec("satmotor_fmu_sources")
+    if spec is not None and spec.origin:
+        return Path(spec.origin).resolve().parent
+    return Path(__file__).resolve().parents[1] / "fmu"
+
+
+GLUE_DIR = _fmu_sources() / "native" / "fmi"
 GUID_PLACEHOLDER = "{GUID}"
 ZIP_DATE = (1980, 1, 1, 0, 0, 0)
 

@@ -17,15 +17,19 @@ from __future__ import annotations
 import tempfile
 from pathlib import Path
 
+import hashlib
+
 from . import native_model_description as nmd
-from .native_build import build_native_fmu
+from .native_build import GLUE_DIR, build_native_fmu, zig_available
 from .native_vars import header
 
-ROOT = Path(__file__).resolve().parents[1]
-FMU_DIR = ROOT / "fmu"
+FMU_DIR = GLUE_DIR.parents[1]  # the FMU sources (installed package or the checkout's fmu/)
+BUILD_INPUTS = "build_inputs.sha256"  # in resources/: what the FMU was built from
 NAMES = {"SaturatedInductionMotor": "plant", "BacksteppingController": "controller"}
 DIRS = {"2.0": "native", "3.0": "native-fmi3"}
-DEFAULT_PLATFORMS = {"2.0": ("linux64",), "3.0": ("x86_64-linux",)}
+LINUX = {"2.0": ("linux64",), "3.0": ("x86_64-linux",)}
+ALL = {"2.0": ("linux64", "win64", "darwin64"), "3.0": ("x86_64-linux", "x86_64-windows", "x86_64-darwin",
+                                                         "aarch64-darwin")}
 
 
 def sources(name):
@@ -33,6 +37,21 @@ def sources(name):
     core = sorted((FMU_DIR / "native" / "core").glob("*.[ch]"))
     common = sorted((FMU_DIR / "native" / "common").glob("*.h"))
     return [*core, *common, FMU_DIR / NAMES[name] / "native_model.c"]
+
+
+def inputs_fingerprint(name):
+    """SHA-256 over everything the native FMU ``name`` is built from: its C sources, the glue, the
+    interface tables and the generators (a change to any makes a built FMU stale)."""
+    from . import fmu_model_description, native_build, native_vars
+    from satmotor import interface
+
+    h = hashlib.sha256()
+    files = [*sources(name), *sorted(GLUE_DIR.glob("*.[ch]")), Path(__file__), Path(native_build.__file__),
+             Path(native_vars.__file__), Path(nmd.__file__), Path(fmu_model_description.__file__),
+             Path(interface.__file__)]
+    for f in files:
+        h.update(f.name.encode() + b"\0" + Path(f).read_bytes() + b"\0")
+    return h.hexdigest()
 
 
 def build(name, out_dir, fmi_version="2.0", platforms=None):
@@ -44,11 +63,14 @@ def build(name, out_dir, fmi_version="2.0", platforms=None):
         vars_h = Path(tmp) / "sm_vars.h"
         vars_h.write_text(header(name))
         path, _ = build_native_fmu(name, [*sources(name), vars_h], xml, target, fmi_version,
-                                   platforms or DEFAULT_PLATFORMS[fmi_version])
+                                   platforms or LINUX[fmi_version],
+                                   resources={BUILD_INPUTS: (inputs_fingerprint(name) + "\n").encode()})
     return path
 
 
-def build_all(out_dir, platforms=None):
-    """Both native FMUs in both FMI versions; returns the paths."""
-    return [build(name, out_dir, version, (platforms or {}).get(version))
+def build_all(out_dir, cross=None):
+    """Both native FMUs in both FMI versions; returns the paths.  ``cross``: also Windows and macOS
+    (zig cc; default: when ``ziglang`` is installed)."""
+    cross = zig_available() if cross is None else cross
+    return [build(name, out_dir, version, (ALL if cross else LINUX)[version])
             for version in DIRS for name in NAMES]
