@@ -9,6 +9,7 @@ instances) and a C host compiled with -fsanitize=address,undefined.
 from __future__ import annotations
 
 import math
+import re
 import shutil
 import subprocess
 import zipfile
@@ -521,3 +522,20 @@ def test_simulate_step_input_at_half_time(fmus, version):
     after = t > t_step
     np.testing.assert_allclose(y[after], 1 - np.exp(-(t[after] - t_step) / tau), rtol=1e-9)
     assert np.all(y[~after] == 0.0)
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not native_build.zig_available(), reason="needs `pip install ziglang`")
+def test_portable_linux_binary_with_zig(tmp_path):
+    """linux_glibc='2.17': zig cc links against glibc 2.17; the FMU runs here and gives the same result."""
+    path, _ = native_build.build_native_fmu("lag", [MODEL], model_description("2.0"), tmp_path / "lag.fmu",
+                                            "2.0", linux_glibc="2.17")
+    folder = tmp_path / "x"
+    extract(str(path), str(folder))
+    if shutil.which("objdump"):
+        out = subprocess.run(["objdump", "-T", str(folder / "binaries" / "linux64" / "lag.so")],
+                             capture_output=True, text=True).stdout
+        versions = {tuple(map(int, v.split("."))) for v in set(re.findall(r"GLIBC_(\d+\.\d+)", out))}
+        assert versions and max(versions) <= (2, 17), versions
+    res = simulate_fmu(str(path), stop_time=1.0, output_interval=0.1, start_values={"u": 1.0, "tau": 0.5})
+    np.testing.assert_allclose(res["y"], 1 - np.exp(-res["time"] / 0.5), rtol=1e-12, atol=1e-15)
