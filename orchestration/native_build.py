@@ -142,9 +142,9 @@ def compile_binary(staging: Path, c_files: Sequence[str], model_identifier: str,
     """Compile the C files (names relative to ``staging``, where the headers are) into ``out``."""
     flags = [*CFLAGS, *extra_cflags]
     libs = [] if platform.suffix == ".dll" else ["-lm"]
-    if platform.zig_target is None:
+    if platform.suffix == ".so":
         flags.insert(0, "-fPIC")
-    else:
+    if platform.zig_target is not None:
         # clang warns on the () prototypes of fmi3FunctionTypes.h; -s drops the debug info and stabs
         # that name the temporary directory (and makes the PE/Mach-O output reproducible)
         flags += ["-Wno-strict-prototypes", "-s"]
@@ -192,7 +192,8 @@ def _resource_files(resources) -> dict[str, bytes]:
 
 def build_native_fmu(model_identifier: str, sources: Iterable[str | Path], model_description_xml: str,
                      out_path: str | Path, fmi_version: str = "2.0", platforms: Sequence[str] = ("linux64",),
-                     resources=None, extra_cflags: Sequence[str] = ()) -> tuple[Path, str]:
+                     resources=None, extra_cflags: Sequence[str] = (),
+                     linux_glibc: str | None = None) -> tuple[Path, str]:
     """Build a native co-simulation FMU; returns ``(path of the .fmu, GUID/instantiationToken)``.
 
     ``sources``: the model's files (``.c`` compiled, ``.h`` and others only copied), placed flat
@@ -201,7 +202,9 @@ def build_native_fmu(model_identifier: str, sources: Iterable[str | Path], model
     ``model_identifier``; its guid/instantiationToken is compiled in (``{GUID}``: derived from the
     inputs). ``platforms``: keys of :data:`PLATFORMS` (``linux64``, ``win64``, ``darwin64``,
     ``aarch64-darwin``) or FMI 3.0 platform names. ``resources``: a directory or a mapping
-    name -> content for ``resources/``. Raises :class:`NativeBuildError` on any failure.
+    name -> content for ``resources/``. ``linux_glibc`` (e.g. ``"2.17"``): build the Linux binary
+    with zig against that glibc (the host gcc links against the host's glibc, 2.29+ for ``exp``
+    on Debian 12). Raises :class:`NativeBuildError` on any failure.
     """
     major = _major(fmi_version)
     if not re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", model_identifier):
@@ -209,6 +212,11 @@ def build_native_fmu(model_identifier: str, sources: Iterable[str | Path], model
     if f'modelIdentifier="{model_identifier}"' not in model_description_xml:
         raise NativeBuildError(f'the model description has no modelIdentifier="{model_identifier}"')
     plats = [_platform(p) for p in platforms]
+    if linux_glibc is not None:  # portable Linux binaries: zig cc against an old glibc instead of the host's
+        if not re.fullmatch(r"2\.\d+", linux_glibc):
+            raise NativeBuildError(f"linux_glibc must look like '2.17', not {linux_glibc!r}")
+        plats = [Platform(p.fmi2, p.fmi3, p.suffix, f"x86_64-linux-gnu.{linux_glibc}") if p.zig_target is None
+                 else p for p in plats]
     for p in plats:
         if major == 2 and p.fmi2 is None:
             raise NativeBuildError(f"FMI 2.0 has no platform name for {p.fmi3}")
@@ -223,7 +231,7 @@ def build_native_fmu(model_identifier: str, sources: Iterable[str | Path], model
     xml = model_description_xml
     attr = _token_attribute(major)
     if f'{attr}="{GUID_PLACEHOLDER}"' in xml:
-        seed = f"{model_identifier}\0{major}\0{sorted(platforms)}\0{list(extra_cflags)}\0"
+        seed = f"{model_identifier}\0{major}\0{sorted(platforms)}\0{list(extra_cflags)}\0{linux_glibc}\0"
         h = hashlib.sha256(seed.encode())
         h.update(xml.encode())
         for n in sorted(src_files):

@@ -9,12 +9,14 @@ instances) and a C host compiled with -fsanitize=address,undefined.
 from __future__ import annotations
 
 import math
+import re
 import shutil
 import subprocess
 import zipfile
 from ctypes import byref, c_double, c_int, c_size_t, c_uint, c_void_p, cast, create_string_buffer
 from pathlib import Path
 
+import numpy as np
 import pytest
 from fmpy import extract, simulate_fmu
 from fmpy.fmi1 import FMICallException
@@ -499,3 +501,41 @@ def test_debug_logging_and_percent_in_messages(fmus, version):
     assert h.messages and h.messages[-1][0] == 0
     assert ("100%% lag" if version == "2.0" else "100% lag") in h.last()
     h.free()
+
+
+@pytest.mark.parametrize("version", VERSIONS)
+def test_simulate_step_input_at_half_time(fmus, version):
+    """A step of u from 0 to 1 at t = 0.5 through fmpy's input table (set by the master between steps)."""
+    tau = 0.2
+    sig = np.array([(0.0, 0.0), (0.5, 0.0), (0.5, 1.0), (2.0, 1.0)],
+                   dtype=[("time", np.float64), ("u", np.float64)])
+    res = simulate_fmu(str(fmus[version]["lag"]["path"]), stop_time=2.0, output_interval=0.1,
+                       start_values={"tau": tau}, input=sig, output=["u", "y"])
+    t, u, y = res["time"], res["u"], res["y"]
+    assert set(np.unique(u)) == {0.0, 1.0}
+    x = 0.0
+    for k in range(1, len(t)):  # the row at t_k holds the u the master set at t_{k-1} for the step to t_k
+        x = u[k] + (x - u[k]) * math.exp(-(t[k] - t[k - 1]) / tau)
+        assert y[k] == pytest.approx(x, rel=1e-12, abs=1e-15)
+    t_step = t[np.argmax(u > 0.5) - 1]  # the communication point at which u became 1
+    assert t_step == pytest.approx(0.5)
+    after = t > t_step
+    np.testing.assert_allclose(y[after], 1 - np.exp(-(t[after] - t_step) / tau), rtol=1e-9)
+    assert np.all(y[~after] == 0.0)
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not native_build.zig_available(), reason="needs `pip install ziglang`")
+def test_portable_linux_binary_with_zig(tmp_path):
+    """linux_glibc='2.17': zig cc links against glibc 2.17; the FMU runs here and gives the same result."""
+    path, _ = native_build.build_native_fmu("lag", [MODEL], model_description("2.0"), tmp_path / "lag.fmu",
+                                            "2.0", linux_glibc="2.17")
+    folder = tmp_path / "x"
+    extract(str(path), str(folder))
+    if shutil.which("objdump"):
+        out = subprocess.run(["objdump", "-T", str(folder / "binaries" / "linux64" / "lag.so")],
+                             capture_output=True, text=True).stdout
+        versions = {tuple(map(int, v.split("."))) for v in set(re.findall(r"GLIBC_(\d+\.\d+)", out))}
+        assert versions and max(versions) <= (2, 17), versions
+    res = simulate_fmu(str(path), stop_time=1.0, output_interval=0.1, start_values={"u": 1.0, "tau": 0.5})
+    np.testing.assert_allclose(res["y"], 1 - np.exp(-res["time"] / 0.5), rtol=1e-12, atol=1e-15)
