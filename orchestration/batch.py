@@ -72,7 +72,7 @@ def duplicates(runnable):
     return {n: fs for n, fs in by_name.items() if len(fs) > 1}
 
 
-def run_one(path, out, fmu_dir, algorithm=None, name=None, should_stop=None, tmpdir=None):
+def run_one(path, out, fmu_dir, algorithm=None, name=None, should_stop=None, tmpdir=None, variant="python"):
     """Run one scenario in a child process; returns its summary row (a dict).  Never raises.
 
     ``should_stop``: a function polled while the child runs; when it returns True the child gets
@@ -89,6 +89,7 @@ def run_one(path, out, fmu_dir, algorithm=None, name=None, should_stop=None, tmp
            "--no-build"]
     if algorithm:
         cmd += ["--algorithm", algorithm]
+    cmd += ["--variant", variant]
     env = {**os.environ, PARENT_ENV: str(os.getpid()), **({"TMPDIR": str(tmpdir)} if tmpdir else {})}
     try:
         proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
@@ -144,18 +145,19 @@ def _progress(total):
         return None
 
 
-def _run_local(runnable, out, fmu_dir, jobs, algorithm, stop, done):
+def _run_local(runnable, out, fmu_dir, jobs, algorithm, stop, done, variant):
     # the children extract their FMUs under a directory of ours, removed at the end: even a child
     # killed with SIGKILL (which cannot clean up) leaves nothing in the system's temporary directory
     with tempfile.TemporaryDirectory(prefix="satmotor-batch-") as tmp, \
             ThreadPoolExecutor(max_workers=max(1, jobs)) as pool:  # each task runs and watches a child
-        futures = [pool.submit(run_one, f, out, fmu_dir, algorithm, name, lambda: bool(stop.signum), tmp)
+        futures = [pool.submit(run_one, f, out, fmu_dir, algorithm, name, lambda: bool(stop.signum), tmp,
+                               variant)
                    for f, name in runnable]
         for fut in as_completed(futures):
             done(fut.result())
 
 
-def _run_dask(runnable, out, fmu_dir, scheduler, algorithm, stop, done):
+def _run_dask(runnable, out, fmu_dir, scheduler, algorithm, stop, done, variant):
     import uuid
 
     from distributed import Client, Event
@@ -164,6 +166,7 @@ def _run_dask(runnable, out, fmu_dir, scheduler, algorithm, stop, done):
         event_name = f"satmotor-batch-stop-{uuid.uuid4().hex}"
         event = Event(event_name, client=client)
         remaining = {client.submit(_dask_task, str(f), str(out), str(fmu_dir), algorithm, name, event_name,
+                                   variant,
                                    pure=False): (f, name) for f, name in runnable}
         while remaining:
             if stop.signum and not event.is_set():
@@ -178,15 +181,15 @@ def _run_dask(runnable, out, fmu_dir, scheduler, algorithm, stop, done):
                 stop.event.wait(POLL)
 
 
-def _dask_task(path, out, fmu_dir, algorithm, name, event_name):
+def _dask_task(path, out, fmu_dir, algorithm, name, event_name, variant):
     """``run_one`` on a Dask worker, stopping when the batch's Dask Event is set."""
     from distributed import Event
 
     event = Event(event_name)
-    return run_one(path, out, fmu_dir, algorithm, name, should_stop=event.is_set)
+    return run_one(path, out, fmu_dir, algorithm, name, should_stop=event.is_set, variant=variant)
 
 
-def run_batch(items, out, fmu_dir, jobs=2, scheduler=None, algorithm=None, stop=None):
+def run_batch(items, out, fmu_dir, jobs=2, scheduler=None, algorithm=None, stop=None, variant="python"):
     """Run every scenario of ``items``; write ``out/summary.csv``; return the exit code."""
     stop = stop or StopRequest()
     files = collect(items)
@@ -222,9 +225,9 @@ def run_batch(items, out, fmu_dir, jobs=2, scheduler=None, algorithm=None, stop=
         if runnable:
             fmus.ensure(fmu_dir, quiet=True)  # once, before any child starts
             if scheduler:
-                _run_dask(runnable, out, fmu_dir, scheduler, algorithm, stop, done)
+                _run_dask(runnable, out, fmu_dir, scheduler, algorithm, stop, done, variant)
             else:
-                _run_local(runnable, out, fmu_dir, jobs, algorithm, stop, done)
+                _run_local(runnable, out, fmu_dir, jobs, algorithm, stop, done, variant)
     except Exception as exc:  # noqa: BLE001 - the summary is written whatever happened
         error = f"the batch failed before running it: {exc!r}"
         print(error, file=sys.stderr)

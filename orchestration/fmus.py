@@ -36,7 +36,8 @@ def _built_from(path, member):
 
 def up_to_date(fmu_dir=DEFAULT_DIR):
     """True when every FMU of every variant exists and was built from the current sources
-    (:func:`orchestration.fmu_build.inputs_fingerprint`, :func:`orchestration.native_fmus.inputs_fingerprint`)."""
+    (:func:`orchestration.fmu_build.inputs_fingerprint`,
+    :func:`orchestration.native_fmus.inputs_fingerprint`)."""
     from . import native_fmus
     from .fmu_build import BUILD_INPUTS, inputs_fingerprint
 
@@ -45,7 +46,8 @@ def up_to_date(fmu_dir=DEFAULT_DIR):
             if variant == "python":
                 ok = _built_from(p, BUILD_INPUTS) == inputs_fingerprint(p.stem)
             else:
-                ok = _built_from(p, "resources/" + native_fmus.BUILD_INPUTS) == native_fmus.inputs_fingerprint(p.stem)
+                built = _built_from(p, "resources/" + native_fmus.BUILD_INPUTS)
+                ok = built == native_fmus.inputs_fingerprint(p.stem)
             if not ok:
                 return False
     return True

@@ -14,10 +14,9 @@ Layout under the build directory: ``native/<Name>.fmu`` (FMI 2.0) and ``native-f
 
 from __future__ import annotations
 
+import hashlib
 import tempfile
 from pathlib import Path
-
-import hashlib
 
 from . import native_model_description as nmd
 from .native_build import GLUE_DIR, build_native_fmu, zig_available
@@ -28,6 +27,7 @@ BUILD_INPUTS = "build_inputs.sha256"  # in resources/: what the FMU was built fr
 NAMES = {"SaturatedInductionMotor": "plant", "BacksteppingController": "controller"}
 DIRS = {"2.0": "native", "3.0": "native-fmi3"}
 LINUX = {"2.0": ("linux64",), "3.0": ("x86_64-linux",)}
+PORTABLE_GLIBC = "2.17"  # with zig: the Linux binary runs on glibc 2.17 and later (gcc here: 2.29)
 ALL = {"2.0": ("linux64", "win64", "darwin64"), "3.0": ("x86_64-linux", "x86_64-windows", "x86_64-darwin",
                                                          "aarch64-darwin")}
 
@@ -42,8 +42,9 @@ def sources(name):
 def inputs_fingerprint(name):
     """SHA-256 over everything the native FMU ``name`` is built from: its C sources, the glue, the
     interface tables and the generators (a change to any makes a built FMU stale)."""
-    from . import fmu_model_description, native_build, native_vars
     from satmotor import interface
+
+    from . import fmu_model_description, native_build, native_vars
 
     h = hashlib.sha256()
     files = [*sources(name), *sorted(GLUE_DIR.glob("*.[ch]")), Path(__file__), Path(native_build.__file__),
@@ -62,9 +63,10 @@ def build(name, out_dir, fmi_version="2.0", platforms=None):
     with tempfile.TemporaryDirectory(prefix="sm_vars_") as tmp:
         vars_h = Path(tmp) / "sm_vars.h"
         vars_h.write_text(header(name))
-        path, _ = build_native_fmu(name, [*sources(name), vars_h], xml, target, fmi_version,
-                                   platforms or LINUX[fmi_version],
-                                   resources={BUILD_INPUTS: (inputs_fingerprint(name) + "\n").encode()})
+        plats = platforms or LINUX[fmi_version]
+        path, _ = build_native_fmu(name, [*sources(name), vars_h], xml, target, fmi_version, plats,
+                                   resources={BUILD_INPUTS: (inputs_fingerprint(name) + "\n").encode()},
+                                   linux_glibc=PORTABLE_GLIBC if len(plats) > 1 else None)
     return path
 
 
