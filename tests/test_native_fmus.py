@@ -1,0 +1,174 @@
+"""The native FMUs (C; FMI 2.0 in native/, FMI 3.0 in native-fmi3/) against the pythonfmu FMUs and
+the FMI contract: validation, every library scenario through the master (the pythonfmu run is the
+reference), a bad parameter (fmi2Error / fmi3Error, never fatal; a new instance works), non-finite
+inputs (discard with a message), the FMU state (bit-identical round trip; the other FMU's blob
+refused), many instances in one process."""
+
+import ctypes
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+from fmpy import read_model_description
+from fmpy.fmi1 import FMICallException
+from fmpy.fmi2 import FMU2Slave
+from fmpy.fmi3 import FMU3Slave
+from fmpy.validation import validate_fmu
+
+from orchestration import fmus
+from orchestration.fmu_instance import FMUInstance
+from orchestration.master import run
+from orchestration.scenario import load_scenario
+
+pytestmark = pytest.mark.slow
+ROOT = Path(__file__).resolve().parents[1]
+LIBRARY = sorted((ROOT / "scenarios").glob("*.yaml"))
+NATIVE = ("native", "native-fmi3")
+
+
+def _paths(fmu_dir):
+    return [p for v in NATIVE for p in fmus.paths(fmu_dir, v)]
+
+
+def test_every_native_fmu_validates_and_needs_no_tool(fmu_dir):
+    from fmu_manipulation_toolbox.assistant.fmutools import check_fmu
+
+    for path in _paths(fmu_dir):
+        assert validate_fmu(str(path)) == [], path
+        md = read_model_description(str(path))
+        assert md.coSimulation.needsExecutionTool in (False, "false")
+        if md.fmiVersion == "2.0":
+            report = check_fmu(path)
+            assert report["compliant"] and report["error_count"] == 0, report
+
+
+@pytest.mark.parametrize("variant", NATIVE)
+@pytest.mark.parametrize("path", LIBRARY, ids=lambda p: p.stem)
+def test_every_library_scenario_matches_the_pythonfmu_run(path, variant, fmu_dir):
+    sc = load_scenario(path)
+    ref = run(sc, *map(str, fmus.paths(fmu_dir, "python")))
+    got = run(sc, *map(str, fmus.paths(fmu_dir, variant)))
+    assert ref.ok and got.ok, (ref.message, got.message)
+    a, b = got.frame, ref.frame
+    assert list(a.columns) == list(b.columns) and len(a) == len(b)
+    worst = max(np.max(np.abs(a[c].to_numpy() - b[c].to_numpy()))
+                / max(np.max(np.abs(b[c].to_numpy())), 1e-300) for c in b.columns)
+    assert worst <= 1e-9, worst
+
+
+def _open(path, name="inst"):
+    return FMUInstance(str(path), name)
+
+
+@pytest.mark.parametrize("variant", NATIVE)
+def test_a_bad_parameter_is_an_error_with_its_name_and_a_new_instance_works(variant, fmu_dir):
+    plant_path, _ = fmus.paths(fmu_dir, variant)
+    inst = _open(plant_path, "bad")
+    inst.set_parameters({"J": 0.0})
+    with pytest.raises(Exception) as exc:
+        inst.initialize(0.0)
+    assert exc.value.status == 3  # fmi2Error / fmi3Error, not fatal
+    assert "J = 0.0: must be a finite number > 0" in inst.first_error()
+    assert not inst.fatal
+    inst.close()
+    good = _open(plant_path, "good")
+    good.initialize(0.0)
+    good.do_step(0.0, 1e-4)
+    good.close()
+
+
+@pytest.mark.parametrize("variant", NATIVE)
+def test_a_non_finite_input_is_a_discard_naming_the_input(variant, fmu_dir):
+    _, ctrl_path = fmus.paths(fmu_dir, variant)
+    inst = _open(ctrl_path)
+    inst.initialize(0.0)
+    vr = inst.vr(["omega_m"])
+    (inst.slave.setFloat64 if inst.fmi3 else inst.slave.setReal)(vr, [math.nan])
+    with pytest.raises(Exception) as exc:
+        inst.do_step(0.0, 1e-4)
+    assert exc.value.status == 2
+    assert "omega_m = nan: must be a finite number" in inst.first_error()
+    inst.close()
+
+
+def _slave(path, name):
+    md = read_model_description(str(path))
+    from fmpy import extract
+
+    d = extract(str(path))
+    kind = FMU3Slave if md.fmiVersion.startswith("3") else FMU2Slave
+    s = kind(guid=md.guid, unzipDirectory=d, modelIdentifier=md.coSimulation.modelIdentifier,
+             instanceName=name)
+    s.instantiate()
+    if md.fmiVersion.startswith("3"):
+        s.enterInitializationMode()
+    else:
+        s.setupExperiment(startTime=0.0)
+        s.enterInitializationMode()
+    s.exitInitializationMode()
+    return s, md
+
+
+def _step_outputs(s, md, k0, k1):
+    outs = [v.valueReference for v in md.modelVariables if v.causality == "output"
+            and v.type in ("Real", "Float64")]
+    inputs = {v.name: v.valueReference for v in md.modelVariables if v.causality == "input"}
+    get = s.getFloat64 if md.fmiVersion.startswith("3") else s.getReal
+    set_ = s.setFloat64 if md.fmiVersion.startswith("3") else s.setReal
+    rows = []
+    for k in range(k0, k1):
+        if "v_s_alpha" in inputs:  # the plant: a rotating voltage
+            set_([inputs["v_s_alpha"], inputs["v_s_beta"]], [200.0 * math.cos(300 * k * 1e-4),
+                                                            200.0 * math.sin(300 * k * 1e-4)])
+        else:  # the controller: a magnetized machine's measurements and set-points
+            set_([inputs["psi_r_alpha"], inputs["i_s_alpha"], inputs["psi_ref"], inputs["omega_ref"]],
+                 [0.9, 5.0, 0.95, 50.0])
+        s.doStep(k * 1e-4, 1e-4)
+        rows.append(get(outs))
+    return rows
+
+
+@pytest.mark.parametrize("variant", NATIVE)
+def test_fmu_state_round_trip_is_bit_identical_and_the_other_fmus_blob_is_refused(variant, fmu_dir):
+    plant_path, ctrl_path = fmus.paths(fmu_dir, variant)
+    for path in (plant_path, ctrl_path):
+        s, md = _slave(path, "a")
+        _step_outputs(s, md, 0, 20)
+        state = s.getFMUState()
+        blob = bytes(s.serializeFMUState(state))
+        first = _step_outputs(s, md, 20, 40)
+        s.setFMUState(state)
+        assert _step_outputs(s, md, 20, 40) == first
+        s.setFMUState(s.deserializeFMUState(blob))
+        assert _step_outputs(s, md, 20, 40) == first
+        other_path = ctrl_path if path == plant_path else plant_path
+        o, _ = _slave(other_path, "b")
+        foreign = bytes(o.serializeFMUState(o.getFMUState()))
+        with pytest.raises(FMICallException):
+            s.setFMUState(s.deserializeFMUState(foreign))
+        with pytest.raises(FMICallException):
+            s.setFMUState(s.deserializeFMUState(blob[: len(blob) // 2]))
+        assert _step_outputs(s, md, 40, 42) is not None  # the instance lives on
+        for inst in (o, s):
+            inst.terminate()
+            inst.freeInstance()
+
+
+@pytest.mark.parametrize("variant", NATIVE)
+def test_many_instances_in_one_process_are_independent(variant, fmu_dir):
+    plant_path, _ = fmus.paths(fmu_dir, variant)
+    insts = []
+    for j in range(20):
+        s, md = _slave(plant_path, f"p{j}")
+        insts.append((s, md))
+    alone, _ = _slave(plant_path, "alone")
+    ref = _step_outputs(alone, md, 0, 30)
+    for k in range(0, 30, 10):  # interleaved, 10 steps each in turn
+        for s, m in insts:
+            got = _step_outputs(s, m, k, k + 10)
+            assert got == ref[k:k + 10]
+    for s, _ in insts + [(alone, md)]:
+        s.terminate()
+        s.freeInstance()
+    assert ctypes.sizeof(ctypes.c_double) == 8
