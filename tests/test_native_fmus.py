@@ -172,3 +172,29 @@ def test_many_instances_in_one_process_are_independent(variant, fmu_dir):
         s.terminate()
         s.freeInstance()
     assert ctypes.sizeof(ctypes.c_double) == 8
+
+
+@pytest.mark.parametrize("variant", NATIVE)
+def test_the_native_fmus_under_valgrind_touch_no_bad_memory(variant, fmu_dir, tmp_path):
+    """A short real_drive run (observer, delay, noise) of both native FMUs through the master under
+    valgrind: no error in the FMU binaries, no access to freed memory, a clean exit."""
+    from test_process_exit import VALGRIND, python_child, run_under_valgrind
+
+    if VALGRIND is None:
+        pytest.skip("valgrind is not installed (scripts/system_packages.sh installs it)")
+    plant, ctrl = fmus.paths(fmu_dir, variant)
+    scenario = ROOT / "scenarios" / "real_drive.yaml"
+    child = python_child(f"""
+        import dataclasses, sys
+        sys.path.insert(0, {str(ROOT)!r})
+        from orchestration.master import run
+        from orchestration.scenario import load_scenario
+        sc = dataclasses.replace(load_scenario({str(scenario)!r}), stop_time=0.02)
+        r = run(sc, {str(plant)!r}, {str(ctrl)!r})
+        print(r.status, len(r.frame))
+    """)
+    runs = run_under_valgrind({variant: (child, {})}, tmp_path)
+    r = runs[variant]
+    assert r.returncode == 0 and r.stdout.split()[0] == "ok", r.describe()
+    in_fmu = [e for e in r.errors if e["stack"] and "/binaries/" in e["stack"][0]["obj"]]
+    assert not in_fmu and not r.exit_errors, r.describe()
