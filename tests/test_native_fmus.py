@@ -198,3 +198,37 @@ def test_the_native_fmus_under_valgrind_touch_no_bad_memory(variant, fmu_dir, tm
     assert r.returncode == 0 and r.stdout.split()[0] == "ok", r.describe()
     in_fmu = [e for e in r.errors if e["stack"] and "/binaries/" in e["stack"][0]["obj"]]
     assert not in_fmu and not r.exit_errors, r.describe()
+
+
+def test_a_c_host_without_python_loads_the_native_plant_and_gets_the_python_numbers(fmu_dir, tmp_path):
+    """A small C host (tests/native_c_host.c) dlopens the native FMI 2.0 plant in an empty environment
+    (no Python, no PATH), steps it 100 times and prints outputs: the plain-Python unit's to the bit."""
+    import subprocess
+    import zipfile
+
+    from fmpy import __file__ as fmpy_file
+
+    from satmotor.interface import PlantUnit
+
+    host = tmp_path / "host"
+    headers = Path(fmpy_file).parent / "c-code"
+    subprocess.run(["gcc", "-std=c99", "-Wall", "-Wextra", "-Werror", f"-I{headers}",
+                    str(ROOT / "tests" / "native_c_host.c"), "-o", str(host), "-ldl"], check=True)
+    plant_path, _ = fmus.paths(fmu_dir, "native")
+    unzipped = tmp_path / "plant"
+    with zipfile.ZipFile(plant_path) as z:
+        z.extractall(unzipped)
+    md = read_model_description(str(plant_path))
+    vr = {v.name: v.valueReference for v in md.modelVariables}
+    lib = unzipped / "binaries" / "linux64" / "SaturatedInductionMotor.so"
+    outs = ["i_s_alpha", "i_s_beta", "omega_m", "T_e", "psi_r_alpha"]
+    args = [str(host), str(lib), md.guid, (unzipped / "resources").as_uri(), "100", "1e-4",
+            f"{vr['v_s_alpha']}=150", f"{vr['v_s_beta']}=-40", f"{vr['T_load']}=5", f"{vr['B_2']}=0.001",
+            "--", *(str(vr[n]) for n in outs)]
+    r = subprocess.run(args, capture_output=True, text=True, env={}, timeout=60)
+    assert r.returncode == 0, r.stderr
+    unit = PlantUnit({"B_2": 0.001})
+    for k in range(100):
+        unit.step(k * 1e-4, 1e-4, (150.0, -40.0, 5.0))
+    want = dict(zip(PlantUnit.OUTPUTS, unit.outputs()))
+    assert [float(x) for x in r.stdout.split()] == [want[n] for n in outs]
