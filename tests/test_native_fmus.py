@@ -232,3 +232,33 @@ def test_a_c_host_without_python_loads_the_native_plant_and_gets_the_python_numb
         unit.step(k * 1e-4, 1e-4, (150.0, -40.0, 5.0))
     want = dict(zip(PlantUnit.OUTPUTS, unit.outputs()))
     assert [float(x) for x in r.stdout.split()] == [want[n] for n in outs]
+
+
+def test_no_global_mutable_state_in_the_core_or_the_models(tmp_path):
+    """No writable data (bss/data/common symbols) in any object of the C core and of the two models
+    (with their generated variable tables): every instance independent."""
+    import shutil
+    import subprocess
+
+    from orchestration import native_build, native_fmus
+    from orchestration.native_vars import header
+
+    if shutil.which("gcc") is None or shutil.which("nm") is None:
+        pytest.skip("needs gcc and nm")
+    inc = native_build.fmi_headers_dir()
+    for name, unit in native_fmus.NAMES.items():
+        gen = tmp_path / unit
+        gen.mkdir()
+        (gen / "sm_vars.h").write_text(header(name))
+        srcs = [p for p in native_fmus.sources(name) if p.suffix == ".c"]
+        dirs = {p.parent for p in native_fmus.sources(name)} | {gen, native_build.GLUE_DIR}
+        for src in srcs:
+            obj = gen / (src.stem + ".o")
+            includes = [f"-I{d}" for d in sorted(dirs)]
+            subprocess.run(["gcc", "-std=c99", "-O2", "-fPIC", "-c", f"-I{inc}", *includes, str(src), "-o", str(obj)],
+                           check=True, capture_output=True)
+            out = subprocess.run(["nm", "-f", "sysv", str(obj)], capture_output=True, text=True,
+                                 check=True).stdout
+            rows = [[c.strip() for c in line.split("|")] for line in out.splitlines() if line.count("|") == 6]
+            writable = [r for r in rows if r[2] in "bBdDcC" and not r[6].startswith(".data.rel.ro")]
+            assert writable == [], (src.name, writable)
