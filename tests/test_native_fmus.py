@@ -255,8 +255,8 @@ def test_no_global_mutable_state_in_the_core_or_the_models(tmp_path):
         for src in srcs:
             obj = gen / (src.stem + ".o")
             includes = [f"-I{d}" for d in sorted(dirs)]
-            subprocess.run(["gcc", "-std=c99", "-O2", "-fPIC", "-c", f"-I{inc}", *includes, str(src), "-o", str(obj)],
-                           check=True, capture_output=True)
+            subprocess.run(["gcc", "-std=c99", "-O2", "-fPIC", "-c", f"-I{inc}", *includes, str(src), "-o",
+                            str(obj)], check=True, capture_output=True)
             out = subprocess.run(["nm", "-f", "sysv", str(obj)], capture_output=True, text=True,
                                  check=True).stdout
             rows = [[c.strip() for c in line.split("|")] for line in out.splitlines() if line.count("|") == 6]
