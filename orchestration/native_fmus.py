@@ -55,8 +55,10 @@ def inputs_fingerprint(name):
     return h.hexdigest()
 
 
-def build(name, out_dir, fmi_version="2.0", platforms=None):
-    """Build the native FMU ``name`` into ``out_dir/native[-fmi3]/``; returns its path."""
+def build(name, out_dir, fmi_version="2.0", platforms=None, resources=None):
+    """Build the native FMU ``name`` into ``out_dir/native[-fmi3]/``; returns its path.  ``resources``:
+    extra files ``{name: bytes}`` for ``resources/`` (e.g. a ``table`` curve's CSV: a ``table_file``
+    that does not exist as given is looked up there by its base name)."""
     xml = (nmd.fmi2 if fmi_version == "2.0" else nmd.fmi3)(name).decode("utf-8")
     target = Path(out_dir) / DIRS[fmi_version] / f"{name}.fmu"
     target.parent.mkdir(parents=True, exist_ok=True)
@@ -65,7 +67,8 @@ def build(name, out_dir, fmi_version="2.0", platforms=None):
         vars_h.write_text(header(name))
         plats = platforms or LINUX[fmi_version]
         path, _ = build_native_fmu(name, [*sources(name), vars_h], xml, target, fmi_version, plats,
-                                   resources={BUILD_INPUTS: (inputs_fingerprint(name) + "\n").encode()},
+                                   resources={**(resources or {}),
+                                              BUILD_INPUTS: (inputs_fingerprint(name) + "\n").encode()},
                                    linux_glibc=PORTABLE_GLIBC if len(plats) > 1 else None)
     return path
 

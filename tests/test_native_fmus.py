@@ -262,3 +262,35 @@ def test_no_global_mutable_state_in_the_core_or_the_models(tmp_path):
             rows = [[c.strip() for c in line.split("|")] for line in out.splitlines() if line.count("|") == 6]
             writable = [r for r in rows if r[2] in "bBdDcC" and not r[6].startswith(".data.rel.ro")]
             assert writable == [], (src.name, writable)
+
+
+@pytest.mark.parametrize("version", ["2.0", "3.0"])
+def test_a_table_curve_reads_its_file_from_the_fmus_resources(version, tmp_path):
+    """A native plant built with a no-load CSV in its resources, table_file = the bare file name: the
+    same trajectory as the plain-Python unit reading that CSV."""
+    from conftest import no_load_table
+
+    from orchestration import native_fmus
+    from satmotor.interface import PlantUnit
+
+    i_mu, psi = no_load_table()
+    csv = "i_mu,psi_m\n" + "".join(f"{a!r},{b!r}\n" for a, b in zip(i_mu, psi))
+    path = native_fmus.build("SaturatedInductionMotor", tmp_path, version,
+                             resources={"noload.csv": csv.encode()})
+    inst = FMUInstance(str(path), "table")
+    inst.set_parameters({"curve": "table", "table_file": "noload.csv", "psi_r0": 0.6})
+    inst.initialize(0.0)
+    vin = inst.vr(["v_s_alpha", "v_s_beta", "T_load"])
+    outs = ["i_s_alpha", "i_mu", "omega_m"]
+    set_ = inst.slave.setFloat64 if inst.fmi3 else inst.slave.setReal
+    get = inst.slave.getFloat64 if inst.fmi3 else inst.slave.getReal
+    (tmp_path / "noload.csv").write_text(csv)
+    unit = PlantUnit({"curve": "table", "table_file": str(tmp_path / "noload.csv"), "psi_r0": 0.6})
+    for k in range(200):
+        u = (120.0 * math.cos(250 * k * 1e-4), 120.0 * math.sin(250 * k * 1e-4), 2.0)
+        set_(vin, list(u))
+        inst.do_step(k * 1e-4, 1e-4)
+        unit.step(k * 1e-4, 1e-4, u)
+    want = dict(zip(PlantUnit.OUTPUTS, unit.outputs()))
+    assert get(inst.vr(outs)) == [want[n] for n in outs]
+    inst.close()
