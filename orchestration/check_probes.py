@@ -27,7 +27,7 @@ from fmpy.fmi2 import (
     fmi2CallbackFunctions,
     fmi2CallbackLoggerTYPE,
 )
-from fmpy.fmi3 import FMU3Slave, fmi3LogMessageCallback
+from fmpy.fmi3 import FMU3Slave
 
 STEPS = 5  # steps before a state is taken, and steps replayed
 CYCLES = 20
@@ -46,11 +46,10 @@ def status_of(f, *args):
 
 class Slave:
     """One fmpy co-simulation instance, FMI 2.0 or 3.0, behind the calls the probes make: Float64
-    (FMI 3.0) and Real (FMI 2.0) alike are "reals"; ``fmi`` names the functions in the details."""
+    (FMI 3.0) and Real (FMI 2.0) alike are "reals"."""
 
     def __init__(self, fmu, major):
         self.fmu, self.major = fmu, major
-        self.fmi = f"fmi{major}"
 
     def set_reals(self, vrs, values):
         (self.fmu.setFloat64 if self.major == 3 else self.fmu.setReal)(vrs, values)
@@ -67,7 +66,9 @@ class Slave:
         self.fmu.exitInitializationMode()
 
     def do_step(self, t, h):
-        self.fmu.doStep(t, h)
+        # the state probe sets the state back to an earlier time: no promise of the contrary (fmpy's
+        # default, noSetFMUStatePriorToCurrentPoint = true, would let an FMU drop what it needs)
+        self.fmu.doStep(t, h, noSetFMUStatePriorToCurrentPoint=False)
 
     def get_state(self):
         return self.fmu.getFMUState()
@@ -103,14 +104,15 @@ class Probe:
         self.major = int(self.md.fmiVersion.split(".")[0])
         self.fmi = f"fmi{self.major}"
         self.log = []
-        # kept alive as long as the instances
-        if self.major == 3:
-            self._logger = fmi3LogMessageCallback(self._log3)
-        else:
-            self._logger = fmi2CallbackLoggerTYPE(self._log)
+        # FMI 2.0: the ctypes callback, kept alive as long as the instances (FMU3Slave wraps and keeps
+        # the plain function itself)
+        self._logger = self._log3 if self.major == 3 else fmi2CallbackLoggerTYPE(self._log)
         ex = self.md.defaultExperiment
         self.h = float(ex.stepSize) if ex is not None and ex.stepSize else 1e-4
-        self.reals = [v for v in self.md.modelVariables if v.type in ("Real", "Float64")]
+        # scalar ones only: an FMI 3.0 array variable holds more values than its value reference
+        self.reals = [v for v in self.md.modelVariables
+                      if v.type in ("Real", "Float64") and not v.dimensions]
+        # by causality: FMI 3.0's independent variable (time) is neither
         self.inputs = [v for v in self.reals if v.causality == "input"]
         self.outputs = [v.valueReference for v in self.reals if v.causality == "output"]
         self.count = 0
@@ -118,7 +120,7 @@ class Probe:
     def _log(self, env, instance, status, category, message):
         self.log.append((status, (message or b"").decode("utf-8", "replace")))
 
-    def _log3(self, env, status, category, message):
+    def _log3(self, env, status, category, message):  # FMI 3.0: no instance, no variadic arguments
         self.log.append((status, (message or b"").decode("utf-8", "replace")))
 
     def errors(self):
