@@ -26,7 +26,7 @@ test: $(STAMP)
 
 check: $(STAMP)
 	$(PY) -m orchestration build --out build/fmus
-	$(PY) -m orchestration check build/fmus/*.fmu build/fmus/native/*.fmu --junit build/check.xml
+	$(PY) -m orchestration check build/fmus/*.fmu build/fmus/native/*.fmu build/fmus/native-fmi3/*.fmu --junit build/check.xml
 
 test-fast: $(STAMP)
 	$(PY) -m pytest -m "not slow"

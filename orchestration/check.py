@@ -1,5 +1,5 @@
-"""``satmotor-cosim check FMU... [--junit FILE] [--reference DIR]``: checks any FMI 2.0 co-simulation
-FMU (ours or anyone's) the way an importing tool or a CI job would, one line per check::
+"""``satmotor-cosim check FMU... [--junit FILE] [--reference DIR]``: checks any FMI 2.0 or FMI 3.0
+co-simulation FMU (ours or anyone's) the way an importing tool or a CI job would, one line per check::
 
     PASS|FAIL|SKIP|KNOWN  <fmu>  <check>: <detail>
 
@@ -7,7 +7,8 @@ FMU (ours or anyone's) the way an importing tool or a CI job would, one line per
 run-time checks each run in a child process (:mod:`orchestration.check_probes`), so a crash of the
 FMU is a FAIL, not the end of the checker.  ``reference`` runs the FMU against
 ``reference/<modelName>/`` (cross-check layout) when that directory exists (ours), else SKIP.
-An FMI 3.0 FMU gets ``validate`` only.  KNOWN: a known limitation, reported, not failing.
+``fmutool`` is FMI 2.0 only (SKIP for FMI 3.0); the other checks run on both versions.  Another
+FMI version (1.0) gets ``validate`` only.  KNOWN: a known limitation, reported, not failing.
 Exit: 1 if any check FAILs, else 0 (usage errors, 2, are found by the caller before any check).
 """
 
@@ -139,7 +140,8 @@ def judge(check, result):
         if st == "fatal" and "pythonfmu" in result["generationTool"].lower():
             return "KNOWN", head + tail + " (pythonfmu reports fmi2Fatal, never fmi2Error: known limitation)"
         if st == "fatal":
-            return "FAIL", head + tail + " (fmi2Fatal for a bad parameter: expected fmi2Error)"
+            fmi = result.get("fmi", "fmi2")
+            return "FAIL", head + tail + f" ({fmi}Fatal for a bad parameter: expected {fmi}Error)"
         return "FAIL", head + " (the FMU accepted it)"
     if check == "non-finite-input":
         res = result["results"]
@@ -193,10 +195,15 @@ def check_fmu(path, references=(REFERENCE_DIR,)):
     record("validate", check_validate, path)
     if root is None:
         return out
-    if not version.startswith("2."):
-        why = f"FMI {version}: only fmpy validate is run for FMI 3.0 FMUs (the other checks are FMI 2.0)"
+    major = version.split(".")[0]
+    if major not in ("2", "3"):
+        why = f"FMI {version}: only fmpy validate is run (the other checks are FMI 2.0 and 3.0)"
         return out + [(c, "SKIP", why, 0.0) for c in CHECKS[1:]]
-    record("fmutool", check_fmutool, path)
+    if major == "2":
+        record("fmutool", check_fmutool, path)
+    else:
+        out.append(("fmutool", "SKIP", f"FMI {version}: fmu-manipulation-toolbox check_fmu is FMI 2.0 only",
+                    0.0))
     if root.find("CoSimulation") is None:
         return out + [(c, "SKIP", "no CoSimulation element (model exchange only)", 0.0) for c in PROBED]
     for check in PROBED[:-1]:

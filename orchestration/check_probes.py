@@ -6,7 +6,8 @@ so that an FMU that crashes or corrupts the heap takes down the probe, not the c
 prints one JSON object (its last line of stdout) and exits normally: the exit code is part of the
 result (:mod:`orchestration.check` reads both).  Modes: ``instantiate``, ``cycles``, ``state``,
 ``reset``, ``bad-parameter``, ``non-finite-input``, ``reference``.  Only fmpy here: the probes work
-for any FMI 2.0 co-simulation FMU.
+for any FMI 2.0 or FMI 3.0 co-simulation FMU (:class:`Slave` hides the version differences: the
+probes are written once).
 """
 
 from __future__ import annotations
@@ -26,6 +27,7 @@ from fmpy.fmi2 import (
     fmi2CallbackFunctions,
     fmi2CallbackLoggerTYPE,
 )
+from fmpy.fmi3 import FMU3Slave
 
 STEPS = 5  # steps before a state is taken, and steps replayed
 CYCLES = 20
@@ -42,17 +44,75 @@ def status_of(f, *args):
         return STATUS.get(getattr(exc, "status", None), repr(exc)), None
 
 
+class Slave:
+    """One fmpy co-simulation instance, FMI 2.0 or 3.0, behind the calls the probes make: Float64
+    (FMI 3.0) and Real (FMI 2.0) alike are "reals"."""
+
+    def __init__(self, fmu, major):
+        self.fmu, self.major = fmu, major
+
+    def set_reals(self, vrs, values):
+        (self.fmu.setFloat64 if self.major == 3 else self.fmu.setReal)(vrs, values)
+
+    def get_reals(self, vrs):
+        return (self.fmu.getFloat64 if self.major == 3 else self.fmu.getReal)(vrs)
+
+    def initialize(self, start=0.0):
+        if self.major == 3:
+            self.fmu.enterInitializationMode(startTime=start)
+        else:
+            self.fmu.setupExperiment(startTime=start)
+            self.fmu.enterInitializationMode()
+        self.fmu.exitInitializationMode()
+
+    def do_step(self, t, h):
+        # the state probe sets the state back to an earlier time: no promise of the contrary (fmpy's
+        # default, noSetFMUStatePriorToCurrentPoint = true, would let an FMU drop what it needs)
+        self.fmu.doStep(t, h, noSetFMUStatePriorToCurrentPoint=False)
+
+    def get_state(self):
+        return self.fmu.getFMUState()
+
+    def set_state(self, state):
+        self.fmu.setFMUState(state)
+
+    def free_state(self, state):
+        self.fmu.freeFMUState(state)
+
+    def serialize(self, state):
+        return bytes(self.fmu.serializeFMUState(state))
+
+    def deserialize(self, blob):
+        return (self.fmu.deserializeFMUState if self.major == 3 else self.fmu.deSerializeFMUstate)(blob)
+
+    def reset(self):
+        self.fmu.reset()
+
+    def terminate(self):
+        self.fmu.terminate()
+
+    def free(self):
+        self.fmu.freeInstance()
+
+
 class Probe:
     """The FMU extracted once, its variables, and a factory of logged fmpy instances."""
 
     def __init__(self, path):
         self.md = read_model_description(path)
         self.unzip = extract(path, unzipdir=tempfile.mkdtemp(prefix="fmucheck_"))
+        self.major = int(self.md.fmiVersion.split(".")[0])
+        self.fmi = f"fmi{self.major}"
         self.log = []
-        self._logger = fmi2CallbackLoggerTYPE(self._log)  # kept alive as long as the instances
+        # FMI 2.0: the ctypes callback, kept alive as long as the instances (FMU3Slave wraps and keeps
+        # the plain function itself)
+        self._logger = self._log3 if self.major == 3 else fmi2CallbackLoggerTYPE(self._log)
         ex = self.md.defaultExperiment
         self.h = float(ex.stepSize) if ex is not None and ex.stepSize else 1e-4
-        self.reals = [v for v in self.md.modelVariables if v.type == "Real"]
+        # scalar ones only: an FMI 3.0 array variable holds more values than its value reference
+        self.reals = [v for v in self.md.modelVariables
+                      if v.type in ("Real", "Float64") and not v.dimensions]
+        # by causality: FMI 3.0's independent variable (time) is neither
         self.inputs = [v for v in self.reals if v.causality == "input"]
         self.outputs = [v.valueReference for v in self.reals if v.causality == "output"]
         self.count = 0
@@ -60,29 +120,36 @@ class Probe:
     def _log(self, env, instance, status, category, message):
         self.log.append((status, (message or b"").decode("utf-8", "replace")))
 
+    def _log3(self, env, status, category, message):  # FMI 3.0: no instance, no variadic arguments
+        self.log.append((status, (message or b"").decode("utf-8", "replace")))
+
     def errors(self):
         return " | ".join(m for s, m in self.log[-5:] if s >= 2)[:300]
 
     def instance(self, initialize=True, params=()):
         self.count += 1
-        s = FMU2Slave(guid=self.md.guid, unzipDirectory=self.unzip, instanceName=f"check{self.count}",
-                      modelIdentifier=self.md.coSimulation.modelIdentifier)
-        cb = fmi2CallbackFunctions()
-        cb.logger = self._logger
-        cb.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
-        cb.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
-        s._keep = cb
-        s.instantiate(callbacks=cb, loggingOn=True)
+        kw = dict(guid=self.md.guid, unzipDirectory=self.unzip, instanceName=f"check{self.count}",
+                  modelIdentifier=self.md.coSimulation.modelIdentifier)
+        if self.major == 3:
+            fmu = FMU3Slave(**kw)
+            fmu.instantiate(loggingOn=True, logMessage=self._logger)
+        else:
+            fmu = FMU2Slave(**kw)
+            cb = fmi2CallbackFunctions()
+            cb.logger = self._logger
+            cb.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
+            cb.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
+            fmu._keep = cb
+            fmu.instantiate(callbacks=cb, loggingOn=True)
+        s = Slave(fmu, self.major)
         if initialize:
             self.initialize(s, params)
         return s
 
     def initialize(self, s, params=()):
         for vr, value in params:
-            s.setReal([vr], [value])
-        s.setupExperiment(startTime=0.0)
-        s.enterInitializationMode()
-        s.exitInitializationMode()
+            s.set_reals([vr], [value])
+        s.initialize(0.0)
 
     def input_values(self):
         """The inputs' start values; 1.0 (within min/max) where the start is 0 or missing, so that
@@ -100,9 +167,9 @@ class Probe:
         vrs, values, rows = [v.valueReference for v in self.inputs], self.input_values(), []
         for k in range(k0, k0 + n):
             if vrs:
-                s.setReal(vrs, values)
-            s.doStep(k * self.h, self.h)
-            rows.append([x.hex() for x in s.getReal(self.outputs)] if self.outputs else [])
+                s.set_reals(vrs, values)
+            s.do_step(k * self.h, self.h)
+            rows.append([x.hex() for x in s.get_reals(self.outputs)] if self.outputs else [])
         return rows
 
 
@@ -110,7 +177,7 @@ def probe_instantiate(p):
     s = p.instance()
     p.run(s, 0, 1)
     s.terminate()
-    s.freeInstance()
+    s.free()
     return {"ok": True, "detail": f"one doStep of {p.h:g} s"}
 
 
@@ -118,7 +185,7 @@ def probe_cycles(p):
     for _ in range(CYCLES):
         s = p.instance()
         s.terminate()
-        s.freeInstance()
+        s.free()
     return {"ok": True, "detail": f"{CYCLES} instantiate/initialize/free cycles"}
 
 
@@ -128,24 +195,24 @@ def probe_state(p):
         return {"skip": "canGetAndSetFMUstate is false"}
     s = p.instance()
     p.run(s, 0, STEPS)
-    state = s.getFMUState()
+    state = s.get_state()
     first = p.run(s, STEPS, STEPS)
-    s.setFMUState(state)
+    s.set_state(state)
     again = p.run(s, STEPS, STEPS)
     if again != first:
         return {"ok": False, "detail": "get/set state: the replay differs"}
     detail = f"get/set state after {STEPS} steps, {STEPS} steps replayed bit-identical"
     if cs.canSerializeFMUstate:
-        blob = bytes(s.serializeFMUState(state))
-        restored = s.deSerializeFMUstate(blob)
-        s.setFMUState(restored)
+        blob = s.serialize(state)
+        restored = s.deserialize(blob)
+        s.set_state(restored)
         if p.run(s, STEPS, STEPS) != first:
             return {"ok": False, "detail": "serialize/deserialize: the replay differs"}
-        s.freeFMUState(restored)
+        s.free_state(restored)
         detail += f"; serialized ({len(blob)} bytes) round trip too"
-    s.freeFMUState(state)
+    s.free_state(state)
     s.terminate()
-    s.freeInstance()
+    s.free()
     return {"ok": True, "detail": detail}
 
 
@@ -156,8 +223,8 @@ def probe_reset(p):
     p.initialize(s)
     again = p.run(s, 0, 2 * STEPS)
     s.terminate()
-    s.freeInstance()
-    return {"ok": again == first, "detail": f"{2 * STEPS} steps before and after fmi2Reset"
+    s.free()
+    return {"ok": again == first, "detail": f"{2 * STEPS} steps before and after {p.fmi}Reset"
             + (" bit-identical" if again == first else ": outputs differ")}
 
 
@@ -165,7 +232,7 @@ def alive(p):
     """A fresh instance steps fine (the host lives on)."""
     s = p.instance()
     p.run(s, 0, 1)
-    s.freeInstance()
+    s.free()
     return True
 
 
@@ -177,18 +244,19 @@ def probe_bad_parameter(p):
     elif p.md.modelName in KNOWN_BAD:
         name, value = KNOWN_BAD[p.md.modelName]
     else:
-        return {"skip": "no Real parameter with min > 0 (and not one of our FMUs)"}
+        return {"skip": "no Real (Float64) parameter with min > 0 (and not one of our FMUs)"}
     vr = next(v.valueReference for v in p.reals if v.name == name)
     s = p.instance(initialize=False)
-    status, _ = status_of(s.setReal, [vr], [value])
-    where = "fmi2SetReal"
+    status, _ = status_of(s.set_reals, [vr], [value])
+    where = f"{p.fmi}SetFloat64" if p.major == 3 else "fmi2SetReal"
     if status == "ok":
         where = "initialization"
         status, _ = status_of(p.initialize, s)
     if status in ("error", "discard"):
-        s.freeInstance()
-    # after fmi2Fatal no further call on that instance (FMI 2.0 section 2.1.3)
-    out = {"status": status, "where": where, "param": f"{name} = {value!r}", "log": p.errors()}
+        s.free()
+    # after fmi2Fatal/fmi3Fatal no further call on that instance (FMI 2.0 section 2.1.3)
+    out = {"status": status, "where": where, "param": f"{name} = {value!r}", "log": p.errors(),
+           "fmi": p.fmi}
     out["alive"] = alive(p)
     out["generationTool"] = p.md.generationTool or ""
     out["needsExecutionTool"] = bool(p.md.coSimulation.needsExecutionTool)
@@ -197,17 +265,17 @@ def probe_bad_parameter(p):
 
 def probe_non_finite_input(p):
     if not p.inputs:
-        return {"skip": "no Real input"}
+        return {"skip": "no Real (Float64) input"}
     results = {}
     for i, v in enumerate(p.inputs):
         s = p.instance()
         values = p.input_values()
         values[i] = math.nan
-        s.setReal([u.valueReference for u in p.inputs], values)
-        status, _ = status_of(s.doStep, 0.0, p.h)
+        s.set_reals([u.valueReference for u in p.inputs], values)
+        status, _ = status_of(s.do_step, 0.0, p.h)
         results[v.name] = status
         if status != "fatal":
-            s.freeInstance()
+            s.free()
     return {"results": results, "alive": alive(p)}
 
 

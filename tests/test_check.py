@@ -1,5 +1,6 @@
 """``python -m orchestration check``: our two FMUs pass (exit 0, JUnit XML with one testcase per
-check), broken copies FAIL the check that should catch them (exit 1), usage errors exit 2."""
+check), the pythonfmu ones and the native FMI 3.0 ones, broken copies FAIL the check that should
+catch them (exit 1), usage errors exit 2."""
 
 from __future__ import annotations
 
@@ -98,20 +99,26 @@ def test_a_missing_output_fails_validate_and_fmutool(fmu_dir, tmp_path, capsys):
     assert {"validate", "fmutool"} <= failed
 
 
-@pytest.mark.slow
-def test_a_reference_one_percent_off_fails_reference(fmu_dir, tmp_path, capsys):
-    name = "SaturatedInductionMotor"
+def reference_one_percent_off(tmp_path, name, column):
+    """A copy of ``reference/`` whose ``name`` reference has ``column`` 1 % high."""
     ref = tmp_path / "reference"
     shutil.copytree(check.REFERENCE_DIR / name, ref / name)
     csv = ref / name / f"{name}_ref.csv"
     head, *rows = csv.read_text().splitlines()
-    col = head.split(",").index("omega_m")
+    col = head.split(",").index(column)
     doctored = []
     for row in rows:
         cells = row.split(",")
         cells[col] = repr(float(cells[col]) * 1.01)
         doctored.append(",".join(cells))
     csv.write_text("\n".join([head, *doctored]) + "\n")
+    return ref
+
+
+@pytest.mark.slow
+def test_a_reference_one_percent_off_fails_reference(fmu_dir, tmp_path, capsys):
+    name = "SaturatedInductionMotor"
+    ref = reference_one_percent_off(tmp_path, name, "omega_m")
     code, verdicts = run_check(capsys, Path(fmu_dir) / f"{name}.fmu", "--reference", ref)
     assert code == 1
     verdict, detail = verdicts[(name, "reference")]
@@ -135,3 +142,56 @@ def test_state_declared_false_is_skipped(fmu_dir, tmp_path, capsys):
         'canSerializeFMUstate="true"', 'canSerializeFMUstate="false"'))
     code, verdicts = run_check(capsys, copy)
     assert code == 0 and verdicts[(copy.stem, "state")] == ("SKIP", "canGetAndSetFMUstate is false")
+
+
+@pytest.mark.slow
+def test_native_fmi3_fmus_pass_with_a_junit_file(fmu_dir, tmp_path, capsys):
+    paths = [Path(fmu_dir) / "native-fmi3" / f"{n}.fmu" for n in NAMES]
+    code, verdicts = run_check(capsys, *paths, "--junit", tmp_path / "check.xml")
+    assert code == 0, verdicts
+    for name in NAMES:
+        assert {c: verdicts[(name, c)][0] for c in check.CHECKS} == {
+            **{c: "PASS" for c in check.CHECKS}, "fmutool": "SKIP"}, verdicts
+        assert "FMI 2.0 only" in verdicts[(name, "fmutool")][1]
+        assert verdicts[(name, "bad-parameter")][1].startswith("J = 0.0: error at ")
+        assert "fmi3Reset" in verdicts[(name, "reset")][1]
+        assert "round trip" in verdicts[(name, "state")][1]
+    root = ET.parse(tmp_path / "check.xml").getroot()
+    suites = root.findall("testsuite")
+    assert [s.get("name") for s in suites] == [str(p) for p in paths]
+    for s in suites:
+        assert [c.get("name") for c in s.findall("testcase")] == list(check.CHECKS)
+        assert (s.get("tests"), s.get("failures"), s.get("skipped")) == ("9", "0", "1")
+        assert s.find("testcase/failure") is None
+
+
+@pytest.mark.slow
+def test_fmi3_a_reference_one_percent_off_fails_reference(fmu_dir, tmp_path, capsys):
+    name = "BacksteppingController"
+    ref = reference_one_percent_off(tmp_path, name, "v_s_alpha")
+    code, verdicts = run_check(capsys, Path(fmu_dir) / "native-fmi3" / f"{name}.fmu",
+                               "--reference", ref)
+    assert code == 1
+    verdict, detail = verdicts[(name, "reference")]
+    assert verdict == "FAIL" and "v_s_alpha" in detail and "band 1e-09" in detail, detail
+    assert all(v == ("SKIP" if c == "fmutool" else "PASS")
+               for (n, c), (v, _) in verdicts.items() if c != "reference")
+
+
+@pytest.mark.slow
+def test_fmi3_state_declared_false_is_skipped(fmu_dir, tmp_path, capsys):
+    copy = tmp_path / "SaturatedInductionMotor.fmu"
+    rewrite_model_description(Path(fmu_dir) / "native-fmi3" / copy.name, copy, lambda md: md.replace(
+        'canGetAndSetFMUState="true"', 'canGetAndSetFMUState="false"').replace(
+        'canSerializeFMUState="true"', 'canSerializeFMUState="false"'))
+    code, verdicts = run_check(capsys, copy)
+    assert code == 0 and verdicts[(copy.stem, "state")] == ("SKIP", "canGetAndSetFMUstate is false")
+
+
+def test_fatal_for_a_bad_parameter_names_the_fmi_version():
+    result = {"status": "fatal", "where": "initialization", "param": "J = 0.0", "alive": True,
+              "generationTool": "satmotor native C glue", "fmi": "fmi3"}
+    verdict, detail = check.judge("bad-parameter", result)
+    assert verdict == "FAIL" and "fmi3Fatal for a bad parameter: expected fmi3Error" in detail
+    verdict, detail = check.judge("bad-parameter", {**result, "status": "error"})
+    assert verdict == "PASS" and "error at initialization" in detail
