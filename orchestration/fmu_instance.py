@@ -107,8 +107,8 @@ class RealPort:
 
 class DiscretePort:
     """The Integer and Boolean outputs of an instance (e.g. the controller's phase and limiter
-    flags), read together after a step: :meth:`read` returns their values as floats in the order
-    of :attr:`names` (Integers first, then Booleans)."""
+    flags), read together after a step: :meth:`read` returns their values in the order of
+    :attr:`names` (Integers first, then Booleans)."""
 
     def __init__(self, instance, integers, booleans):
         self.names = tuple(integers) + tuple(booleans)
@@ -124,6 +124,8 @@ class DiscretePort:
         self._get_i, self._get_b = instance.raw(self._calls["get_int"]), instance.raw(self._calls["get_bool"])
 
     def read(self):
+        """The values as a new list (Integers, then Booleans as bools: the recorder stores them as
+        float64 like every column)."""
         if self._ni:
             r = self._get_i(*self._iargs)
             if r > 1:
@@ -132,7 +134,7 @@ class DiscretePort:
             r = self._get_b(*self._bargs)
             if r > 1:
                 check(self._calls["get_bool"], r)
-        return [float(v) for v in self._ivals] + [float(v) for v in self._bvals]
+        return self._ivals[:] + self._bvals[:]
 
 
 class FMUInstance:

@@ -196,9 +196,9 @@ def _loop(sc, jacobi, plant, ctrl, p_out, c_out, c_disc, connections, profiles, 
     time (:meth:`FMUInstance.step_failed`).  The FMI functions are called through ctypes directly
     (:meth:`FMUInstance.raw`) with argument tuples made once; the profiles are evaluated once per
     step (pure functions of t); every value exchanged is a plain float.  The controller's Integer and
-    Boolean outputs (``c_disc``, read as floats) follow its Reals in each row.  ``measure``: None, or
-    a :class:`MeasurementNoise` giving, at each controller sample, the plant outputs as the controller
-    receives them and the row of measured values."""
+    Boolean outputs (``c_disc``) follow its Reals in each row (stored as float64, as every column).
+    ``measure``: None, or a :class:`MeasurementNoise` giving, at each controller sample, the plant
+    outputs as the controller receives them and the row of measured values."""
     h, N = sc.step, sc.controller_every
     n = round(sc.stop_time / h)
     every = max(1, round(sc.record.interval / h))
@@ -212,7 +212,7 @@ def _loop(sc, jacobi, plant, ctrl, p_out, c_out, c_disc, connections, profiles, 
     pg, cg, pvals, cvals = p_out.get_args, c_out.get_args, p_out.values, c_out.values
     ps, cs, p_invals, c_invals = p_in.set_args, c_in.set_args, p_in.values, c_in.values
     read_disc = c_disc.read
-    pv, cv = p_out.read()[:], c_out.read()[:] + read_disc()  # lists of floats, new ones after each read
+    pv, cv = p_out.read()[:], c_out.read()[:] + read_disc()  # new lists after each read
     held = cv  # controller outputs seen by the plant (Jacobi: one sample old)
     mrow = ()  # the measured signals' values at the last sample (recorded after the profiles)
     Ts, t0, t = sc.Ts, 0.0, 0.0
