@@ -66,6 +66,16 @@ def test_junit_layout(tmp_path):
     assert cases["validate"].find("failure") is None and cases["validate"].find("skipped") is None
 
 
+def assert_junit_one_skip_no_failure(junit_file, paths):
+    """One testsuite per FMU, every check a testcase, no failure, one skipped (KNOWN or SKIP)."""
+    suites = ET.parse(junit_file).getroot().findall("testsuite")
+    assert [s.get("name") for s in suites] == [str(p) for p in paths]
+    for s in suites:
+        assert [c.get("name") for c in s.findall("testcase")] == list(check.CHECKS)
+        assert (s.get("tests"), s.get("failures"), s.get("skipped")) == ("9", "0", "1")
+        assert s.find("testcase/failure") is None
+
+
 @pytest.mark.slow
 def test_our_fmus_pass_with_a_junit_file(fmu_dir, tmp_path, capsys):
     paths = [Path(fmu_dir) / f"{n}.fmu" for n in NAMES]
@@ -75,13 +85,7 @@ def test_our_fmus_pass_with_a_junit_file(fmu_dir, tmp_path, capsys):
         assert {c: verdicts[(name, c)][0] for c in check.CHECKS} == {
             **{c: "PASS" for c in check.CHECKS}, "bad-parameter": "KNOWN"}, verdicts
         assert "pythonfmu" in verdicts[(name, "bad-parameter")][1]
-    root = ET.parse(tmp_path / "check.xml").getroot()
-    suites = root.findall("testsuite")
-    assert [s.get("name") for s in suites] == [str(p) for p in paths]
-    for s in suites:
-        assert [c.get("name") for c in s.findall("testcase")] == list(check.CHECKS)
-        assert (s.get("tests"), s.get("failures"), s.get("skipped")) == ("9", "0", "1")
-        assert s.find("testcase/failure") is None
+    assert_junit_one_skip_no_failure(tmp_path / "check.xml", paths)
 
 
 @pytest.mark.slow
@@ -156,13 +160,7 @@ def test_native_fmi3_fmus_pass_with_a_junit_file(fmu_dir, tmp_path, capsys):
         assert verdicts[(name, "bad-parameter")][1].startswith("J = 0.0: error at ")
         assert "fmi3Reset" in verdicts[(name, "reset")][1]
         assert "round trip" in verdicts[(name, "state")][1]
-    root = ET.parse(tmp_path / "check.xml").getroot()
-    suites = root.findall("testsuite")
-    assert [s.get("name") for s in suites] == [str(p) for p in paths]
-    for s in suites:
-        assert [c.get("name") for c in s.findall("testcase")] == list(check.CHECKS)
-        assert (s.get("tests"), s.get("failures"), s.get("skipped")) == ("9", "0", "1")
-        assert s.find("testcase/failure") is None
+    assert_junit_one_skip_no_failure(tmp_path / "check.xml", paths)
 
 
 @pytest.mark.slow

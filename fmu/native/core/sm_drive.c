@@ -71,7 +71,8 @@ static int check_config(const sm_drive_config *c, char *msg, size_t len)
         return range_error(msg, len, "flux_source", (double)c->observer, "must be one of measured, observer");
     }
     if (c->delay_samples != 0 && c->delay_samples != 1) {
-        return sm_param_error(msg, len, NULL, "delay_samples", c->delay_samples ? "2" : "0", "must be 0 or 1");
+        (void)snprintf(repr, sizeof repr, "%d", c->delay_samples);
+        return sm_param_error(msg, len, NULL, "delay_samples", repr, "must be 0 or 1");
     }
     return SM_CORE_OK;
 }
