@@ -1,10 +1,14 @@
 #!/usr/bin/env bash
-# Debian packages the tests use beyond Python: valgrind (tests/test_process_exit.py checks the
-# FMUs' process exit under it; without it those tests skip with a reason). Installed when missing,
+# Debian packages the tests use beyond Python: valgrind (tests/test_process_exit.py and
+# tests/test_native_fmus.py run FMUs under it; without it those tests skip with a reason), gcc and
+# binutils (the native C core is compiled for the ctypes tests; nm checks for global state; the
+# native FMUs themselves build with zig from the ziglang wheel when gcc is absent). Installed when missing,
 # with apt-get as root; elsewhere a note says what to install, and nothing fails.
 set -u
 missing=()
 command -v valgrind >/dev/null 2>&1 || missing+=(valgrind)
+command -v gcc >/dev/null 2>&1 || missing+=(gcc)
+command -v nm >/dev/null 2>&1 || missing+=(binutils)
 [ ${#missing[@]} -eq 0 ] && exit 0
 if [ "$(id -u)" = 0 ] && command -v apt-get >/dev/null 2>&1; then
   export DEBIAN_FRONTEND=noninteractive
