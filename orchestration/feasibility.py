@@ -73,9 +73,16 @@ def physics_problems(sc):
 
 
 def recorded_size(sc):
-    """(rows, columns) of the recording of ``sc``: time, the profiles and the recorded outputs."""
+    """(rows, columns) of the recording of ``sc``: the columns the results writer keeps
+    (:func:`orchestration.results.recorded_selection`: time, the profiles, the measured signals, the
+    recorded outputs and the ones the metrics and the figure need)."""
     from satmotor.interface import CONTROLLER_OUTPUTS, PLANT_OUTPUTS
 
+    from .master import recorded_columns
+    from .results import recorded_selection
+
+    measured = sc.measurements.columns if sc.measurements is not None else ()
+    columns = recorded_columns([v.name for v in PLANT_OUTPUTS], [v.name for v in CONTROLLER_OUTPUTS],
+                               sorted(sc.profiles), measured)
     rows = int(sc.stop_time / sc.record.interval + 1e-9) + 1
-    n_out = len(sc.record.outputs) or len(PLANT_OUTPUTS) + len(CONTROLLER_OUTPUTS)
-    return rows, 1 + len(sc.profiles) + n_out
+    return rows, len(recorded_selection(sc, columns))
