@@ -174,6 +174,7 @@ def test_batch_stops_on_a_signal_summarizes_everything_and_leaves_no_process(sig
     d, out = _batch_dir(tmp_path), tmp_path / "out"
     p = _start("batch", d, "--jobs", 2, "--out", out, "--fmus", fmu_dir, start_new_session=True)
     _wait_children(d, 2)
+    _wait_running(out / "long0" / "metrics.json", p)  # a loaded machine: rows before the signal
     if sig == signal.SIGINT:
         os.killpg(p.pid, sig)  # Ctrl-C in a terminal: the whole foreground process group
     else:
