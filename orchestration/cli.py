@@ -13,6 +13,7 @@ FMU (see :mod:`orchestration.check`).  ``fit-curve``: 2 for a bad no-load file o
 from __future__ import annotations
 
 import argparse
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -208,9 +209,19 @@ def parser():
     return ap
 
 
+#: exit status when the reader of our standard output went away (``... | head``): 128 + SIGPIPE,
+#: what a shell reports for a command a broken pipe ended
+BROKEN_PIPE = 141
+
+
 def main(argv=None):
     args = parser().parse_args(argv)
-    code = args.func(args)
+    try:
+        code = args.func(args)
+    except BrokenPipeError:  # the reader closed the pipe: no traceback, nothing more to print
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())  # the final flush must not fail again
+        code = BROKEN_PIPE
     if argv is None:  # this process's own command line (python -m orchestration, satmotor-cosim):
         exit_now(code)  # end it here, before native exit code runs (see orchestration/clean_exit.py)
     return code

@@ -268,3 +268,16 @@ def test_a_dask_batch_stops_its_children_on_sigterm(tmp_path, fmu_dir):
         assert _processes(d) == []  # the children on the workers were stopped, not left running
     status = dict(pd.read_csv(out / "summary.csv")[["scenario", "status"]].itertuples(index=False))
     assert status["long0"] == status["long1"] == "interrupted"
+
+
+def test_a_reader_that_goes_away_ends_the_command_quietly():
+    """``satmotor-cosim validate ... | head -1``: the reader closes the pipe while the command still
+    prints; the command ends with 141 (128 + SIGPIPE, as a shell reports it), no traceback."""
+    files = sorted(str(f) for f in Path("scenarios").glob("*.yaml")) * 60  # > a pipe buffer of lines
+    p = subprocess.Popen([sys.executable, "-m", "orchestration", "validate", *files], stdout=subprocess.PIPE,
+                         stderr=subprocess.PIPE)
+    p.stdout.readline()
+    p.stdout.close()
+    stderr = p.stderr.read().decode()
+    assert p.wait(timeout=120) == 141, stderr
+    assert "Traceback" not in stderr and "BrokenPipe" not in stderr
