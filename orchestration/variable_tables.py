@@ -47,8 +47,8 @@ def markdown():
     own = [v for v in CONTROLLER_PARAMETERS if v.name not in motor]
     parts = [
         "Generated from `satmotor/interface.py` by `python -m orchestration.variable_tables --write "
-        "README.md`; the same table is in each FMU's `documentation/index.html`. Both variants (pythonfmu, "
-        "native FMI 2.0 and 3.0) have these names and start values.",
+        "README.md`; the same table is in each pythonfmu FMU's `documentation/index.html`. Both "
+        "variants (pythonfmu, native FMI 2.0 and 3.0) have these names and start values.",
         "### `SaturatedInductionMotor` (the plant)",
         "Inputs:", _table(PLANT_INPUTS),
         "Outputs (none with direct feedthrough):", _table(PLANT_OUTPUTS),
