@@ -1,6 +1,6 @@
 """satmotor: saturated induction motor physics and backstepping control, FMI-agnostic.
 
-Imports numpy only.  See the README for the model conventions.
+Imports numpy only.  The model conventions: docs/model.md.
 """
 
 import hashlib
