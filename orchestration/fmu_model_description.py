@@ -46,7 +46,7 @@ import satmotor
 import satmotor.interface as itf
 
 LICENSE = "MIT"
-COPYRIGHT = "satmotor contributors"
+COPYRIGHT = "Copyright (c) 2026 the satmotor authors"  # the line of LICENSE
 DEFAULT_STOP_TIME = 1.5  # [s] stop_time of the default scenario, scenarios/ramp_rated_load.yaml
 CONTROLLER_DEFAULT_SAMPLES = 1000  # fmpy's default: at most 1000 output intervals, else doubled
 

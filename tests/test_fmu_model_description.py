@@ -69,7 +69,8 @@ def test_default_experiment_version_license(mds):
     assert float(e.stopTime) == pytest.approx(1000 * Ts, rel=1e-15)  # fmpy keeps dt = Ts up to 1000 steps
     for md in mds.values():
         assert (md.version, md.license) == (satmotor.__version__, "MIT")
-        assert md.copyright == "satmotor contributors"
+        line = next(ln for ln in Path("LICENSE").read_text().splitlines() if ln.startswith("Copyright"))
+        assert md.copyright == line  # the same holder and year as LICENSE
 
 
 def test_outputs_have_no_direct_feedthrough_and_initial_unknowns_are_the_plant_outputs(mds):
