@@ -204,3 +204,28 @@ def test_fatal_for_a_bad_parameter_names_the_fmi_version():
     assert verdict == "FAIL" and "fmi3Fatal for a bad parameter: expected fmi3Error" in detail
     verdict, detail = check.judge("bad-parameter", {**result, "status": "error"})
     assert verdict == "PASS" and "error at initialization" in detail
+
+
+def test_foreign_state_verdicts():
+    """Each outcome of one offered blob, judged; the worst decides, every blob is named."""
+    def blob(outcome, usable=True, **kw):
+        return {"outcome": outcome, "deserialize": "ok", "set": "ok", "usable": usable, **kw}
+
+    refused = {"outcome": "refused", "deserialize": "error", "set": None, "usable": True}
+    log_only = blob("log-only", next_step="discard")
+    cases = [  # (results, generationTool, verdict, text in the detail)
+        ({"a": refused}, "x", "PASS", "a: refused (deserialize error)"),
+        ({"a": refused, "b": log_only}, "pythonfmu 0.7.0", "KNOWN", "b: refused in the log only"),
+        ({"a": log_only}, "another tool", "FAIL",
+         "a: refused in the log only (deserialize ok, set ok): the host"),
+        ({"a": refused, "b": blob("accepted")}, "x", "FAIL", "b: ACCEPTED (deserialize ok, set ok, nothing"),
+        ({"a": blob("fatal", usable=False)}, "x", "FAIL",
+         "a: fatal (deserialize ok, set ok): the instance is lost"),
+        ({"a": {"crash": "the child process killed by SIGSEGV"}}, "x", "FAIL",
+         "a: the child process killed by SIGSEGV"),
+        ({"a": {**refused, "usable": False, "why": "the replay from its own state differs"}}, "x", "FAIL",
+         "a: refused (deserialize error); the instance is not usable after it: the replay from its own"),
+    ]
+    for results, tool, verdict, text in cases:
+        got, detail = check.judge("foreign-state", {"results": results, "generationTool": tool})
+        assert (got, text in detail) == (verdict, True), (results, got, detail)

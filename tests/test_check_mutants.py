@@ -37,7 +37,8 @@ def patched(text, patches, where):
 def build_native_copy(tmp_path, out, monkeypatch=None, model_patches=(), glue_patches=(), name=PLANT,
                       version="2.0"):
     """The native FMU ``name`` built with the project's build functions, its model's
-    ``native_model.c`` and/or the glue's ``sm_instance.c`` patched in copies under ``tmp_path``."""
+    ``native_model.c`` and/or glue files patched in copies under ``tmp_path`` (``glue_patches``:
+    ``{file name: patches}``)."""
     src = tmp_path / "src"
     src.mkdir(exist_ok=True)
     sources = native_fmus.sources(name)
@@ -48,8 +49,9 @@ def build_native_copy(tmp_path, out, monkeypatch=None, model_patches=(), glue_pa
     if glue_patches:
         glue = tmp_path / "glue"
         shutil.copytree(native_build.GLUE_DIR, glue)
-        f = glue / "sm_instance.c"
-        f.write_text(patched(f.read_text(), glue_patches, f))
+        for name_, patches in glue_patches.items():
+            f = glue / name_
+            f.write_text(patched(f.read_text(), patches, f))
         monkeypatch.setattr(native_build, "GLUE_DIR", glue)
     vars_h = src / "sm_vars.h"
     vars_h.write_text(header(name))
@@ -99,10 +101,10 @@ def test_a_binary_that_aborts_on_a_nan_input_fails_naming_the_input_and_the_sign
 
 # --- a state blob accepted from another FMU --------------------------------------------------------------
 
-NATIVE_NO_STATE_IDENTITY = (  # blob_ok without the model identifier and build token comparisons
+NATIVE_NO_STATE_IDENTITY = {"sm_instance.c": (  # blob_ok without the model identifier and token comparisons
     ("    if (memcmp(h.model_identifier, mine.model_identifier, SM_TAG_LEN) != 0) {",
      "    if (0) { /* the defect */"),
-    ("    if (memcmp(h.token, mine.token, SM_TAG_LEN) != 0) {", "    if (0) { /* the defect */"))
+    ("    if (memcmp(h.token, mine.token, SM_TAG_LEN) != 0) {", "    if (0) { /* the defect */"))}
 
 
 def assert_accepts_the_other_build(verdicts, broken, good):
@@ -169,3 +171,19 @@ def test_a_model_description_with_another_guid_fails_instantiate_naming_it(varia
         assert "does not match" in detail
     # every run-time check needs an instance: none passes
     assert {c for (_, c), (v, _) in verdicts.items() if v == "PASS"} <= {"validate", "fmutool", "wrong-guid"}
+
+
+NATIVE_NO_GUID_CHECK = {"fmi2_glue.c": (  # fmi2Instantiate takes any fmuGUID
+    ("    if (fmuGUID == NULL || strcmp(fmuGUID, INSTANTIATION_TOKEN) != 0) {",
+     "    if (fmuGUID == NULL) { /* the defect */"),)}
+
+
+def test_a_native_fmu_that_takes_any_guid_fails_wrong_guid(tmp_path, capsys, monkeypatch):
+    broken = build_native_copy(tmp_path, tmp_path / "TakesAnyGuid.fmu", monkeypatch,
+                               glue_patches=NATIVE_NO_GUID_CHECK)
+    code, verdicts = run_check(capsys, broken)
+    assert code == 1
+    assert failed(verdicts) == {(broken.stem, "wrong-guid")}, verdicts
+    detail = verdicts[(broken.stem, "wrong-guid")][1]
+    assert re.fullmatch(r"instantiated with fmuGUID \{[-0-9a-f]{36}\} \(the model description has "
+                        r"\{[-0-9a-f]{36}\}\): the FMU does not compare the host's fmuGUID", detail), detail
