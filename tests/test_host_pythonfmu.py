@@ -1,6 +1,8 @@
 """The pythonfmu FMUs in a C host process (tests/native_c_host.c: dlopen, fmi2* calls, no Python of
 its own), as a C/C++ tool (Simulink, Dymola, OMSimulator, libcosim) loads them, with the recipe such
-a host needs on Linux, and without it.
+a host needs on Linux; and without it: no libpython preloaded (dlopen fails), a wrong PYTHONHOME
+(Python ends the host process), no numpy on the embedded Python's path (fmi2Instantiate returns
+NULL, naming the module).
 
 What pythonfmu 0.7.0's binary needs (``readelf -d``): DT_NEEDED is libstdc++, libgcc_s and libc
 only; its Py* symbols (stable ABI) are left undefined, to be found in a libpython already loaded
@@ -8,8 +10,8 @@ into the process.  A Python host has one; a C host has none, so the recipe is:
 
 * ``LD_PRELOAD=<LIBDIR>/<INSTSONAME>`` (sysconfig of the Python to use, here libpython3.11.so.1.0)
   - LD_LIBRARY_PATH alone does not help: nothing asks for libpython by name;
-* ``PYTHONHOME=<sys.base_prefix>`` - the embedded interpreter's standard library (it cannot find it
-  from the host's executable);
+* ``PYTHONHOME=<sys.base_prefix>`` - the embedded interpreter's standard library (without it, the
+  prefix that libpython was built with: right only where that Python is installed as built);
 * ``PYTHONPATH=<a site-packages with numpy>`` - the only third-party package the FMUs import
   (pythonfmu and satmotor are bundled in their resources/).
 
@@ -35,6 +37,7 @@ from orchestration import fmus
 pytestmark = pytest.mark.slow
 ROOT = Path(__file__).resolve().parents[1]
 STEPS, H = 200, 1e-4
+PLANT = "SaturatedInductionMotor"
 # name: (Real inputs and parameters set before initialization, Real outputs printed after STEPS steps)
 CASES = {
     "SaturatedInductionMotor": (
@@ -95,12 +98,18 @@ def test_the_pythonfmu_fmu_in_a_c_host_with_the_recipe_gives_the_native_fmus_num
     got = run_in_host(host, pythonfmu, tmp_path, recipe())
     assert got.returncode == 0, got.stderr
     ref = run_in_host(host, native, tmp_path, {})  # the native FMU needs nothing
+    assert_same_numbers(got, ref, CASES[name][1])
+
+
+def assert_same_numbers(got, ref, names):
+    """The host's printed outputs of a pythonfmu run ``got`` agree with the native run ``ref`` to
+    1e-12 relative (of max(|ref|, 1))."""
     assert ref.returncode == 0, ref.stderr
     a, b = numpy.array(got.stdout.split(), float), numpy.array(ref.stdout.split(), float)
-    assert len(a) == len(b) == len(CASES[name][1])
+    assert len(a) == len(b) == len(names)
     assert numpy.all(numpy.isfinite(b)) and numpy.any(b != 0.0)  # the run moved
     dev = numpy.abs(a - b) / numpy.maximum(numpy.abs(b), 1.0)
-    assert dev.max() <= 1e-12, dict(zip(CASES[name][1], dev))
+    assert dev.max() <= 1e-12, dict(zip(names, dev))
 
 
 def test_without_libpython_preloaded_the_host_cannot_even_load_the_binary(host, fmu_dir, tmp_path):
@@ -121,3 +130,31 @@ def test_with_a_wrong_pythonhome_python_takes_the_host_process_down(host, fmu_di
     assert r.returncode != 0 and r.stdout == ""
     assert "Fatal Python error" in r.stderr and "No module named 'encodings'" in r.stderr, r.stderr
     assert "instantiate failed" not in r.stderr  # the host never got control back
+
+
+def system_libpython_without_numpy():
+    """The system's (Debian/Ubuntu) libpython of this Python version, when that Python has no numpy;
+    else skip (the failure below needs an interpreter whose own paths lack numpy)."""
+    version = f"{sys.version_info.major}.{sys.version_info.minor}"
+    exe, lib = Path(f"/usr/bin/python{version}"), Path(f"/usr/lib/x86_64-linux-gnu/libpython{version}.so.1.0")
+    if not (exe.is_file() and lib.is_file()):
+        pytest.skip(f"no system Python {version} with a shared libpython")
+    if subprocess.run([str(exe), "-c", "import numpy"], capture_output=True, env={}).returncode == 0:
+        pytest.skip(f"the system Python {version} has numpy")
+    return lib
+
+
+def test_without_numpy_on_the_embedded_pythons_path_instantiation_fails_naming_it(host, fmu_dir, tmp_path):
+    """The system's libpython preloaded (its own standard library, no numpy): fmi2Instantiate returns
+    NULL with pythonfmu's fmi2Fatal message naming the missing module; PYTHONPATH to a site-packages
+    with numpy is what it lacked."""
+    lib = system_libpython_without_numpy()
+    plant = fmus.paths(fmu_dir, "python")[0]
+    assert plant.stem == PLANT
+    r = run_in_host(host, plant, tmp_path, {"LD_PRELOAD": str(lib)})
+    assert r.returncode == 3 and r.stdout == "", r.stderr  # the host's "instantiate failed"
+    assert "Fatal py exception" in r.stderr and "No module named 'numpy'" in r.stderr, r.stderr
+    ok = run_in_host(host, plant, tmp_path, {"LD_PRELOAD": str(lib), "PYTHONPATH": recipe()["PYTHONPATH"]})
+    ref = run_in_host(host, fmus.paths(fmu_dir, "native")[0], tmp_path, {})
+    assert ok.returncode == 0, ok.stderr
+    assert_same_numbers(ok, ref, CASES[PLANT][1])
