@@ -5,7 +5,13 @@ co-simulation FMU (ours or anyone's) the way an importing tool or a CI job would
 
 ``validate`` (fmpy) and ``fmutool`` (fmu-manipulation-toolbox) read the archive in this process; the
 run-time checks each run in a child process (:mod:`orchestration.check_probes`), so a crash of the
-FMU is a FAIL, not the end of the checker.  ``reference`` runs the FMU against
+FMU is a FAIL, not the end of the checker; ``non-finite-input`` and ``foreign-state`` try one item
+(an input, a state blob) at a time, and a crash FAILs naming the item and the signal.
+``wrong-guid``: instantiation with a GUID (FMI 3.0: instantiationToken) that is not the model
+description's must be refused (KNOWN for pythonfmu FMUs: pythonfmu does not pass it to Python).
+``foreign-state``: the serialized state of every other FMU of the same command (another GUID), and
+the FMU's own blob truncated and with every byte inverted, must be refused (error or discard), not
+crash, and leave the instance usable.  ``reference`` runs the FMU against
 ``reference/<modelName>/`` (cross-check layout) when that directory exists (ours), else SKIP.
 ``fmutool`` is FMI 2.0 only (SKIP for FMI 3.0); the other checks run on both versions.  Another
 FMI version (1.0) gets ``validate`` only.  KNOWN: a known limitation, reported, not failing.
@@ -17,6 +23,7 @@ from __future__ import annotations
 import json
 import subprocess
 import sys
+import tempfile
 import time
 import zipfile
 from pathlib import Path
@@ -24,9 +31,10 @@ from xml.etree import ElementTree as ET
 
 from .interrupts import signal_name
 
-CHECKS = ("validate", "fmutool", "instantiate", "cycles", "state", "reset", "bad-parameter",
-          "non-finite-input", "reference")
+CHECKS = ("validate", "fmutool", "instantiate", "wrong-guid", "cycles", "state", "foreign-state", "reset",
+          "bad-parameter", "non-finite-input", "reference")
 PROBED = CHECKS[2:]
+ITEMIZED = ("non-finite-input", "foreign-state")  # probes that try one item at a time
 REFERENCE_DIR = Path(__file__).resolve().parents[1] / "reference"
 REFERENCE_BAND = 1e-9  # of each column's largest |value|
 TIMEOUT = 300.0  # [s] per probe
@@ -95,21 +103,59 @@ def check_fmutool(path):
     return "FAIL", f"fmu-manipulation-toolbox check_fmu: {report}"[:500]
 
 
-def run_probe(mode, path, *extra):
-    """``(returncode, result dict or None, stderr tail)`` of one child probe."""
+def run_probe_lines(mode, path, *extra):
+    """``(returncode, [JSON objects printed, in order], stderr tail)`` of one child probe."""
     cmd = [sys.executable, "-m", "orchestration.check_probes", mode, str(path), *map(str, extra)]
     try:
         proc = subprocess.run(cmd, capture_output=True, text=True, timeout=TIMEOUT)
-    except subprocess.TimeoutExpired:
-        return None, None, f"timed out after {TIMEOUT:g} s"
-    result = None
-    for line in reversed(proc.stdout.splitlines()):
+    except subprocess.TimeoutExpired as exc:
+        out = exc.stdout.decode("utf-8", "replace") if isinstance(exc.stdout, bytes) else exc.stdout or ""
+        return None, _json_lines(out), f"timed out after {TIMEOUT:g} s"
+    return proc.returncode, _json_lines(proc.stdout), proc.stderr.strip()[-300:]
+
+
+def _json_lines(text):
+    objects = []
+    for line in text.splitlines():
         try:
-            result = json.loads(line)
-            break
+            obj = json.loads(line)
         except ValueError:
             continue
-    return proc.returncode, result, proc.stderr.strip()[-300:]
+        if isinstance(obj, dict):
+            objects.append(obj)
+    return objects
+
+
+def run_probe(mode, path, *extra):
+    """``(returncode, result dict or None, stderr tail)`` of one child probe."""
+    code, objects, tail = run_probe_lines(mode, path, *extra)
+    return code, (objects[-1] if objects else None), tail
+
+
+def run_items(mode, path, *extra):
+    """``(result dict or None, failure detail or None)`` of an itemized probe: a child that dies
+    while trying item i has that item recorded as ``{"crash": how it died}`` and is started again
+    from item i + 1; the items' results are merged into the last child's result (``results``)."""
+    items, start = {}, 0
+    while True:
+        code, objects, tail = run_probe_lines(mode, path, start, *extra)
+        trying, result = None, None
+        for obj in objects:
+            if "trying" in obj:
+                trying = obj
+            elif "item" in obj:
+                items[obj["label"]] = obj["result"]
+                trying = None
+            else:
+                result = obj
+        if code == 0 and result is not None:
+            if "results" in result:
+                result["results"] = {**items, **result["results"]}
+            return result, None
+        if trying is None:
+            return None, died(code, tail) if code != 0 else f"no result from the probe: {tail}"
+        items[trying["label"]] = {"crash": died(code, tail)}
+        start = trying["trying"] + 1
 
 
 def died(code, tail):
@@ -144,12 +190,22 @@ def judge(check, result):
             return "FAIL", head + tail + f" ({fmi}Fatal for a bad parameter: expected {fmi}Error)"
         return "FAIL", head + " (the FMU accepted it)"
     if check == "non-finite-input":
-        res = result["results"]
+        res = {k: v["crash"] if isinstance(v, dict) else v for k, v in result["results"].items()}
         bad = {k: v for k, v in res.items() if v not in ("discard", "error")}
         detail = ", ".join(f"{k}=NaN: {v}" for k, v in res.items())
         if not result["alive"]:
             return "FAIL", detail + "; a fresh instance FAILS"
         return ("FAIL" if bad else "PASS"), detail + "; a fresh instance then steps fine"
+    if check == "wrong-guid":
+        head = f"{result['token']} {result['wrong']} (the model description has {result['guid']})"
+        if result["refused"]:
+            return "PASS", f"instantiation with {head} refused: {result['detail']}"[:500]
+        if "pythonfmu" in result["generationTool"].lower():
+            return "KNOWN", (f"instantiated with {head}: pythonfmu's fmi2Instantiate does not pass fmuGUID "
+                             f"to the Python slave, so no pythonfmu FMU can refuse it (known limitation)")
+        return "FAIL", f"instantiated with {head}: the FMU does not compare the host's {result['token']}"
+    if check == "foreign-state":
+        return judge_foreign_state(result)
     if check == "reference":
         dev, worst = result.get("dev"), result.get("worst")
         if dev is None:
@@ -158,6 +214,43 @@ def judge(check, result):
         return verdict, (f"{len(dev)} outputs over {result['rows']} rows, worst {worst} "
                          f"{dev[worst]:.3g} of max|ref| (band {REFERENCE_BAND:g})")
     return ("PASS" if result.get("ok") else "FAIL"), result.get("detail", "")
+
+
+def judge_foreign_state(result):
+    """FAIL if a blob was accepted, crashed the FMU, made it fatal, or left it unusable; KNOWN if a
+    pythonfmu FMU refused one through its log only (pythonfmu returns fmi2OK from fmi2DeSerializeFMUstate
+    and fmi2SetFMUstate whatever Python does; the next doStep discards); else PASS."""
+    pythonfmu = "pythonfmu" in result.get("generationTool", "").lower()
+    verdicts, parts = [], []
+    for label, r in result["results"].items():
+        if "crash" in r:
+            verdicts.append("FAIL")
+            parts.append(f"{label}: {r['crash']}")
+            continue
+        outcome = r["outcome"]
+        how = f"deserialize {r['deserialize']}" + (f", set {r['set']}" if r["set"] else "")
+        if outcome == "refused":
+            verdict, text = "PASS", f"refused ({how})"
+        elif outcome == "log-only" and pythonfmu:
+            verdict, text = "KNOWN", f"refused in the log only ({how}; the next doStep {r['next_step']})"
+        elif outcome == "log-only":
+            verdict, text = "FAIL", f"refused in the log only ({how}): the host is told OK"
+        elif outcome == "fatal":
+            verdict, text = "FAIL", f"fatal ({how}): the instance is lost"
+        else:
+            verdict, text = "FAIL", f"ACCEPTED ({how}, nothing logged): a state not its own was taken"
+        if outcome != "fatal" and not r["usable"]:
+            verdict, text = "FAIL", text + f"; the instance is not usable after it: {r.get('why', '')}"
+        verdicts.append(verdict)
+        parts.append(f"{label}: {text}")
+    verdict = "FAIL" if "FAIL" in verdicts else "KNOWN" if "KNOWN" in verdicts else "PASS"
+    detail = "; ".join(parts)
+    if all(r.get("usable") for r in result["results"].values()):
+        detail += "; after each, the instance set back to its own state replays it bit-identical"
+    if verdict == "KNOWN":
+        detail += (" (pythonfmu returns fmi2OK from fmi2DeSerializeFMUstate and fmi2SetFMUstate whatever the "
+                   "Python slave does: known limitation)")
+    return verdict, detail
 
 
 def reference_dir(md_root, references):
@@ -169,8 +262,9 @@ def reference_dir(md_root, references):
     return None
 
 
-def check_fmu(path, references=(REFERENCE_DIR,)):
-    """``[(check, verdict, detail, seconds)]`` for one FMU."""
+def check_fmu(path, references=(REFERENCE_DIR,), foreign=()):
+    """``[(check, verdict, detail, seconds)]`` for one FMU.  ``foreign``: ``(label, file)`` of
+    serialized states of other FMUs, offered by ``foreign-state``."""
     out = []
 
     def record(check, f, *args):
@@ -182,6 +276,9 @@ def check_fmu(path, references=(REFERENCE_DIR,)):
         out.append((check, verdict, detail, time.perf_counter() - t0))
 
     def probe(check, *extra):
+        if check in ITEMIZED:
+            result, failure = run_items(check, path, *extra)
+            return ("FAIL", failure) if result is None else judge(check, result)
         code, result, tail = run_probe(check, path, *extra)
         if code != 0 or result is None:
             return "FAIL", died(code, tail) if code != 0 else f"no result from the probe: {tail}"
@@ -206,8 +303,9 @@ def check_fmu(path, references=(REFERENCE_DIR,)):
                     0.0))
     if root.find("CoSimulation") is None:
         return out + [(c, "SKIP", "no CoSimulation element (model exchange only)", 0.0) for c in PROBED]
+    offers = [x for label, f in foreign for x in (label, f)]
     for check in PROBED[:-1]:
-        record(check, probe, check)
+        record(check, probe, check, *(offers if check == "foreign-state" else ()))
     ref = reference_dir(root, references)
     if ref is None:
         out.append(("reference", "SKIP", f"no reference/{root.get('modelName')}/ (not one of ours)", 0.0))
@@ -235,15 +333,38 @@ def junit(results, file):
     ET.ElementTree(suites).write(file, encoding="utf-8", xml_declaration=True)
 
 
+def serialized_states(paths, directory):
+    """``{path: (GUID, file)}``: a serialized state of each FMI 2.0/3.0 co-simulation FMU of ``paths``
+    that can give one (a child probe each), written to ``directory``."""
+    out = {}
+    for i, path in enumerate(paths):
+        try:
+            version, root = fmi_version(path)
+        except (KeyError, ET.ParseError, OSError, zipfile.BadZipFile):
+            continue
+        if version.split(".")[0] not in ("2", "3") or root.find("CoSimulation") is None:
+            continue
+        guid = root.get("guid") or root.get("instantiationToken") or ""
+        f = Path(directory) / f"{i}.state"
+        code, result, _ = run_probe("serialize", path, f)
+        if code == 0 and result is not None and result.get("ok") and f.is_file():
+            out[path] = (guid, f)
+    return out
+
+
 def run(paths, junit_file=None, reference=None):
     """Check every FMU in ``paths``; prints the lines, writes the JUnit file; returns the exit code."""
     results = {}
-    for path in paths:
-        rows = check_fmu(path, (reference,) if reference else (REFERENCE_DIR,))
-        results[path] = rows
-        for check, verdict, detail, _ in rows:
-            one_line = " | ".join(part.strip() for part in str(detail).splitlines() if part.strip())
-            print(f"{verdict:5s}  {path}  {check}: {one_line}", flush=True)
+    with tempfile.TemporaryDirectory(prefix="fmucheck_states_") as tmp:
+        states = serialized_states(paths, tmp) if len(paths) > 1 else {}
+        for path in paths:
+            own = states.get(path, (None, None))[0]
+            foreign = [(str(other), f) for other, (guid, f) in states.items()
+                       if other != path and guid != own]
+            rows = results[path] = check_fmu(path, (reference,) if reference else (REFERENCE_DIR,), foreign)
+            for check, verdict, detail, _ in rows:
+                one_line = " | ".join(part.strip() for part in str(detail).splitlines() if part.strip())
+                print(f"{verdict:5s}  {path}  {check}: {one_line}", flush=True)
     if junit_file:
         Path(junit_file).parent.mkdir(parents=True, exist_ok=True)
         junit(results, junit_file)

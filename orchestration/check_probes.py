@@ -4,10 +4,14 @@
 
 so that an FMU that crashes or corrupts the heap takes down the probe, not the checker.  A probe
 prints one JSON object (its last line of stdout) and exits normally: the exit code is part of the
-result (:mod:`orchestration.check` reads both).  Modes: ``instantiate``, ``cycles``, ``state``,
-``reset``, ``bad-parameter``, ``non-finite-input``, ``reference``.  Only fmpy here: the probes work
-for any FMI 2.0 or FMI 3.0 co-simulation FMU (:class:`Slave` hides the version differences: the
-probes are written once).
+result (:mod:`orchestration.check` reads both).  Modes: ``instantiate``, ``wrong-guid``, ``cycles``,
+``state``, ``reset``, ``bad-parameter``, ``reference``, ``serialize`` (writes a serialized state to a
+file, for the other FMUs' ``foreign-state``).  Two probes try several items, each on a fresh
+instance: ``non-finite-input`` (one NaN input at a time) and ``foreign-state`` (one state blob not
+the FMU's own at a time); they take the index of the first item (the checker restarts the probe
+after the item it died on) and print ``{"trying": ...}`` before and ``{"item": ...}`` after each
+item, then their result.  Only fmpy here: the probes work for any FMI 2.0 or FMI 3.0 co-simulation
+FMU (:class:`Slave` hides the version differences: the probes are written once).
 """
 
 from __future__ import annotations
@@ -17,6 +21,7 @@ import math
 import shutil
 import sys
 import tempfile
+import uuid
 from pathlib import Path
 
 from fmpy import calloc, extract, free, read_model_description
@@ -126,9 +131,9 @@ class Probe:
     def errors(self):
         return " | ".join(m for s, m in self.log[-5:] if s >= 2)[:300]
 
-    def instance(self, initialize=True, params=()):
+    def instance(self, initialize=True, params=(), guid=None):
         self.count += 1
-        kw = dict(guid=self.md.guid, unzipDirectory=self.unzip, instanceName=f"check{self.count}",
+        kw = dict(guid=guid or self.md.guid, unzipDirectory=self.unzip, instanceName=f"check{self.count}",
                   modelIdentifier=self.md.coSimulation.modelIdentifier)
         if self.major == 3:
             fmu = FMU3Slave(**kw)
@@ -179,6 +184,23 @@ def probe_instantiate(p):
     s.terminate()
     s.free()
     return {"ok": True, "detail": f"one doStep of {p.h:g} s"}
+
+
+def wrong_guid(guid):
+    """A GUID (instantiationToken) that is not ``guid``, derived from it."""
+    return "{" + str(uuid.uuid5(uuid.NAMESPACE_URL, "satmotor-check-wrong-guid:" + guid)) + "}"
+
+
+def probe_wrong_guid(p):
+    wrong = wrong_guid(p.md.guid)
+    out = {"wrong": wrong, "guid": p.md.guid, "generationTool": p.md.generationTool or "",
+           "token": "instantiationToken" if p.major == 3 else "fmuGUID"}
+    try:
+        s = p.instance(initialize=False, guid=wrong)
+    except Exception as exc:  # fmpy: "Failed to instantiate ..." (NULL)
+        return {**out, "refused": True, "detail": f"{exc}" + (f" (log: {p.errors()})" if p.errors() else "")}
+    s.free()
+    return {**out, "refused": False}
 
 
 def probe_cycles(p):
@@ -263,20 +285,123 @@ def probe_bad_parameter(p):
     return out
 
 
-def probe_non_finite_input(p):
+def emit(obj):
+    print(json.dumps(obj), flush=True)
+
+
+def each_item(labels, start, attempt):
+    """``attempt(i)`` for the items from ``start`` on, announced before (so that the checker can name
+    the item a crash happened on) and reported after; ``{label: result}``."""
+    results = {}
+    for i in range(start, len(labels)):
+        emit({"trying": i, "label": labels[i]})
+        results[labels[i]] = attempt(i)
+        emit({"item": i, "label": labels[i], "result": results[labels[i]]})
+    return results
+
+
+def probe_non_finite_input(p, start=0):
     if not p.inputs:
         return {"skip": "no Real (Float64) input"}
-    results = {}
-    for i, v in enumerate(p.inputs):
+
+    def attempt(i):
         s = p.instance()
         values = p.input_values()
         values[i] = math.nan
         s.set_reals([u.valueReference for u in p.inputs], values)
         status, _ = status_of(s.do_step, 0.0, p.h)
-        results[v.name] = status
         if status != "fatal":
             s.free()
+        return status
+
+    results = each_item([v.name for v in p.inputs], start, attempt)
     return {"results": results, "alive": alive(p)}
+
+
+def probe_serialize(p, out_file):
+    """The FMU's serialized state after STEPS steps, written to ``out_file`` (offered to the other
+    FMUs of one ``check`` command by their ``foreign-state`` probe)."""
+    cs = p.md.coSimulation
+    if not (cs.canGetAndSetFMUstate and cs.canSerializeFMUstate):
+        return {"skip": "canSerializeFMUstate is false"}
+    s = p.instance()
+    p.run(s, 0, STEPS)
+    state = s.get_state()
+    blob = s.serialize(state)
+    s.free_state(state)
+    s.free()
+    Path(out_file).write_bytes(blob)
+    return {"ok": True, "bytes": len(blob)}
+
+
+def offer_state(p, blob):
+    """Offer ``blob`` (not this FMU's own state) to a fresh instance after STEPS steps.  ``outcome``:
+    ``refused`` (deserialize or setFMUState returned error or discard), ``log-only`` (both returned
+    OK, but an error was logged and the next doStep discards), ``accepted`` or ``fatal``;
+    ``usable``: the instance, set back to its own state, replays the next STEPS steps bit-identical."""
+    s = p.instance()
+    p.run(s, 0, STEPS)
+    good = s.get_state()
+    first = p.run(s, STEPS, STEPS)
+    s.set_state(good)
+    mark = len(p.log)
+    st_d, restored = status_of(s.deserialize, blob)
+    st_s = None
+    if st_d == "ok":
+        st_s, _ = status_of(s.set_state, restored)
+        status_of(s.free_state, restored)
+    logged = " | ".join(m for st, m in p.log[mark:] if st >= 2)[:300]
+    out = {"deserialize": st_d, "set": st_s, "log": logged}
+    if "fatal" in (st_d, st_s):
+        return {**out, "outcome": "fatal", "usable": False}
+    if st_d in ("error", "discard") or st_s in ("error", "discard"):
+        out["outcome"] = "refused"
+    elif logged:
+        out["next_step"], _ = status_of(s.do_step, STEPS * p.h, p.h)
+        out["outcome"] = "log-only" if out["next_step"] in ("discard", "error") else "accepted"
+    else:
+        out["outcome"] = "accepted"
+    again = replay(p, s, good)
+    out["usable"] = again == first
+    if not out["usable"]:
+        out["why"] = again if isinstance(again, str) else "the replay from its own state differs"
+    status_of(s.free_state, good)
+    status_of(s.free)
+    return out
+
+
+def replay(p, s, good):
+    """The outputs of STEPS steps after setting ``good`` back, or why they could not be taken.  FMI 2.0
+    and 3.0: after an error or a discard, setFMUState to an earlier state may continue; a refusal still
+    pending (reported by the first doStep after it) gets a second try."""
+    for _ in range(2):
+        try:
+            s.set_state(good)
+            return p.run(s, STEPS, STEPS)
+        except Exception as exc:  # noqa: PERF203 - two tries at most
+            why = f"set back to its own state, it fails: {exc}"
+            why += f" (log: {p.errors()})" if p.errors() else ""
+    return why
+
+
+def probe_foreign_state(p, start=0, *offers):
+    """Blobs a host could hand over by mistake: ``offers`` (pairs of label and file: the other FMUs'
+    serialized states), then this FMU's own blob truncated to half its length and with every byte
+    inverted (same length).  Each must be refused and leave the instance usable."""
+    cs = p.md.coSimulation
+    if not (cs.canGetAndSetFMUstate and cs.canSerializeFMUstate):
+        return {"skip": "canGetAndSetFMUstate or canSerializeFMUstate is false"}
+    s = p.instance()
+    p.run(s, 0, STEPS)
+    state = s.get_state()
+    own = s.serialize(state)
+    s.free_state(state)
+    s.free()
+    blobs = [(f"the state of {label}", Path(f).read_bytes()) for label, f in zip(offers[::2], offers[1::2])]
+    blobs += [(f"its own blob truncated to {len(own) // 2} of {len(own)} bytes", own[:len(own) // 2]),
+              (f"its own blob with every byte inverted ({len(own)} bytes)", bytes(b ^ 0xFF for b in own))]
+    results = each_item([label for label, _ in blobs], int(start), lambda i: offer_state(p, blobs[i][1]))
+    return {"results": results, "generationTool": p.md.generationTool or ""}
 
 
 def probe_reference(p, path, ref_dir):
@@ -288,8 +413,12 @@ def probe_reference(p, path, ref_dir):
     opts = read_ref_opt_file(str(d / "ReferenceOptions.txt"))
     inputs, ref = read_csv(d / f"{name}_in.csv"), read_csv(d / f"{name}_ref.csv")
     outputs = [n for n in ref.dtype.names if n != "time"]
-    res = simulate_fmu(path, start_time=opts["StartTime"], stop_time=opts["StopTime"],
-                       output_interval=opts["StepSize"], input=inputs, output=outputs)
+    # the archive unpacked whole (as most importers do; fmpy.simulate_fmu on the file would unpack only
+    # resources/ and binaries/, hiding modelDescription.xml from an FMU that compares it with its build)
+    res = simulate_fmu(p.unzip, start_time=opts["StartTime"], stop_time=opts["StopTime"],
+                       output_interval=opts["StepSize"], input=inputs, output=outputs,
+                       logger=p._log3 if p.major == 3 else p._log, debug_logging=True)  # pythonfmu
+    # logs nothing, not even its fmi2Fatal, with loggingOn = false
     if len(res) != len(ref):
         return {"ok": False, "detail": f"{len(res)} rows, the reference has {len(ref)}"}
     dev = {n: float(np.max(np.abs(res[n] - ref[n])) / max(float(np.max(np.abs(ref[n]))), 1e-300))
@@ -298,9 +427,10 @@ def probe_reference(p, path, ref_dir):
     return {"dev": dev, "worst": worst, "rows": len(ref)}
 
 
-PROBES = {"instantiate": probe_instantiate, "cycles": probe_cycles, "state": probe_state,
-          "reset": probe_reset, "bad-parameter": probe_bad_parameter,
-          "non-finite-input": probe_non_finite_input}
+PROBES = {"instantiate": probe_instantiate, "wrong-guid": probe_wrong_guid, "cycles": probe_cycles,
+          "state": probe_state, "reset": probe_reset, "bad-parameter": probe_bad_parameter,
+          "non-finite-input": probe_non_finite_input, "serialize": probe_serialize,
+          "foreign-state": probe_foreign_state}
 
 
 def main(argv):
@@ -308,7 +438,12 @@ def main(argv):
     p = Probe(path)
     try:
         try:
-            out = probe_reference(p, path, argv[2]) if mode == "reference" else PROBES[mode](p)
+            if mode == "reference":
+                out = probe_reference(p, path, argv[2])
+            elif mode in ("non-finite-input", "foreign-state"):
+                out = PROBES[mode](p, int(argv[2]) if len(argv) > 2 else 0, *argv[3:])
+            else:
+                out = PROBES[mode](p, *argv[2:])
         except Exception as exc:  # an FMI call failed: the probe reports it, the exit code stays 0
             out = {"ok": False, "detail": f"{exc}" + (f" (log: {p.errors()})" if p.errors() else "")}
     finally:

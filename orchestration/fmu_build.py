@@ -104,8 +104,15 @@ def documentation(name):
     return "\n".join(parts)
 
 
+# inside each FMU: the GUID its build wrote into modelDescription.xml.  pythonfmu does not pass the host's
+# fmuGUID to Python, so the glue compares this file with the modelDescription.xml next to resources/ and
+# refuses to instantiate a copy whose description carries another GUID (satmotor_fmu_glue.BUILD_GUID_FILE)
+BUILD_GUID = "resources/build_guid.txt"
+
+
 def make_reproducible(src, dst, extra_files=None):
-    """Rewrite the FMU zip deterministically; the GUID is a UUID5 of the content. Returns it."""
+    """Rewrite the FMU zip deterministically; the GUID is a UUID5 of the content (all files but
+    :data:`BUILD_GUID`, which is written last, holding that GUID). Returns it."""
     with zipfile.ZipFile(src) as z:
         files = {n: z.read(n) for n in z.namelist() if not n.endswith("/") and "__pycache__" not in n}
     files.update(extra_files or {})
@@ -113,10 +120,12 @@ def make_reproducible(src, dst, extra_files=None):
     md = re.sub(r'generationDateAndTime="[^"]*"', f'generationDateAndTime="{FIXED_DATE}"', md, count=1)
     md = re.sub(r'guid="[^"]*"', 'guid="{GUID}"', md, count=1)
     h = hashlib.sha256()
+    files.pop(BUILD_GUID, None)
     for n in sorted(files):
         h.update(n.encode() + b"\0" + (md.encode() if n == "modelDescription.xml" else files[n]) + b"\0")
     guid = "{" + str(uuid.uuid5(uuid.NAMESPACE_URL, h.hexdigest())) + "}"
     files["modelDescription.xml"] = md.replace('guid="{GUID}"', f'guid="{guid}"', 1).encode("utf-8")
+    files[BUILD_GUID] = (guid + "\n").encode("utf-8")
     with zipfile.ZipFile(dst, "w") as z:
         for n in sorted(files):
             info = zipfile.ZipInfo(n, date_time=(1980, 1, 1, 0, 0, 0))

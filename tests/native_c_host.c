@@ -1,6 +1,7 @@
 /* A minimal C host for the tests: dlopen a native FMU's binary (FMI 2.0), instantiate, set the
  * parameters given on the command line, step it with constant inputs and print the outputs.
- * No Python anywhere: this is how a C/C++ tool loads our native FMUs.
+ * No Python anywhere: this is how a C/C++ tool loads our native FMUs (and, with libpython preloaded
+ * into it, the pythonfmu ones: tests/test_host_pythonfmu.py).
  * usage: native_c_host LIB GUID RESOURCE_URI STEPS H VR=VALUE... -- OUT_VR...  (Real variables) */
 #include <dlfcn.h>
 #include <stdarg.h>

@@ -66,14 +66,18 @@ def test_junit_layout(tmp_path):
     assert cases["validate"].find("failure") is None and cases["validate"].find("skipped") is None
 
 
-def assert_junit_one_skip_no_failure(junit_file, paths):
-    """One testsuite per FMU, every check a testcase, no failure, one skipped (KNOWN or SKIP)."""
+def assert_junit_no_failure(junit_file, paths, skipped):
+    """One testsuite per FMU, every check a testcase, no failure, ``skipped`` skipped (KNOWN or SKIP)."""
     suites = ET.parse(junit_file).getroot().findall("testsuite")
     assert [s.get("name") for s in suites] == [str(p) for p in paths]
     for s in suites:
         assert [c.get("name") for c in s.findall("testcase")] == list(check.CHECKS)
-        assert (s.get("tests"), s.get("failures"), s.get("skipped")) == ("9", "0", "1")
+        assert (s.get("tests"), s.get("failures"), s.get("skipped")) == ("11", "0", str(skipped))
         assert s.find("testcase/failure") is None
+
+
+# the pythonfmu FMUs: what pythonfmu 0.7.0 keeps from the FMU (reported, not failing)
+PYTHONFMU_KNOWN = {"bad-parameter": "KNOWN", "wrong-guid": "KNOWN", "foreign-state": "KNOWN"}
 
 
 @pytest.mark.slow
@@ -81,11 +85,17 @@ def test_our_fmus_pass_with_a_junit_file(fmu_dir, tmp_path, capsys):
     paths = [Path(fmu_dir) / f"{n}.fmu" for n in NAMES]
     code, verdicts = run_check(capsys, *paths, "--junit", tmp_path / "check.xml")
     assert code == 0, verdicts
-    for name in NAMES:
+    for name, other in (NAMES, NAMES[::-1]):
         assert {c: verdicts[(name, c)][0] for c in check.CHECKS} == {
-            **{c: "PASS" for c in check.CHECKS}, "bad-parameter": "KNOWN"}, verdicts
+            **{c: "PASS" for c in check.CHECKS}, **PYTHONFMU_KNOWN}, verdicts
         assert "pythonfmu" in verdicts[(name, "bad-parameter")][1]
-    assert_junit_one_skip_no_failure(tmp_path / "check.xml", paths)
+        assert "does not pass fmuGUID" in verdicts[(name, "wrong-guid")][1]
+        foreign = verdicts[(name, "foreign-state")][1]
+        # the other FMU's blob, a truncated and a corrupted own blob: each refused (in the log: fmi2OK)
+        assert f"the state of {Path(fmu_dir) / other}.fmu: refused in the log only" in foreign, foreign
+        assert foreign.count("refused in the log only") == 3 and "the next doStep discard" in foreign
+        assert "replays it bit-identical" in foreign
+    assert_junit_no_failure(tmp_path / "check.xml", paths, skipped=3)
 
 
 @pytest.mark.slow
@@ -127,8 +137,7 @@ def test_a_reference_one_percent_off_fails_reference(fmu_dir, tmp_path, capsys):
     assert code == 1
     verdict, detail = verdicts[(name, "reference")]
     assert verdict == "FAIL" and "omega_m" in detail and "band 1e-09" in detail, detail
-    assert all(v == ("KNOWN" if c == "bad-parameter" else "PASS")
-               for (n, c), (v, _) in verdicts.items() if c != "reference")
+    assert all(v == PYTHONFMU_KNOWN.get(c, "PASS") for (n, c), (v, _) in verdicts.items() if c != "reference")
 
 
 def test_a_crashed_probe_is_named_by_its_signal():
@@ -160,7 +169,9 @@ def test_native_fmi3_fmus_pass_with_a_junit_file(fmu_dir, tmp_path, capsys):
         assert verdicts[(name, "bad-parameter")][1].startswith("J = 0.0: error at ")
         assert "fmi3Reset" in verdicts[(name, "reset")][1]
         assert "round trip" in verdicts[(name, "state")][1]
-    assert_junit_one_skip_no_failure(tmp_path / "check.xml", paths)
+        assert "of this binary" in verdicts[(name, "wrong-guid")][1]
+        assert verdicts[(name, "foreign-state")][1].count("refused (deserialize error)") == 3
+    assert_junit_no_failure(tmp_path / "check.xml", paths, skipped=1)
 
 
 @pytest.mark.slow
@@ -193,3 +204,28 @@ def test_fatal_for_a_bad_parameter_names_the_fmi_version():
     assert verdict == "FAIL" and "fmi3Fatal for a bad parameter: expected fmi3Error" in detail
     verdict, detail = check.judge("bad-parameter", {**result, "status": "error"})
     assert verdict == "PASS" and "error at initialization" in detail
+
+
+def test_foreign_state_verdicts():
+    """Each outcome of one offered blob, judged; the worst decides, every blob is named."""
+    def blob(outcome, usable=True, **kw):
+        return {"outcome": outcome, "deserialize": "ok", "set": "ok", "usable": usable, **kw}
+
+    refused = {"outcome": "refused", "deserialize": "error", "set": None, "usable": True}
+    log_only = blob("log-only", next_step="discard")
+    cases = [  # (results, generationTool, verdict, text in the detail)
+        ({"a": refused}, "x", "PASS", "a: refused (deserialize error)"),
+        ({"a": refused, "b": log_only}, "pythonfmu 0.7.0", "KNOWN", "b: refused in the log only"),
+        ({"a": log_only}, "another tool", "FAIL",
+         "a: refused in the log only (deserialize ok, set ok): the host"),
+        ({"a": refused, "b": blob("accepted")}, "x", "FAIL", "b: ACCEPTED (deserialize ok, set ok, nothing"),
+        ({"a": blob("fatal", usable=False)}, "x", "FAIL",
+         "a: fatal (deserialize ok, set ok): the instance is lost"),
+        ({"a": {"crash": "the child process killed by SIGSEGV"}}, "x", "FAIL",
+         "a: the child process killed by SIGSEGV"),
+        ({"a": {**refused, "usable": False, "why": "the replay from its own state differs"}}, "x", "FAIL",
+         "a: refused (deserialize error); the instance is not usable after it: the replay from its own"),
+    ]
+    for results, tool, verdict, text in cases:
+        got, detail = check.judge("foreign-state", {"results": results, "generationTool": tool})
+        assert (got, text in detail) == (verdict, True), (results, got, detail)

@@ -6,12 +6,16 @@ interpreter, caching them by name; the slaves therefore check, at instantiation,
 ``satmotor`` and glue modules they got hash to the fingerprint baked in at build time.  That hash
 is taken once, when this module is imported: the cached modules may come from an extraction
 directory the host has deleted since (fmpy.simulate_fmu does), so nothing is read from disk later.
+pythonfmu 0.7.0 does not pass the host's fmuGUID to Python; the slaves check instead that the
+modelDescription.xml next to ``resources/`` carries the GUID the build wrote into
+``resources/build_guid.txt``.  These two refusals raise in the constructor: pythonfmu logs the text
+(fmi2Fatal) and fmi2Instantiate returns NULL.
 
 Statuses.  pythonfmu 0.7.0 turns any Python exception into fmi2Fatal and drops the Python instance
 (a later call, even fmi2FreeInstance, may then crash the host); it ignores what set_*,
 exit_initialization_mode, terminate and _set_fmu_state return (the host gets fmi2OK); only do_step
 can report anything else: returning False gives fmi2Discard.  fmi2Error cannot be reached from
-Python.  So a refusal here never raises: it logs a message naming the variable and the value
+Python.  So any later refusal never raises: it logs a message naming the variable and the value
 (status error), leaves the instance unchanged, and is reported again by the next doStep, which
 returns fmi2Discard (the host may redo that step).
 """
@@ -80,20 +84,44 @@ def pin_namespace(namespace, defined=None):
 
 
 _GUIDS = {}
+# in resources/: the GUID the build wrote into modelDescription.xml (orchestration.fmu_build.BUILD_GUID)
+BUILD_GUID_FILE = "build_guid.txt"
+
+
+def _guids(resources):
+    """``(GUID in the modelDescription.xml next to resources, GUID in resources/build_guid.txt)``, ''
+    for one that cannot be read; read once per directory."""
+    if not resources:
+        return "", ""
+    guids = _GUIDS.get(resources)
+    if guids is None:
+        try:
+            described = ET.parse(Path(resources).parent / "modelDescription.xml").getroot().get("guid", "")
+        except (OSError, ET.ParseError):
+            described = ""
+        try:
+            built = (Path(resources) / BUILD_GUID_FILE).read_text(encoding="utf-8").strip()
+        except (OSError, UnicodeDecodeError):
+            built = ""
+        guids = _GUIDS[resources] = (described, built)
+    return guids
 
 
 def _guid(resources):
-    """The GUID in the modelDescription.xml next to ``resources`` (read once per directory), or ''."""
-    if not resources:
-        return ""
-    guid = _GUIDS.get(resources)
-    if guid is None:
-        try:
-            guid = ET.parse(Path(resources).parent / "modelDescription.xml").getroot().get("guid", "")
-        except (OSError, ET.ParseError):
-            guid = ""
-        _GUIDS[resources] = guid
-    return guid
+    """The GUID in the modelDescription.xml next to ``resources``, or ''."""
+    return _guids(resources)[0]
+
+
+def guid_problem(name, resources):
+    """Why the FMU unpacked next to ``resources`` must not be instantiated: its modelDescription.xml
+    carries another GUID than the one its build wrote (pythonfmu does not pass the host's fmuGUID to
+    Python: this is the check left to the FMU); None when they agree or either cannot be read."""
+    described, built = _guids(resources)
+    if described and built and described != built:
+        return (f"{name}: modelDescription.xml has guid {described}, but this FMU was built with guid "
+                f"{built} ({BUILD_GUID_FILE} in its resources): the model description is not the one of "
+                f"this build; instantiation refused")
+    return None
 
 
 def _picker(names):
@@ -133,6 +161,9 @@ class UnitSlave(Fmi2Slave):
                 f"{satmotor.__version__}) and glue are not the ones this FMU was built with (fingerprint "
                 f"{_FINGERPRINT[:12]} != {self.FINGERPRINT[:12]}); another FMU of a different build is "
                 f"loaded in this process")
+        problem = guid_problem(type(self).__name__, self.resources)
+        if problem:  # pythonfmu reports it as fmi2Fatal with this text; fmi2Instantiate returns NULL
+            raise ValueError(problem)
         self._params = tuple(v.name for v in self.VARIABLES if v.causality == "parameter")
         self._inputs = tuple(v.name for v in self.VARIABLES if v.causality == "input")
         self._outputs = tuple(v.name for v in self.VARIABLES if v.causality == "output")

@@ -1,6 +1,7 @@
 /* fmi3_glue.c - FMI 3.0 co-simulation functions over sm_instance (model agnostic).
  * Supported: Float64, Int32, Boolean, String variables; FMU state; co-simulation without event mode.
  * All other functions of fmi3Functions.h are defined and return fmi3Error with a logged message. */
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -57,8 +58,10 @@ fmi3Instance fmi3InstantiateCoSimulation(fmi3String instanceName, fmi3String ins
         return NULL;
     }
     if (instantiationToken == NULL || strcmp(instantiationToken, INSTANTIATION_TOKEN) != 0) {
-        refuse(instanceName, instanceEnvironment, logMessage,
-               "fmi3InstantiateCoSimulation: instantiation token does not match this binary's ", INSTANTIATION_TOKEN);
+        char msg[160];
+        snprintf(msg, sizeof msg, "fmi3InstantiateCoSimulation: instantiation token %.64s does not match ",
+                 instantiationToken != NULL ? instantiationToken : "(NULL)");
+        refuse(instanceName, instanceEnvironment, logMessage, msg, INSTANTIATION_TOKEN " of this binary");
         return NULL;
     }
     if (eventModeUsed) {
