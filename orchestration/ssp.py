@@ -21,11 +21,16 @@ controller).  A fixed-step engine steps every due unit from the values of the la
 point, which is the master's ``jacobi`` algorithm; an annotation of type :data:`SATMOTOR_TYPE`
 records that, with the scenario's own algorithm and the steps.
 
+A file parameter (``table_file``, the ``curve: table`` no-load points) would point outside the
+package: with the native FMUs, the unit's FMU is rebuilt with the file in its ``resources/`` and
+the parameter set to the file's base name (the native models look a name that does not exist as
+given up in their resources).
+
 What SSP cannot say is refused before anything is written (:class:`NotExpressible`, naming the
 file, the field and the value): a ``measurements:`` section that changes the controller's inputs
-(noise and quantization are done by our master, not by an FMU), a file parameter (``table_file``:
-its path would point outside the package), profiles the ScenarioSignals FMU cannot hold, and
-connections between connectors that do not exist.  The scenario's ``record:`` and
+(noise and quantization are done by our master, not by an FMU), a file parameter with the
+pythonfmu FMUs, profiles the ScenarioSignals FMU cannot hold, and connections between connectors
+that do not exist.  The scenario's ``record:`` and
 ``acceptance:`` sections are about our master's output and are not exported.
 """
 
@@ -40,7 +45,8 @@ from pathlib import Path
 
 from fmpy import read_model_description
 
-from . import signals_fmu
+from . import native_fmus, signals_fmu
+from . import native_model_description as nmd
 from .fmu_model_description import SI_UNITS
 from .native_build import PLATFORMS, ZIP_DATE
 from .wiring import CONTROLLER, DEFAULT_CONNECTIONS, PLANT, PROFILE
@@ -61,6 +67,7 @@ RESOURCES = {PLANT: "resources/SaturatedInductionMotor.fmu",
              CONTROLLER: "resources/BacksteppingController.fmu",
              SIGNALS_UNIT: "resources/ScenarioSignals.fmu"}
 FILE_PARAMETERS = ("table_file",)  # String parameters naming a file
+FMU_NAMES = {PLANT: "SaturatedInductionMotor", CONTROLLER: "BacksteppingController"}
 
 # libcosim matches the prefixed names (ssd:System, osp:Algorithm): these exact prefixes are written
 PREFIXES = {"ssd": SSD_NS, "ssc": SSC_NS, "ssv": SSV_NS, "osp": OSP_NS, "sm": SATMOTOR_NS}
@@ -85,8 +92,9 @@ def _num(x):
     return repr(float(x))
 
 
-def check_expressible(scenario):
-    """Raise :class:`NotExpressible` for the first thing of ``scenario`` SSP cannot express."""
+def check_expressible(scenario, embed_files=True):
+    """Raise :class:`NotExpressible` for the first thing of ``scenario`` SSP cannot express;
+    ``embed_files``: a file parameter (``table_file``) can be packed into the FMU (native FMUs)."""
     file = scenario.path or scenario.name
     meas = scenario.measurements
     if meas is not None and meas.signals:
@@ -98,9 +106,10 @@ def check_expressible(scenario):
                              "export)")
     for unit, overrides in ((PLANT, scenario.plant), (CONTROLLER, scenario.controller)):
         for name in FILE_PARAMETERS:
-            if overrides.get(name):
+            if overrides.get(name) and not embed_files:
                 raise NotExpressible(file, f"{unit}.{name}", overrides[name],
-                                     "a file path outside the package cannot be exported to SSP")
+                                     "a file outside the package: only the native FMUs can carry it in "
+                                     "their resources (export with --variant native)")
     try:
         signals_fmu.profiles_text(scenario)
     except signals_fmu.UnsupportedProfile as exc:
@@ -146,9 +155,10 @@ def _annotation(parent, type_, ns, child_tag, attrs):
     return ET.SubElement(ann, _q(ns, child_tag), attrs)
 
 
-def ssd_xml(scenario, model_descriptions, connections=DEFAULT_CONNECTIONS):
+def ssd_xml(scenario, model_descriptions, connections=DEFAULT_CONNECTIONS, renamed=None):
     """``SystemStructure.ssd`` (bytes) of ``scenario``; ``model_descriptions``: {component: fmpy
-    ModelDescription} of ``plant``, ``controller`` and ``signals``."""
+    ModelDescription} of ``plant``, ``controller`` and ``signals``; ``renamed``: {component:
+    {parameter: value}} replacing scenario values (a table file packed into the FMU: its name)."""
     file = scenario.path or scenario.name
     h, Ts = scenario.step, scenario.Ts
     connectors = {c: _connectors(model_descriptions[c]) for c in COMPONENTS}
@@ -158,6 +168,8 @@ def ssd_xml(scenario, model_descriptions, connections=DEFAULT_CONNECTIONS):
     elements = ET.SubElement(system, _q(SSD_NS, "Elements"))
     step_hint = {PLANT: h, CONTROLLER: Ts, SIGNALS_UNIT: h}
     overrides = {PLANT: dict(scenario.plant), CONTROLLER: {**scenario.controller, "Ts": Ts}}
+    for comp, values in (renamed or {}).items():
+        overrides[comp].update(values)
     used_units = []
     for comp in COMPONENTS:
         md = model_descriptions[comp]
@@ -227,17 +239,27 @@ def export(scenario, out, plant_fmu, controller_fmu, connections=DEFAULT_CONNECT
     """Write the SSP package of ``scenario`` to ``out``; returns its path.  Raises
     :class:`NotExpressible` (nothing written) for what SSP cannot express; ``out`` is written to a
     temporary file next to it and renamed at the end, so it is never left half-written."""
-    check_expressible(scenario)
+    paths = {PLANT: Path(plant_fmu), CONTROLLER: Path(controller_fmu)}
+    native = all(read_model_description(str(p), validate=False).generationTool == nmd.GENERATION_TOOL
+                 for p in paths.values())
+    check_expressible(scenario, embed_files=native)
     out = Path(out)
+    platforms = _platforms_of(plant_fmu)
     with tempfile.TemporaryDirectory(prefix="sm_ssp_") as tmp:
-        signals = signals_fmu.build(scenario, tmp, "2.0", _platforms_of(plant_fmu))
-        paths = {PLANT: Path(plant_fmu), CONTROLLER: Path(controller_fmu), SIGNALS_UNIT: signals}
+        renamed = {}
+        for comp, overrides in ((PLANT, scenario.plant), (CONTROLLER, scenario.controller)):
+            files = {n: Path(overrides[n]) for n in FILE_PARAMETERS if overrides.get(n)}
+            if files:  # rebuilt with the files in its resources/, found there by their base names
+                paths[comp] = native_fmus.build(FMU_NAMES[comp], Path(tmp) / comp, "2.0", platforms,
+                                                resources={f.name: f.read_bytes() for f in files.values()})
+                renamed[comp] = {n: f.name for n, f in files.items()}
+        paths[SIGNALS_UNIT] = signals_fmu.build(scenario, tmp, "2.0", platforms)
         mds = {c: read_model_description(str(p), validate=False) for c, p in paths.items()}
         for c, md in mds.items():
             if md.fmiVersion != "2.0" or md.coSimulation is None:
                 raise NotExpressible(paths[c], "fmiVersion", md.fmiVersion,
                                      "the SSP package takes FMI 2.0 co-simulation FMUs")
-        ssd = ssd_xml(scenario, mds, connections)
+        ssd = ssd_xml(scenario, mds, connections, renamed)
         out.parent.mkdir(parents=True, exist_ok=True)
         fd, partial = tempfile.mkstemp(prefix=out.name + ".", suffix=".partial", dir=out.parent)
         os.close(fd)

@@ -197,14 +197,39 @@ def test_a_measurements_section_is_refused_before_anything_is_written(capsys, fm
     assert err.startswith(f"{path}: measurements.noise.{name} = {dict(sc.measurements.noise)[name]!r}: ")
 
 
-def test_a_table_file_is_refused(capsys, fmu_dir, tmp_path):
+def table_scenario(tmp_path):
     i_mu = (0.5, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.5, 9.0, 11.0, 14.0, 18.0)  # a saturating no-load curve
     rows = "".join(f"{i},{0.012 * i + 0.945 * i / (3.0 + i)}\n" for i in i_mu)
     (tmp_path / "curve.csv").write_text("i_mu,psi_m\n" + rows)
-    text = DEFAULT.read_text().replace("plant: {}", "plant: {curve: table, table_file: curve.csv}")
+    text = DEFAULT.read_text().replace("plant: {}", "plant: {curve: table, table_file: curve.csv}").replace(
+        "controller: {}", "controller: {curve: table, table_file: curve.csv}")
     (tmp_path / "t.yaml").write_text(text)
-    err = refused(capsys, fmu_dir, tmp_path / "t.yaml", tmp_path / "t.ssp")
-    assert err.startswith(f"{tmp_path / 't.yaml'}: plant.table_file = '{tmp_path / 'curve.csv'}': ")
+    return tmp_path / "t.yaml"
+
+
+def test_a_table_file_is_refused_with_the_pythonfmu_fmus(capsys, fmu_dir, tmp_path):
+    path, out = table_scenario(tmp_path), tmp_path / "t.ssp"
+    code = cli.main(["export-ssp", str(path), str(out), "--fmus", str(fmu_dir), "--variant", "python"])
+    err = capsys.readouterr().err
+    assert code == 2 and not out.exists()
+    assert err.startswith(f"{path}: plant.table_file = '{tmp_path / 'curve.csv'}': "), err
+
+
+@pytest.mark.slow
+def test_a_table_file_travels_in_the_native_fmus_resources(fmu_dir, tmp_path):
+    """Both FMUs carry curve.csv in resources/, the parameter is its base name, and the package runs
+    as the master does with the file on disk (0.05 s, bit for bit)."""
+    path, out = table_scenario(tmp_path), tmp_path / "t.ssp"
+    assert cli.main(["export-ssp", str(path), str(out), "--fmus", str(fmu_dir)]) == 0
+    root = ssd_root(out)
+    with zipfile.ZipFile(out) as z:
+        for comp in ("plant", "controller"):
+            with zipfile.ZipFile(z.open(ssp.RESOURCES[comp])) as f:
+                assert f.read("resources/curve.csv") == (tmp_path / "curve.csv").read_bytes()
+            el = root.find(f"ssd:System/ssd:Elements/ssd:Component[@name='{comp}']", NS)
+            values = {p.get("name"): p[0].get("value") for p in el.findall(".//ssv:Parameter", NS)}
+            assert (values["curve"], values["table_file"]) == ("table", "curve.csv")
+    assert_engine_equals_master(out, load_scenario(path), 0.05, fmu_dir, tmp_path / "run")
 
 
 def test_a_profile_the_signals_fmu_cannot_hold_is_refused(capsys, fmu_dir, tmp_path):
@@ -295,6 +320,25 @@ class FixedStepEngine:
             fmu.freeInstance()
 
 
+def assert_engine_equals_master(package, scenario, stop, fmu_dir, workdir):
+    sc = dataclasses.replace(scenario, stop_time=stop)
+    plant, ctrl = fmus.paths(fmu_dir, "native")
+    master = run(sc, str(plant), str(ctrl), algorithm="jacobi")
+    assert master.ok, master.message
+    names = ["i_s_alpha", "i_s_beta", "psi_r_alpha", "omega_m", "T_e"]
+    engine = FixedStepEngine(package, workdir)
+    n = round(stop / sc.step)
+    got = [engine.get("plant", names)]
+    for _ in range(n):
+        engine.step()
+        got.append(engine.get("plant", names))
+    engine.close()
+    want = master.frame[[f"plant.{v}" for v in names]].to_numpy().tolist()
+    every = round(sc.record.interval / sc.step)  # the master records every `every` steps
+    assert len(want) == n // every + 1
+    assert got[::every] == want
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("name, stop", [("ramp_rated_load", 0.3), ("deep_saturation", 0.15)])
 def test_a_fixed_step_engine_running_the_package_gives_the_master_jacobi_run_to_the_bit(
@@ -304,20 +348,4 @@ def test_a_fixed_step_engine_running_the_package_gives_the_master_jacobi_run_to_
     path = ROOT / "scenarios" / f"{name}.yaml"
     out = tmp_path / "p.ssp"
     assert cli.main(["export-ssp", str(path), str(out), "--fmus", str(fmu_dir)]) == 0
-    sc = dataclasses.replace(load_scenario(path), stop_time=stop)
-    plant, ctrl = fmus.paths(fmu_dir, "native")
-    master = run(sc, str(plant), str(ctrl), algorithm="jacobi")
-    assert master.ok, master.message
-    frame = master.frame
-    names = ["i_s_alpha", "i_s_beta", "psi_r_alpha", "omega_m", "T_e"]
-    engine = FixedStepEngine(out, tmp_path / "x")
-    n = round(stop / sc.step)
-    got = [engine.get("plant", names)]
-    for _ in range(n):
-        engine.step()
-        got.append(engine.get("plant", names))
-    engine.close()
-    want = frame[[f"plant.{v}" for v in names]].to_numpy().tolist()
-    every = round(sc.record.interval / sc.step)  # the master records every `every` steps
-    assert len(want) == n // every + 1
-    assert got[::every] == want
+    assert_engine_equals_master(out, load_scenario(path), stop, fmu_dir, tmp_path / "x")
