@@ -261,10 +261,9 @@ def export(scenario, out, plant_fmu, controller_fmu, connections=DEFAULT_CONNECT
                                      "the SSP package takes FMI 2.0 co-simulation FMUs")
         ssd = ssd_xml(scenario, mds, connections, renamed)
         out.parent.mkdir(parents=True, exist_ok=True)
-        fd, partial = tempfile.mkstemp(prefix=out.name + ".", suffix=".partial", dir=out.parent)
-        os.close(fd)
+        partial = out.with_name(f".{out.name}.{os.getpid()}.partial")  # the usual permissions (umask)
         try:
-            with zipfile.ZipFile(partial, "w") as z:
+            with zipfile.ZipFile(partial, "x") as z:
                 entries = [("SystemStructure.ssd", ssd)] + [(RESOURCES[c], paths[c]) for c in COMPONENTS]
                 for name, content in entries:
                     info = zipfile.ZipInfo(name, date_time=ZIP_DATE)
@@ -277,6 +276,6 @@ def export(scenario, out, plant_fmu, controller_fmu, connections=DEFAULT_CONNECT
                         z.writestr(info, content)
             os.replace(partial, out)
         except BaseException:
-            Path(partial).unlink(missing_ok=True)
+            partial.unlink(missing_ok=True)
             raise
     return out

@@ -185,7 +185,7 @@ def refused(capsys, fmu_dir, scenario, out):
     code = cli.main(["export-ssp", str(scenario), str(out), "--fmus", str(fmu_dir)])
     err = capsys.readouterr().err
     assert code == 2, err
-    assert not out.exists() and not list(out.parent.glob(out.name + "*"))
+    assert not out.exists() and not [p for p in out.parent.iterdir() if out.name in p.name]
     return err
 
 
@@ -349,3 +349,25 @@ def test_a_fixed_step_engine_running_the_package_gives_the_master_jacobi_run_to_
     out = tmp_path / "p.ssp"
     assert cli.main(["export-ssp", str(path), str(out), "--fmus", str(fmu_dir)]) == 0
     assert_engine_equals_master(out, load_scenario(path), stop, fmu_dir, tmp_path / "x")
+
+
+def test_a_failure_while_writing_leaves_nothing_and_keeps_an_old_file(fmu_dir, tmp_path, monkeypatch):
+    old = tmp_path / "p.ssp"
+    old.write_bytes(b"previous")
+    plant, ctrl = fmus.paths(fmu_dir, "native")
+
+    def disk_full(src, dst, *args):
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(ssp.shutil, "copyfileobj", disk_full)
+    with pytest.raises(OSError, match="No space left"):
+        ssp.export(load_scenario(DEFAULT), old, plant, ctrl)
+    assert old.read_bytes() == b"previous" and sorted(tmp_path.iterdir()) == [old]
+
+
+def test_the_package_gets_the_usual_file_permissions(default_ssp):
+    import os
+
+    umask = os.umask(0o022)
+    os.umask(umask)
+    assert default_ssp.stat().st_mode & 0o777 == 0o666 & ~umask
