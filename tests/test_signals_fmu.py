@@ -185,6 +185,7 @@ def test_fmi3_fmu_gives_the_same_values(tmp_path):
     for k in range(round(sc.stop_time / sc.step)):
         s.doStep(k * sc.step, sc.step)
         assert s.getFloat64([0, 1, 2]) == [sc.profiles[n].value((k + 1) * sc.step) for n in SIGNALS]
+        assert s.getFloat64([signals_fmu.VR_TIME]) == [k * sc.step + sc.step]  # the point reached
     s.terminate()
     s.freeInstance()
 
@@ -231,7 +232,10 @@ MALFORMED = {  # file text -> (line, text the message must quote)
     "too many terms": (GOOD.replace("constant 0\n", "constant 0\n" * (signals_fmu.MAX_TERMS + 1)),
                        8 + signals_fmu.MAX_TERMS, "32"),
     "empty signal": (GOOD.replace("signal psi_ref\nconstant 0.9\n", "signal psi_ref\n"), 6, "T_load"),
-    "line too long": (GOOD.replace("constant 0\n", "constant " + "1" * 600 + "\n"), 8, "..."),
+    "line too long": (GOOD.replace("constant 0\n", "constant " + "1" * 600 + "\n"), 8, "'512'"),
+    "NUL byte": (GOOD.replace("constant 0\n", "constant 0\0 junk\n"), 8, "NUL byte"),
+    "CRLF and comments are fine but a bad number is named": (
+        GOOD.replace("\n", "\r\n").replace("constant 0\r", "constant 0,5 # decimal comma\r"), 8, "'0,5'"),
     "empty file": ("", 0, "satmotor-signals 1"),
 }
 
@@ -250,6 +254,18 @@ def test_a_malformed_profiles_file_is_an_fmi_error_naming_file_line_and_text(fmu
     assert f"{f}, line {line}:" in msg and quoted in msg, msg
     with pytest.raises(FMICallException):  # the instance stays in the error phase
         s.fmu.doStep(0.0, 1e-4)
+    s.free()
+
+
+def test_crlf_comments_blank_lines_and_a_hand_written_file_read_fine(fmu, tmp_path):
+    text = ("# a hand-written profiles file\r\n\r\nsatmotor-signals 1   # format\r\ngrid 0\r\n"
+            "signal T_load\r\n  step\t0.5  1  2  # N m\r\n\r\nsignal omega_ref\r\ntable 2\r\n0 0\r\n1 10\r\n"
+            "signal psi_ref\r\nconstant .9\r\nconstant 1e-2\r\nend\r\n")
+    f = tmp_path / "hand.txt"
+    f.write_bytes(text.encode())
+    s = Slave(fmu, params={"profiles_file": str(f)})
+    s.fmu.doStep(0.0, 0.5)
+    assert s.get(list(SIGNALS)) == [5.0, 0.9 + 1e-2, 2.0]
     s.free()
 
 

@@ -70,7 +70,7 @@ typedef struct {
 
 typedef struct {
     char profiles_file[SS_PATH_MAX];
-    double t0, grid, out[SS_N_SIGNALS];
+    double t0, grid, time, out[SS_N_SIGNALS]; /* time: the last communication point [s] */
     int32_t ready, n_points;
     ss_signal sig[SS_N_SIGNALS];
     double pt_t[SS_MAX_POINTS], pt_v[SS_MAX_POINTS];
@@ -187,17 +187,34 @@ static sm_status numbers(const ss_reader *r, char *rest, int n, double *out, con
     return SM_OK;
 }
 
-/* one line without its end of line and comment into buf; 0 at the end of the file, -1 too long */
+/* one line into buf (end of line and comment cut): 1, 0 at the end of the file, -1 for a line longer
+ * than SS_LINE_MAX characters, -2 for a NUL byte in the line */
 static int read_line(FILE *fh, char *buf, size_t len)
 {
-    size_t n;
+    size_t n = 0;
+    int ch, any = 0, bad = 0;
     char *hash;
-    if (fgets(buf, (int)len, fh) == NULL) return 0;
-    n = strlen(buf);
-    if (n == len - 1 && buf[n - 1] != '\n' && !feof(fh)) return -1;
-    while (n > 0 && (buf[n - 1] == '\n' || buf[n - 1] == '\r')) buf[--n] = '\0';
+    while ((ch = getc(fh)) != EOF) {
+        any = 1;
+        if (ch == '\n') break;
+        if (ch == '\0') bad = -2;
+        else if (n + 1 < len) buf[n++] = (char)ch;
+        else if (bad == 0) bad = -1;
+    }
+    if (!any) return 0;
+    buf[n] = '\0';
+    if (n > 0 && buf[n - 1] == '\r') buf[--n] = '\0';
+    if (bad != 0) return bad;
     if ((hash = strchr(buf, '#')) != NULL) *hash = '\0';
     return 1;
+}
+
+static sm_status bad_line(const ss_reader *r, int got)
+{
+    char text[32];
+    snprintf(text, sizeof text, "%d", SS_LINE_MAX);
+    return got == -2 ? fail(r, "a NUL byte in the line (not a text file?):", "\\0")
+                     : fail(r, "a line longer than the limit of characters (SS_LINE_MAX):", text);
 }
 
 static int signal_index(const char *name)
@@ -210,7 +227,7 @@ static int signal_index(const char *name)
 
 static sm_status read_table(ss_reader *r, FILE *fh, ss_data *d, ss_term *term, char *rest)
 {
-    char line[SS_LINE_MAX + 2], text[32];
+    char line[SS_LINE_MAX + 1], text[32];
     double n_points, tv[2];
     int32_t k, n;
     sm_status st = numbers(r, rest, 1, &n_points, "table N");
@@ -235,8 +252,8 @@ static sm_status read_table(ss_reader *r, FILE *fh, ss_data *d, ss_term *term, c
         char *p = line;
         ++r->line;
         got = read_line(fh, line, sizeof line);
-        if (got == 0) return fail(r, "the file ends inside a table: expected point", "");
-        if (got < 0) return fail(r, "line longer than 512 characters:", "...");
+        if (got == 0) return fail(r, "the file ends inside a table: expected point", "T V");
+        if (got < 0) return bad_line(r, got);
         if ((st = numbers(r, p, 2, tv, "T V")) != SM_OK) return st;
         if (k > 0 && !(tv[0] > d->pt_t[term->first + k - 1])) {
             snprintf(text, sizeof text, "%.17g", tv[0]);
@@ -294,7 +311,7 @@ static sm_status read_term(ss_reader *r, FILE *fh, ss_data *d, ss_signal *sig, c
 
 static sm_status read_profiles(sm_instance *inst, ss_data *d, FILE *fh, const char *path)
 {
-    char line[SS_LINE_MAX + 2], text[32], *p, *kw, *name;
+    char line[SS_LINE_MAX + 1], text[32], *p, *kw, *name;
     ss_reader r = {inst, path, 0};
     ss_signal *sig = NULL;
     int header = 0, grid = 0, ended = 0, seen[SS_N_SIGNALS] = {0}, s, got;
@@ -302,7 +319,7 @@ static sm_status read_profiles(sm_instance *inst, ss_data *d, FILE *fh, const ch
     sm_status st;
     while ((got = read_line(fh, line, sizeof line)) != 0) {
         ++r.line;
-        if (got < 0) return fail(&r, "line longer than 512 characters:", "...");
+        if (got < 0) return bad_line(&r, got);
         p = line;
         if ((kw = field(&p)) == NULL) continue;
         if (ended) return fail(&r, "text after 'end':", kw);
@@ -381,7 +398,7 @@ sm_status sm_model_exit_initialization(sm_instance *inst, void *data, double sta
     st = read_profiles(inst, d, fh, path);
     fclose(fh);
     if (st != SM_OK) return st;
-    d->t0 = start_time;
+    d->t0 = d->time = start_time;
     d->ready = 1;
     publish(d, start_time);
     return SM_OK;
@@ -395,6 +412,7 @@ sm_status sm_model_do_step(sm_instance *inst, void *data, double t, double h)
         sm_log(inst, SM_ERROR, "logStatusError", "ScenarioSignals: doStep before initialization");
         return SM_ERROR;
     }
+    d->time = te;
     if (d->grid > 0.0) {
         k = floor((te - d->t0) / d->grid + 0.5);
         tk = d->t0 + k * d->grid;
@@ -408,7 +426,7 @@ sm_status sm_model_get_real(sm_instance *inst, const void *data, uint32_t vr, do
 {
     const ss_data *d = (const ss_data *)data;
     (void)inst;
-    *value = vr < SS_N_SIGNALS ? d->out[vr] : 0.0;
+    *value = vr < SS_N_SIGNALS ? d->out[vr] : d->time; /* else SS_VR_time */
     return SM_OK;
 }
 
