@@ -138,22 +138,23 @@ def cmd_check(args):
 def cmd_export_ssp(args):
     """``export-ssp SCENARIO OUT.ssp``: 0 written, 2 the scenario is invalid or SSP cannot express it
     (nothing written), 1 building the FMUs failed."""
+    from .native_build import NativeBuildError
     from .scenario import ScenarioError, load_scenario
-    from .ssp import NotExpressible, export
+    from .ssp import NotExpressible, NotWritable, export
 
     try:
         fmus.ensure(args.fmus, quiet=True)
         sc = load_scenario(args.scenario, model_variables(args.fmus))
         plant, ctrl = fmus.paths(args.fmus, args.variant)
         print(export(sc, args.out, plant, ctrl))
-    except (ScenarioError, NotExpressible) as exc:
+    except (ScenarioError, NotExpressible, NotWritable) as exc:
         print(exc, file=sys.stderr)
-        return INVALID
-    except OSError as exc:
-        print(f"{args.out}: cannot write the SSP package: {exc}", file=sys.stderr)
         return INVALID
     except subprocess.CalledProcessError as exc:
         print(f"building the FMUs into {args.fmus} failed (exit {exc.returncode})", file=sys.stderr)
+        return RUN_FAILED
+    except NativeBuildError as exc:
+        print(f"building ScenarioSignals.fmu failed: {exc}", file=sys.stderr)
         return RUN_FAILED
     return OK
 

@@ -51,8 +51,8 @@ from .fmu_model_description import SI_UNITS
 from .native_build import PLATFORMS, ZIP_DATE
 from .wiring import CONTROLLER, DEFAULT_CONNECTIONS, PLANT, PROFILE
 
-__all__ = ["NotExpressible", "export", "ssd_xml", "SSD_NS", "SSC_NS", "SSV_NS", "OSP_NS", "SIGNALS_UNIT",
-           "COMPONENTS", "RESOURCES"]
+__all__ = ["NotExpressible", "NotWritable", "export", "ssd_xml", "check_expressible", "SSD_NS", "SSC_NS",
+           "SSV_NS", "OSP_NS", "SIGNALS_UNIT", "COMPONENTS", "RESOURCES"]
 
 SSD_NS = "http://ssp-standard.org/SSP1/SystemStructureDescription"
 SSC_NS = "http://ssp-standard.org/SSP1/SystemStructureCommon"
@@ -82,6 +82,10 @@ class NotExpressible(ValueError):
         self.file, self.field, self.value, self.reason = str(file), field, value, reason
         v = repr(value)
         super().__init__(f"{file}: {field} = {v if len(v) <= 80 else v[:77] + '...'}: {reason}")
+
+
+class NotWritable(OSError):
+    """The SSP package cannot be written where asked."""
 
 
 def _q(ns, tag):
@@ -235,47 +239,55 @@ def _platforms_of(fmu):
     return tuple(name for name, p in PLATFORMS.items() if p.fmi2 in folders) or ("linux64",)
 
 
+def _write(scenario, fh, paths, platforms, connections, tmp):
+    """Build what the package needs in ``tmp`` and write the zip to the open file ``fh``."""
+    renamed = {}
+    for comp, overrides in ((PLANT, scenario.plant), (CONTROLLER, scenario.controller)):
+        files = {n: Path(overrides[n]) for n in FILE_PARAMETERS if overrides.get(n)}
+        if files:  # rebuilt with the files in its resources/, found there by their base names
+            paths[comp] = native_fmus.build(FMU_NAMES[comp], tmp / comp, "2.0", platforms,
+                                            resources={f.name: f.read_bytes() for f in files.values()})
+            renamed[comp] = {n: f.name for n, f in files.items()}
+    paths[SIGNALS_UNIT] = signals_fmu.build(scenario, tmp, "2.0", platforms)
+    mds = {c: read_model_description(str(p), validate=False) for c, p in paths.items()}
+    for c, md in mds.items():
+        if md.fmiVersion != "2.0" or md.coSimulation is None:
+            raise NotExpressible(paths[c], "fmiVersion", md.fmiVersion,
+                                 "the SSP package takes FMI 2.0 co-simulation FMUs")
+    ssd = ssd_xml(scenario, mds, connections, renamed)
+    with zipfile.ZipFile(fh, "w") as z:
+        for name, content in [("SystemStructure.ssd", ssd)] + [(RESOURCES[c], paths[c]) for c in COMPONENTS]:
+            info = zipfile.ZipInfo(name, date_time=ZIP_DATE)
+            info.compress_type = zipfile.ZIP_DEFLATED
+            info.external_attr = 0o644 << 16
+            if isinstance(content, Path):
+                with open(content, "rb") as src, z.open(info, "w") as dst:
+                    shutil.copyfileobj(src, dst)
+            else:
+                z.writestr(info, content)
+
+
 def export(scenario, out, plant_fmu, controller_fmu, connections=DEFAULT_CONNECTIONS):
     """Write the SSP package of ``scenario`` to ``out``; returns its path.  Raises
-    :class:`NotExpressible` (nothing written) for what SSP cannot express; ``out`` is written to a
-    temporary file next to it and renamed at the end, so it is never left half-written."""
+    :class:`NotExpressible` (nothing written) for what SSP cannot express and :class:`NotWritable`
+    when ``out`` cannot be written, both before anything is built; ``out`` is written to a temporary
+    file next to it and renamed at the end, so it is never left half-written."""
     paths = {PLANT: Path(plant_fmu), CONTROLLER: Path(controller_fmu)}
     native = all(read_model_description(str(p), validate=False).generationTool == nmd.GENERATION_TOOL
                  for p in paths.values())
     check_expressible(scenario, embed_files=native)
     out = Path(out)
-    platforms = _platforms_of(plant_fmu)
-    with tempfile.TemporaryDirectory(prefix="sm_ssp_") as tmp:
-        renamed = {}
-        for comp, overrides in ((PLANT, scenario.plant), (CONTROLLER, scenario.controller)):
-            files = {n: Path(overrides[n]) for n in FILE_PARAMETERS if overrides.get(n)}
-            if files:  # rebuilt with the files in its resources/, found there by their base names
-                paths[comp] = native_fmus.build(FMU_NAMES[comp], Path(tmp) / comp, "2.0", platforms,
-                                                resources={f.name: f.read_bytes() for f in files.values()})
-                renamed[comp] = {n: f.name for n, f in files.items()}
-        paths[SIGNALS_UNIT] = signals_fmu.build(scenario, tmp, "2.0", platforms)
-        mds = {c: read_model_description(str(p), validate=False) for c, p in paths.items()}
-        for c, md in mds.items():
-            if md.fmiVersion != "2.0" or md.coSimulation is None:
-                raise NotExpressible(paths[c], "fmiVersion", md.fmiVersion,
-                                     "the SSP package takes FMI 2.0 co-simulation FMUs")
-        ssd = ssd_xml(scenario, mds, connections, renamed)
+    partial = out.with_name(f".{out.name}.{os.getpid()}.partial")  # the usual permissions (umask)
+    try:  # OUT must be writable before anything is built
         out.parent.mkdir(parents=True, exist_ok=True)
-        partial = out.with_name(f".{out.name}.{os.getpid()}.partial")  # the usual permissions (umask)
-        try:
-            with zipfile.ZipFile(partial, "x") as z:
-                entries = [("SystemStructure.ssd", ssd)] + [(RESOURCES[c], paths[c]) for c in COMPONENTS]
-                for name, content in entries:
-                    info = zipfile.ZipInfo(name, date_time=ZIP_DATE)
-                    info.compress_type = zipfile.ZIP_DEFLATED
-                    info.external_attr = 0o644 << 16
-                    if isinstance(content, Path):
-                        with open(content, "rb") as src, z.open(info, "w") as dst:
-                            shutil.copyfileobj(src, dst)
-                    else:
-                        z.writestr(info, content)
-            os.replace(partial, out)
-        except BaseException:
-            partial.unlink(missing_ok=True)
-            raise
+        fh = open(partial, "xb")
+    except OSError as exc:
+        raise NotWritable(f"{out}: cannot write the SSP package: {exc}") from exc
+    try:
+        with fh, tempfile.TemporaryDirectory(prefix="sm_ssp_") as tmp:
+            _write(scenario, fh, paths, _platforms_of(plant_fmu), connections, Path(tmp))
+        os.replace(partial, out)
+    except BaseException:
+        partial.unlink(missing_ok=True)
+        raise
     return out
