@@ -415,3 +415,25 @@ def test_libcosim_loads_the_package_and_agrees_with_the_master(name, stop, fmu_d
     assert np.all(np.abs(got - want) <= 1e-11 * np.max(np.abs(want), axis=0))
     assert signals == [[sc.profiles[s].value(k * sc.step) for s in ("omega_ref", "psi_ref", "T_load")]
                        for k in range(1, n + 1)]
+
+
+def test_connections_the_package_cannot_hold_are_refused(fmu_dir, signals_md, tmp_path):
+    from orchestration.wiring import Connection
+
+    sc = load_scenario(DEFAULT)
+    mds = model_descriptions(fmu_dir, signals_md)
+    for bad in (Connection("profile.speed_ref", "controller.omega_ref"),  # no such signal
+                Connection("plant.omega_m", "plant.T_load"),  # fine: an output to an input
+                Connection("controller.omega_ref", "plant.T_load")):  # an input as the source
+        conns = (*DEFAULT_CONNECTIONS, bad)
+        if bad.source == "plant.omega_m":
+            root = ET.fromstring(ssp.ssd_xml(sc, mds, conns))
+            assert len(root.findall("ssd:System/ssd:Connections/ssd:Connection", NS)) == len(conns)
+            continue
+        with pytest.raises(ssp.NotExpressible, match=rf"^{DEFAULT}: connections = "
+                                                     rf"'{bad.source} -> {bad.target}': "):
+            ssp.ssd_xml(sc, mds, conns)
+    plant, ctrl = fmus.paths(fmu_dir, "native")
+    with pytest.raises(ssp.NotExpressible):
+        ssp.export(sc, tmp_path / "c.ssp", plant, ctrl, (*DEFAULT_CONNECTIONS, bad))
+    assert list(tmp_path.iterdir()) == []
