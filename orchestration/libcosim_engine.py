@@ -37,11 +37,15 @@ raises.
 
 from __future__ import annotations
 
+import ctypes
 import math
+import os
+import re
 import shutil
+import sys
 import tempfile
 import time
-from ctypes import POINTER, c_char_p, c_int, c_int64, c_size_t, c_uint32
+from ctypes import POINTER, c_char_p, c_int, c_int64, c_size_t, c_uint32, c_void_p
 from pathlib import Path
 from xml.sax.saxutils import quoteattr
 
@@ -58,7 +62,7 @@ __all__ = ["run", "problems", "system_structure", "CHUNK_TIME", "SIGNALS", "NS",
 VARIANTS = ("native", "python")  # the FMU variants it runs (FMI 2.0: libcosim 0.11 has no FMI 3.0)
 
 SIGNALS = "signals"  # instance name of the profiles FMU
-CHUNK_TIME = 0.01  # [s] simulated time stepped in C++ between two looks at the stop flag
+CHUNK_TIME = 0.05  # [s] simulated time stepped in C++ between two looks at the stop flag
 NS = 1_000_000_000  # libcosim's time unit: integer nanoseconds
 _BOOLS_FILE = "LogConfig.xml"
 ENGINE_NOTE = "libcosim fixed-step algorithm: Jacobi coupling"  # the message of a run that completed
@@ -191,7 +195,7 @@ class _Lib:
         self.real_samples = lib.cosim_observer_slave_get_real_samples
         self.int_samples = lib.cosim_observer_slave_get_integer_samples
         self.real_samples.restype = self.int_samples.restype = c_int64
-        args = [c_int, c_uint32, c_int64, c_size_t, POINTER(None), POINTER(c_int64), POINTER(c_int64)]
+        args = [c_int, c_uint32, c_int64, c_size_t, c_void_p, POINTER(c_int64), POINTER(c_int64)]
         self.real_samples.argtypes = self.int_samples.argtypes = [POINTER(None)] + args
         self.last_error = lib.cosim_last_error_message
         self.last_error.restype, self.last_error.argtypes = c_char_p, []
@@ -210,20 +214,19 @@ class _Series:
     def read(self, slave, refs, kind, from_step, count):
         """``(step numbers, values[len(refs), n])``: the samples libcosim holds from ``from_step``
         (at most ``count``; a decimated simulator has samples at its own steps only)."""
-        fn = self._lib.real_samples if kind == "real" else self._lib.int_samples
-        steps = np.zeros(count, np.int64)
-        times = np.zeros(count, np.int64)
-        out = np.zeros((len(refs), count))
+        real = kind == "real"
+        fn = self._lib.real_samples if real else self._lib.int_samples
+        steps, times = np.zeros(count, np.int64), np.zeros(count, np.int64)
+        out = np.zeros((len(refs), count), np.float64 if real else np.intc)
+        sp, tp = steps.ctypes.data_as(POINTER(c_int64)), times.ctypes.data_as(POINTER(c_int64))
+        base, row = out.ctypes.data, out.itemsize * count
         got = count
         for i, ref in enumerate(refs):
-            buf = np.zeros(count, np.float64 if kind == "real" else np.intc)
-            n = fn(self._obs, slave, ref, from_step, count, buf.ctypes.data_as(POINTER(None)),
-                   steps.ctypes.data_as(POINTER(c_int64)), times.ctypes.data_as(POINTER(c_int64)))
+            n = fn(self._obs, slave, ref, from_step, count, base + i * row, sp, tp)
             if n < 0:
                 raise RuntimeError(f"reading samples of slave {slave} variable {ref}: {self._lib.error()}")
             got = min(got, n)
-            out[i, :n] = buf[:n]
-        return steps[:got].copy(), out[:, :got]
+        return steps[:got].copy(), out[:, :got].astype(np.float64, copy=False)
 
 
 class _BoolFile:
@@ -279,6 +282,9 @@ def run(scenario, plant_fmu, controller_fmu, recorder=None, stop=None, algorithm
             signals_fmu = build_signals(scenario, work / "signals")
         if signals_fmu is not None:
             fmus[SIGNALS] = signals_fmu
+        failed = _preflight(scenario, plant_fmu, controller_fmu)
+        if failed:
+            raise _Failed(*failed)
         outputs = {name: _Outputs(path) for name, path in fmus.items()}
         structure = system_structure(scenario, fmus, work, _types_of(outputs))
         columns = recorded_columns([n for n, _ in outputs[PLANT].real],
@@ -287,6 +293,8 @@ def run(scenario, plant_fmu, controller_fmu, recorder=None, stop=None, algorithm
         rec = recorder(columns) if recorder else Recorder(columns)
         status, message, t_reached, unit = _simulate(scenario, structure, outputs, rec, stop, chunk_time,
                                                      work)
+    except _Failed as exc:
+        status, message, unit = exc.args
     except Exception as exc:  # noqa: BLE001 - libcosimpy raises AssertionError for a bad structure
         status, message = "setup", f"libcosim: {exc}"
     finally:
@@ -302,17 +310,105 @@ def run(scenario, plant_fmu, controller_fmu, recorder=None, stop=None, algorithm
     return RunResult(scenario, rec, status, message, t_reached, time.perf_counter() - wall0, unit)
 
 
+class _Failed(Exception):
+    """(status, message, unit) of an FMU that failed before libcosim ran."""
+
+
+def _preflight(scenario, plant_fmu, controller_fmu):
+    """Instantiate and initialize the plant and the controller once with fmpy, with the scenario's
+    parameters, as :func:`orchestration.master.run` does: ``(status, message, unit)`` of the first
+    that fails (the FMU's own words), or None.  Needed because libcosim 0.11 initializes the FMUs
+    in a worker thread that does not catch: an FMU refusing its parameters at initialization ends
+    the whole process (std::terminate) instead of failing the run."""
+    from fmpy.fmi1 import FMICallException
+
+    from .fmu_instance import STATUS, FMUInstance
+
+    for path, unit, values in ((plant_fmu, PLANT, scenario.plant),
+                               (controller_fmu, CONTROLLER, {**scenario.controller, "Ts": scenario.Ts})):
+        inst = None
+        try:
+            inst = FMUInstance(path, unit)
+            inst.set_parameters(values)
+            inst.initialize(0.0)
+        except FMICallException as exc:
+            status = STATUS[exc.status] if 0 <= exc.status < len(STATUS) else str(exc.status)
+            return status, _report(unit, exc, inst), unit
+        except Exception as exc:  # noqa: BLE001 - instantiation, a bad override: as the master
+            return "setup", _report(unit, exc, inst), unit
+        finally:
+            if inst is not None:
+                inst.close()
+    return None
+
+
+def _report(unit, exc, inst):
+    """``unit: what failed -- the FMU's first error message`` (the master's wording)."""
+    first = inst.first_error() if inst else ""
+    return f"{unit}: {exc}" + (f" -- {first}" if first else "")
+
+
 def _simulate(sc, structure, outputs, rec, stop, chunk_time, work):
     """Step libcosim chunk by chunk, recording every complete row; returns (status, message, t_end,
     failed unit)."""
-    from libcosimpy.CosimLogging import CosimLogLevel, log_output_level
+    with _CapturedLog(work / "libcosim.log") as log:
+        run = _Execution(sc, structure, outputs, work)
+        try:
+            status, message, t_end, unit = run.simulate(rec, stop, chunk_time)
+        finally:
+            run.close(rec)
+    if status in _FAILED:
+        first = log.first_fmu_error()
+        message += f" -- {first}" if first else ""
+    return status, message, t_end, unit
 
-    log_output_level(CosimLogLevel.ERROR)
-    run = _Execution(sc, structure, outputs, work)
-    try:
-        return run.simulate(rec, stop, chunk_time)
-    finally:
-        run.close(rec)
+
+_FAILED = ("discard", "error", "fatal")
+_FMI_LINE = re.compile(r"\[FMI status=(\w+), category=[^\]]*\] (.*)")
+
+
+class _CapturedLog:
+    """libcosim's console log sent to ``path`` while the block runs.  libcosim writes its log to the
+    standard output (file descriptor 1) and has no log callback, and the FMUs' messages reach the
+    host only through it (an FMU's discard message at debug level).  After the block, libcosim's own
+    warnings and errors are written to stderr, and :meth:`first_fmu_error` gives the first message
+    an FMU logged with a discard, error or fatal status (the master's ``-- message``)."""
+
+    def __init__(self, path):
+        self.path, self.lines = Path(path), []
+
+    def __enter__(self):
+        from libcosimpy.CosimLogging import CosimLogLevel, log_output_level
+
+        sys.stdout.flush()
+        self._libc = ctypes.CDLL(None)
+        self._saved = os.dup(1)
+        fd = os.open(self.path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)
+        os.dup2(fd, 1)
+        os.close(fd)
+        log_output_level(CosimLogLevel.DEBUG)
+        return self
+
+    def __exit__(self, *exc):
+        from libcosimpy.CosimLogging import CosimLogLevel, log_output_level
+
+        log_output_level(CosimLogLevel.WARNING)
+        sys.stdout.flush()
+        self._libc.fflush(None)
+        os.dup2(self._saved, 1)
+        os.close(self._saved)
+        self.lines = self.path.read_text(errors="replace").splitlines()
+        for ln in self.lines:
+            if re.search(r"\] \[(warning|error|fatal)\]", ln):
+                print(ln, file=sys.stderr)
+        return False
+
+    def first_fmu_error(self):
+        for ln in self.lines:
+            m = _FMI_LINE.search(ln)
+            if m and m.group(1) in _FAILED:
+                return m.group(2)
+        return ""
 
 
 class _Execution:
@@ -380,9 +476,9 @@ class _Execution:
                 text = self.lib.error().strip()
                 now = self.ex.status().current_time // round(h * NS)
                 self._take(now, rec)
-                unit = next((u for u in self.outputs if text.startswith(f"{u}:")), "")
+                unit = next((u for u in self.outputs if f"{u}: " in text), "")
                 kind = "discard" if "Step not complete" in text else "error"
-                return kind, text if unit else f"libcosim: {text}", now * h, unit
+                return kind, f"{unit or 'libcosim'}: libcosim: {text}", now * h, unit
             reached = target
             self._take(reached, rec)
         return "ok", "", self.n * h, ""
