@@ -1,4 +1,4 @@
-"""Command line: ``python -m orchestration {build,run,batch,validate,check,fit-curve}``
+"""Command line: ``python -m orchestration {build,run,batch,validate,check,export-ssp,fit-curve}``
 (also ``satmotor-cosim``).
 
 Exit codes: 0 success; 1 a run failed (FMI discard/error/fatal, or setup); 2 a scenario file is
@@ -147,6 +147,29 @@ def cmd_check(args):
     return check.run(args.fmu, args.junit, args.reference)
 
 
+def cmd_export_ssp(args):
+    """``export-ssp SCENARIO OUT.ssp``: 0 written, 2 the scenario is invalid or SSP cannot express it
+    (nothing written), 1 building the FMUs failed."""
+    from .scenario import ScenarioError, load_scenario
+    from .ssp import NotExpressible, export
+
+    try:
+        fmus.ensure(args.fmus, quiet=True)
+        sc = load_scenario(args.scenario, model_variables(args.fmus))
+        plant, ctrl = fmus.paths(args.fmus, args.variant)
+        print(export(sc, args.out, plant, ctrl))
+    except (ScenarioError, NotExpressible) as exc:
+        print(exc, file=sys.stderr)
+        return INVALID
+    except OSError as exc:
+        print(f"{args.out}: cannot write the SSP package: {exc}", file=sys.stderr)
+        return INVALID
+    except subprocess.CalledProcessError as exc:
+        print(f"building the FMUs into {args.fmus} failed (exit {exc.returncode})", file=sys.stderr)
+        return RUN_FAILED
+    return OK
+
+
 def cmd_fit_curve(args):
     from .fit_curve import InputError, run
 
@@ -213,6 +236,17 @@ def parser():
     c.add_argument("--reference", metavar="DIR", help="directory holding <modelName>/ reference results "
                    "(default: reference/ of this checkout)")
     c.set_defaults(func=cmd_check)
+    e = sub.add_parser("export-ssp", help="write a scenario as an SSP 1.0 package", description="Write "
+                       "SCENARIO as an SSP 1.0 package: SystemStructure.ssd (components plant, controller, "
+                       "signals; connections; the scenario's parameters; libcosim step-size annotations) and "
+                       "the three FMUs, ScenarioSignals.fmu holding the scenario's profiles.")
+    e.add_argument("scenario", help="scenario YAML file")
+    e.add_argument("out", help="the .ssp file to write")
+    e.add_argument("--fmus", default=str(fmus.DEFAULT_DIR),
+                   help="FMU directory, built there when missing or stale (default build/fmus)")
+    e.add_argument("--variant", choices=("native", "python"), default="native",
+                   help="plant and controller FMUs: native (C, FMI 2.0; default) or python (pythonfmu)")
+    e.set_defaults(func=cmd_export_ssp)
     fc = sub.add_parser("fit-curve", help="magnetizing curve from a no-load test", description="Fit every "
                         "magnetizing-curve family to a no-load test (CSV: V_ll_rms, I_rms, f[, P_in]); write "
                         "fit.yaml (scenario overrides), curve_table.csv (for curve: table) and fit.png.")

@@ -1,0 +1,323 @@
+"""``export-ssp``: the SSP 1.0 package of a scenario (orchestration/ssp.py).
+
+Checked independently of the writer: the .ssd validates against the SSP 1.0 schemas FMPy ships
+(and each inline parameter set against the parameter-values schema); the parameter values, read
+back with ElementTree, are the scenario's (and the FMUs' start values elsewhere); the connections
+are DEFAULT_CONNECTIONS; the three FMUs validate with fmpy; refusals exit 2 naming the file, the
+field and the value and leave nothing at OUT.  Last, a small fixed-step engine written here from
+libcosim's rules (``fixed_step_algorithm``: base step, decimation from the step-size hints, a
+connection transferred when the step counter is a multiple of the lcm of both ends' decimation,
+time in integer nanoseconds) runs the package: it gives the master's ``jacobi`` run bit for bit.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import xml.etree.ElementTree as ET
+import zipfile
+from pathlib import Path
+
+import pytest
+from fmpy import extract, read_model_description
+from fmpy.fmi2 import FMU2Slave
+from fmpy.validation import validate_fmu
+
+from orchestration import cli, fmus, ssp
+from orchestration.master import run
+from orchestration.scenario import load_scenario
+from orchestration.wiring import DEFAULT_CONNECTIONS
+
+ROOT = Path(__file__).resolve().parents[1]
+SCENARIOS = sorted((ROOT / "scenarios").glob("*.yaml"))
+NS = {"ssd": ssp.SSD_NS, "ssc": ssp.SSC_NS, "ssv": ssp.SSV_NS, "osp": ssp.OSP_NS}
+REFUSED = {"noisy_measurements", "real_drive"}  # measurements: sections
+DEFAULT = ROOT / "scenarios" / "ramp_rated_load.yaml"
+
+
+@pytest.fixture(scope="module")
+def default_ssp(fmu_dir, tmp_path_factory):
+    out = tmp_path_factory.mktemp("ssp") / "default.ssp"
+    assert cli.main(["export-ssp", str(DEFAULT), str(out), "--fmus", str(fmu_dir)]) == 0
+    return out
+
+
+@pytest.fixture(scope="module")
+def signals_md(default_ssp, tmp_path_factory):
+    d = tmp_path_factory.mktemp("sig")
+    with zipfile.ZipFile(default_ssp) as z:
+        z.extract(ssp.RESOURCES["signals"], d)
+    return read_model_description(str(d / ssp.RESOURCES["signals"]))
+
+
+def ssd_root(path):
+    with zipfile.ZipFile(path) as z:
+        return ET.fromstring(z.read("SystemStructure.ssd"))
+
+
+def model_descriptions(fmu_dir, signals_md, variant="native"):
+    plant, ctrl = fmus.paths(fmu_dir, variant)
+    return {"plant": read_model_description(str(plant)), "controller": read_model_description(str(ctrl)),
+            "signals": signals_md}
+
+
+def typed_value(el):
+    """(type, Python value) of an ssv:Real/Integer/Boolean/String element."""
+    tag = el.tag.split("}")[1]
+    v = el.get("value")
+    return tag, {"Real": float, "Integer": int, "Boolean": lambda s: s == "true", "String": str}[tag](v)
+
+
+def test_the_package_holds_the_ssd_and_three_fmus_that_validate(default_ssp, tmp_path):
+    with zipfile.ZipFile(default_ssp) as z:
+        assert sorted(z.namelist()) == sorted(["SystemStructure.ssd", *ssp.RESOURCES.values()])
+        z.extractall(tmp_path)
+    for comp, name in ssp.RESOURCES.items():
+        assert validate_fmu(str(tmp_path / name)) == [], comp
+        md = read_model_description(str(tmp_path / name))
+        assert (md.fmiVersion, md.coSimulation.modelIdentifier) == ("2.0", Path(name).stem)
+
+
+def test_the_ssd_validates_against_the_ssp_1_0_schemas_of_fmpy(default_ssp):
+    from fmpy.ssp import ssd as fmpy_ssd
+    from lxml import etree
+
+    parsed = fmpy_ssd.read_ssd(str(default_ssp), validate=True)  # raises on a schema violation
+    assert [c.name for c in parsed.system.elements] == list(ssp.COMPONENTS)
+    # the inline parameter sets are 'lax' inside the .ssd schema: validate them on their own
+    schema = etree.XMLSchema(file=str(Path(fmpy_ssd.__file__).parent / "schema" /
+                                      "SystemStructureParameterValues.xsd"))
+    with zipfile.ZipFile(default_ssp) as z:
+        root = etree.fromstring(z.read("SystemStructure.ssd"))
+    sets = root.findall(".//ssv:ParameterSet", namespaces=NS)
+    assert len(sets) == 2
+    for ps in sets:
+        assert schema.validate(etree.ElementTree(ps)), schema.error_log
+
+
+def test_libcosim_reads_the_prefixed_names_it_matches(default_ssp):
+    """libcosim (boost property_tree) matches 'ssd:System', 'osp:Algorithm' etc. literally."""
+    with zipfile.ZipFile(default_ssp) as z:
+        text = z.read("SystemStructure.ssd").decode()
+    for literal in ("<ssd:SystemStructureDescription", "<ssd:System ", "<ssd:Component ", "<ssd:Connector ",
+                    "<ssv:ParameterSet ", '<ssc:Annotation type="com.opensimulationplatform">',
+                    '<osp:FixedStepAlgorithm baseStepSize="0.0001"', '<osp:StepSizeHint value="0.0001"'):
+        assert literal in text, literal
+
+
+@pytest.mark.parametrize("path", SCENARIOS, ids=lambda p: p.stem)
+def test_parameters_connections_steps_of_every_scenario(path, fmu_dir, signals_md):
+    """The .ssd of each scenario, read back with ElementTree: every parameter of both FMUs, the
+    scenario's value where it sets one (Ts = step * controller_every), else the FMU's start value;
+    the connections; the step sizes; the stop time.  The scenarios with measurements are refused."""
+    sc = load_scenario(path)
+    if path.stem in REFUSED:
+        with pytest.raises(ssp.NotExpressible, match=rf"^{path}: measurements\.(noise|quantization)\."):
+            ssp.check_expressible(sc)
+        return
+    mds = model_descriptions(fmu_dir, signals_md)
+    root = ET.fromstring(ssp.ssd_xml(sc, mds))
+    comps = {c.get("name"): c for c in root.findall("ssd:System/ssd:Elements/ssd:Component", NS)}
+    assert list(comps) == ["plant", "controller", "signals"]
+    want = {"plant": dict(sc.plant), "controller": {**sc.controller, "Ts": sc.step * sc.controller_every}}
+    for comp, overrides in want.items():
+        got = {p.get("name"): typed_value(p[0]) for p in comps[comp].findall(".//ssv:Parameter", NS)}
+        params = [v for v in mds[comp].modelVariables if v.causality == "parameter"]
+        assert set(got) == {v.name for v in params}
+        for v in params:
+            vtype, value = got[v.name]
+            assert vtype == v.type
+            if v.name in overrides:
+                assert value == overrides[v.name], (comp, v.name)
+            else:  # the start value as the FMU's model description writes it
+                start = ET.Element(f"{{{ssp.SSV_NS}}}{v.type}", {"value": v.start or ""})
+                assert value == typed_value(start)[1], (comp, v.name)
+    assert not comps["signals"].findall(".//ssv:Parameter", NS)
+    conns = [(c.get("startElement"), c.get("startConnector"), c.get("endElement"), c.get("endConnector"))
+             for c in root.findall("ssd:System/ssd:Connections/ssd:Connection", NS)]
+    expected = []
+    for c in DEFAULT_CONNECTIONS:
+        (su, sv), (tu, tv) = c.source.split("."), c.target.split(".")
+        expected.append(("signals" if su == "profile" else su, sv, tu, tv))
+    assert conns == expected
+    hints = {n: float(c.find("ssd:Annotations/ssc:Annotation/osp:StepSizeHint", NS).get("value"))
+             for n, c in comps.items()}
+    assert hints == {"plant": sc.step, "controller": sc.Ts, "signals": sc.step}
+    de = root.find("ssd:DefaultExperiment", NS)
+    assert (float(de.get("startTime")), float(de.get("stopTime"))) == (0.0, sc.stop_time)
+    base = de.find("ssd:Annotations/ssc:Annotation/osp:Algorithm/osp:FixedStepAlgorithm", NS)
+    assert float(base.get("baseStepSize")) == sc.step
+
+
+def test_connectors_carry_the_fmus_types_and_units(default_ssp, tmp_path):
+    root = ssd_root(default_ssp)
+    units = {u.get("name") for u in root.findall("ssd:Units/ssc:Unit", NS)}
+    with zipfile.ZipFile(default_ssp) as z:
+        z.extractall(tmp_path)
+    for comp in root.findall("ssd:System/ssd:Elements/ssd:Component", NS):
+        md = read_model_description(str(tmp_path / comp.get("source")))
+        want = [(v.name, v.causality, v.type, v.unit) for v in md.modelVariables
+                if v.causality in ("input", "output")]
+        got = [(c.get("name"), c.get("kind"), c[0].tag.split("}")[1], c[0].get("unit"))
+               for c in comp.findall("ssd:Connectors/ssd:Connector", NS)]
+        assert got == want
+        assert {u for *_, u in got if u} <= units
+
+
+def test_the_export_is_reproducible(default_ssp, fmu_dir, tmp_path):
+    again = tmp_path / "again.ssp"
+    assert cli.main(["export-ssp", str(DEFAULT), str(again), "--fmus", str(fmu_dir)]) == 0
+    assert again.read_bytes() == default_ssp.read_bytes()
+
+
+def test_the_python_variant_packs_the_pythonfmu_fmus(fmu_dir, tmp_path):
+    out = tmp_path / "py.ssp"
+    args = ["export-ssp", str(DEFAULT), str(out), "--fmus", str(fmu_dir), "--variant", "python"]
+    assert cli.main(args) == 0
+    plant, _ = fmus.paths(fmu_dir, "python")
+    with zipfile.ZipFile(out) as z:
+        assert z.read(ssp.RESOURCES["plant"]) == plant.read_bytes()
+
+
+# --- refusals ---------------------------------------------------------------------------------------
+
+def refused(capsys, fmu_dir, scenario, out):
+    code = cli.main(["export-ssp", str(scenario), str(out), "--fmus", str(fmu_dir)])
+    err = capsys.readouterr().err
+    assert code == 2, err
+    assert not out.exists() and not list(out.parent.glob(out.name + "*"))
+    return err
+
+
+def test_a_measurements_section_is_refused_before_anything_is_written(capsys, fmu_dir, tmp_path):
+    path = ROOT / "scenarios" / "noisy_measurements.yaml"
+    err = refused(capsys, fmu_dir, path, tmp_path / "n.ssp")
+    sc = load_scenario(path)
+    name = sc.measurements.signals[0]
+    assert err.startswith(f"{path}: measurements.noise.{name} = {dict(sc.measurements.noise)[name]!r}: ")
+
+
+def test_a_table_file_is_refused(capsys, fmu_dir, tmp_path):
+    i_mu = (0.5, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.5, 9.0, 11.0, 14.0, 18.0)  # a saturating no-load curve
+    rows = "".join(f"{i},{0.012 * i + 0.945 * i / (3.0 + i)}\n" for i in i_mu)
+    (tmp_path / "curve.csv").write_text("i_mu,psi_m\n" + rows)
+    text = DEFAULT.read_text().replace("plant: {}", "plant: {curve: table, table_file: curve.csv}")
+    (tmp_path / "t.yaml").write_text(text)
+    err = refused(capsys, fmu_dir, tmp_path / "t.yaml", tmp_path / "t.ssp")
+    assert err.startswith(f"{tmp_path / 't.yaml'}: plant.table_file = '{tmp_path / 'curve.csv'}': ")
+
+
+def test_a_profile_the_signals_fmu_cannot_hold_is_refused(capsys, fmu_dir, tmp_path):
+    rows = "\n".join(f"{i * 1e-4!r},1.0" for i in range(8193))
+    (tmp_path / "long.csv").write_text(rows + "\n")
+    text = DEFAULT.read_text().replace("T_load: {type: step, time: 1.0, value: 26.71, initial: 0.0}",
+                                       "T_load: {type: csv, file: long.csv}")
+    (tmp_path / "l.yaml").write_text(text)
+    err = refused(capsys, fmu_dir, tmp_path / "l.yaml", tmp_path / "l.ssp")
+    assert err.startswith(f"{tmp_path / 'l.yaml'}: profiles.T_load = '8193 points': ")
+
+
+def test_an_invalid_scenario_is_refused(capsys, fmu_dir, tmp_path):
+    (tmp_path / "bad.yaml").write_text(DEFAULT.read_text().replace("stop_time: 1.5", "stop_time: -1.0"))
+    err = refused(capsys, fmu_dir, tmp_path / "bad.yaml", tmp_path / "bad.ssp")
+    assert "stop_time = -1.0" in err
+
+
+def test_an_unwritable_out_is_refused_and_an_old_file_is_kept(capsys, fmu_dir, tmp_path):
+    blocker = tmp_path / "file"
+    blocker.write_text("x")
+    code = cli.main(["export-ssp", str(DEFAULT), str(blocker / "x.ssp"), "--fmus", str(fmu_dir)])
+    assert code == 2 and str(blocker / "x.ssp") in capsys.readouterr().err
+    old = tmp_path / "old.ssp"
+    old.write_bytes(b"previous")
+    refused_path = ROOT / "scenarios" / "noisy_measurements.yaml"
+    assert cli.main(["export-ssp", str(refused_path), str(old), "--fmus", str(fmu_dir)]) == 2
+    assert old.read_bytes() == b"previous"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["file", "old.ssp"]
+
+
+# --- running the package: a fixed-step engine with libcosim's rules ---------------------------------
+
+class FixedStepEngine:
+    """Runs an SSP package as libcosim's fixed_step_algorithm does (see the module docstring)."""
+
+    def __init__(self, ssp_path, workdir):
+        with zipfile.ZipFile(ssp_path) as z:
+            z.extractall(workdir)
+        root = ET.parse(workdir / "SystemStructure.ssd").getroot()
+        algo = root.find("ssd:DefaultExperiment/ssd:Annotations/ssc:Annotation/osp:Algorithm/"
+                         "osp:FixedStepAlgorithm", NS)
+        self.base_ns = round(float(algo.get("baseStepSize")) * 1e9)
+        self.units = {}
+        for c in root.findall("ssd:System/ssd:Elements/ssd:Component", NS):
+            hint = float(c.find("ssd:Annotations/ssc:Annotation/osp:StepSizeHint", NS).get("value"))
+            src = workdir / c.get("source")
+            md = read_model_description(str(src))
+            fmu = FMU2Slave(guid=md.guid, unzipDirectory=extract(str(src)), instanceName=c.get("name"),
+                            modelIdentifier=md.coSimulation.modelIdentifier)
+            fmu.instantiate()
+            fmu.setupExperiment(startTime=0.0)
+            vr = {v.name: v.valueReference for v in md.modelVariables}
+            for p in c.findall(".//ssv:Parameter", NS):
+                vtype, value = typed_value(p[0])
+                ref = [vr[p.get("name")]]
+                {"Real": fmu.setReal, "Integer": fmu.setInteger, "Boolean": fmu.setBoolean,
+                 "String": fmu.setString}[vtype](ref, [value])
+            fmu.enterInitializationMode()
+            fmu.exitInitializationMode()
+            self.units[c.get("name")] = (fmu, vr, max(1, round(hint * 1e9 / self.base_ns)))
+        self.connections = [(c.get("startElement"), c.get("startConnector"), c.get("endElement"),
+                             c.get("endConnector"))
+                            for c in root.findall("ssd:System/ssd:Connections/ssd:Connection", NS)]
+        self.counter = 0
+        self.transfer()
+
+    def transfer(self):
+        for se, sc, ee, ec in self.connections:
+            (src, svr, sdf), (dst, dvr, ddf) = self.units[se], self.units[ee]
+            if self.counter % math.lcm(sdf, ddf) == 0:
+                dst.setReal([dvr[ec]], src.getReal([svr[sc]]))
+
+    def step(self):
+        for fmu, _, df in self.units.values():
+            if self.counter % df == 0:  # time in integer nanoseconds, as libcosim's time_point
+                fmu.doStep(self.counter * self.base_ns / 1e9, df * self.base_ns / 1e9)
+        self.counter += 1
+        self.transfer()
+
+    def get(self, unit, names):
+        fmu, vr, _ = self.units[unit]
+        return fmu.getReal([vr[n] for n in names])
+
+    def close(self):
+        for fmu, _, _ in self.units.values():
+            fmu.terminate()
+            fmu.freeInstance()
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name, stop", [("ramp_rated_load", 0.3), ("deep_saturation", 0.15)])
+def test_a_fixed_step_engine_running_the_package_gives_the_master_jacobi_run_to_the_bit(
+        name, stop, fmu_dir, tmp_path):
+    """ramp_rated_load over pre-magnetization, the switch to the law and the start of the ramp;
+    deep_saturation: h = 50 us, the controller every 2 steps (decimation 2)."""
+    path = ROOT / "scenarios" / f"{name}.yaml"
+    out = tmp_path / "p.ssp"
+    assert cli.main(["export-ssp", str(path), str(out), "--fmus", str(fmu_dir)]) == 0
+    sc = dataclasses.replace(load_scenario(path), stop_time=stop)
+    plant, ctrl = fmus.paths(fmu_dir, "native")
+    master = run(sc, str(plant), str(ctrl), algorithm="jacobi")
+    assert master.ok, master.message
+    frame = master.frame
+    names = ["i_s_alpha", "i_s_beta", "psi_r_alpha", "omega_m", "T_e"]
+    engine = FixedStepEngine(out, tmp_path / "x")
+    n = round(stop / sc.step)
+    got = [engine.get("plant", names)]
+    for _ in range(n):
+        engine.step()
+        got.append(engine.get("plant", names))
+    engine.close()
+    want = frame[[f"plant.{v}" for v in names]].to_numpy().tolist()
+    every = round(sc.record.interval / sc.step)  # the master records every `every` steps
+    assert len(want) == n // every + 1
+    assert got[::every] == want
