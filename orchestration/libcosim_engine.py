@@ -45,6 +45,7 @@ import shutil
 import sys
 import tempfile
 import time
+import zipfile
 from ctypes import POINTER, c_char_p, c_int, c_int64, c_size_t, c_uint32, c_void_p
 from pathlib import Path
 from xml.sax.saxutils import quoteattr
@@ -57,7 +58,7 @@ from .profiles import Constant, Problem
 from .recorder import Recorder
 from .wiring import CONTROLLER, DEFAULT_CONNECTIONS, PLANT, PROFILE
 
-__all__ = ["run", "problems", "system_structure", "CHUNK_TIME", "SIGNALS", "NS", "VARIANTS"]
+__all__ = ["run", "run_package", "problems", "system_structure", "CHUNK_TIME", "SIGNALS", "NS", "VARIANTS"]
 
 VARIANTS = ("native", "python")  # the FMU variants it runs (FMI 2.0: libcosim 0.11 has no FMI 3.0)
 
@@ -264,6 +265,40 @@ def run(scenario, plant_fmu, controller_fmu, recorder=None, stop=None, algorithm
     Recorder`` (default in memory); ``stop``: ``.signum`` non-zero stops the run at the next chunk;
     ``algorithm``: None or "jacobi" (anything else is refused: see :func:`problems`).  Raises ValueError
     for a scenario :func:`problems` refuses; never raises for an FMU failure."""
+
+    def system(work):
+        fmus = {PLANT: plant_fmu, CONTROLLER: controller_fmu}
+        signals = signals_fmu
+        if signals is None and any(not isinstance(p, Constant) for p in scenario.profiles.values()):
+            from .signals_fmu import build as build_signals
+
+            signals = build_signals(scenario, work / "signals")
+        if signals is not None:
+            fmus[SIGNALS] = signals
+        return fmus, lambda outputs: system_structure(scenario, fmus, work, _types_of(outputs))
+
+    return _run(scenario, system, recorder, stop, algorithm, chunk_time)
+
+
+def run_package(scenario, package, recorder=None, stop=None, chunk_time=CHUNK_TIME):
+    """Run an SSP package written by :func:`orchestration.ssp.export` for ``scenario`` as libcosim
+    loads it (``CosimExecution.from_ssp_file``: its components, connections, parameter bindings and
+    OSP step annotations), recorded as :func:`run` records.  ``scenario`` gives the record's layout
+    and the parameters of the pre-flight initialization; the package must have been exported from
+    it."""
+    from .ssp import RESOURCES
+
+    def system(work):
+        with zipfile.ZipFile(package) as z:
+            fmus = {unit: Path(z.extract(member, work / "package")) for unit, member in RESOURCES.items()}
+        return fmus, lambda outputs: Path(package)
+
+    return _run(scenario, system, recorder, stop, None, chunk_time)
+
+
+def _run(scenario, system, recorder, stop, algorithm, chunk_time):
+    """The run of :func:`run` and :func:`run_package`: ``system(work directory)`` gives ``({unit:
+    FMU path}, outputs -> the system file libcosim loads)``."""
     found = problems(scenario, algorithm)
     if found:
         raise ValueError("\n".join(map(str, found)))
@@ -274,19 +309,12 @@ def run(scenario, plant_fmu, controller_fmu, recorder=None, stop=None, algorithm
     note = ENGINE_NOTE + ("" if scenario.algorithm == "jacobi" else
                           f"; the scenario's {scenario.algorithm} is not available in this engine")
     try:
-        fmus = {PLANT: plant_fmu, CONTROLLER: controller_fmu}
-        varying = any(not isinstance(p, Constant) for p in scenario.profiles.values())
-        if signals_fmu is None and varying:
-            from .signals_fmu import build as build_signals
-
-            signals_fmu = build_signals(scenario, work / "signals")
-        if signals_fmu is not None:
-            fmus[SIGNALS] = signals_fmu
-        failed = _preflight(scenario, plant_fmu, controller_fmu)
+        fmus, structure_of = system(work)
+        failed = _preflight(scenario, fmus[PLANT], fmus[CONTROLLER])
         if failed:
             raise _Failed(*failed)
         outputs = {name: _Outputs(path) for name, path in fmus.items()}
-        structure = system_structure(scenario, fmus, work, _types_of(outputs))
+        structure = structure_of(outputs)
         columns = recorded_columns([n for n, _ in outputs[PLANT].real],
                                    [n for n, _ in outputs[CONTROLLER].real + outputs[CONTROLLER].integer
                                     + outputs[CONTROLLER].boolean], sorted(scenario.profiles))
@@ -428,7 +456,10 @@ class _Execution:
         self.next_row = 0
         self.file_obs = None
         try:
-            self.ex = CosimExecution.from_osp_config_file(str(structure))
+            if Path(structure).suffix == ".xml":
+                self.ex = CosimExecution.from_osp_config_file(str(structure))
+            else:  # an SSP package (.ssp) or its SystemStructure.ssd
+                self.ex = CosimExecution.from_ssp_file(str(structure))
         except AssertionError as exc:
             raise RuntimeError(str(exc)) from None
         self.index = {name: self.ex.slave_index_from_instance_name(name) for name in outputs}

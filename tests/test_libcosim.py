@@ -212,3 +212,21 @@ def test_run_with_libcosim_writes_the_same_files_as_the_default_engine(tmp_path,
     m = json.loads((tmp_path / "libcosim" / "ramp_rated_load" / "metrics.json").read_text())
     for key, v in sum_f["metrics"].items():
         assert m["metrics"][key] == pytest.approx(v, rel=1e-8, abs=1e-12), key
+
+
+@pytest.mark.parametrize("variant, path", [("native", DEFAULT), ("native", DECIMATED), ("python", DEFAULT)])
+def test_libcosim_runs_the_exported_ssp_package_as_the_engine_runs_the_scenario(variant, path, tmp_path,
+                                                                                fmu_dir):
+    from orchestration.ssp import export
+
+    sc = load_scenario(path)
+    if variant == "python":
+        sc = dataclasses.replace(sc, stop_time=0.3)
+    plant, ctrl = map(str, fmus.paths(fmu_dir, variant))
+    package = export(sc, tmp_path / f"{sc.name}.ssp", plant, ctrl)
+    got = libcosim_engine.run_package(sc, package)  # CosimExecution.from_ssp_file on the .ssp
+    want = libcosim_engine.run(sc, plant, ctrl)  # our OspSystemStructure.xml
+    assert got.ok and want.ok, (got.message, want.message)
+    assert list(got.frame.columns) == list(want.frame.columns) and len(got.frame) == len(want.frame)
+    for c in want.frame.columns:  # the same system: bit for bit
+        assert np.array_equal(got.frame[c].to_numpy(), want.frame[c].to_numpy()), c
