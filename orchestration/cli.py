@@ -15,6 +15,7 @@ from __future__ import annotations
 import argparse
 import subprocess
 import sys
+from functools import partial
 from pathlib import Path
 
 from . import fmus
@@ -90,7 +91,7 @@ def run_file(path, out, fmu_dir, algorithm=None, build=True, plot=True, stop=Non
                          f"({', '.join(libcosim_engine.VARIANTS)})")
         if found:
             return refused("\n".join(map(str, found)), sc.name)
-        run = libcosim_engine.run
+        run = partial(libcosim_engine.run, signals_cache=Path(fmu_dir) / "signals")  # built once per profiles
     try:
         directory = prepare_dir(out, sc)
     except OSError as exc:

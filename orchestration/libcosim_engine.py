@@ -38,6 +38,7 @@ raises.
 from __future__ import annotations
 
 import ctypes
+import hashlib
 import math
 import os
 import re
@@ -58,12 +59,13 @@ from .profiles import Constant, Problem
 from .recorder import Recorder
 from .wiring import CONTROLLER, DEFAULT_CONNECTIONS, PLANT, PROFILE
 
-__all__ = ["run", "run_package", "problems", "system_structure", "CHUNK_TIME", "SIGNALS", "NS", "VARIANTS"]
+__all__ = ["run", "run_package", "signals_fmu_for", "problems", "system_structure", "CHUNK_TIME", "SIGNALS",
+           "NS", "VARIANTS"]
 
 VARIANTS = ("native", "python")  # the FMU variants it runs (FMI 2.0: libcosim 0.11 has no FMI 3.0)
 
 SIGNALS = "signals"  # instance name of the profiles FMU
-CHUNK_TIME = 0.05  # [s] simulated time stepped in C++ between two looks at the stop flag
+CHUNK_TIME = 0.02  # [s] simulated time stepped in C++ between two looks at the stop flag
 NS = 1_000_000_000  # libcosim's time unit: integer nanoseconds
 _BOOLS_FILE = "LogConfig.xml"
 ENGINE_NOTE = "libcosim fixed-step algorithm: Jacobi coupling"  # the message of a run that completed
@@ -231,37 +233,68 @@ class _Series:
 
 
 class _BoolFile:
-    """The controller's Booleans from the file observer's CSV, read as it grows: ``{step number:
-    values}`` (the file observer writes one line per controller step, flushed)."""
+    """The controller's Booleans from the file observer's CSV, read as it grows.  libcosim writes
+    one line per controller step (``Time,StepCount,flags...``, flags 0 / 1) through a buffered
+    stream, so the file lags the execution by up to a buffer's worth of lines; all of it is there
+    once the execution is gone.  Kept: the step numbers and the flags not yet taken."""
 
     def __init__(self, path, n):
-        self.path, self.n, self._pos, self.rows = Path(path), n, 0, {}
+        self.path, self.n, self._pos = Path(path), n, 0
+        self.steps, self.flags = np.empty(0, np.int64), np.empty((0, n))
 
     def update(self):
         if not self.n or not self.path.exists():
             return
-        with open(self.path) as f:
+        with open(self.path, "rb") as f:
             f.seek(self._pos)
             text = f.read()
-        end = text.rfind("\n") + 1
-        self._pos += len(text[:end].encode())
-        for line in text[:end].splitlines():
-            parts = line.split(",")
-            if parts[0] == "Time":
-                continue
-            self.rows[int(parts[1])] = [float(p in ("1", "true")) for p in parts[2:2 + self.n]]
+        end = text.rfind(b"\n") + 1
+        self._pos += end
+        lines = [ln for ln in text[:end].decode().splitlines() if not ln.startswith("Time")]
+        if lines:
+            cells = np.array(",".join(lines).split(","), dtype=object).reshape(len(lines), -1)
+            self.steps = np.concatenate([self.steps, cells[:, 1].astype(np.int64)])
+            self.flags = np.vstack([self.flags, (cells[:, 2:2 + self.n] == "1").astype(float)])
+
+    def take(self, wanted):
+        """``(k, flags of wanted[:k])``: the flags of the leading step numbers of ``wanted`` (sorted)
+        that are on disk; the lines before ``wanted[0]`` are dropped."""
+        first = np.searchsorted(self.steps, wanted[0])
+        self.steps, self.flags = self.steps[first:], self.flags[first:]
+        k = int(np.searchsorted(wanted, self.steps[-1], side="right")) if len(self.steps) else 0
+        return k, self.flags[np.searchsorted(self.steps, wanted[:k])]
 
 
 def _types_of(outputs):
     return {unit: o.types for unit, o in outputs.items()}
 
 
+def signals_fmu_for(scenario, cache_dir):
+    """The ScenarioSignals FMU of ``scenario``'s profiles, built once into ``cache_dir/<key>/`` and
+    reused while the profiles and the C sources it is built from are unchanged (the key is a SHA-256
+    over both); the build takes about a second (a C compile), the reuse nothing."""
+    from . import native_build, signals_fmu
+
+    h = hashlib.sha256(signals_fmu.profiles_text(scenario).encode())
+    for f in (signals_fmu.SOURCE, *sorted(native_build.GLUE_DIR.glob("*.[ch]")), Path(signals_fmu.__file__),
+              Path(native_build.__file__)):
+        h.update(Path(f).name.encode() + b"\0" + Path(f).read_bytes() + b"\0")
+    d = Path(cache_dir) / h.hexdigest()[:24]
+    fmu = d / f"{signals_fmu.MODEL_NAME}.fmu"
+    if not fmu.is_file():
+        d.mkdir(parents=True, exist_ok=True)
+        with tempfile.TemporaryDirectory(dir=d) as tmp:  # built aside, then renamed: never half-written
+            os.replace(signals_fmu.build(scenario, tmp), fmu)
+    return fmu
+
+
 def run(scenario, plant_fmu, controller_fmu, recorder=None, stop=None, algorithm=None,
-        signals_fmu=None, chunk_time=CHUNK_TIME):
+        signals_fmu=None, chunk_time=CHUNK_TIME, signals_cache=None):
     """Run ``scenario`` with libcosim; returns a :class:`orchestration.master.RunResult`.
 
     ``signals_fmu``: the profiles FMU (None: built with :func:`orchestration.signals_fmu.build` when a
-    profile varies in time, else the constant profiles are initial values); ``recorder``: ``columns ->
+    profile varies in time, into ``signals_cache`` when given (:func:`signals_fmu_for`), else for this
+    run only; with constant profiles there is none, they are initial values); ``recorder``: ``columns ->
     Recorder`` (default in memory); ``stop``: ``.signum`` non-zero stops the run at the next chunk;
     ``algorithm``: None or "jacobi" (anything else is refused: see :func:`problems`).  Raises ValueError
     for a scenario :func:`problems` refuses; never raises for an FMU failure."""
@@ -270,9 +303,7 @@ def run(scenario, plant_fmu, controller_fmu, recorder=None, stop=None, algorithm
         fmus = {PLANT: plant_fmu, CONTROLLER: controller_fmu}
         signals = signals_fmu
         if signals is None and any(not isinstance(p, Constant) for p in scenario.profiles.values()):
-            from .signals_fmu import build as build_signals
-
-            signals = build_signals(scenario, work / "signals")
+            signals = signals_fmu_for(scenario, signals_cache or work / "signals")
         if signals is not None:
             fmus[SIGNALS] = signals
         return fmus, lambda outputs: system_structure(scenario, fmus, work, _types_of(outputs))
@@ -380,9 +411,9 @@ def _simulate(sc, structure, outputs, rec, stop, chunk_time, work):
     """Step libcosim chunk by chunk, recording every complete row; returns (status, message, t_end,
     failed unit)."""
     with _CapturedLog(work / "libcosim.log") as log:
-        run = _Execution(sc, structure, outputs, work)
+        run = _Execution(sc, structure, outputs, work, chunk_time)
         try:
-            status, message, t_end, unit = run.simulate(rec, stop, chunk_time)
+            status, message, t_end, unit = run.simulate(rec, stop)
         finally:
             run.close(rec)
     if status in _FAILED:
@@ -442,7 +473,7 @@ class _CapturedLog:
 class _Execution:
     """One libcosim execution of the system and its observers, and the rows taken from them."""
 
-    def __init__(self, sc, structure, outputs, work):
+    def __init__(self, sc, structure, outputs, work, chunk_time=CHUNK_TIME):
         from libcosimpy.CosimEnums import CosimVariableType
         from libcosimpy.CosimExecution import CosimExecution
         from libcosimpy.CosimObserver import CosimObserver
@@ -463,8 +494,10 @@ class _Execution:
         except AssertionError as exc:
             raise RuntimeError(str(exc)) from None
         self.index = {name: self.ex.slave_index_from_instance_name(name) for name in outputs}
-        self.buffer = max(self.N, round(CHUNK_TIME / self.h)) + 2 * self.N + 8
-        self.observer = CosimObserver.create_time_series(10 * self.buffer)
+        self.chunk = max(self.N, round(chunk_time / self.h) // self.N * self.N)  # base steps, a multiple of N
+        # samples kept per variable: the rows of a chunk and the controller sample of the last one.  No
+        # more: libcosim 0.11 copies the observer's whole time map at every sample read
+        self.observer = CosimObserver.create_time_series(self.chunk + 2 * self.N + 8)
         self.ex.add_observer(self.observer)
         for name, o in outputs.items():
             for _, ref in o.real:
@@ -491,11 +524,8 @@ class _Execution:
         self.c_real = [r for _, r in outputs[CONTROLLER].real]
         self.c_int = [r for _, r in outputs[CONTROLLER].integer]
 
-    def simulate(self, rec, stop, chunk_time):
-        h, N = self.h, self.N
-        chunk = max(N, round(chunk_time / h) // N * N)  # base steps per chunk, a multiple of N
-        if chunk + 2 * N + 8 > 10 * self.buffer:
-            raise ValueError(f"chunk_time = {chunk_time!r}: longer than the observer's buffer")
+    def simulate(self, rec, stop):
+        h, chunk = self.h, self.chunk
         reached = 0  # the base step libcosim has reached
         while reached < self.last_step:
             if stop.signum:
@@ -556,18 +586,16 @@ class _Execution:
 
     def _emit(self, rec):
         """Record the pending rows, in order, up to the first whose Booleans are not on disk yet."""
-        nb, nc = self.bools.n, None
+        nb = self.bools.n
         while self.pending:
             cs, table = self.pending[0]
+            upto = len(cs)
             if nb:
-                nc = nc or (len(table[0]) - nb - (len(self.sig_refs) or len(self.consts)))
-                ready = np.array([int(s) in self.bools.rows for s in cs])
-                upto = len(cs) if ready.all() else int(np.argmin(ready))
+                upto, flags = self.bools.take(cs)
                 if upto == 0:
                     return
-                table[:upto, nc:nc + nb] = [self.bools.rows[int(s)] for s in cs[:upto]]
-            else:
-                upto = len(cs)
+                nc = table.shape[1] - nb - (len(self.sig_refs) or len(self.consts))  # first Boolean column
+                table[:upto, nc:nc + nb] = flags
             for row in table[:upto].tolist():
                 rec.append(row)
             if upto == len(cs):
