@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import os
 import platform
 import sys
 import tempfile
@@ -42,8 +43,20 @@ from orchestration.signals_fmu import build as build_signals  # noqa: E402
 SCENARIO = ROOT / "scenarios" / "ramp_rated_load.yaml"
 
 
+def context_switches():
+    """(voluntary + involuntary context switches of every thread of this process, threads)."""
+    tasks = list(Path(f"/proc/{os.getpid()}/task").glob("*"))
+    total = 0
+    for t in tasks:
+        for line in (t / "status").read_text().splitlines():
+            if "ctxt_switches" in line:
+                total += int(line.split()[1])
+    return total, len(tasks)
+
+
 def libcosim_parts(sc, plant, ctrl, signals, work):
-    """(stepping without observers [s], stepping and recording [s]) of one run each."""
+    """(stepping without observers [s], stepping and recording [s], context switches per step,
+    threads) of one run each."""
     from libcosimpy.CosimExecution import CosimExecution
     from libcosimpy.CosimLogging import CosimLogLevel, log_output_level
 
@@ -53,9 +66,12 @@ def libcosim_parts(sc, plant, ctrl, signals, work):
     structure = libcosim_engine.system_structure(sc, fmus_, work, libcosim_engine._types_of(outputs))
     n = round(sc.stop_time / sc.step)
     ex = CosimExecution.from_osp_config_file(str(structure))
+    assert ex.step(1)  # initialization
+    c0 = context_switches()[0]
     t0 = time.perf_counter()
     assert ex.step(n)
     bare = time.perf_counter() - t0
+    c1, threads = context_switches()
     del ex
     columns = ["c"] * 32
     e = libcosim_engine._Execution(sc, structure, outputs, work)
@@ -65,7 +81,40 @@ def libcosim_parts(sc, plant, ctrl, signals, work):
     e.close(rec)
     recorded = time.perf_counter() - t0
     assert status[0] == "ok" and rec.n_rows + len(rec.rows) == n + 1, status
-    return bare, recorded
+    return bare, recorded, (c1 - c0) / n, threads
+
+
+def plant_floor(plant, work):
+    """Wall seconds per step of the native plant FMU alone, stepped by a C host with no Python
+    (``tests/native_c_host.c``, constant inputs): the difference of 20 000 and 2 000 steps, so
+    process start and instantiation cancel; best of 3.  None when gcc is missing."""
+    import shutil
+    import subprocess
+    import zipfile
+
+    from fmpy import __file__ as fmpy_file
+    from fmpy import read_model_description
+
+    if shutil.which("gcc") is None:
+        return None
+    host = work / "host"
+    subprocess.run(["gcc", "-std=c99", "-O2", f"-I{Path(fmpy_file).parent / 'c-code'}",
+                    str(ROOT / "tests" / "native_c_host.c"), "-o", str(host), "-ldl"], check=True)
+    with zipfile.ZipFile(plant) as z:
+        z.extractall(work / "plant")
+    md = read_model_description(plant)
+    vr = {v.name: v.valueReference for v in md.modelVariables}
+    lib = work / "plant" / "binaries" / "linux64" / f"{md.coSimulation.modelIdentifier}.so"
+
+    def wall(steps):
+        inputs = [f"{vr['v_s_alpha']}=150", f"{vr['v_s_beta']}=-40", f"{vr['T_load']}=5"]
+        args = [str(host), str(lib), md.guid, (work / "plant" / "resources").as_uri(), str(steps), "1e-4",
+                *inputs, "--", str(vr["omega_m"])]
+        t0 = time.perf_counter()
+        subprocess.run(args, check=True, capture_output=True)
+        return time.perf_counter() - t0
+
+    return min((wall(20_000) - wall(2_000)) / 18_000 for _ in range(3))
 
 
 def main():
@@ -82,9 +131,10 @@ def main():
         t0 = time.perf_counter()
         signals = str(build_signals(sc, work / "signals"))
         t_build = time.perf_counter() - t0
+        floor = plant_floor(native[0], work)
         best = {k: math.inf for k in ("bare", "recorded", "engine", "master_native", "master_python")}
         for _ in range(args.repeats):
-            bare, recorded = libcosim_parts(sc, *native, signals, work)
+            bare, recorded, switches, threads = libcosim_parts(sc, *native, signals, work)
             best["bare"], best["recorded"] = min(best["bare"], bare), min(best["recorded"], recorded)
             got = libcosim_engine.run(sc, *native, signals_fmu=signals)
             assert got.ok, got.message
@@ -109,7 +159,13 @@ def main():
              "", f"{'run':58s} {'wall [s]':>9s} {'us/step':>8s} {'real-time factor':>17s}"]
     for name, wall in rows:
         lines.append(f"{name:58s} {wall:9.3f} {wall / n * 1e6:8.1f} {T / wall:17.1f}")
-    lines += ["", f"ScenarioSignals FMU build (C compile, once per scenario): {t_build:.2f} s",
+    if floor is not None:
+        lines.append(f"{'native plant FMU alone, C host, no Python (floor)':58s} {'':9s} {floor * 1e6:8.1f} "
+                     f"{sc.step / floor:17.1f}")
+    lines += ["", f"libcosim stepping: {switches:.1f} context switches per step, {threads} threads in the "
+              "process",
+              "(libcosim 0.11 hands each simulator's step to its pool of hardware threads - 1 workers)",
+              f"ScenarioSignals FMU build (C compile, once per scenario): {t_build:.2f} s",
               f"largest |libcosim - master| / column scale, every column: {worst:.2e}",
               f"whole engine vs fmpy master + native: {best['master_native'] / best['engine']:.2f}x; "
               f"vs fmpy master + pythonfmu: {best['master_python'] / best['engine']:.2f}x"]
