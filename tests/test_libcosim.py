@@ -14,8 +14,10 @@ differs from ``h`` by up to one unit in the last place of ``t`` (2.2e-16 s for t
 
 import dataclasses
 import json
+import signal
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import numpy as np
@@ -230,3 +232,31 @@ def test_libcosim_runs_the_exported_ssp_package_as_the_engine_runs_the_scenario(
     assert list(got.frame.columns) == list(want.frame.columns) and len(got.frame) == len(want.frame)
     for c in want.frame.columns:  # the same system: bit for bit
         assert np.array_equal(got.frame[c].to_numpy(), want.frame[c].to_numpy()), c
+
+
+@pytest.mark.parametrize("sig, code", [(signal.SIGINT, 130), (signal.SIGTERM, 143)])
+def test_run_with_libcosim_stops_on_a_signal_and_writes_what_it_has(sig, code, tmp_path, fmu_dir):
+    # libcosim steps in C++: the handler runs between two chunks of CHUNK_TIME simulated seconds
+    f = tmp_path / "long.yaml"
+    f.write_text("name: long\nstop_time: 30.0\nprofiles:\n  psi_ref: {type: constant, value: 0.9}\n"
+                 "  omega_ref: {type: step, time: 0.15, value: 50.0}\n")
+    out = tmp_path / "out"
+    args = ["run", f, "--engine", "libcosim", "--out", out, "--fmus", fmu_dir, "--no-build", "--no-plot"]
+    p = subprocess.Popen([sys.executable, "-m", "orchestration", *map(str, args)], cwd=ROOT,
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    csv = out / "long" / "timeseries.csv"
+    for _ in range(2400):  # until the first chunk of rows is on disk (at most 120 s)
+        assert p.poll() is None, p.communicate()
+        if csv.exists() and csv.stat().st_size > 10_000:
+            break
+        time.sleep(0.05)
+    p.send_signal(sig)
+    stdout, stderr = p.communicate(timeout=120)
+    assert p.returncode == code, stderr
+    m = json.loads((out / "long" / "metrics.json").read_text())
+    assert m["status"] == "interrupted" and signal.Signals(sig).name in m["message"]
+    assert "Traceback" not in stderr
+    rows = pd.read_csv(csv)
+    assert len(rows) == m["rows"] > 10_000 and rows["time"].iloc[-1] <= m["t_end"] < 30.0
+    assert np.array_equal(rows["time"].to_numpy(), np.arange(len(rows)) * 1e-4)  # no gap
+    assert len(pd.read_parquet(out / "long" / "timeseries.parquet")) == m["rows"]
