@@ -109,6 +109,16 @@ def test_the_system_structure_holds_the_steps_parameters_and_constant_inputs(tmp
     assert "profile" not in text and "signals" not in text
 
 
+def test_a_step_of_a_fraction_of_a_nanosecond_is_refused_naming_the_field():
+    sc = dataclasses.replace(load_scenario(DEFAULT), step=1.0000005e-4)
+    (p,) = libcosim_engine.problems(sc)
+    assert (p.file, p.field, p.value) == (str(DEFAULT), "step", 1.0000005e-4)
+    assert "nanoseconds" in p.message
+    assert libcosim_engine.problems(load_scenario(DEFAULT)) == []
+    with pytest.raises(ValueError, match="step"):
+        libcosim_engine.run(sc, "plant.fmu", "controller.fmu")
+
+
 def test_a_time_that_libcosim_would_truncate_is_written_so_it_reads_back_exactly():
     for ns in (1, 3, 50_000, 100_000, 123_457, 1_953_125, 10**9 - 1):
         assert int(float(libcosim_engine._time_text(ns)) * 1e9) == ns
