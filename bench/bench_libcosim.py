@@ -18,6 +18,9 @@ one process, best of N (default 5):
 * the native plant FMU alone, stepped by a C host without Python (the physics' floor).
 
 Real-time factor = simulated time / wall time.  The libcosim run is checked against the master's.
+libcosim 0.11 steps the FMUs through a thread pool of (hardware threads - 1) workers; the context
+switches per step show it.  ``bench/nprocs1_shim.c`` (preloaded) sets that to no worker, for the
+experiment only.
 """
 
 from __future__ import annotations

@@ -606,7 +606,7 @@ class _Execution:
                     return
                 nc = table.shape[1] - nb - (len(self.sig_refs) or len(self.consts))  # first Boolean column
                 table[:upto, nc:nc + nb] = flags
-            for row in table[:upto].tolist():
+            for row in table[:upto]:  # rows of the float64 table: the recorder stacks them per chunk
                 rec.append(row)
             if upto == len(cs):
                 self.pending.pop(0)
