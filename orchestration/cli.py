@@ -16,6 +16,7 @@ import argparse
 import os
 import subprocess
 import sys
+from functools import partial
 from pathlib import Path
 
 from . import fmus
@@ -58,10 +59,11 @@ def cmd_validate(args):
 
 
 def run_file(path, out, fmu_dir, algorithm=None, build=True, plot=True, stop=None,
-             variant=fmus.DEFAULT_VARIANT):
+             variant=fmus.DEFAULT_VARIANT, engine="fmpy"):
     """Load, run and write one scenario; returns (exit code, summary dict).
 
-    Checked before any FMU runs: the scenario (every problem at once) and that ``out`` can be
+    Checked before any FMU runs: the scenario (every problem at once), that ``engine`` can run it
+    (``libcosim``: :func:`orchestration.libcosim_engine.problems`) and that ``out`` can be
     written.  The time series stream to disk as the run goes; ``stop`` (an
     :class:`orchestration.interrupts.StopRequest`) ends the run early with what it has."""
     from .master import run
@@ -81,6 +83,16 @@ def run_file(path, out, fmu_dir, algorithm=None, build=True, plot=True, stop=Non
         return RUN_FAILED, {"scenario": Path(path).stem, "file": str(path), "status": "setup",
                             "message": f"building the FMUs into {fmu_dir} failed (exit {exc.returncode})",
                             "rows": 0, "wall_time": 0.0}
+    if engine == "libcosim":
+        from . import libcosim_engine
+
+        found = libcosim_engine.problems(sc, algorithm)
+        if variant not in libcosim_engine.VARIANTS:
+            found.append(f"--variant {variant}: the libcosim engine runs the FMI 2.0 FMUs "
+                         f"({', '.join(libcosim_engine.VARIANTS)})")
+        if found:
+            return refused("\n".join(map(str, found)), sc.name)
+        run = partial(libcosim_engine.run, signals_cache=Path(fmu_dir) / "signals")  # built once per profiles
     try:
         directory = prepare_dir(out, sc)
     except OSError as exc:
@@ -101,8 +113,9 @@ def cmd_run(args):
 
     die_with_parent()
     with catch() as stop:
+        variant = args.variant or ("native" if args.engine == "libcosim" else fmus.DEFAULT_VARIANT)
         code, s = run_file(args.scenario, args.out, args.fmus, args.algorithm, build=not args.no_build,
-                           variant=args.variant,
+                           variant=variant, engine=args.engine,
                            plot=not args.no_plot, stop=stop)
     if s.get("status") == "invalid":
         print(s["message"], file=sys.stderr)
@@ -122,7 +135,7 @@ def cmd_batch(args):
 
     with catch() as stop:
         return run_batch(args.scenarios, args.out, args.fmus, jobs=args.jobs, scheduler=args.scheduler,
-                         algorithm=args.algorithm, stop=stop, variant=args.variant)
+                         algorithm=args.algorithm, stop=stop, variant=args.variant or fmus.DEFAULT_VARIANT)
 
 
 def cmd_check(args):
@@ -187,8 +200,9 @@ def parser():
                        help="FMU directory, built there when missing or stale (default build/fmus)")
         p.add_argument("--algorithm", choices=("gauss-seidel", "jacobi"),
                        help="override the scenario's coupling algorithm")
-        p.add_argument("--variant", choices=tuple(fmus.VARIANTS), default=fmus.DEFAULT_VARIANT,
-                       help="which FMUs run: python (pythonfmu, the executable specification; default), "
+        p.add_argument("--variant", choices=tuple(fmus.VARIANTS),
+                       help="which FMUs run: python (pythonfmu, the executable specification; default; "
+                       "native with --engine libcosim), "
                        "native (C, FMI 2.0) or native-fmi3 (C, FMI 3.0); the results are bit-identical, "
                        "the native ones about 4 times faster")
 
@@ -198,6 +212,9 @@ def parser():
     common(r)
     r.add_argument("--no-build", action="store_true", help="do not build the FMUs, use them as they are")
     r.add_argument("--no-plot", action="store_true", help="skip the figure")
+    r.add_argument("--engine", choices=("fmpy", "libcosim"), default="fmpy",
+                   help="co-simulation engine: fmpy (our master, default) or libcosim (OSP's C++ engine, "
+                   "Jacobi coupling, FMI 2.0 FMUs; see orchestration/libcosim_engine.py)")
     r.set_defaults(func=cmd_run)
     ba = sub.add_parser("batch", help="run many scenarios in parallel", description="Run every scenario "
                         "(files, or the *.yaml of directories), one process each; a summary table of the "

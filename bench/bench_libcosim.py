@@ -1,0 +1,190 @@
+"""Benchmark of the libcosim engine (orchestration.libcosim_engine) against our fmpy master.
+
+Run ``python bench/bench_libcosim.py [--repeats N] [--out FILE]``; prints a table and writes it to
+FILE (default: print only).  The default scenario (``scenarios/ramp_rated_load.yaml``: 1.5 s at
+h = Ts = 100 us, 15 000 steps of each FMU), all runs Jacobi, in memory, measured alternately in
+one process, best of N (default 5):
+
+* libcosim, native FMUs, stepping only, no observer: ``CosimExecution.step`` over the whole run
+  on the engine's ``OspSystemStructure.xml`` (what libcosim and the FMUs cost, nothing recorded);
+* libcosim, native FMUs, stepping and recording: the engine's loop (time-series and file
+  observers, samples read per chunk into rows), without the set-up;
+* libcosim, native FMUs, the whole ``libcosim_engine.run`` (pre-flight initialization, loading the
+  system, stepping, recording), the ScenarioSignals FMU built beforehand (its build, a C compile,
+  is timed once apart);
+* the same whole run with the pythonfmu FMUs;
+* the fmpy master (``orchestration.master.run``, ``wall_time``) with the native FMUs and with the
+  pythonfmu FMUs;
+* the native plant FMU alone, stepped by a C host without Python (the physics' floor).
+
+Real-time factor = simulated time / wall time.  The libcosim run is checked against the master's.
+libcosim 0.11 steps the FMUs through a thread pool of (hardware threads - 1) workers; the context
+switches per step show it.  ``bench/nprocs1_shim.c`` (preloaded) sets that to no worker, for the
+experiment only.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import platform
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from orchestration import fmus, libcosim_engine  # noqa: E402
+from orchestration.master import run as master_run  # noqa: E402
+from orchestration.recorder import Recorder  # noqa: E402
+from orchestration.scenario import load_scenario  # noqa: E402
+from orchestration.signals_fmu import build as build_signals  # noqa: E402
+
+SCENARIO = ROOT / "scenarios" / "ramp_rated_load.yaml"
+
+
+def context_switches():
+    """(voluntary + involuntary context switches of every thread of this process, threads)."""
+    tasks = list(Path(f"/proc/{os.getpid()}/task").glob("*"))
+    total = 0
+    for t in tasks:
+        for line in (t / "status").read_text().splitlines():
+            if "ctxt_switches" in line:
+                total += int(line.split()[1])
+    return total, len(tasks)
+
+
+def libcosim_parts(sc, plant, ctrl, signals, work):
+    """(stepping without observers [s], stepping and recording [s], context switches per step,
+    threads) of one run each."""
+    from libcosimpy.CosimExecution import CosimExecution
+    from libcosimpy.CosimLogging import CosimLogLevel, log_output_level
+
+    log_output_level(CosimLogLevel.ERROR)
+    fmus_ = {"plant": plant, "controller": ctrl, "signals": signals}
+    outputs = {k: libcosim_engine._Outputs(p) for k, p in fmus_.items()}
+    structure = libcosim_engine.system_structure(sc, fmus_, work, libcosim_engine._types_of(outputs))
+    n = round(sc.stop_time / sc.step)
+    ex = CosimExecution.from_osp_config_file(str(structure))
+    assert ex.step(1)  # initialization
+    c0 = context_switches()[0]
+    t0 = time.perf_counter()
+    assert ex.step(n)
+    bare = time.perf_counter() - t0
+    c1, threads = context_switches()
+    del ex
+    columns = ["c"] * 32
+    e = libcosim_engine._Execution(sc, structure, outputs, work)
+    rec = Recorder(columns)
+    t0 = time.perf_counter()
+    status = e.simulate(rec, libcosim_engine._NoStop())
+    e.close(rec)
+    recorded = time.perf_counter() - t0
+    assert status[0] == "ok" and rec.n_rows + len(rec.rows) == n + 1, status
+    return bare, recorded, (c1 - c0) / n, threads
+
+
+def plant_floor(plant, work):
+    """Wall seconds per step of the native plant FMU alone, stepped by a C host with no Python
+    (``tests/native_c_host.c``, constant inputs): the difference of 20 000 and 2 000 steps, so
+    process start and instantiation cancel; best of 3.  None when gcc is missing."""
+    import shutil
+    import subprocess
+    import zipfile
+
+    from fmpy import __file__ as fmpy_file
+    from fmpy import read_model_description
+
+    if shutil.which("gcc") is None:
+        return None
+    host = work / "host"
+    subprocess.run(["gcc", "-std=c99", "-O2", f"-I{Path(fmpy_file).parent / 'c-code'}",
+                    str(ROOT / "tests" / "native_c_host.c"), "-o", str(host), "-ldl"], check=True)
+    with zipfile.ZipFile(plant) as z:
+        z.extractall(work / "plant")
+    md = read_model_description(plant)
+    vr = {v.name: v.valueReference for v in md.modelVariables}
+    lib = work / "plant" / "binaries" / "linux64" / f"{md.coSimulation.modelIdentifier}.so"
+
+    def wall(steps):
+        inputs = [f"{vr['v_s_alpha']}=150", f"{vr['v_s_beta']}=-40", f"{vr['T_load']}=5"]
+        args = [str(host), str(lib), md.guid, (work / "plant" / "resources").as_uri(), str(steps), "1e-4",
+                *inputs, "--", str(vr["omega_m"])]
+        t0 = time.perf_counter()
+        subprocess.run(args, check=True, capture_output=True)
+        return time.perf_counter() - t0
+
+    return min((wall(20_000) - wall(2_000)) / 18_000 for _ in range(3))
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--repeats", type=int, default=5)
+    ap.add_argument("--fmus", default=str(ROOT / "build" / "fmus"))
+    ap.add_argument("--out", help="also write the table to this file")
+    args = ap.parse_args()
+    sc = load_scenario(SCENARIO)
+    native = list(map(str, fmus.paths(args.fmus, "native")))
+    python = list(map(str, fmus.paths(args.fmus, "python")))
+    with tempfile.TemporaryDirectory(prefix="bench_libcosim_") as tmp:
+        work = Path(tmp)
+        t0 = time.perf_counter()
+        signals = str(build_signals(sc, work / "signals"))
+        t_build = time.perf_counter() - t0
+        floor = plant_floor(native[0], work)
+        best = {k: math.inf for k in ("bare", "recorded", "engine", "engine_python", "master_native",
+                                      "master_python")}
+        for _ in range(args.repeats):
+            bare, recorded, switches, threads = libcosim_parts(sc, *native, signals, work)
+            best["bare"], best["recorded"] = min(best["bare"], bare), min(best["recorded"], recorded)
+            got = libcosim_engine.run(sc, *native, signals_fmu=signals)
+            assert got.ok, got.message
+            best["engine"] = min(best["engine"], got.wall_time)
+            ref = master_run(sc, *native, algorithm="jacobi")
+            best["master_native"] = min(best["master_native"], ref.wall_time)
+            py = master_run(sc, *python, algorithm="jacobi")
+            best["master_python"] = min(best["master_python"], py.wall_time)
+            got_py = libcosim_engine.run(sc, *python, signals_fmu=signals)
+            assert got_py.ok, got_py.message
+            best["engine_python"] = min(best["engine_python"], got_py.wall_time)
+    a, b = ref.frame, got.frame
+    worst = max(np.max(np.abs(a[c].to_numpy() - b[c].to_numpy()))
+                / max(np.max(np.abs(a[c].to_numpy())), 1e-300) for c in a.columns)
+    T, n = sc.stop_time, round(sc.stop_time / sc.step)
+    rows = [("libcosim + native, stepping only, no observer", best["bare"]),
+            ("libcosim + native, stepping + recording (engine loop)", best["recorded"]),
+            ("libcosim + native, whole libcosim_engine.run", best["engine"]),
+            ("libcosim + pythonfmu, whole libcosim_engine.run", best["engine_python"]),
+            ("fmpy master + native (wall_time)", best["master_native"]),
+            ("fmpy master + pythonfmu (wall_time)", best["master_python"])]
+    lines = [f"bench_libcosim: {sc.name}, {T} s simulated, {n} steps of h = {sc.step} s, Jacobi, in memory; "
+             f"best of {args.repeats}, alternating, one process",
+             f"machine: {platform.machine()}, {platform.python_version()}, "
+             f"{time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}",
+             "", f"{'run':58s} {'wall [s]':>9s} {'us/step':>8s} {'real-time factor':>17s}"]
+    for name, wall in rows:
+        lines.append(f"{name:58s} {wall:9.3f} {wall / n * 1e6:8.1f} {T / wall:17.1f}")
+    if floor is not None:
+        lines.append(f"{'native plant FMU alone, C host, no Python (floor)':58s} {'':9s} {floor * 1e6:8.1f} "
+                     f"{sc.step / floor:17.1f}")
+    lines += ["", f"libcosim stepping: {switches:.1f} context switches per step, {threads} threads in the "
+              "process",
+              "(libcosim 0.11 hands each simulator's step to its pool of hardware threads - 1 workers)",
+              f"ScenarioSignals FMU build (C compile, once per scenario): {t_build:.2f} s",
+              f"largest |libcosim - master| / column scale, every column: {worst:.2e}",
+              f"speed of the whole engine relative to the fmpy master, same FMUs: native "
+              f"{best['master_native'] / best['engine']:.2f}x, pythonfmu "
+              f"{best['master_python'] / best['engine_python']:.2f}x"]
+    text = "\n".join(lines) + "\n"
+    print(text)
+    if args.out:
+        Path(args.out).write_text(text)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,634 @@
+"""Run a scenario with libcosim, the C++ co-simulation engine of the Open Simulation Platform
+(through libcosimpy), instead of the fmpy master.
+
+What libcosim runs: the plant, the controller and, when a profile varies in time, the scenario's
+profiles as a third FMU (:mod:`orchestration.signals_fmu`, outputs ``omega_ref``, ``psi_ref``,
+``T_load``), wired by :data:`orchestration.wiring.DEFAULT_CONNECTIONS`.  Profiles that are all
+constant are set once as the inputs' initial values (no third FMU).  The system is written as an
+``OspSystemStructure.xml`` (the format libcosim reads, in the engine's temporary directory) and
+loaded with ``CosimExecution.from_osp_config_file``.
+
+Coupling.  libcosim's fixed-step algorithm (``src/cosim/algorithm/fixed_step_algorithm.cpp``) steps
+every due simulator from ``t_k`` with the inputs set at the last transfer, then copies every
+connected output to its input: a Jacobi scheme.  The base step is the scenario's ``step`` (the plant
+step ``h``); the controller's step is ``Ts = controller_every * h`` (libcosim's decimation factor:
+it steps every ``controller_every`` base steps and its connections are transferred at those
+instants only).  That is exactly :func:`orchestration.master.run` with ``algorithm="jacobi"``: at a
+sample the controller reads the plant outputs and profiles of ``t_k`` and the plant integrates over
+``[t_k, t_k + h)`` with the voltages of the previous sample.  libcosim has no Gauss-Seidel: a
+scenario asking for it runs as Jacobi and the result's message says so; an explicit request
+(``algorithm="gauss-seidel"``, ``--algorithm gauss-seidel``) is refused, as is a ``measurements:``
+section (noise applied between the FMUs is the fmpy master's feature, not a libcosim one).
+
+Rows.  Row ``k`` holds, as the master's, the plant outputs at ``t_k``, the controller outputs
+computed at its sample ``t_j = controller_every * floor(k / controller_every) * h`` and the profiles
+at ``t_k``.  libcosim's observers see a controller output once its step is complete, at
+``t_j + Ts``: the engine takes it from there, and runs up to one controller step beyond
+``stop_time`` for the last row.  Reals and Integers come from a time-series observer, exact doubles;
+the controller's Booleans, which that observer cannot read, from a file observer's CSV (0 / 1).
+
+Agreement.  libcosim counts time in integer nanoseconds and hands the FMUs
+``dt = double(t + h) - double(t)``, which differs from ``h`` by up to one unit in the last place of
+``t``; the records therefore equal the master's Jacobi run bit for bit when the step is exact in
+binary, and within about 1e-12 of each column's scale otherwise (``tests/test_libcosim.py``).
+
+Interrupts and failures.  libcosim steps in C++; the engine advances in chunks of
+:data:`CHUNK_TIME` of simulated time, records each chunk and checks ``stop.signum`` between
+chunks, so an interrupted run keeps every row up to the last chunk.  An FMU failure ends the run
+with a :class:`orchestration.master.RunResult` as the master's (status ``error``, ``discard`` or
+``fatal``, the unit, the time, the FMU's own message) and the rows up to the last completed step;
+nothing raises.  Two libcosim 0.11 behaviours are worked around: an FMU failing in its
+initialization ends the process (the exception escapes a worker thread), so the plant and the
+controller are first initialized once with fmpy (:func:`_preflight`); and the FMUs' messages reach
+only libcosim's console log on stdout, which is captured while libcosim runs (:class:`_CapturedLog`).
+
+:func:`run_package` runs an SSP package of :func:`orchestration.ssp.export` as libcosim loads it.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import hashlib
+import math
+import os
+import re
+import shutil
+import sys
+import tempfile
+import time
+import zipfile
+from ctypes import POINTER, c_char_p, c_int, c_int64, c_size_t, c_uint32, c_void_p
+from pathlib import Path
+from xml.sax.saxutils import quoteattr
+
+import numpy as np
+
+from .interrupts import signal_name
+from .master import RunResult, recorded_columns
+from .profiles import Constant, Problem
+from .recorder import Recorder
+from .wiring import CONTROLLER, DEFAULT_CONNECTIONS, PLANT, PROFILE
+
+__all__ = ["run", "run_package", "signals_fmu_for", "problems", "system_structure", "CHUNK_TIME", "SIGNALS",
+           "NS", "VARIANTS"]
+
+VARIANTS = ("native", "python")  # the FMU variants it runs (FMI 2.0: libcosim 0.11 has no FMI 3.0)
+
+SIGNALS = "signals"  # instance name of the profiles FMU
+CHUNK_TIME = 0.02  # [s] simulated time stepped in C++ between two looks at the stop flag
+NS = 1_000_000_000  # libcosim's time unit: integer nanoseconds
+_BOOLS_FILE = "LogConfig.xml"
+ENGINE_NOTE = "libcosim fixed-step algorithm: Jacobi coupling"  # the message of a run that completed
+
+
+class _NoStop:
+    signum = 0
+
+
+def problems(scenario, algorithm=None):
+    """What this engine cannot run in ``scenario``, as :class:`Problem` s (empty: it can run it).
+
+    ``algorithm``: an explicit request (the CLI's ``--algorithm``); only ``jacobi`` or None."""
+    file = str(scenario.path or "scenario")
+    out = []
+    if algorithm not in (None, "jacobi"):
+        out.append(Problem(file, "--algorithm", algorithm, "the libcosim engine couples the FMUs by Jacobi "
+                           "only (libcosim's fixed-step algorithm); use --algorithm jacobi or --engine fmpy"))
+    if getattr(scenario, "measurements", None) is not None:
+        out.append(Problem(file, "measurements", scenario.measurements, "measurement noise is applied by "
+                           "the fmpy master only; remove the section or run with --engine fmpy"))
+    from .signals_fmu import UnsupportedProfile, profiles_text
+
+    if any(not isinstance(p, Constant) for p in scenario.profiles.values()):
+        try:
+            profiles_text(scenario)
+        except UnsupportedProfile as exc:
+            out.append(Problem(exc.file, exc.field, exc.value, exc.reason))
+    ns = round(scenario.step * NS)
+    if ns < 1 or abs(ns - scenario.step * NS) > 1e-9 * ns:  # as the scenario's "multiple of step"
+        out.append(Problem(file, "step", scenario.step, "libcosim counts time in whole nanoseconds: the step "
+                           "must be a whole number of ns"))
+    return out
+
+
+def _time_text(ns):
+    """The shortest decimal text of ``ns`` nanoseconds [s] that libcosim reads back as ``ns``
+    (it parses a double and truncates ``seconds * 1e9`` toward zero)."""
+    v = ns / NS
+    while int(v * 1e9) < ns:
+        v = math.nextafter(v, math.inf)
+    return repr(v)
+
+
+def _value_xml(value):
+    if isinstance(value, bool):
+        return f"<Boolean value={quoteattr('true' if value else 'false')}/>"
+    if isinstance(value, int):
+        return f"<Integer value=\"{value}\"/>"
+    if isinstance(value, float):
+        return f"<Real value={quoteattr(repr(value))}/>"
+    return f"<String value={quoteattr(str(value))}/>"
+
+
+def _initial_values(values, types):
+    """``<InitialValue>`` elements; ``types``: the FMU's declared type by name (a Real parameter
+    given as an int in YAML is written as a Real)."""
+    lines = []
+    for name, value in values.items():
+        if types.get(name) in ("Real", "Float64") and not isinstance(value, bool):
+            value = float(value)
+        lines.append(f"        <InitialValue variable={quoteattr(name)}>{_value_xml(value)}</InitialValue>")
+    return "\n".join(lines)
+
+
+def system_structure(scenario, fmus, directory, types, connections=DEFAULT_CONNECTIONS):
+    """Write ``directory/OspSystemStructure.xml``: ``fmus`` ``{instance: FMU path}`` (plant,
+    controller and, when given, signals), the scenario's parameters and ``Ts`` as initial values,
+    constant profiles as the initial values of the inputs they feed when there is no signals FMU,
+    the connections, the base step ``h`` and the controller's step ``Ts``.  ``types``: ``{instance:
+    {variable: declared type}}``.  Returns the path."""
+    h_ns = round(scenario.step * NS)
+    values = {PLANT: dict(scenario.plant), CONTROLLER: {**scenario.controller, "Ts": scenario.Ts}}
+    steps = {CONTROLLER: f" stepSize={quoteattr(_time_text(h_ns * scenario.controller_every))}"}
+    links = []
+    for c in connections:
+        src_unit, src = c.source.split(".", 1)
+        dst_unit, dst = c.target.split(".", 1)
+        if src_unit == PROFILE and SIGNALS not in fmus:
+            values[dst_unit][dst] = float(scenario.profiles[src].value(0.0))
+            continue
+        src_unit = SIGNALS if src_unit == PROFILE else src_unit
+        links.append(f"    <VariableConnection>\n      <Variable simulator={quoteattr(src_unit)} "
+                     f"name={quoteattr(src)}/>\n      <Variable simulator={quoteattr(dst_unit)} "
+                     f"name={quoteattr(dst)}/>\n    </VariableConnection>")
+    sims = []
+    for name, path in fmus.items():
+        init = _initial_values(values.get(name, {}), types.get(name, {}))
+        sims.append(f"    <Simulator name={quoteattr(name)} source={quoteattr(Path(path).resolve().as_uri())}"
+                    f"{steps.get(name, '')}>\n      <InitialValues>\n{init}\n      </InitialValues>\n"
+                    "    </Simulator>")
+    text = ("<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n"
+            "<OspSystemStructure xmlns=\"http://opensimulationplatform.com/MSMI/OSPSystemStructure\" "
+            "version=\"0.1\">\n"
+            f"  <StartTime>0.0</StartTime>\n  <BaseStepSize>{_time_text(h_ns)}</BaseStepSize>\n"
+            "  <Algorithm>fixedStep</Algorithm>\n  <Simulators>\n" + "\n".join(sims) + "\n  </Simulators>\n"
+            "  <Connections>\n" + "\n".join(links) + "\n  </Connections>\n</OspSystemStructure>\n")
+    path = Path(directory) / "OspSystemStructure.xml"
+    path.write_text(text)
+    return path
+
+
+class _Outputs:
+    """The outputs of one FMU as the master records them: names and value references by declared
+    type, in model-description order (:func:`orchestration.master._outputs`)."""
+
+    def __init__(self, path):
+        from fmpy import read_model_description
+
+        md = read_model_description(str(path))
+        self.types = {v.name: v.type for v in md.modelVariables}
+        fmi3 = md.fmiVersion.startswith("3")
+        names = {"Real": "Float64" if fmi3 else "Real", "Integer": "Int32" if fmi3 else "Integer",
+                 "Boolean": "Boolean"}
+        out = [v for v in md.modelVariables if v.causality == "output"]
+        self.real = [(v.name, v.valueReference) for v in out if v.type == names["Real"]]
+        self.integer = [(v.name, v.valueReference) for v in out if v.type == names["Integer"]]
+        self.boolean = [(v.name, v.valueReference) for v in out if v.type == names["Boolean"]]
+        self.fmi3 = fmi3
+
+
+class _Lib:
+    """The libcosimc calls the engine makes itself (sample reads into numpy arrays, the file
+    observer from a configuration), on the library libcosimpy loaded."""
+
+    def __init__(self):
+        from libcosimpy._internal import libcosimc
+
+        lib = libcosimc()
+        self.real_samples = lib.cosim_observer_slave_get_real_samples
+        self.int_samples = lib.cosim_observer_slave_get_integer_samples
+        self.real_samples.restype = self.int_samples.restype = c_int64
+        args = [c_int, c_uint32, c_int64, c_size_t, c_void_p, POINTER(c_int64), POINTER(c_int64)]
+        self.real_samples.argtypes = self.int_samples.argtypes = [POINTER(None)] + args
+        self.last_error = lib.cosim_last_error_message
+        self.last_error.restype, self.last_error.argtypes = c_char_p, []
+
+    def error(self):
+        msg = self.last_error()
+        return msg.decode("utf-8", "replace") if msg else "no message from libcosim"
+
+
+class _Series:
+    """Reads ``[from_step, from_step + count)`` of the observed variables into float arrays."""
+
+    def __init__(self, lib, observer):
+        self._lib, self._obs = lib, observer
+
+    def read(self, slave, refs, kind, from_step, count):
+        """``(step numbers, values[len(refs), n])``: the samples libcosim holds from ``from_step``
+        (at most ``count``; a decimated simulator has samples at its own steps only)."""
+        real = kind == "real"
+        fn = self._lib.real_samples if real else self._lib.int_samples
+        steps, times = np.zeros(count, np.int64), np.zeros(count, np.int64)
+        out = np.zeros((len(refs), count), np.float64 if real else np.intc)
+        sp, tp = steps.ctypes.data_as(POINTER(c_int64)), times.ctypes.data_as(POINTER(c_int64))
+        base, row = out.ctypes.data, out.itemsize * count
+        got = count
+        for i, ref in enumerate(refs):
+            n = fn(self._obs, slave, ref, from_step, count, base + i * row, sp, tp)
+            if n < 0:
+                raise RuntimeError(f"reading samples of slave {slave} variable {ref}: {self._lib.error()}")
+            got = min(got, n)
+        return steps[:got].copy(), out[:, :got].astype(np.float64, copy=False)
+
+
+class _BoolFile:
+    """The controller's Booleans from the file observer's CSV, read as it grows.  libcosim writes
+    one line per controller step (``Time,StepCount,flags...``, flags 0 / 1) through a buffered
+    stream, so the file lags the execution by up to a buffer's worth of lines; all of it is there
+    once the execution is gone.  Kept: the step numbers and the flags not yet taken."""
+
+    def __init__(self, path, n):
+        self.path, self.n, self._pos = Path(path), n, 0
+        self.steps, self.flags = np.empty(0, np.int64), np.empty((0, n))
+
+    def update(self):
+        if not self.n or not self.path.exists():
+            return
+        with open(self.path, "rb") as f:
+            f.seek(self._pos)
+            text = f.read()
+        end = text.rfind(b"\n") + 1
+        self._pos += end
+        lines = [ln for ln in text[:end].decode().splitlines() if not ln.startswith("Time")]
+        if lines:
+            cells = np.array(",".join(lines).split(","), dtype=object).reshape(len(lines), -1)
+            self.steps = np.concatenate([self.steps, cells[:, 1].astype(np.int64)])
+            self.flags = np.vstack([self.flags, (cells[:, 2:2 + self.n] == "1").astype(float)])
+
+    def take(self, wanted):
+        """``(k, flags of wanted[:k])``: the flags of the leading step numbers of ``wanted`` (sorted)
+        that are on disk; the lines before ``wanted[0]`` are dropped."""
+        first = np.searchsorted(self.steps, wanted[0])
+        self.steps, self.flags = self.steps[first:], self.flags[first:]
+        k = int(np.searchsorted(wanted, self.steps[-1], side="right")) if len(self.steps) else 0
+        return k, self.flags[np.searchsorted(self.steps, wanted[:k])]
+
+
+def _types_of(outputs):
+    return {unit: o.types for unit, o in outputs.items()}
+
+
+def signals_fmu_for(scenario, cache_dir):
+    """The ScenarioSignals FMU of ``scenario``'s profiles, built once into ``cache_dir/<key>/`` and
+    reused while the profiles and the C sources it is built from are unchanged (the key is a SHA-256
+    over both); the build takes about a second (a C compile), the reuse nothing."""
+    from . import native_build, signals_fmu
+
+    h = hashlib.sha256(signals_fmu.profiles_text(scenario).encode())
+    for f in (signals_fmu.SOURCE, *sorted(native_build.GLUE_DIR.glob("*.[ch]")), Path(signals_fmu.__file__),
+              Path(native_build.__file__)):
+        h.update(Path(f).name.encode() + b"\0" + Path(f).read_bytes() + b"\0")
+    d = Path(cache_dir) / h.hexdigest()[:24]
+    fmu = d / f"{signals_fmu.MODEL_NAME}.fmu"
+    if not fmu.is_file():
+        d.mkdir(parents=True, exist_ok=True)
+        with tempfile.TemporaryDirectory(dir=d) as tmp:  # built aside, then renamed: never half-written
+            os.replace(signals_fmu.build(scenario, tmp), fmu)
+    return fmu
+
+
+def run(scenario, plant_fmu, controller_fmu, recorder=None, stop=None, algorithm=None,
+        signals_fmu=None, chunk_time=CHUNK_TIME, signals_cache=None):
+    """Run ``scenario`` with libcosim; returns a :class:`orchestration.master.RunResult`.
+
+    ``signals_fmu``: the profiles FMU (None: built with :func:`orchestration.signals_fmu.build` when a
+    profile varies in time, into ``signals_cache`` when given (:func:`signals_fmu_for`), else for this
+    run only; with constant profiles there is none, they are initial values); ``recorder``: ``columns ->
+    Recorder`` (default in memory); ``stop``: ``.signum`` non-zero stops the run at the next chunk;
+    ``algorithm``: None or "jacobi" (anything else is refused: see :func:`problems`).  Raises ValueError
+    for a scenario :func:`problems` refuses; never raises for an FMU failure."""
+
+    def system(work):
+        fmus = {PLANT: plant_fmu, CONTROLLER: controller_fmu}
+        signals = signals_fmu
+        if signals is None and any(not isinstance(p, Constant) for p in scenario.profiles.values()):
+            signals = signals_fmu_for(scenario, signals_cache or work / "signals")
+        if signals is not None:
+            fmus[SIGNALS] = signals
+        return fmus, lambda outputs: system_structure(scenario, fmus, work, _types_of(outputs))
+
+    return _run(scenario, system, recorder, stop, algorithm, chunk_time)
+
+
+def run_package(scenario, package, recorder=None, stop=None, chunk_time=CHUNK_TIME):
+    """Run an SSP package written by :func:`orchestration.ssp.export` for ``scenario`` as libcosim
+    loads it (``CosimExecution.from_ssp_file``: its components, connections, parameter bindings and
+    OSP step annotations), recorded as :func:`run` records.  ``scenario`` gives the record's layout
+    and the parameters of the pre-flight initialization; the package must have been exported from
+    it."""
+    from .ssp import RESOURCES
+
+    def system(work):
+        with zipfile.ZipFile(package) as z:
+            fmus = {unit: Path(z.extract(member, work / "package")) for unit, member in RESOURCES.items()}
+        return fmus, lambda outputs: Path(package)
+
+    return _run(scenario, system, recorder, stop, None, chunk_time)
+
+
+def _run(scenario, system, recorder, stop, algorithm, chunk_time):
+    """The run of :func:`run` and :func:`run_package`: ``system(work directory)`` gives ``({unit:
+    FMU path}, outputs -> the system file libcosim loads)``."""
+    found = problems(scenario, algorithm)
+    if found:
+        raise ValueError("\n".join(map(str, found)))
+    stop = stop or _NoStop()
+    wall0 = time.perf_counter()
+    work = Path(tempfile.mkdtemp(prefix="satmotor-libcosim-"))
+    rec, status, message, t_reached, unit = None, "ok", "", 0.0, ""
+    note = ENGINE_NOTE + ("" if scenario.algorithm == "jacobi" else
+                          f"; the scenario's {scenario.algorithm} is not available in this engine")
+    try:
+        fmus, structure_of = system(work)
+        failed = _preflight(scenario, fmus[PLANT], fmus[CONTROLLER])
+        if failed:
+            raise _Failed(*failed)
+        outputs = {name: _Outputs(path) for name, path in fmus.items()}
+        structure = structure_of(outputs)
+        columns = recorded_columns([n for n, _ in outputs[PLANT].real],
+                                   [n for n, _ in outputs[CONTROLLER].real + outputs[CONTROLLER].integer
+                                    + outputs[CONTROLLER].boolean], sorted(scenario.profiles))
+        rec = recorder(columns) if recorder else Recorder(columns)
+        status, message, t_reached, unit = _simulate(scenario, structure, outputs, rec, stop, chunk_time,
+                                                     work)
+    except _Failed as exc:
+        status, message, unit = exc.args
+    except Exception as exc:  # noqa: BLE001 - libcosimpy raises AssertionError for a bad structure
+        status, message = "setup", f"libcosim: {exc}"
+    finally:
+        shutil.rmtree(work, ignore_errors=True)
+    if rec is None:
+        try:
+            rec = recorder(["time"]) if recorder else Recorder(["time"])
+        except Exception:  # noqa: BLE001 - as the master: an empty record of the same kind
+            rec = Recorder(["time"])
+    rec.close()
+    if status == "ok":
+        message = note
+    return RunResult(scenario, rec, status, message, t_reached, time.perf_counter() - wall0, unit)
+
+
+class _Failed(Exception):
+    """(status, message, unit) of an FMU that failed before libcosim ran."""
+
+
+def _preflight(scenario, plant_fmu, controller_fmu):
+    """Instantiate and initialize the plant and the controller once with fmpy, with the scenario's
+    parameters, as :func:`orchestration.master.run` does: ``(status, message, unit)`` of the first
+    that fails (the FMU's own words), or None.  Needed because libcosim 0.11 initializes the FMUs
+    in a worker thread that does not catch: an FMU refusing its parameters at initialization ends
+    the whole process (std::terminate) instead of failing the run."""
+    from fmpy.fmi1 import FMICallException
+
+    from .fmu_instance import STATUS, FMUInstance
+
+    for path, unit, values in ((plant_fmu, PLANT, scenario.plant),
+                               (controller_fmu, CONTROLLER, {**scenario.controller, "Ts": scenario.Ts})):
+        inst = None
+        try:
+            inst = FMUInstance(path, unit)
+            inst.set_parameters(values)
+            inst.initialize(0.0)
+        except FMICallException as exc:
+            status = STATUS[exc.status] if 0 <= exc.status < len(STATUS) else str(exc.status)
+            return status, _report(unit, exc, inst), unit
+        except Exception as exc:  # noqa: BLE001 - instantiation, a bad override: as the master
+            return "setup", _report(unit, exc, inst), unit
+        finally:
+            if inst is not None:
+                inst.close()
+    return None
+
+
+def _report(unit, exc, inst):
+    """``unit: what failed -- the FMU's first error message`` (the master's wording)."""
+    first = inst.first_error() if inst else ""
+    return f"{unit}: {exc}" + (f" -- {first}" if first else "")
+
+
+def _simulate(sc, structure, outputs, rec, stop, chunk_time, work):
+    """Step libcosim chunk by chunk, recording every complete row; returns (status, message, t_end,
+    failed unit)."""
+    with _CapturedLog(work / "libcosim.log") as log:
+        run = _Execution(sc, structure, outputs, work, chunk_time)
+        try:
+            status, message, t_end, unit = run.simulate(rec, stop)
+        finally:
+            run.close(rec)
+    if status in _FAILED:
+        first = log.first_fmu_error()
+        message += f" -- {first}" if first else ""
+    return status, message, t_end, unit
+
+
+_FAILED = ("discard", "error", "fatal")
+_FMI_LINE = re.compile(r"\[FMI status=(\w+), category=[^\]]*\] (.*)")
+
+
+class _CapturedLog:
+    """libcosim's console log sent to ``path`` while the block runs.  libcosim writes its log to the
+    standard output (file descriptor 1) and has no log callback, and the FMUs' messages reach the
+    host only through it (an FMU's discard message at debug level).  After the block, libcosim's own
+    warnings and errors are written to stderr, and :meth:`first_fmu_error` gives the first message
+    an FMU logged with a discard, error or fatal status (the master's ``-- message``)."""
+
+    def __init__(self, path):
+        self.path, self.lines = Path(path), []
+
+    def __enter__(self):
+        from libcosimpy.CosimLogging import CosimLogLevel, log_output_level
+
+        sys.stdout.flush()
+        self._libc = ctypes.CDLL(None)
+        self._saved = os.dup(1)
+        fd = os.open(self.path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)
+        os.dup2(fd, 1)
+        os.close(fd)
+        log_output_level(CosimLogLevel.DEBUG)
+        return self
+
+    def __exit__(self, *exc):
+        from libcosimpy.CosimLogging import CosimLogLevel, log_output_level
+
+        log_output_level(CosimLogLevel.WARNING)
+        sys.stdout.flush()
+        self._libc.fflush(None)
+        os.dup2(self._saved, 1)
+        os.close(self._saved)
+        self.lines = self.path.read_text(errors="replace").splitlines()
+        for ln in self.lines:
+            if re.search(r"\] \[(warning|error|fatal)\]", ln):
+                print(ln, file=sys.stderr)
+        return False
+
+    def first_fmu_error(self):
+        for ln in self.lines:
+            m = _FMI_LINE.search(ln)
+            if m and m.group(1) in _FAILED:
+                return m.group(2)
+        return ""
+
+
+class _Execution:
+    """One libcosim execution of the system and its observers, and the rows taken from them."""
+
+    def __init__(self, sc, structure, outputs, work, chunk_time=CHUNK_TIME):
+        from libcosimpy.CosimEnums import CosimVariableType
+        from libcosimpy.CosimExecution import CosimExecution
+        from libcosimpy.CosimObserver import CosimObserver
+
+        self.sc, self.outputs, self.lib = sc, outputs, _Lib()
+        self.h, self.N = sc.step, sc.controller_every
+        self.n = round(sc.stop_time / self.h)
+        self.every = max(1, round(sc.record.interval / self.h))
+        self.last_step = self.N * (self.n // self.N + 1)  # completes the last row's controller values
+        self.pending = []  # row tables waiting for the Booleans of their controller samples
+        self.next_row = 0
+        self.file_obs = None
+        try:
+            if Path(structure).suffix == ".xml":
+                self.ex = CosimExecution.from_osp_config_file(str(structure))
+            else:  # an SSP package (.ssp) or its SystemStructure.ssd
+                self.ex = CosimExecution.from_ssp_file(str(structure))
+        except AssertionError as exc:
+            raise RuntimeError(str(exc)) from None
+        self.index = {name: self.ex.slave_index_from_instance_name(name) for name in outputs}
+        self.chunk = max(self.N, round(chunk_time / self.h) // self.N * self.N)  # base steps, a multiple of N
+        # samples kept per variable: the rows of a chunk and the controller sample of the last one.  No
+        # more: libcosim 0.11 copies the observer's whole time map at every sample read
+        self.observer = CosimObserver.create_time_series(self.chunk + 2 * self.N + 8)
+        self.ex.add_observer(self.observer)
+        for name, o in outputs.items():
+            for _, ref in o.real:
+                self.observer.start_time_series(self.index[name], ref, CosimVariableType.REAL)
+            for _, ref in o.integer:
+                self.observer.start_time_series(self.index[name], ref, CosimVariableType.INTEGER)
+        bools = outputs[CONTROLLER].boolean
+        self.bools = _BoolFile(work / "observer" / f"{CONTROLLER}.csv", len(bools))
+        if bools:
+            cfg = work / _BOOLS_FILE
+            cfg.write_text("<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n"
+                           "<configuration timestampedFilenames=\"false\"/>\n<simulators>\n"
+                           f"  <simulator name=\"{CONTROLLER}\" decimationFactor=\"1\">\n"
+                           + "".join(f"    <variable name={quoteattr(b)}/>\n" for b, _ in bools)
+                           + "  </simulator>\n</simulators>\n")
+            self.file_obs = _file_observer(cfg, work / "observer")
+            self.ex.add_observer(self.file_obs)
+        self.series = _Series(self.lib, self.observer.ptr())
+        profiles = sorted(sc.profiles)
+        signals = outputs.get(SIGNALS)
+        self.sig_refs = [dict(signals.real)[p] for p in profiles] if signals else []
+        self.consts = None if signals else np.array([[float(sc.profiles[p].value(0.0))] for p in profiles])
+        self.p_refs = [r for _, r in outputs[PLANT].real]
+        self.c_real = [r for _, r in outputs[CONTROLLER].real]
+        self.c_int = [r for _, r in outputs[CONTROLLER].integer]
+
+    def simulate(self, rec, stop):
+        h, chunk = self.h, self.chunk
+        reached = 0  # the base step libcosim has reached
+        while reached < self.last_step:
+            if stop.signum:
+                return "interrupted", f"stopped by {signal_name(stop.signum)} at t = {reached * h:.6g} s", \
+                    reached * h, ""
+            target = min(reached + chunk, self.last_step)
+            ok = self.ex.step(target - reached)
+            if not ok:
+                text = self.lib.error().strip()
+                now = self.ex.status().current_time // round(h * NS)
+                self._take(now, rec)
+                unit = next((u for u in self.outputs if f"{u}: " in text), "")
+                kind = "discard" if "Step not complete" in text else "error"
+                return kind, f"{unit or 'libcosim'}: libcosim: {text}", now * h, unit
+            reached = target
+            self._take(reached, rec)
+        return "ok", "", self.n * h, ""
+
+    def close(self, rec):
+        """End the execution (the file observer closes its CSV) and record the rows still waiting
+        for their Booleans."""
+        self.ex = self.observer = self.file_obs = None  # libcosim objects freed here (refcounts)
+        self.bools.update()
+        self._emit(rec)
+
+    def _take(self, reached, rec):
+        """Read the rows ``next_row..`` complete once libcosim has reached base step ``reached``
+        (row k needs the plant and profile samples of step k and the controller sample of step
+        ``N * (k // N + 1)``) and record those whose Booleans are on disk."""
+        N, n = self.N, self.n
+        last = n if reached >= self.last_step else min(n, (reached // N) * N - 1)
+        rows = [k for k in range(self.next_row, last + 1) if k % self.every == 0]
+        self.next_row = max(self.next_row, last + 1)
+        if rows:
+            self.pending.append(self._table(np.array(rows)))
+        self.bools.update()
+        self._emit(rec)
+
+    def _table(self, ks):
+        N, ix = self.N, self.index
+        k0, count = int(ks[0]), int(ks[-1] - ks[0] + 1)
+        cs = N * (ks // N + 1)  # the controller sample of each row
+        p_steps, pv = self.series.read(ix[PLANT], self.p_refs, "real", k0, count)
+        c0, c_count = int(cs[0]), int(cs[-1] - cs[0] + 1)
+        c_steps, cv = self.series.read(ix[CONTROLLER], self.c_real, "real", c0, c_count)
+        parts = [cv]
+        if self.c_int:
+            parts.append(self.series.read(ix[CONTROLLER], self.c_int, "int", c0, c_count)[1])
+        cols = [ks * self.h, pv[:, _positions(p_steps, ks)], np.vstack(parts)[:, _positions(c_steps, cs)]]
+        if self.bools.n:
+            cols.append(np.full((self.bools.n, len(ks)), np.nan))  # filled by _emit
+        if self.sig_refs:
+            s_steps, sv = self.series.read(ix[SIGNALS], self.sig_refs, "real", k0, count)
+            cols.append(sv[:, _positions(s_steps, ks)])
+        else:
+            cols.append(np.repeat(self.consts, len(ks), axis=1))
+        return cs, np.vstack(cols).T
+
+    def _emit(self, rec):
+        """Record the pending rows, in order, up to the first whose Booleans are not on disk yet."""
+        nb = self.bools.n
+        while self.pending:
+            cs, table = self.pending[0]
+            upto = len(cs)
+            if nb:
+                upto, flags = self.bools.take(cs)
+                if upto == 0:
+                    return
+                nc = table.shape[1] - nb - (len(self.sig_refs) or len(self.consts))  # first Boolean column
+                table[:upto, nc:nc + nb] = flags
+            for row in table[:upto]:  # rows of the float64 table: the recorder stacks them per chunk
+                rec.append(row)
+            if upto == len(cs):
+                self.pending.pop(0)
+            else:
+                self.pending[0] = (cs[upto:], table[upto:])
+
+
+def _positions(steps, wanted):
+    """Indices of ``wanted`` step numbers in the observer's ``steps`` (each must be there)."""
+    pos = np.searchsorted(steps, wanted)
+    if len(steps) == 0 or pos.max() >= len(steps) or not np.array_equal(steps[pos], wanted):
+        raise RuntimeError(f"libcosim's observer lacks samples of steps {wanted[0]}..{wanted[-1]}")
+    return pos
+
+
+def _file_observer(cfg, directory):
+    from libcosimpy._internal import libcosimc
+    from libcosimpy.CosimObserver import CosimObserver
+
+    create = libcosimc().cosim_file_observer_create_from_cfg
+    create.restype, create.argtypes = POINTER(CosimObserver), [c_char_p, c_char_p]
+    ptr = create(str(directory).encode(), str(cfg).encode())
+    if not ptr:
+        raise RuntimeError(f"libcosim file observer from {cfg}: {_Lib().error()}")
+    return CosimObserver(CosimObserver._CosimObserver__create_key, ptr)
