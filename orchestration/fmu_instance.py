@@ -22,7 +22,7 @@ import tempfile
 import weakref
 from ctypes import byref, c_bool, c_double, c_int, c_size_t, c_void_p
 
-from fmpy import extract, read_model_description
+from fmpy import extract, platform, platform_tuple, read_model_description
 from fmpy.fmi1 import FMICallException
 from fmpy.fmi2 import (
     FMU2Slave,
@@ -69,10 +69,24 @@ FMI3_CALLS = {"get_real": "fmi3GetFloat64", "set_real": "fmi3SetFloat64", "get_i
 FMI3_TYPES = {"Real": "Float64", "Integer": "Int32", "Boolean": "Boolean", "String": "String"}
 
 
+def needed_to_run(member):
+    """Whether an FMU archive member is needed to run the FMU here: everything but ``sources/``,
+    ``documentation/`` and the binaries of other platforms (``binaries/linux64`` for FMI 2.0,
+    ``binaries/x86_64-linux`` for FMI 3.0 are this platform's, as fmpy names them).  A native FMU
+    carries three platforms' binaries and its C sources: skipping them makes its extraction about
+    ten times faster."""
+    if member.startswith(("sources/", "documentation/")):
+        return False
+    if member.startswith("binaries/"):
+        parts = member.split("/")
+        return len(parts) < 3 or parts[1] in (platform, platform_tuple)
+    return True
+
+
 def extract_owned(path):
-    """Extract the FMU ``path`` into a new temporary directory; the caller removes it
-    (:func:`remove_extracted`)."""
-    return extract(str(path), unzipdir=tempfile.mkdtemp(prefix="satmotor-fmu-"))
+    """Extract what the FMU ``path`` needs to run (:func:`needed_to_run`) into a new temporary
+    directory; the caller removes it (:func:`remove_extracted`)."""
+    return extract(str(path), unzipdir=tempfile.mkdtemp(prefix="satmotor-fmu-"), include=needed_to_run)
 
 
 def remove_extracted(directory):

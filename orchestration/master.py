@@ -163,8 +163,9 @@ def _report(unit, exc, inst):
 def _input_port(inst, unit, connections, outputs, profiles, prof):
     """The input port of ``unit`` and a function ``(plant values, controller values, profile values)
     -> the port's values``.  The port lists the inputs fed by the plant, then by the controller,
-    then by profiles (``prof``: the value functions in recording order), so the values are three
-    C-level picks joined; the FMI call sets them all at once in that order."""
+    then by profiles (``prof``: the value functions in recording order), so the values are the
+    picks of the groups that feed the port, joined; the FMI call sets them all at once in that
+    order."""
     names = inputs_of(connections, unit)
     srcs = resolve(connections, unit, names, outputs, profiles)
     groups = {PLANT: [], CONTROLLER: [], PROFILE: []}
@@ -174,9 +175,19 @@ def _input_port(inst, unit, connections, outputs, profiles, prof):
     order = groups[PLANT] + groups[CONTROLLER] + groups[PROFILE]
     port = RealPort(inst, [name for name, _ in order])
     pick_p, pick_c, pick_f = (_picker([ref for _, ref in groups[u]]) for u in (PLANT, CONTROLLER, PROFILE))
+    fed = tuple(bool(groups[u]) for u in (PLANT, CONTROLLER, PROFILE))
+    if fed == (True, False, True):  # the controller of the default connections
 
-    def values(pv, cv, fv):
-        return pick_p(pv) + pick_c(cv) + pick_f(fv)
+        def values(pv, cv, fv):
+            return pick_p(pv) + pick_f(fv)
+    elif fed == (False, True, True):  # the plant of the default connections
+
+        def values(pv, cv, fv):
+            return pick_c(cv) + pick_f(fv)
+    else:
+
+        def values(pv, cv, fv):
+            return pick_p(pv) + pick_c(cv) + pick_f(fv)
 
     return port, values
 
