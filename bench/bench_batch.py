@@ -7,7 +7,9 @@ Run ``python bench/bench_batch.py``; prints the numbers and replaces its own sec
 in ``DIR/build/fmus``) in the same rounds, alternating, so "before" and "after" see the same load;
 ``--variant`` picks the FMUs (default python); ``--no-write`` leaves RESULTS.md alone.
 
-Per checkout and round: ``batch scenarios --jobs 1`` then ``--jobs 2`` (best of the rounds kept).
+Per checkout and round: ``batch scenarios --jobs 1`` then ``--jobs 2`` (best of the rounds kept), in
+wall time and in CPU time of the batch's whole process tree (``RUSAGE_CHILDREN``: steadier than the
+wall time on a shared machine).
 The overhead per scenario is what ``--jobs 1`` costs beyond the master's own ``wall_time`` of each
 run (FMU extraction and instantiation, the loop and the streamed files), divided by the number of
 scenarios: process start, imports, scenario loading, metrics, figure and the batch's bookkeeping.
@@ -26,6 +28,7 @@ import hashlib
 import json
 import os
 import platform
+import resource
 import subprocess
 import sys
 import tempfile
@@ -81,12 +84,18 @@ def git_head(root):
     return r.stdout.strip() or "?"
 
 
+def children_cpu():
+    r = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return r.ru_utime + r.ru_stime
+
+
 def batch(root, jobs, out, variant):
-    t0 = time.perf_counter()
+    """(wall time, CPU time of the batch's whole process tree, summary, {scenario: CSV digest})."""
+    c0, t0 = children_cpu(), time.perf_counter()
     r = subprocess.run([interpreter(root), "-m", "orchestration", "batch", "scenarios", "--jobs", str(jobs),
                         "--out", str(out), "--fmus", "build/fmus", "--variant", variant],
                        cwd=root, capture_output=True, text=True)
-    wall = time.perf_counter() - t0
+    wall, cpu = time.perf_counter() - t0, children_cpu() - c0
     if r.returncode not in (0, 3):  # 3: a scenario missed its acceptance bounds (a result, not a failure)
         raise SystemExit(f"{root}: batch --jobs {jobs} failed ({r.returncode}): {r.stderr[-2000:]}")
     summary = pd.read_csv(Path(out) / "summary.csv")
@@ -94,7 +103,7 @@ def batch(root, jobs, out, variant):
     for name in summary["scenario"]:
         f = Path(out) / name / "timeseries.csv"
         digests[name] = hashlib.sha256(f.read_bytes()).hexdigest() if f.exists() else None
-    return wall, summary, digests
+    return wall, cpu, summary, digests
 
 
 def best_child(root, args, repeats=3):
@@ -143,15 +152,16 @@ def main(argv=None):
         checkouts = {"before": Path(args.compare).resolve(), "this": ROOT}
     heads = {n: git_head(r) for n, r in checkouts.items()}
     load0 = os.getloadavg()[0]
-    wall, results, part = {}, {}, {}
+    wall, cpu, results, part = {}, {}, {}, {}
     with tempfile.TemporaryDirectory() as tmp:
         for r in range(args.rounds):
             for jobs in (1, 2):
                 for name, root in checkouts.items():
-                    w, summary, digests = batch(root, jobs, Path(tmp) / f"{name}{jobs}-{r}", args.variant)
+                    w, c, summary, digests = batch(root, jobs, Path(tmp) / f"{name}{jobs}-{r}", args.variant)
                     if w < wall.get((name, jobs), float("inf")):
                         wall[name, jobs], results[name, jobs] = w, (summary, digests)
-                    print(f"round {r + 1}: {name} --jobs {jobs}: {w:.1f} s", flush=True)
+                    cpu[name, jobs] = min(cpu.get((name, jobs), float("inf")), c)
+                    print(f"round {r + 1}: {name} --jobs {jobs}: {w:.1f} s wall, {c:.1f} s CPU", flush=True)
         for name, root in checkouts.items():
             parquet = Path(tmp) / f"{name}1-0" / "ramp_rated_load" / "timeseries.parquet"
             part[name] = parts(root, args.variant, parquet)
@@ -180,6 +190,8 @@ def main(argv=None):
               lambda name, jobs=jobs: f"{wall[name, jobs]:.1f} s, **{60 * n[name] / wall[name, jobs]:.1f} "
               "scenarios per minute**") for jobs in (1, 2)),
         row("scenarios", lambda name: str(n[name])),
+        row("CPU time of the batch's process tree per scenario (`--jobs 1`)",
+            lambda name: f"{cpu[name, 1] / n[name]:.2f} s"),
         row("sum of the runs' own `wall_time` (master: extraction, instantiation, loop, files)",
             lambda name: f"{inside[name]:.1f} s"),
         row("**overhead per scenario beyond its run** (`--jobs 1`)", lambda name: f"**{over[name]:.2f} s**"),
