@@ -155,7 +155,7 @@ def main(argv=None):
     head = "| variant | " + " | ".join(f"{n} `{heads[n]}`: CPU (wall) [us/step]" for n in names) + " | " + \
         " | ".join(f"{n}: faster than pythonfmu, CPU (wall)" for n in names) + " |"
     lines = [
-        "## Native FMUs under the fmpy master",
+        "## Native FMUs under the fmpy master: the three variants side by side",
         "",
         f"Measured {datetime.date.today()}, Python {platform.python_version()}, CPU: {cpu_model()} "
         f"({os.cpu_count()} cores, shared: load average {load0} at the start, {load1} at the end).",
