@@ -35,7 +35,10 @@ What each side computes (every one at a 100 us control / communication period):
   the fmpy master (``orchestration.master.run``) with the pythonfmu FMUs, the native C FMI 2.0
   FMUs and the native C FMI 3.0 FMUs.
 
-Rounds alternate all sides; the table keeps the best of each, in wall time and in CPU time
+Each measurement is a child process running one side twice and keeping its better run (a fresh
+interpreter holding only that side's modules: one side's imports do not slow another's garbage
+collections); rounds alternate the sides; the table keeps the best of each, in wall time and in
+CPU time
 (``time.process_time``: on a shared machine the time spent waiting for a core is in the wall time
 only, so the CPU times give the steadier ratios; on an idle machine the two agree).
 """
@@ -44,9 +47,11 @@ from __future__ import annotations
 
 import argparse
 import datetime
+import json
 import math
 import os
 import platform
+import subprocess
 import sys
 import time
 from importlib.metadata import PackageNotFoundError, version
@@ -144,38 +149,71 @@ def ours(kind, sc, paths):
     return sc.stop_time, float(res.recorder.arrays(["plant.omega_m"])["plant.omega_m"][-1])
 
 
+LABELS = {
+    "gem": "gym-electric-motor {gym-electric-motor}",
+    "motulator": "motulator {motulator}",
+    "plain": "ours, plain Python loop",
+    "python": "ours, fmpy master + pythonfmu FMUs",
+    "native": "ours, fmpy master + native FMI 2.0 FMUs",
+    "native-fmi3": "ours, fmpy master + native FMI 3.0 FMUs",
+}
+
+
+def side(key):
+    """The function running side ``key`` once: ``() -> (simulated seconds, final speed)``."""
+    if key == "gem":
+        return gem_run
+    if key == "motulator":
+        return motulator_run
+    fmu_dir = ROOT / "build" / "fmus"
+    paths = {v: tuple(str(p) for p in fmus.paths(fmu_dir, v)) for v in ("python", "native", "native-fmi3")}
+    sc = load_scenario(SCENARIO)
+    return lambda: ours(key, sc, paths)
+
+
+def child(key, runs=2):
+    """Run side ``key`` ``runs`` times in this process; print the best wall and CPU time as JSON."""
+    fn = side(key)
+    wall = cpu = math.inf
+    for _ in range(runs):
+        t0, c0 = time.perf_counter(), time.process_time()
+        simulated, final = fn()
+        wall, cpu = min(wall, time.perf_counter() - t0), min(cpu, time.process_time() - c0)
+    print(json.dumps({"wall": wall, "cpu": cpu, "simulated": simulated, "final": final}))
+
+
+def measure(key):
+    r = subprocess.run([sys.executable, __file__, "--child", key], capture_output=True, text=True)
+    if r.returncode != 0:
+        raise SystemExit(f"{key}: the measuring child failed:\n{r.stderr[-3000:]}")
+    return json.loads(r.stdout.strip().splitlines()[-1])
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--rounds", type=int, default=2, help="alternating rounds (default 2)")
     ap.add_argument("--no-write", action="store_true", help="do not rewrite bench/RESULTS.md")
+    ap.add_argument("--child", choices=tuple(LABELS), help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
+    if args.child:
+        child(args.child)
+        return
     versions = {p: package_version(p) for p in ("gym-electric-motor", "motulator", "fmpy", "numpy", "scipy")}
     missing = [p for p in ("gym-electric-motor", "motulator") if versions[p] is None]
     if missing:
         raise SystemExit(f"{', '.join(missing)} not installed: pip install -e \".[bench]\" (or make bench)")
-    fmu_dir = ROOT / "build" / "fmus"
-    fmus.ensure(fmu_dir, quiet=True)
-    paths = {v: tuple(str(p) for p in fmus.paths(fmu_dir, v)) for v in ("python", "native", "native-fmi3")}
-    sc = load_scenario(SCENARIO)
-    sides = {
-        "gem": ("gym-electric-motor " + versions["gym-electric-motor"], gem_run),
-        "motulator": ("motulator " + versions["motulator"], motulator_run),
-        "plain": ("ours, plain Python loop", lambda: ours("plain", sc, paths)),
-        "python": ("ours, fmpy master + pythonfmu FMUs", lambda: ours("python", sc, paths)),
-        "native": ("ours, fmpy master + native FMI 2.0 FMUs", lambda: ours("native", sc, paths)),
-        "native-fmi3": ("ours, fmpy master + native FMI 3.0 FMUs", lambda: ours("native-fmi3", sc, paths)),
-    }
+    fmus.ensure(ROOT / "build" / "fmus", quiet=True)
+    sides = {key: (label.format(**versions), None) for key, label in LABELS.items()}
     load0 = os.getloadavg()[0]
     best, cpu, simulated, final = {}, {}, {}, {}
     for r in range(args.rounds):
-        for key, (_, fn) in sides.items():
-            t0, c0 = time.perf_counter(), time.process_time()
-            simulated[key], final[key] = fn()
-            wall, used = time.perf_counter() - t0, time.process_time() - c0
-            best[key] = min(best.get(key, math.inf), wall / simulated[key])
-            cpu[key] = min(cpu.get(key, math.inf), used / simulated[key])
-            print(f"round {r + 1}: {key}: {wall:.2f} s wall, {used:.2f} s CPU for {simulated[key]:.2f} s "
-                  "simulated", flush=True)
+        for key in sides:
+            out = measure(key)
+            simulated[key], final[key] = out["simulated"], out["final"]
+            best[key] = min(best.get(key, math.inf), out["wall"] / simulated[key])
+            cpu[key] = min(cpu.get(key, math.inf), out["cpu"] / simulated[key])
+            print(f"round {r + 1}: {key}: {out['wall']:.2f} s wall, {out['cpu']:.2f} s CPU for "
+                  f"{simulated[key]:.2f} s simulated", flush=True)
     load1 = os.getloadavg()[0]
 
     lines = [
@@ -183,7 +221,8 @@ def main(argv=None):
         "",
         f"Measured {datetime.date.today()}, Python {platform.python_version()}, CPU: {cpu_model()} "
         f"({os.cpu_count()} cores, shared: load average {load0:.1f} at the start, {load1:.1f} at the end); "
-        + ", ".join(f"{p} {v}" for p, v in versions.items()) + f"; best of {args.rounds} alternating rounds.",
+        + ", ".join(f"{p} {v}" for p, v in versions.items())
+        + f"; best of {args.rounds} alternating rounds x 2 runs, one child process per side and round.",
         "",
         "| simulator (100 us period) | simulated | CPU (wall) s per simulated s "
         "| native FMI 2.0 is faster by, CPU (wall) |",
