@@ -32,10 +32,13 @@ test-fast: $(STAMP)
 	$(PY) -m pytest -m "not slow"
 
 bench: $(STAMP)
+	$(PY) -m pip install --quiet -e ".[dev,bench]"
 	$(PY) bench/bench_plant.py
 	$(PY) bench/bench_controller.py
 	$(PY) bench/bench_cosim.py
+	$(PY) bench/bench_native.py
 	$(PY) bench/bench_batch.py
+	$(PY) bench/bench_peers.py
 
 clean:
 	rm -rf $(VENV) results build

@@ -28,6 +28,7 @@ and the stepping loop here.
 from __future__ import annotations
 
 import time
+from ctypes import c_double
 from dataclasses import dataclass
 from operator import itemgetter
 
@@ -162,8 +163,9 @@ def _report(unit, exc, inst):
 def _input_port(inst, unit, connections, outputs, profiles, prof):
     """The input port of ``unit`` and a function ``(plant values, controller values, profile values)
     -> the port's values``.  The port lists the inputs fed by the plant, then by the controller,
-    then by profiles (``prof``: the value functions in recording order), so the values are three
-    C-level picks joined; the FMI call sets them all at once in that order."""
+    then by profiles (``prof``: the value functions in recording order), so the values are the
+    picks of the groups that feed the port, joined; the FMI call sets them all at once in that
+    order."""
     names = inputs_of(connections, unit)
     srcs = resolve(connections, unit, names, outputs, profiles)
     groups = {PLANT: [], CONTROLLER: [], PROFILE: []}
@@ -173,9 +175,19 @@ def _input_port(inst, unit, connections, outputs, profiles, prof):
     order = groups[PLANT] + groups[CONTROLLER] + groups[PROFILE]
     port = RealPort(inst, [name for name, _ in order])
     pick_p, pick_c, pick_f = (_picker([ref for _, ref in groups[u]]) for u in (PLANT, CONTROLLER, PROFILE))
+    fed = tuple(bool(groups[u]) for u in (PLANT, CONTROLLER, PROFILE))
+    if fed == (True, False, True):  # the controller of the default connections
 
-    def values(pv, cv, fv):
-        return pick_p(pv) + pick_c(cv) + pick_f(fv)
+        def values(pv, cv, fv):
+            return pick_p(pv) + pick_f(fv)
+    elif fed == (False, True, True):  # the plant of the default connections
+
+        def values(pv, cv, fv):
+            return pick_c(cv) + pick_f(fv)
+    else:
+
+        def values(pv, cv, fv):
+            return pick_p(pv) + pick_c(cv) + pick_f(fv)
 
     return port, values
 
@@ -190,13 +202,36 @@ def _picker(indices):
     return lambda seq: ()
 
 
+def _evaluator(funcs):
+    """``t -> tuple of f(t) for f in funcs`` without a comprehension's frame (the profiles, called
+    once per step): fixed-arity closures for up to four functions."""
+    if not funcs:
+        return lambda t: ()
+    if len(funcs) == 1:
+        (a,) = funcs
+        return lambda t: (a(t),)
+    if len(funcs) == 2:
+        a, b = funcs
+        return lambda t: (a(t), b(t))
+    if len(funcs) == 3:
+        a, b, c = funcs
+        return lambda t: (a(t), b(t), c(t))
+    if len(funcs) == 4:
+        a, b, c, d = funcs
+        return lambda t: (a(t), b(t), c(t), d(t))
+    return lambda t: tuple([f(t) for f in funcs])
+
+
 def _loop(sc, jacobi, plant, ctrl, p_out, c_out, c_disc, connections, profiles, rec, stop, measure=None):
     """The stepping loop; returns (the last communication point reached [s], whether the run
     reached its stop time).  A failing doStep raises FMICallException tagged with the unit and the
-    time (:meth:`FMUInstance.step_failed`).  The FMI functions are called through ctypes directly
-    (:meth:`FMUInstance.raw`) with argument tuples made once; the profiles are evaluated once per
-    step (pure functions of t); every value exchanged is a plain float.  The controller's Integer and
-    Boolean outputs (``c_disc``) follow its Reals in each row (stored as float64, as every column).
+    time (:meth:`FMUInstance.step_failed`).  The FMI functions are called through private ctypes
+    pointers declaring no argument types (:meth:`FMUInstance.fast`) with argument tuples made once:
+    the communication point is one ``c_double`` whose value is set once per step and shared by both
+    units; the profiles are evaluated once per step (pure functions of t); every value exchanged is
+    a plain float.  The controller's Integer and Boolean outputs (``c_disc``) follow its Reals in
+    each row (stored as float64, as every column).  Rows go straight to the recorder's current chunk
+    (:attr:`Recorder.rows`), flushed every :attr:`Recorder.chunk_rows` rows.
     ``measure``: None, or a :class:`MeasurementNoise` giving, at each controller sample, the plant
     outputs as the controller receives them and the row of measured values."""
     h, N = sc.step, sc.controller_every
@@ -206,20 +241,29 @@ def _loop(sc, jacobi, plant, ctrl, p_out, c_out, c_disc, connections, profiles, 
     prof = [profiles[p] for p in sorted(profiles)]
     c_in, c_values = _input_port(ctrl, CONTROLLER, connections, outputs, profiles, prof)
     p_in, p_values = _input_port(plant, PLANT, connections, outputs, profiles, prof)
-    get_p, get_c = plant.raw(plant.calls["get_real"]), ctrl.raw(ctrl.calls["get_real"])
-    set_p, set_c = plant.raw(plant.calls["set_real"]), ctrl.raw(ctrl.calls["set_real"])
-    step_p, step_c = plant.stepper(), ctrl.stepper()
+    calls_p, calls_c = plant.calls, ctrl.calls
+    get_p, get_c = plant.fast(calls_p["get_real"]), ctrl.fast(calls_c["get_real"])
+    set_p, set_c = plant.fast(calls_p["set_real"]), ctrl.fast(calls_c["set_real"])
+    T = c_double(0.0)  # the communication point of both doSteps
+    step_p, sp = plant.step_args(T, c_double(h))
+    step_c, sc_args = ctrl.step_args(T, c_double(sc.Ts))
     pg, cg, pvals, cvals = p_out.get_args, c_out.get_args, p_out.values, c_out.values
     ps, cs, p_invals, c_invals = p_in.set_args, c_in.set_args, p_in.values, c_in.values
-    read_disc = c_disc.read
-    pv, cv = p_out.read()[:], c_out.read()[:] + read_disc()  # new lists after each read
+    get_i, get_b, ia, ba = c_disc.get_int, c_disc.get_bool, c_disc.int_args, c_disc.bool_args
+    ivals, bvals = c_disc.int_values, c_disc.bool_values
+    if ia is None or ba is None:  # a controller without Integer or Boolean outputs: the general path
+        get_i = get_b = None
+    evaluate = _evaluator(prof)
+    pv, cv = p_out.read()[:], c_out.read()[:] + c_disc.read()  # new lists after each read
     held = cv  # controller outputs seen by the plant (Jacobi: one sample old)
     mrow = ()  # the measured signals' values at the last sample (recorded after the profiles)
-    Ts, t0, t = sc.Ts, 0.0, 0.0
-    append = rec.append
+    t0, t = 0.0, 0.0
+    rows, chunk = rec.rows, rec.chunk_rows
+    append, left = rows.append, chunk
     for k in range(n + 1):
         t = t0 + k * h
-        fv = [f(t) for f in prof]
+        T.value = t
+        fv = evaluate(t)
         if k % N == 0:
             if stop.signum:
                 return t, False
@@ -230,31 +274,44 @@ def _loop(sc, jacobi, plant, ctrl, p_out, c_out, c_disc, connections, profiles, 
                 c_invals[:] = c_values(mv, held, fv)
             r = set_c(*cs)
             if r > 1:
-                check("setReal", r)
+                check(calls_c["set_real"], r)
             if jacobi:
                 held = cv  # the previous sample's voltages
-            r = step_c(t, Ts)
+            r = step_c(*sc_args)
             if r > 1:
                 ctrl.step_failed(r, t)
             r = get_c(*cg)
             if r > 1:
-                check("getReal", r)
-            cv = cvals[:] + read_disc()
+                check(calls_c["get_real"], r)
+            if get_i is not None:
+                r = get_i(*ia)
+                if r > 1:
+                    check(calls_c["get_int"], r)
+                r = get_b(*ba)
+                if r > 1:
+                    check(calls_c["get_bool"], r)
+                cv = cvals[:] + ivals[:] + bvals[:]
+            else:
+                cv = cvals[:] + c_disc.read()
             if not jacobi:
                 held = cv
         if k % every == 0:
             append((t, *pv, *cv, *fv, *mrow))
+            left -= 1
+            if not left:
+                rec.flush()  # empties rows in place
+                left = chunk
         if k == n:
             break
         p_invals[:] = p_values(pv, held, fv)
         r = set_p(*ps)
         if r > 1:
-            check("setReal", r)
-        r = step_p(t, h)
+            check(calls_p["set_real"], r)
+        r = step_p(*sp)
         if r > 1:
             plant.step_failed(r, t)
         r = get_p(*pg)
         if r > 1:
-            check("getReal", r)
+            check(calls_p["get_real"], r)
         pv = pvals[:]
     return t, True

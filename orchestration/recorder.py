@@ -23,6 +23,9 @@ class Recorder:
     ``keep``: indices of the row entries to record (None: all), chosen once so the stepping loop
     appends whole rows and the recorder drops what is not wanted per chunk, not per row.  Each full
     chunk becomes one float64 array (rows x kept columns); pandas is imported only by :meth:`frame`.
+    The stepping loop appends its rows to :attr:`rows` itself and calls :meth:`flush` every
+    :attr:`chunk_rows` rows (no method call per row); :meth:`flush` empties :attr:`rows` in place, so
+    the list stays the same object for the whole run.
     """
 
     def __init__(self, columns, keep=None, chunk_rows=CHUNK_ROWS):
@@ -30,13 +33,13 @@ class Recorder:
         self._keep = None if keep is None else list(keep)
         self.columns = self._all if keep is None else [self._all[i] for i in keep]
         self.rows = []  # the current chunk; the stepping loop appends to it
-        self._chunk_rows = chunk_rows
+        self.chunk_rows = chunk_rows
         self._chunks = []
         self.n_rows = 0
 
     def append(self, row):
         self.rows.append(row)
-        if len(self.rows) >= self._chunk_rows:
+        if len(self.rows) >= self.chunk_rows:
             self.flush()
 
     def _chunk_array(self):
@@ -47,7 +50,7 @@ class Recorder:
         if self.rows:
             self._write(self._chunk_array())
             self.n_rows += len(self.rows)
-            self.rows = []
+            self.rows.clear()
 
     def _write(self, chunk):
         self._chunks.append(chunk)
