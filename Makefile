@@ -37,6 +37,7 @@ bench: $(STAMP)
 	$(PY) bench/bench_controller.py
 	$(PY) bench/bench_cosim.py
 	$(PY) bench/bench_native.py
+	$(PY) bench/bench_libcosim.py
 	$(PY) bench/bench_batch.py
 	$(PY) bench/bench_peers.py
 
