@@ -74,13 +74,16 @@ FMUS = {
 COMMON_OPTIONS = {"canGetAndSetFMUstate": True, "canSerializeFMUstate": True, "needsExecutionTool": True}
 
 
-def documentation(name):
-    """index.html from the same interface tables the slave registers, and the model docstrings."""
+def documentation(name, flags=None, intro=None):
+    """index.html from the same interface tables the slave registers, and the model docstrings.
+    ``flags``: the capability flags to list (default: the pythonfmu FMU's); ``intro``: the opening
+    paragraph (default: the slave script's docstring).  The native FMUs pass theirs."""
     import importlib
 
     import satmotor.interface as itf
 
     script, tables, modules, options = FMUS[name]
+    intro = intro if intro is not None else ast.get_docstring(ast.parse(script.read_text())) or ""
     rows = []
     for table in tables:
         for v in getattr(itf, table):
@@ -89,9 +92,9 @@ def documentation(name):
                 start = "calculated"  # from the parameters at initialization (no start in the XML)
             rows.append("<tr>" + "".join(f"<td>{html.escape(str(c))}</td>" for c in (
                 v.name, v.causality, v.type, start, v.unit, v.description)) + "</tr>")
-    flags = {**COMMON_OPTIONS, **options}
+    flags = flags if flags is not None else {**COMMON_OPTIONS, **options}
     parts = [f"<!DOCTYPE html><html><head><meta charset='utf-8'><title>{name}</title></head><body>",
-             f"<h1>{name}</h1><p>{html.escape(ast.get_docstring(ast.parse(script.read_text())) or '')}</p>",
+             f"<h1>{name}</h1><p>{html.escape(intro)}</p>",
              "<h2>Variables</h2><table border='1'><tr><th>name</th><th>causality</th><th>type</th>"
              "<th>start</th><th>unit</th><th>description</th></tr>", *rows, "</table>",
              "<h2>Capability flags</h2><ul>",

@@ -197,7 +197,7 @@ def _resource_files(resources) -> dict[str, bytes]:
 def build_native_fmu(model_identifier: str, sources: Iterable[str | Path], model_description_xml: str,
                      out_path: str | Path, fmi_version: str = "2.0", platforms: Sequence[str] = ("linux64",),
                      resources=None, extra_cflags: Sequence[str] = (),
-                     linux_glibc: str | None = None) -> tuple[Path, str]:
+                     linux_glibc: str | None = None, documentation=None) -> tuple[Path, str]:
     """Build a native co-simulation FMU; returns ``(path of the .fmu, GUID/instantiationToken)``.
 
     ``sources``: the model's files (``.c`` compiled, ``.h`` and others only copied), placed flat
@@ -208,7 +208,8 @@ def build_native_fmu(model_identifier: str, sources: Iterable[str | Path], model
     ``aarch64-darwin``) or FMI 3.0 platform names. ``resources``: a directory or a mapping
     name -> content for ``resources/``. ``linux_glibc`` (e.g. ``"2.17"``): build the Linux binary
     with zig against that glibc (the host gcc links against the host's glibc, 2.29+ for ``exp``
-    on Debian 12). Raises :class:`NativeBuildError` on any failure.
+    on Debian 12). ``documentation``: like ``resources``, for ``documentation/`` (e.g.
+    ``{"index.html": ...}``). Raises :class:`NativeBuildError` on any failure.
     """
     major = _major(fmi_version)
     if not re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", model_identifier):
@@ -253,6 +254,7 @@ def build_native_fmu(model_identifier: str, sources: Iterable[str | Path], model
         f"cc {flags} -fPIC -I. -DMODEL_IDENTIFIER={model_identifier} "
         f"'-DINSTANTIATION_TOKEN=\"{token}\"' {' '.join(c_files)} -o {model_identifier}.so -lm\n").encode()
     files.update({f"resources/{n}": b for n, b in _resource_files(resources).items()})
+    files.update({f"documentation/{n}": b for n, b in _resource_files(documentation).items()})
 
     with tempfile.TemporaryDirectory(prefix="sm_native_") as tmp:
         staging = Path(tmp) / "src"

@@ -60,6 +60,7 @@ def build(name, out_dir, fmi_version="2.0", platforms=None, resources=None):
     extra files ``{name: bytes}`` for ``resources/`` (e.g. a ``table`` curve's CSV: a ``table_file``
     that does not exist as given is looked up there by its base name)."""
     xml = (nmd.fmi2 if fmi_version == "2.0" else nmd.fmi3)(name).decode("utf-8")
+    doc = documentation(name, xml, fmi_version)
     target = Path(out_dir) / DIRS[fmi_version] / f"{name}.fmu"
     target.parent.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory(prefix="sm_vars_") as tmp:
@@ -69,8 +70,24 @@ def build(name, out_dir, fmi_version="2.0", platforms=None, resources=None):
         path, _ = build_native_fmu(name, [*sources(name), vars_h], xml, target, fmi_version, plats,
                                    resources={**(resources or {}),
                                               BUILD_INPUTS: (inputs_fingerprint(name) + "\n").encode()},
-                                   linux_glibc=PORTABLE_GLIBC if len(plats) > 1 else None)
+                                   linux_glibc=PORTABLE_GLIBC if len(plats) > 1 else None,
+                                   documentation={"index.html": doc})
     return path
+
+
+def documentation(name, xml, fmi_version):
+    """``documentation/index.html`` of the native FMU ``name``: the pythonfmu FMU's page (the same
+    variables, from the same tables) with the capability flags of this model description ``xml``."""
+    import xml.etree.ElementTree as ET
+
+    from .fmu_build import documentation as page
+
+    cs = ET.fromstring(xml).find("CoSimulation")
+    flags = {k: v for k, v in cs.attrib.items() if k != "modelIdentifier"}
+    intro = (f"{nmd.UNIT_DESCRIPTION[name].rstrip('.')}. Native C implementation (FMI {fmi_version} "
+             "co-simulation, no Python needed), built from fmu/native/ and tested equal to the Python "
+             "package satmotor, which the pythonfmu FMU of the same name runs.")
+    return page(name, flags=flags, intro=intro).encode("utf-8")
 
 
 def build_all(out_dir, cross=None):

@@ -30,7 +30,7 @@ from .fmu_model_description import complete, variables
 GENERATION_TOOL = "satmotor native C glue"
 DATE = "2026-01-01T00:00:00Z"  # fixed: reproducible builds
 _FMI3_TYPE = {"Real": "Float64", "Integer": "Int32", "Boolean": "Boolean", "String": "String"}
-_UNIT = {"SaturatedInductionMotor": itf.PLANT_DESCRIPTION,
+UNIT_DESCRIPTION = _UNIT = {"SaturatedInductionMotor": itf.PLANT_DESCRIPTION,
          "BacksteppingController": itf.CONTROLLER_DESCRIPTION}
 LOG_CATEGORIES = (("logStatusWarning", "fmi2Warning"), ("logStatusDiscard", "fmi2Discard"),
                   ("logStatusError", "fmi2Error"), ("logStatusFatal", "fmi2Fatal"))

@@ -75,3 +75,28 @@ def test_descriptions_are_deterministic():
     for name in NAMES:
         assert fmi2(name, TOKEN) == fmi2(name, TOKEN) and fmi3(name, TOKEN) == fmi3(name, TOKEN)
     assert Path(__file__).exists()
+
+
+@pytest.mark.parametrize("version", ["2.0", "3.0"])
+@pytest.mark.parametrize("name", NAMES)
+def test_native_fmus_document_their_variables_and_their_own_flags(name, version, fmu_dir):
+    """documentation/index.html of each native FMU: a row for every variable of its model description
+    (FMI 3.0's independent ``time`` aside) with that variable's causality, and the capability flags
+    its model description declares (not the pythonfmu FMU's)."""
+    import html
+    import re
+    from xml.etree import ElementTree as ET
+
+    path = fmu_dir / ("native" if version == "2.0" else "native-fmi3") / f"{name}.fmu"
+    with zipfile.ZipFile(path) as z:
+        doc, md = z.read("documentation/index.html").decode(), ET.fromstring(z.read("modelDescription.xml"))
+    rows = {}
+    for row in re.findall(r"<tr>(<td>.*?)</tr>", doc):
+        cells = [html.unescape(c) for c in re.findall(r"<td>(.*?)</td>", row)]
+        rows[cells[0]] = cells
+    declared = {v.get("name"): v.get("causality") for v in md.find("ModelVariables")
+                if v.get("causality") != "independent"}
+    assert {n: r[1] for n, r in rows.items()} == declared
+    flags = dict(re.findall(r"<li>(\w+) = (\w+)</li>", doc))
+    cs = {k: v for k, v in md.find("CoSimulation").attrib.items() if k != "modelIdentifier"}
+    assert flags == cs and flags["needsExecutionTool"] == "false"
