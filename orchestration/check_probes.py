@@ -318,18 +318,24 @@ def probe_non_finite_input(p, start=0):
     return {"results": results, "alive": alive(p)}
 
 
-def probe_serialize(p, out_file):
-    """The FMU's serialized state after STEPS steps, written to ``out_file`` (offered to the other
-    FMUs of one ``check`` command by their ``foreign-state`` probe)."""
-    cs = p.md.coSimulation
-    if not (cs.canGetAndSetFMUstate and cs.canSerializeFMUstate):
-        return {"skip": "canSerializeFMUstate is false"}
+def own_blob(p):
+    """The FMU's serialized state after STEPS steps of a fresh instance (freed again)."""
     s = p.instance()
     p.run(s, 0, STEPS)
     state = s.get_state()
     blob = s.serialize(state)
     s.free_state(state)
     s.free()
+    return blob
+
+
+def probe_serialize(p, out_file):
+    """The FMU's serialized state after STEPS steps, written to ``out_file`` (offered to the other
+    FMUs of one ``check`` command by their ``foreign-state`` probe)."""
+    cs = p.md.coSimulation
+    if not (cs.canGetAndSetFMUstate and cs.canSerializeFMUstate):
+        return {"skip": "canSerializeFMUstate is false"}
+    blob = own_blob(p)
     Path(out_file).write_bytes(blob)
     return {"ok": True, "bytes": len(blob)}
 
@@ -391,12 +397,7 @@ def probe_foreign_state(p, start=0, *offers):
     cs = p.md.coSimulation
     if not (cs.canGetAndSetFMUstate and cs.canSerializeFMUstate):
         return {"skip": "canGetAndSetFMUstate or canSerializeFMUstate is false"}
-    s = p.instance()
-    p.run(s, 0, STEPS)
-    state = s.get_state()
-    own = s.serialize(state)
-    s.free_state(state)
-    s.free()
+    own = own_blob(p)
     blobs = [(f"the state of {label}", Path(f).read_bytes()) for label, f in zip(offers[::2], offers[1::2])]
     blobs += [(f"its own blob truncated to {len(own) // 2} of {len(own)} bytes", own[:len(own) // 2]),
               (f"its own blob with every byte inverted ({len(own)} bytes)", bytes(b ^ 0xFF for b in own))]
