@@ -64,7 +64,7 @@ from xml.sax.saxutils import quoteattr
 import numpy as np
 
 from .interrupts import signal_name
-from .master import RunResult, recorded_columns
+from .master import RunResult, failure_message, recorded_columns
 from .profiles import Constant, Problem
 from .recorder import Recorder
 from .wiring import CONTROLLER, DEFAULT_CONNECTIONS, PLANT, PROFILE
@@ -402,19 +402,13 @@ def _preflight(scenario, plant_fmu, controller_fmu):
             inst.initialize(0.0)
         except FMICallException as exc:
             status = STATUS[exc.status] if 0 <= exc.status < len(STATUS) else str(exc.status)
-            return status, _report(unit, exc, inst), unit
+            return status, failure_message(unit, exc, inst), unit
         except Exception as exc:  # noqa: BLE001 - instantiation, a bad override: as the master
-            return "setup", _report(unit, exc, inst), unit
+            return "setup", failure_message(unit, exc, inst), unit
         finally:
             if inst is not None:
                 inst.close()
     return None
-
-
-def _report(unit, exc, inst):
-    """``unit: what failed -- the FMU's first error message`` (the master's wording)."""
-    first = inst.first_error() if inst else ""
-    return f"{unit}: {exc}" + (f" -- {first}" if first else "")
 
 
 def _simulate(sc, structure, outputs, rec, stop, chunk_time, work):

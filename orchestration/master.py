@@ -134,11 +134,11 @@ def run(scenario, plant_fmu, controller_fmu, connections=DEFAULT_CONNECTIONS, al
         t_reached = getattr(exc, "time", t_reached)
         inst = next((u for u in units if u.name == current), None)
         status = STATUS[exc.status] if 0 <= exc.status < len(STATUS) else str(exc.status)
-        message = _report(current, exc, inst)
+        message = failure_message(current, exc, inst)
     except Exception as exc:  # noqa: BLE001 - instantiation, a bad override, a missing variable
         inst = next((u for u in units if u.name == current), None)
         status = "setup"
-        message = _report(current, exc, inst)
+        message = failure_message(current, exc, inst)
     finally:
         for u in units:
             u.close()
@@ -154,7 +154,7 @@ def run(scenario, plant_fmu, controller_fmu, connections=DEFAULT_CONNECTIONS, al
                      current if status not in ("ok", "interrupted") else "")
 
 
-def _report(unit, exc, inst):
+def failure_message(unit, exc, inst):
     """``unit: what failed -- the FMU's first error message``."""
     first = inst.first_error() if inst else ""
     return f"{unit}: {exc}" + (f" -- {first}" if first else "")
