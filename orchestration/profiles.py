@@ -36,8 +36,8 @@ from fractions import Fraction
 from pathlib import Path
 from typing import ClassVar, NamedTuple
 
-__all__ = ["Problem", "MISSING", "Checker", "Constant", "Step", "Ramp", "Table", "Sine", "Csv", "Sum",
-           "KINDS", "parse_profile"]
+__all__ = ["Problem", "ProblemError", "MISSING", "Checker", "Constant", "Step", "Ramp", "Table", "Sine",
+           "Csv", "Sum", "KINDS", "parse_profile"]
 
 
 class _Missing:
@@ -61,6 +61,14 @@ class Problem(NamedTuple):
         v = v if len(v) <= 80 else v[:77] + "..."
         return f"{self.file}: {self.field or '(top level)'} = {v}: {self.message}"
 
+
+
+class ProblemError(ValueError):
+    """One :class:`Problem` raised: ``file: field = value: reason`` (the attributes kept)."""
+
+    def __init__(self, file, field, value, reason):
+        self.file, self.field, self.value, self.reason = str(file), field, value, reason
+        super().__init__(str(Problem(self.file, field, value, reason)))
 
 _YAML_EXP = re.compile(r"^\s*([-+]?)(\d+)(?:\.(\d*))?[eE]([-+]?)(\d+)\s*$")
 

@@ -31,7 +31,7 @@ import satmotor.interface as itf
 from .fmu_model_description import COPYRIGHT, LICENSE, SI_UNITS
 from .native_build import GLUE_DIR, build_native_fmu
 from .native_fmus import LINUX, PORTABLE_GLIBC
-from .profiles import Constant, Csv, Ramp, Sine, Step, Sum, Table
+from .profiles import Constant, Csv, ProblemError, Ramp, Sine, Step, Sum, Table
 
 __all__ = ["MODEL_NAME", "SIGNALS", "PROFILES_FILE", "MAX_TERMS", "MAX_POINTS", "UnsupportedProfile",
            "profiles_text", "header", "model_description", "build"]
@@ -49,13 +49,8 @@ _UNITS = {v.name: (v.unit, v.description) for v in itf.CONTROLLER_INPUTS if v.na
 VR_PROFILES_FILE, VR_TIME = len(SIGNALS), len(SIGNALS) + 1
 
 
-class UnsupportedProfile(ValueError):
+class UnsupportedProfile(ProblemError):
     """A profile the ScenarioSignals file cannot hold: ``file: field = value: reason``."""
-
-    def __init__(self, file, field, value, reason):
-        self.file, self.field, self.value, self.reason = str(file), field, value, reason
-        v = repr(value)
-        super().__init__(f"{file}: {field} = {v if len(v) <= 80 else v[:77] + '...'}: {reason}")
 
 
 def _num(x):

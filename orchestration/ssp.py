@@ -49,6 +49,7 @@ from . import native_fmus, signals_fmu
 from . import native_model_description as nmd
 from .fmu_model_description import SI_UNITS
 from .native_build import PLATFORMS, ZIP_DATE
+from .profiles import ProblemError
 from .wiring import CONTROLLER, DEFAULT_CONNECTIONS, PLANT, PROFILE
 
 __all__ = ["NotExpressible", "NotWritable", "export", "ssd_xml", "check_expressible", "SSD_NS", "SSC_NS",
@@ -75,13 +76,8 @@ for _prefix, _uri in PREFIXES.items():
     ET.register_namespace(_prefix, _uri)
 
 
-class NotExpressible(ValueError):
+class NotExpressible(ProblemError):
     """The scenario has something an SSP package cannot express: ``file: field = value: reason``."""
-
-    def __init__(self, file, field, value, reason):
-        self.file, self.field, self.value, self.reason = str(file), field, value, reason
-        v = repr(value)
-        super().__init__(f"{file}: {field} = {v if len(v) <= 80 else v[:77] + '...'}: {reason}")
 
 
 class NotWritable(OSError):
