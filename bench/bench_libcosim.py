@@ -8,9 +8,15 @@ h = Ts = 100 us, 15 000 steps of each FMU), all runs Jacobi, in memory, measured
 one process, best of N (default 5):
 
 * libcosim, native FMUs, stepping only, no observer: ``CosimExecution.step`` over the whole run
-  on the engine's ``OspSystemStructure.xml`` (what libcosim and the FMUs cost, nothing recorded);
-* libcosim, native FMUs, stepping and recording: the engine's loop (time-series and file
-  observers, samples read per chunk into rows), without the set-up;
+  on the engine's ``SystemStructure.ssd`` (what libcosim and the FMUs cost, nothing recorded),
+  twice: with libcosim's default pool of (hardware threads - 1) worker threads (no
+  ``numWorkerThreads``: how the engine ran before) and with none (``numWorkerThreads="0"``, the
+  engine's setting: every unit stepped in the calling thread);
+* the same with the engine's observers attached (a time-series observer on every Real and Integer
+  output, a file observer on the controller's Booleans) and nothing read: libcosim's own cost of
+  recording;
+* libcosim, native FMUs, stepping and recording: the engine's loop (the observers, samples read
+  per chunk into rows), without the set-up;
 * libcosim, native FMUs, the whole ``libcosim_engine.run`` (pre-flight initialization, loading the
   system, stepping, recording), the ScenarioSignals FMU built beforehand (its build, a C compile,
   is timed once apart);
@@ -20,9 +26,7 @@ one process, best of N (default 5):
 * the native plant FMU alone, stepped by a C host without Python (the physics' floor).
 
 Real-time factor = simulated time / wall time.  The libcosim run is checked against the master's.
-libcosim 0.11 steps the FMUs through a thread pool of (hardware threads - 1) workers; the context
-switches per step show it.  ``bench/nprocs1_shim.c`` (preloaded) sets that to no worker, for the
-experiment only.
+The context switches per step of the process's threads show libcosim's thread pool at work.
 """
 
 from __future__ import annotations
@@ -62,33 +66,45 @@ def context_switches():
 
 
 def libcosim_parts(sc, plant, ctrl, signals, work):
-    """(stepping without observers [s], stepping and recording [s], context switches per step,
-    threads) of one run each."""
+    """{part: wall seconds} of one run each, and {pool: context switches per step} of the stepping."""
     from libcosimpy.CosimExecution import CosimExecution
     from libcosimpy.CosimLogging import CosimLogLevel, log_output_level
+
+    from orchestration.ssp import ssd_xml
 
     log_output_level(CosimLogLevel.ERROR)
     fmus_ = {"plant": plant, "controller": ctrl, "signals": signals}
     outputs = {k: libcosim_engine._Outputs(p) for k, p in fmus_.items()}
-    structure = libcosim_engine.system_structure(sc, fmus_, work, libcosim_engine._types_of(outputs))
+    structure = libcosim_engine.system_structure(sc, fmus_, outputs, work)
+    pooled = work / "pooled.ssd"  # libcosim's default thread pool: no numWorkerThreads
+    pooled.write_bytes(ssd_xml(sc, {u: o.md for u, o in outputs.items()}, worker_threads=None,
+                               sources={u: Path(f).resolve().as_uri() for u, f in fmus_.items()}))
     n = round(sc.stop_time / sc.step)
-    ex = CosimExecution.from_osp_config_file(str(structure))
-    assert ex.step(1)  # initialization
-    c0 = context_switches()[0]
-    t0 = time.perf_counter()
-    assert ex.step(n)
-    bare = time.perf_counter() - t0
-    c1, threads = context_switches()
-    del ex
+    out, switches = {}, {}
+    for name, ssd in (("pooled", pooled), ("bare", structure)):
+        ex = CosimExecution.from_ssp_file(str(ssd))
+        assert ex.step(1)  # initialization
+        c0 = context_switches()[0]
+        t0 = time.perf_counter()
+        assert ex.step(n)
+        out[name] = time.perf_counter() - t0
+        switches[name] = ((context_switches()[0] - c0) / n, context_switches()[1])
+        del ex
     columns = ["c"] * 32
+    e = libcosim_engine._Execution(sc, structure, outputs, work)
+    assert e.ex.step(1)
+    t0 = time.perf_counter()
+    assert e.ex.step(n)  # the observers record, nothing is read
+    out["observed"] = time.perf_counter() - t0
+    e.ex = e.observer = e.file_obs = None
     e = libcosim_engine._Execution(sc, structure, outputs, work)
     rec = Recorder(columns)
     t0 = time.perf_counter()
     status = e.simulate(rec, libcosim_engine._NoStop())
     e.close(rec)
-    recorded = time.perf_counter() - t0
+    out["recorded"] = time.perf_counter() - t0
     assert status[0] == "ok" and rec.n_rows + len(rec.rows) == n + 1, status
-    return bare, recorded, (c1 - c0) / n, threads
+    return out, switches
 
 
 def plant_floor(plant, work):
@@ -140,11 +156,11 @@ def main():
         signals = str(build_signals(sc, work / "signals"))
         t_build = time.perf_counter() - t0
         floor = plant_floor(native[0], work)
-        best = {k: math.inf for k in ("bare", "recorded", "engine", "engine_python", "master_native",
-                                      "master_python")}
+        best = {k: math.inf for k in ("pooled", "bare", "observed", "recorded", "engine", "engine_python",
+                                      "master_native", "master_python")}
         for _ in range(args.repeats):
-            bare, recorded, switches, threads = libcosim_parts(sc, *native, signals, work)
-            best["bare"], best["recorded"] = min(best["bare"], bare), min(best["recorded"], recorded)
+            parts, switches = libcosim_parts(sc, *native, signals, work)
+            best.update({k: min(best[k], v) for k, v in parts.items()})
             got = libcosim_engine.run(sc, *native, signals_fmu=signals)
             assert got.ok, got.message
             best["engine"] = min(best["engine"], got.wall_time)
@@ -159,7 +175,9 @@ def main():
     worst = max(np.max(np.abs(a[c].to_numpy() - b[c].to_numpy()))
                 / max(np.max(np.abs(a[c].to_numpy())), 1e-300) for c in a.columns)
     T, n = sc.stop_time, round(sc.stop_time / sc.step)
-    rows = [("libcosim + native, stepping only, no observer", best["bare"]),
+    rows = [("libcosim + native, stepping only, default thread pool", best["pooled"]),
+            ("libcosim + native, stepping only, no worker thread", best["bare"]),
+            ("libcosim + native, stepping + observers, nothing read", best["observed"]),
             ("libcosim + native, stepping + recording (engine loop)", best["recorded"]),
             ("libcosim + native, whole libcosim_engine.run", best["engine"]),
             ("libcosim + pythonfmu, whole libcosim_engine.run", best["engine_python"]),
@@ -175,9 +193,10 @@ def main():
     if floor is not None:
         lines.append(f"{'native plant FMU alone, C host, no Python (floor)':58s} {'':9s} {floor * 1e6:8.1f} "
                      f"{sc.step / floor:17.1f}")
-    lines += ["", f"libcosim stepping: {switches:.1f} context switches per step, {threads} threads in the "
-              "process",
-              "(libcosim 0.11 hands each simulator's step to its pool of hardware threads - 1 workers)",
+    lines += ["", "libcosim stepping, context switches per step (threads in the process): default pool "
+              f"{switches['pooled'][0]:.1f} ({switches['pooled'][1]}), no worker thread "
+              f"{switches['bare'][0]:.2f} ({switches['bare'][1]})",
+              "(the default pool has hardware threads - 1 workers; the engine sets numWorkerThreads = 0)",
               f"ScenarioSignals FMU build (C compile, once per scenario): {t_build:.2f} s",
               f"largest |libcosim - master| / column scale, every column: {worst:.2e}",
               f"speed of the whole engine relative to the fmpy master, same FMUs: native "

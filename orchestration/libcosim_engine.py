@@ -1,12 +1,16 @@
 """Run a scenario with libcosim, the C++ co-simulation engine of the Open Simulation Platform
 (through libcosimpy), instead of the fmpy master.
 
-What libcosim runs: the plant, the controller and, when a profile varies in time, the scenario's
-profiles as a third FMU (:mod:`orchestration.signals_fmu`, outputs ``omega_ref``, ``psi_ref``,
-``T_load``), wired by :data:`orchestration.wiring.DEFAULT_CONNECTIONS`.  Profiles that are all
-constant are set once as the inputs' initial values (no third FMU).  The system is written as an
-``OspSystemStructure.xml`` (the format libcosim reads, in the engine's temporary directory) and
-loaded with ``CosimExecution.from_osp_config_file``.
+What libcosim runs: the plant, the controller and the scenario's profiles as a third FMU
+(:mod:`orchestration.signals_fmu`, outputs ``omega_ref``, ``psi_ref``, ``T_load``), wired by
+:data:`orchestration.wiring.DEFAULT_CONNECTIONS`.  The system is written as the SSP description
+``SystemStructure.ssd`` of :func:`orchestration.ssp.ssd_xml` (the one ``export-ssp`` packs), with
+the FMUs by absolute ``file:`` URI, in the engine's temporary directory, and loaded with
+``CosimExecution.from_ssp_file``.  That route, not an ``OspSystemStructure.xml``, because only the
+SSP annotation sets libcosim's worker threads (``numWorkerThreads``): 0 here, the units stepped one
+after the other in the calling thread.  libcosim's default pool of (hardware threads - 1) workers
+costs two or more thread switches per step, several times what these small units cost to step
+(``bench/RESULTS.md``, section libcosim).
 
 Coupling.  libcosim's fixed-step algorithm (``src/cosim/algorithm/fixed_step_algorithm.cpp``) steps
 every due simulator from ``t_k`` with the inputs set at the last transfer, then copies every
@@ -49,7 +53,6 @@ from __future__ import annotations
 
 import ctypes
 import hashlib
-import math
 import os
 import re
 import shutil
@@ -65,9 +68,9 @@ import numpy as np
 
 from .interrupts import signal_name
 from .master import RunResult, failure_message, recorded_columns
-from .profiles import Constant, Problem
+from .profiles import Problem
 from .recorder import Recorder
-from .wiring import CONTROLLER, DEFAULT_CONNECTIONS, PLANT, PROFILE
+from .wiring import CONTROLLER, PLANT
 
 __all__ = ["run", "run_package", "signals_fmu_for", "problems", "system_structure", "CHUNK_TIME", "SIGNALS",
            "NS", "VARIANTS"]
@@ -99,11 +102,10 @@ def problems(scenario, algorithm=None):
                            "the fmpy master only; remove the section or run with --engine fmpy"))
     from .signals_fmu import UnsupportedProfile, profiles_text
 
-    if any(not isinstance(p, Constant) for p in scenario.profiles.values()):
-        try:
-            profiles_text(scenario)
-        except UnsupportedProfile as exc:
-            out.append(Problem(exc.file, exc.field, exc.value, exc.reason))
+    try:
+        profiles_text(scenario)
+    except UnsupportedProfile as exc:
+        out.append(Problem(exc.file, exc.field, exc.value, exc.reason))
     ns = round(scenario.step * NS)
     if ns < 1 or abs(ns - scenario.step * NS) > 1e-9 * ns:  # as the scenario's "multiple of step"
         out.append(Problem(file, "step", scenario.step, "libcosim counts time in whole nanoseconds: the step "
@@ -111,70 +113,17 @@ def problems(scenario, algorithm=None):
     return out
 
 
-def _time_text(ns):
-    """The shortest decimal text of ``ns`` nanoseconds [s] that libcosim reads back as ``ns``
-    (it parses a double and truncates ``seconds * 1e9`` toward zero)."""
-    v = ns / NS
-    while int(v * 1e9) < ns:
-        v = math.nextafter(v, math.inf)
-    return repr(v)
+def system_structure(scenario, fmus, outputs, directory):
+    """Write ``directory/SystemStructure.ssd``, the system libcosim loads: the SSP description of
+    :func:`orchestration.ssp.ssd_xml` (parameters, connections, base step ``h``, the controller's step
+    hint ``Ts``, no worker thread) with each component's ``source`` the absolute ``file:`` URI of its
+    FMU in ``fmus``.  ``outputs``: ``{unit: _Outputs}`` (their model descriptions).  Returns the
+    path."""
+    from .ssp import ssd_xml
 
-
-def _value_xml(value):
-    if isinstance(value, bool):
-        return f"<Boolean value={quoteattr('true' if value else 'false')}/>"
-    if isinstance(value, int):
-        return f"<Integer value=\"{value}\"/>"
-    if isinstance(value, float):
-        return f"<Real value={quoteattr(repr(value))}/>"
-    return f"<String value={quoteattr(str(value))}/>"
-
-
-def _initial_values(values, types):
-    """``<InitialValue>`` elements; ``types``: the FMU's declared type by name (a Real parameter
-    given as an int in YAML is written as a Real)."""
-    lines = []
-    for name, value in values.items():
-        if types.get(name) in ("Real", "Float64") and not isinstance(value, bool):
-            value = float(value)
-        lines.append(f"        <InitialValue variable={quoteattr(name)}>{_value_xml(value)}</InitialValue>")
-    return "\n".join(lines)
-
-
-def system_structure(scenario, fmus, directory, types, connections=DEFAULT_CONNECTIONS):
-    """Write ``directory/OspSystemStructure.xml``: ``fmus`` ``{instance: FMU path}`` (plant,
-    controller and, when given, signals), the scenario's parameters and ``Ts`` as initial values,
-    constant profiles as the initial values of the inputs they feed when there is no signals FMU,
-    the connections, the base step ``h`` and the controller's step ``Ts``.  ``types``: ``{instance:
-    {variable: declared type}}``.  Returns the path."""
-    h_ns = round(scenario.step * NS)
-    values = {PLANT: dict(scenario.plant), CONTROLLER: {**scenario.controller, "Ts": scenario.Ts}}
-    steps = {CONTROLLER: f" stepSize={quoteattr(_time_text(h_ns * scenario.controller_every))}"}
-    links = []
-    for c in connections:
-        src_unit, src = c.source.split(".", 1)
-        dst_unit, dst = c.target.split(".", 1)
-        if src_unit == PROFILE and SIGNALS not in fmus:
-            values[dst_unit][dst] = float(scenario.profiles[src].value(0.0))
-            continue
-        src_unit = SIGNALS if src_unit == PROFILE else src_unit
-        links.append(f"    <VariableConnection>\n      <Variable simulator={quoteattr(src_unit)} "
-                     f"name={quoteattr(src)}/>\n      <Variable simulator={quoteattr(dst_unit)} "
-                     f"name={quoteattr(dst)}/>\n    </VariableConnection>")
-    sims = []
-    for name, path in fmus.items():
-        init = _initial_values(values.get(name, {}), types.get(name, {}))
-        sims.append(f"    <Simulator name={quoteattr(name)} source={quoteattr(Path(path).resolve().as_uri())}"
-                    f"{steps.get(name, '')}>\n      <InitialValues>\n{init}\n      </InitialValues>\n"
-                    "    </Simulator>")
-    text = ("<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n"
-            "<OspSystemStructure xmlns=\"http://opensimulationplatform.com/MSMI/OSPSystemStructure\" "
-            "version=\"0.1\">\n"
-            f"  <StartTime>0.0</StartTime>\n  <BaseStepSize>{_time_text(h_ns)}</BaseStepSize>\n"
-            "  <Algorithm>fixedStep</Algorithm>\n  <Simulators>\n" + "\n".join(sims) + "\n  </Simulators>\n"
-            "  <Connections>\n" + "\n".join(links) + "\n  </Connections>\n</OspSystemStructure>\n")
-    path = Path(directory) / "OspSystemStructure.xml"
-    path.write_text(text)
+    path = Path(directory) / "SystemStructure.ssd"
+    path.write_bytes(ssd_xml(scenario, {u: o.md for u, o in outputs.items()},
+                             sources={u: Path(f).resolve().as_uri() for u, f in fmus.items()}))
     return path
 
 
@@ -185,7 +134,7 @@ class _Outputs:
     def __init__(self, path):
         from fmpy import read_model_description
 
-        md = read_model_description(str(path))
+        md = self.md = read_model_description(str(path))
         self.types = {v.name: v.type for v in md.modelVariables}
         fmi3 = md.fmiVersion.startswith("3")
         names = {"Real": "Float64" if fmi3 else "Real", "Integer": "Int32" if fmi3 else "Integer",
@@ -275,10 +224,6 @@ class _BoolFile:
         return k, self.flags[np.searchsorted(self.steps, wanted[:k])]
 
 
-def _types_of(outputs):
-    return {unit: o.types for unit, o in outputs.items()}
-
-
 def signals_fmu_for(scenario, cache_dir):
     """The ScenarioSignals FMU of ``scenario``'s profiles, built once into ``cache_dir/<key>/`` and
     reused while the profiles and the C sources it is built from are unchanged (the key is a SHA-256
@@ -302,21 +247,16 @@ def run(scenario, plant_fmu, controller_fmu, recorder=None, stop=None, algorithm
         signals_fmu=None, chunk_time=CHUNK_TIME, signals_cache=None):
     """Run ``scenario`` with libcosim; returns a :class:`orchestration.master.RunResult`.
 
-    ``signals_fmu``: the profiles FMU (None: built with :func:`orchestration.signals_fmu.build` when a
-    profile varies in time, into ``signals_cache`` when given (:func:`signals_fmu_for`), else for this
-    run only; with constant profiles there is none, they are initial values); ``recorder``: ``columns ->
-    Recorder`` (default in memory); ``stop``: ``.signum`` non-zero stops the run at the next chunk;
-    ``algorithm``: None or "jacobi" (anything else is refused: see :func:`problems`).  Raises ValueError
-    for a scenario :func:`problems` refuses; never raises for an FMU failure."""
+    ``signals_fmu``: the profiles FMU (None: built with :func:`orchestration.signals_fmu.build`, into
+    ``signals_cache`` when given (:func:`signals_fmu_for`), else for this run only); ``recorder``:
+    ``columns -> Recorder`` (default in memory); ``stop``: ``.signum`` non-zero stops the run at the
+    next chunk; ``algorithm``: None or "jacobi" (anything else is refused: see :func:`problems`).
+    Raises ValueError for a scenario :func:`problems` refuses; never raises for an FMU failure."""
 
     def system(work):
-        fmus = {PLANT: plant_fmu, CONTROLLER: controller_fmu}
-        signals = signals_fmu
-        if signals is None and any(not isinstance(p, Constant) for p in scenario.profiles.values()):
-            signals = signals_fmu_for(scenario, signals_cache or work / "signals")
-        if signals is not None:
-            fmus[SIGNALS] = signals
-        return fmus, lambda outputs: system_structure(scenario, fmus, work, _types_of(outputs))
+        fmus = {PLANT: plant_fmu, CONTROLLER: controller_fmu,
+                SIGNALS: signals_fmu or signals_fmu_for(scenario, signals_cache or work / "signals")}
+        return fmus, lambda outputs: system_structure(scenario, fmus, outputs, work)
 
     return _run(scenario, system, recorder, stop, algorithm, chunk_time)
 
@@ -491,10 +431,7 @@ class _Execution:
         self.next_row = 0
         self.file_obs = None
         try:
-            if Path(structure).suffix == ".xml":
-                self.ex = CosimExecution.from_osp_config_file(str(structure))
-            else:  # an SSP package (.ssp) or its SystemStructure.ssd
-                self.ex = CosimExecution.from_ssp_file(str(structure))
+            self.ex = CosimExecution.from_ssp_file(str(structure))  # a package (.ssp) or a .ssd
         except AssertionError as exc:
             raise RuntimeError(str(exc)) from None
         self.index = {name: self.ex.slave_index_from_instance_name(name) for name in outputs}
@@ -521,9 +458,7 @@ class _Execution:
             self.ex.add_observer(self.file_obs)
         self.series = _Series(self.lib, self.observer.ptr())
         profiles = sorted(sc.profiles)
-        signals = outputs.get(SIGNALS)
-        self.sig_refs = [dict(signals.real)[p] for p in profiles] if signals else []
-        self.consts = None if signals else np.array([[float(sc.profiles[p].value(0.0))] for p in profiles])
+        self.sig_refs = [dict(outputs[SIGNALS].real)[p] for p in profiles]
         self.p_refs = [r for _, r in outputs[PLANT].real]
         self.c_real = [r for _, r in outputs[CONTROLLER].real]
         self.c_int = [r for _, r in outputs[CONTROLLER].integer]
@@ -581,11 +516,8 @@ class _Execution:
         cols = [ks * self.h, pv[:, _positions(p_steps, ks)], np.vstack(parts)[:, _positions(c_steps, cs)]]
         if self.bools.n:
             cols.append(np.full((self.bools.n, len(ks)), np.nan))  # filled by _emit
-        if self.sig_refs:
-            s_steps, sv = self.series.read(ix[SIGNALS], self.sig_refs, "real", k0, count)
-            cols.append(sv[:, _positions(s_steps, ks)])
-        else:
-            cols.append(np.repeat(self.consts, len(ks), axis=1))
+        s_steps, sv = self.series.read(ix[SIGNALS], self.sig_refs, "real", k0, count)
+        cols.append(sv[:, _positions(s_steps, ks)])
         return cs, np.vstack(cols).T
 
     def _emit(self, rec):
@@ -598,7 +530,7 @@ class _Execution:
                 upto, flags = self.bools.take(cs)
                 if upto == 0:
                     return
-                nc = table.shape[1] - nb - (len(self.sig_refs) or len(self.consts))  # first Boolean column
+                nc = table.shape[1] - nb - len(self.sig_refs)  # first Boolean column
                 table[:upto, nc:nc + nb] = flags
             for row in table[:upto]:  # rows of the float64 table: the recorder stacks them per chunk
                 rec.append(row)

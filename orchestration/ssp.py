@@ -36,6 +36,7 @@ that do not exist.  The scenario's ``record:`` and
 
 from __future__ import annotations
 
+import math
 import os
 import shutil
 import tempfile
@@ -76,6 +77,13 @@ for _prefix, _uri in PREFIXES.items():
     ET.register_namespace(_prefix, _uri)
 
 
+# libcosim's worker threads (``osp:FixedStepAlgorithm numWorkerThreads``).  0: the calling thread
+# steps the units one after the other.  libcosim's default is a pool of (hardware threads - 1)
+# workers, which costs two or more thread switches per step: more than stepping these small units
+# (bench/RESULTS.md, section libcosim)
+WORKER_THREADS = 0
+
+
 class NotExpressible(ProblemError):
     """The scenario has something an SSP package cannot express: ``file: field = value: reason``."""
 
@@ -90,6 +98,21 @@ def _q(ns, tag):
 
 def _num(x):
     return repr(float(x))
+
+
+NS = 1_000_000_000  # libcosim's time unit: integer nanoseconds
+
+
+def seconds_text(seconds):
+    """The shortest decimal text of ``seconds`` that libcosim reads back as the intended whole
+    number of nanoseconds.  libcosim parses a double and truncates ``seconds * 1e9`` toward zero
+    (``cosim::to_duration``), so ``6.5e-05`` would become 64 999 ns: a wrong base step, and a
+    controller step hint that is no longer a whole multiple of it."""
+    ns = round(seconds * NS)
+    v = ns / NS
+    while int(v * 1e9) < ns:
+        v = math.nextafter(v, math.inf)
+    return repr(v)
 
 
 def check_expressible(scenario, embed_files=True):
@@ -155,10 +178,13 @@ def _annotation(parent, type_, ns, child_tag, attrs):
     return ET.SubElement(ann, _q(ns, child_tag), attrs)
 
 
-def ssd_xml(scenario, model_descriptions, connections=DEFAULT_CONNECTIONS, renamed=None):
+def ssd_xml(scenario, model_descriptions, connections=DEFAULT_CONNECTIONS, renamed=None, sources=None,
+            worker_threads=WORKER_THREADS):
     """``SystemStructure.ssd`` (bytes) of ``scenario``; ``model_descriptions``: {component: fmpy
     ModelDescription} of ``plant``, ``controller`` and ``signals``; ``renamed``: {component:
-    {parameter: value}} replacing scenario values (a table file packed into the FMU: its name)."""
+    {parameter: value}} replacing scenario values (a table file packed into the FMU: its name);
+    ``sources``: {component: the FMU's ``source``}, default :data:`RESOURCES`; ``worker_threads``:
+    libcosim's ``numWorkerThreads`` (None: libcosim's default)."""
     file = scenario.path or scenario.name
     h, Ts = scenario.step, scenario.Ts
     connectors = {c: _connectors(model_descriptions[c]) for c in COMPONENTS}
@@ -174,7 +200,7 @@ def ssd_xml(scenario, model_descriptions, connections=DEFAULT_CONNECTIONS, renam
     for comp in COMPONENTS:
         md = model_descriptions[comp]
         el = ET.SubElement(elements, _q(SSD_NS, "Component"), {
-            "name": comp, "type": "application/x-fmu-sharedlibrary", "source": RESOURCES[comp]})
+            "name": comp, "type": "application/x-fmu-sharedlibrary", "source": (sources or RESOURCES)[comp]})
         cons = ET.SubElement(el, _q(SSD_NS, "Connectors"))
         for name, kind, vtype, unit in connectors[comp]:
             con = ET.SubElement(cons, _q(SSD_NS, "Connector"), {"name": name, "kind": kind})
@@ -193,7 +219,7 @@ def ssd_xml(scenario, model_descriptions, connections=DEFAULT_CONNECTIONS, renam
             pv = ET.SubElement(ET.SubElement(bindings, _q(SSD_NS, "ParameterBinding")),
                                _q(SSD_NS, "ParameterValues"))
             pv.append(_parameter_set(values, types, f"{scenario.name}.{comp}"))
-        _annotation(el, OSP_TYPE, OSP_NS, "StepSizeHint", {"value": _num(step_hint[comp])})
+        _annotation(el, OSP_TYPE, OSP_NS, "StepSizeHint", {"value": seconds_text(step_hint[comp])})
 
     cons_el = ET.SubElement(system, _q(SSD_NS, "Connections"))
     known = {(c, name): kind for c in COMPONENTS for name, kind, _, _ in connectors[c]}
@@ -217,7 +243,8 @@ def ssd_xml(scenario, model_descriptions, connections=DEFAULT_CONNECTIONS, renam
     de = ET.SubElement(root, _q(SSD_NS, "DefaultExperiment"), {"startTime": "0.0",
                                                                "stopTime": _num(scenario.stop_time)})
     algo = _annotation(de, OSP_TYPE, OSP_NS, "Algorithm", {})
-    ET.SubElement(algo, _q(OSP_NS, "FixedStepAlgorithm"), {"baseStepSize": _num(h)})
+    threads = {} if worker_threads is None else {"numWorkerThreads": str(worker_threads)}
+    ET.SubElement(algo, _q(OSP_NS, "FixedStepAlgorithm"), {"baseStepSize": seconds_text(h), **threads})
     _annotation(root, SATMOTOR_TYPE, SATMOTOR_NS, "CoSimulation", {
         "algorithm": "jacobi", "scenarioAlgorithm": scenario.algorithm, "step": _num(h), "Ts": _num(Ts),
         "controllerEvery": str(scenario.controller_every),

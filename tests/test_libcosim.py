@@ -18,6 +18,7 @@ import signal
 import subprocess
 import sys
 import time
+import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import numpy as np
@@ -81,7 +82,7 @@ def test_equal_to_the_jacobi_master_within_the_clock_rounding(case, variant, fmu
     elif case == "decimated":  # the controller steps every 2nd base step (libcosim's decimation)
         sc = load_scenario(DECIMATED)
         assert sc.controller_every == 2
-    else:  # constant profiles: set once as the inputs' initial values, no third FMU
+    else:  # constant profiles (in the ScenarioSignals FMU as constants)
         sc = dataclasses.replace(load_scenario(DEFAULT), stop_time=0.4)
         sc = _constant_profiles(sc)
     if variant == "python" and case != "default":
@@ -115,16 +116,51 @@ def test_every_library_scenario_runs_as_the_jacobi_master_or_is_refused_for_its_
         assert np.max(np.abs(a - b)) <= RTOL * max(np.max(np.abs(a)), 1e-300), c
 
 
-def test_the_system_structure_holds_the_steps_parameters_and_constant_inputs(tmp_path):
-    sc = _constant_profiles(dataclasses.replace(load_scenario(DECIMATED), plant={"J": 0.05}))
-    types = {"plant": {"J": "Real"}, "controller": {"Ts": "Real"}}
-    text = libcosim_engine.system_structure(sc, {"plant": "p.fmu", "controller": "c.fmu"}, tmp_path,
-                                            types).read_text()
-    assert "<BaseStepSize>5e-05</BaseStepSize>" in text and 'stepSize="0.0001"' in text
-    assert '<InitialValue variable="J"><Real value="0.05"/>' in text
-    assert '<InitialValue variable="Ts"><Real value="0.0001"/>' in text
-    assert '<InitialValue variable="omega_ref"><Real value="60.0"/>' in text  # a constant profile
-    assert "profile" not in text and "signals" not in text
+def test_the_system_libcosim_loads_is_the_ssp_description_with_no_worker_thread(tmp_path, fmu_dir):
+    from orchestration.ssp import OSP_NS, SSD_NS, SSV_NS
+
+    sc = dataclasses.replace(load_scenario(DECIMATED), plant={"J": 0.05})
+    paths = dict(zip(("plant", "controller"), fmus.paths(fmu_dir, "native")))
+    paths["signals"] = libcosim_engine.signals_fmu_for(sc, tmp_path / "signals")
+    outputs = {u: libcosim_engine._Outputs(p) for u, p in paths.items()}
+    root = ET.parse(libcosim_engine.system_structure(sc, paths, outputs, tmp_path)).getroot()
+    algo = root.find(f".//{{{OSP_NS}}}FixedStepAlgorithm")
+    assert algo.get("numWorkerThreads") == "0"  # the units stepped in the calling thread
+    assert int(float(algo.get("baseStepSize")) * 1e9) == 50_000  # libcosim truncates to whole ns
+    comps = {c.get("name"): c for c in root.iter(f"{{{SSD_NS}}}Component")}
+    assert {u: c.get("source") for u, c in comps.items()} == {u: Path(p).resolve().as_uri()
+                                                               for u, p in paths.items()}
+    hint = comps["controller"].find(f".//{{{OSP_NS}}}StepSizeHint").get("value")
+    assert int(float(hint) * 1e9) == 100_000  # Ts = 2 h
+    j = comps["plant"].find(f".//{{{SSV_NS}}}Parameter[@name='J']/{{{SSV_NS}}}Real")
+    assert float(j.get("value")) == 0.05
+
+
+@pytest.mark.parametrize("ns", [1, 3, 50_000, 65_000, 100_000, 123_457, 129_000, 1_953_125, 10**9 - 1])
+def test_a_time_that_libcosim_would_truncate_is_written_so_it_reads_back_exactly(ns):
+    from orchestration.ssp import seconds_text
+
+    assert int(float(seconds_text(ns / 1e9)) * 1e9) == ns
+
+
+def test_the_plain_decimal_text_of_65_us_would_make_libcosims_step_64999_ns():
+    """Why the texts above are needed: libcosim parses the double and truncates toward zero."""
+    assert int(float(repr(65_000 / 1e9)) * 1e9) == 64_999
+
+
+@pytest.mark.parametrize("every", [1, 2])
+def test_a_step_whose_decimal_text_truncates_runs_as_the_jacobi_master(every, fmu_dir):
+    """h = 65 us and Ts = 130 us are both below their decimal text once times 1e9 (see above): written
+    naively, libcosim would step 64 999 ns and find Ts no multiple of it."""
+    h = 6.5e-5
+    sc = dataclasses.replace(load_scenario(DEFAULT), step=h, controller_every=every, stop_time=400 * h,
+                             record=Record(h, ()))
+    ref, got = _pair(sc, fmu_dir, "native")
+    assert len(got) == len(ref) == 401
+    assert np.array_equal(got["time"].to_numpy(), ref["time"].to_numpy())
+    for c in ref.columns:
+        a, b = ref[c].to_numpy(), got[c].to_numpy()
+        assert np.max(np.abs(a - b)) <= RTOL * max(np.max(np.abs(a)), 1e-300), c
 
 
 def test_a_step_of_a_fraction_of_a_nanosecond_is_refused_naming_the_field():
@@ -135,11 +171,6 @@ def test_a_step_of_a_fraction_of_a_nanosecond_is_refused_naming_the_field():
     assert libcosim_engine.problems(load_scenario(DEFAULT)) == []
     with pytest.raises(ValueError, match="step"):
         libcosim_engine.run(sc, "plant.fmu", "controller.fmu")
-
-
-def test_a_time_that_libcosim_would_truncate_is_written_so_it_reads_back_exactly():
-    for ns in (1, 3, 50_000, 100_000, 123_457, 1_953_125, 10**9 - 1):
-        assert int(float(libcosim_engine._time_text(ns)) * 1e9) == ns
 
 
 def test_a_bad_parameter_fails_the_run_in_the_fmus_words_without_ending_the_process(fmu_dir):
@@ -255,7 +286,7 @@ def test_libcosim_runs_the_exported_ssp_package_as_the_engine_runs_the_scenario(
     plant, ctrl = map(str, fmus.paths(fmu_dir, variant))
     package = export(sc, tmp_path / f"{sc.name}.ssp", plant, ctrl)
     got = libcosim_engine.run_package(sc, package)  # CosimExecution.from_ssp_file on the .ssp
-    want = libcosim_engine.run(sc, plant, ctrl)  # our OspSystemStructure.xml
+    want = libcosim_engine.run(sc, plant, ctrl)  # its SystemStructure.ssd, the FMUs by file URI
     assert got.ok and want.ok, (got.message, want.message)
     assert list(got.frame.columns) == list(want.frame.columns) and len(got.frame) == len(want.frame)
     for c in want.frame.columns:  # the same system: bit for bit
