@@ -17,7 +17,9 @@ SSP 1.0 has no step size.  The Open Simulation Platform's annotations (type
 ``com.opensimulationplatform``, namespace :data:`OSP_NS`), which libcosim reads, give it: an
 ``osp:FixedStepAlgorithm`` with ``baseStepSize`` = the plant step ``h`` in the default experiment,
 and an ``osp:StepSizeHint`` per component (``h`` for the plant and the signals, ``Ts`` for the
-controller).  A fixed-step engine steps every due unit from the values of the last communication
+controller), each written so that libcosim reads back the intended whole nanoseconds
+(:func:`seconds_text`), and ``numWorkerThreads`` = :data:`WORKER_THREADS` (0).  A fixed-step
+engine steps every due unit from the values of the last communication
 point, which is the master's ``jacobi`` algorithm; an annotation of type :data:`SATMOTOR_TYPE`
 records that, with the scenario's own algorithm and the steps.
 

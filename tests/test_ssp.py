@@ -147,6 +147,7 @@ def test_parameters_connections_steps_of_every_scenario(path, fmu_dir, signals_m
     assert (float(de.get("startTime")), float(de.get("stopTime"))) == (0.0, sc.stop_time)
     base = de.find("ssd:Annotations/ssc:Annotation/osp:Algorithm/osp:FixedStepAlgorithm", NS)
     assert float(base.get("baseStepSize")) == sc.step
+    assert base.get("numWorkerThreads") == "0"  # libcosim steps the units in its calling thread
 
 
 def test_connectors_carry_the_fmus_types_and_units(default_ssp, tmp_path):
