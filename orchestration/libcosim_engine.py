@@ -41,32 +41,30 @@ Interrupts and failures.  libcosim steps in C++; the engine advances in chunks o
 chunks, so an interrupted run keeps every row up to the last chunk.  An FMU failure ends the run
 with a :class:`orchestration.master.RunResult` as the master's (status ``error``, ``discard`` or
 ``fatal``, the unit, the time, the FMU's own message) and the rows up to the last completed step;
-nothing raises.  Two libcosim 0.11 behaviours are worked around: an FMU failing in its
-initialization ends the process (the exception escapes a worker thread), so the plant and the
-controller are first initialized once with fmpy (:func:`_preflight`); and the FMUs' messages reach
-only libcosim's console log on stdout, which is captured while libcosim runs (:class:`_CapturedLog`).
+nothing raises.  The plant and the controller are first initialized once with fmpy
+(:func:`_preflight`), so an FMU refusing its parameters is reported as the master reports it, with
+the unit and its status (with libcosim's default worker threads such a failure would even end the
+process: the exception escapes a worker thread).  The FMUs' messages reach only libcosim's console
+log on stdout, which is captured while libcosim runs
+(:class:`orchestration.libcosim_readers.CapturedLog`).
 
 :func:`run_package` runs an SSP package of :func:`orchestration.ssp.export` as libcosim loads it.
 """
 
 from __future__ import annotations
 
-import ctypes
 import hashlib
 import os
-import re
 import shutil
-import sys
 import tempfile
 import time
 import zipfile
-from ctypes import POINTER, c_char_p, c_int, c_int64, c_size_t, c_uint32, c_void_p
 from pathlib import Path
-from xml.sax.saxutils import quoteattr
 
 import numpy as np
 
 from .interrupts import signal_name
+from .libcosim_readers import FAILED, BoolFile, CapturedLog, Lib, Series, file_observer, positions
 from .master import RunResult, failure_message, recorded_columns
 from .profiles import Problem
 from .recorder import Recorder
@@ -80,7 +78,6 @@ VARIANTS = ("native", "python")  # the FMU variants it runs (FMI 2.0: libcosim 0
 SIGNALS = "signals"  # instance name of the profiles FMU
 CHUNK_TIME = 0.02  # [s] simulated time stepped in C++ between two looks at the stop flag
 NS = 1_000_000_000  # libcosim's time unit: integer nanoseconds
-_BOOLS_FILE = "LogConfig.xml"
 ENGINE_NOTE = "libcosim fixed-step algorithm: Jacobi coupling"  # the message of a run that completed
 
 
@@ -144,84 +141,6 @@ class _Outputs:
         self.integer = [(v.name, v.valueReference) for v in out if v.type == names["Integer"]]
         self.boolean = [(v.name, v.valueReference) for v in out if v.type == names["Boolean"]]
         self.fmi3 = fmi3
-
-
-class _Lib:
-    """The libcosimc calls the engine makes itself (sample reads into numpy arrays, the file
-    observer from a configuration), on the library libcosimpy loaded."""
-
-    def __init__(self):
-        from libcosimpy._internal import libcosimc
-
-        lib = libcosimc()
-        self.real_samples = lib.cosim_observer_slave_get_real_samples
-        self.int_samples = lib.cosim_observer_slave_get_integer_samples
-        self.real_samples.restype = self.int_samples.restype = c_int64
-        args = [c_int, c_uint32, c_int64, c_size_t, c_void_p, POINTER(c_int64), POINTER(c_int64)]
-        self.real_samples.argtypes = self.int_samples.argtypes = [POINTER(None)] + args
-        self.last_error = lib.cosim_last_error_message
-        self.last_error.restype, self.last_error.argtypes = c_char_p, []
-
-    def error(self):
-        msg = self.last_error()
-        return msg.decode("utf-8", "replace") if msg else "no message from libcosim"
-
-
-class _Series:
-    """Reads ``[from_step, from_step + count)`` of the observed variables into float arrays."""
-
-    def __init__(self, lib, observer):
-        self._lib, self._obs = lib, observer
-
-    def read(self, slave, refs, kind, from_step, count):
-        """``(step numbers, values[len(refs), n])``: the samples libcosim holds from ``from_step``
-        (at most ``count``; a decimated simulator has samples at its own steps only)."""
-        real = kind == "real"
-        fn = self._lib.real_samples if real else self._lib.int_samples
-        steps, times = np.zeros(count, np.int64), np.zeros(count, np.int64)
-        out = np.zeros((len(refs), count), np.float64 if real else np.intc)
-        sp, tp = steps.ctypes.data_as(POINTER(c_int64)), times.ctypes.data_as(POINTER(c_int64))
-        base, row = out.ctypes.data, out.itemsize * count
-        got = count
-        for i, ref in enumerate(refs):
-            n = fn(self._obs, slave, ref, from_step, count, base + i * row, sp, tp)
-            if n < 0:
-                raise RuntimeError(f"reading samples of slave {slave} variable {ref}: {self._lib.error()}")
-            got = min(got, n)
-        return steps[:got].copy(), out[:, :got].astype(np.float64, copy=False)
-
-
-class _BoolFile:
-    """The controller's Booleans from the file observer's CSV, read as it grows.  libcosim writes
-    one line per controller step (``Time,StepCount,flags...``, flags 0 / 1) through a buffered
-    stream, so the file lags the execution by up to a buffer's worth of lines; all of it is there
-    once the execution is gone.  Kept: the step numbers and the flags not yet taken."""
-
-    def __init__(self, path, n):
-        self.path, self.n, self._pos = Path(path), n, 0
-        self.steps, self.flags = np.empty(0, np.int64), np.empty((0, n))
-
-    def update(self):
-        if not self.n or not self.path.exists():
-            return
-        with open(self.path, "rb") as f:
-            f.seek(self._pos)
-            text = f.read()
-        end = text.rfind(b"\n") + 1
-        self._pos += end
-        lines = [ln for ln in text[:end].decode().splitlines() if not ln.startswith("Time")]
-        if lines:
-            cells = np.array(",".join(lines).split(","), dtype=object).reshape(len(lines), -1)
-            self.steps = np.concatenate([self.steps, cells[:, 1].astype(np.int64)])
-            self.flags = np.vstack([self.flags, (cells[:, 2:2 + self.n] == "1").astype(float)])
-
-    def take(self, wanted):
-        """``(k, flags of wanted[:k])``: the flags of the leading step numbers of ``wanted`` (sorted)
-        that are on disk; the lines before ``wanted[0]`` are dropped."""
-        first = np.searchsorted(self.steps, wanted[0])
-        self.steps, self.flags = self.steps[first:], self.flags[first:]
-        k = int(np.searchsorted(wanted, self.steps[-1], side="right")) if len(self.steps) else 0
-        return k, self.flags[np.searchsorted(self.steps, wanted[:k])]
 
 
 def signals_fmu_for(scenario, cache_dir):
@@ -326,9 +245,9 @@ class _Failed(Exception):
 def _preflight(scenario, plant_fmu, controller_fmu):
     """Instantiate and initialize the plant and the controller once with fmpy, with the scenario's
     parameters, as :func:`orchestration.master.run` does: ``(status, message, unit)`` of the first
-    that fails (the FMU's own words), or None.  Needed because libcosim 0.11 initializes the FMUs
-    in a worker thread that does not catch: an FMU refusing its parameters at initialization ends
-    the whole process (std::terminate) instead of failing the run."""
+    that fails (the FMU's own words), or None.  libcosim's own error names neither the unit nor the
+    FMI status; and with its default worker threads (not the engine's setting) it would end the
+    whole process (std::terminate) instead of failing the run."""
     from fmpy.fmi1 import FMICallException
 
     from .fmu_instance import STATUS, FMUInstance
@@ -354,64 +273,16 @@ def _preflight(scenario, plant_fmu, controller_fmu):
 def _simulate(sc, structure, outputs, rec, stop, chunk_time, work):
     """Step libcosim chunk by chunk, recording every complete row; returns (status, message, t_end,
     failed unit)."""
-    with _CapturedLog(work / "libcosim.log") as log:
+    with CapturedLog(work / "libcosim.log") as log:
         run = _Execution(sc, structure, outputs, work, chunk_time)
         try:
             status, message, t_end, unit = run.simulate(rec, stop)
         finally:
             run.close(rec)
-    if status in _FAILED:
+    if status in FAILED:
         first = log.first_fmu_error()
         message += f" -- {first}" if first else ""
     return status, message, t_end, unit
-
-
-_FAILED = ("discard", "error", "fatal")
-_FMI_LINE = re.compile(r"\[FMI status=(\w+), category=[^\]]*\] (.*)")
-
-
-class _CapturedLog:
-    """libcosim's console log sent to ``path`` while the block runs.  libcosim writes its log to the
-    standard output (file descriptor 1) and has no log callback, and the FMUs' messages reach the
-    host only through it (an FMU's discard message at debug level).  After the block, libcosim's own
-    warnings and errors are written to stderr, and :meth:`first_fmu_error` gives the first message
-    an FMU logged with a discard, error or fatal status (the master's ``-- message``)."""
-
-    def __init__(self, path):
-        self.path, self.lines = Path(path), []
-
-    def __enter__(self):
-        from libcosimpy.CosimLogging import CosimLogLevel, log_output_level
-
-        sys.stdout.flush()
-        self._libc = ctypes.CDLL(None)
-        self._saved = os.dup(1)
-        fd = os.open(self.path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)
-        os.dup2(fd, 1)
-        os.close(fd)
-        log_output_level(CosimLogLevel.DEBUG)
-        return self
-
-    def __exit__(self, *exc):
-        from libcosimpy.CosimLogging import CosimLogLevel, log_output_level
-
-        log_output_level(CosimLogLevel.WARNING)
-        sys.stdout.flush()
-        self._libc.fflush(None)
-        os.dup2(self._saved, 1)
-        os.close(self._saved)
-        self.lines = self.path.read_text(errors="replace").splitlines()
-        for ln in self.lines:
-            if re.search(r"\] \[(warning|error|fatal)\]", ln):
-                print(ln, file=sys.stderr)
-        return False
-
-    def first_fmu_error(self):
-        for ln in self.lines:
-            m = _FMI_LINE.search(ln)
-            if m and m.group(1) in _FAILED:
-                return m.group(2)
-        return ""
 
 
 class _Execution:
@@ -422,7 +293,7 @@ class _Execution:
         from libcosimpy.CosimExecution import CosimExecution
         from libcosimpy.CosimObserver import CosimObserver
 
-        self.sc, self.outputs, self.lib = sc, outputs, _Lib()
+        self.sc, self.outputs, self.lib = sc, outputs, Lib()
         self.h, self.N = sc.step, sc.controller_every
         self.n = round(sc.stop_time / self.h)
         self.every = max(1, round(sc.record.interval / self.h))
@@ -446,17 +317,11 @@ class _Execution:
             for _, ref in o.integer:
                 self.observer.start_time_series(self.index[name], ref, CosimVariableType.INTEGER)
         bools = outputs[CONTROLLER].boolean
-        self.bools = _BoolFile(work / "observer" / f"{CONTROLLER}.csv", len(bools))
+        self.bools = BoolFile(work / "observer" / f"{CONTROLLER}.csv", len(bools))
         if bools:
-            cfg = work / _BOOLS_FILE
-            cfg.write_text("<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n"
-                           "<configuration timestampedFilenames=\"false\"/>\n<simulators>\n"
-                           f"  <simulator name=\"{CONTROLLER}\" decimationFactor=\"1\">\n"
-                           + "".join(f"    <variable name={quoteattr(b)}/>\n" for b, _ in bools)
-                           + "  </simulator>\n</simulators>\n")
-            self.file_obs = _file_observer(cfg, work / "observer")
+            self.file_obs = file_observer([b for b, _ in bools], CONTROLLER, work)
             self.ex.add_observer(self.file_obs)
-        self.series = _Series(self.lib, self.observer.ptr())
+        self.series = Series(self.lib, self.observer.ptr())
         profiles = sorted(sc.profiles)
         self.sig_refs = [dict(outputs[SIGNALS].real)[p] for p in profiles]
         self.p_refs = [r for _, r in outputs[PLANT].real]
@@ -513,11 +378,11 @@ class _Execution:
         parts = [cv]
         if self.c_int:
             parts.append(self.series.read(ix[CONTROLLER], self.c_int, "int", c0, c_count)[1])
-        cols = [ks * self.h, pv[:, _positions(p_steps, ks)], np.vstack(parts)[:, _positions(c_steps, cs)]]
+        cols = [ks * self.h, pv[:, positions(p_steps, ks)], np.vstack(parts)[:, positions(c_steps, cs)]]
         if self.bools.n:
             cols.append(np.full((self.bools.n, len(ks)), np.nan))  # filled by _emit
         s_steps, sv = self.series.read(ix[SIGNALS], self.sig_refs, "real", k0, count)
-        cols.append(sv[:, _positions(s_steps, ks)])
+        cols.append(sv[:, positions(s_steps, ks)])
         return cs, np.vstack(cols).T
 
     def _emit(self, rec):
@@ -538,23 +403,3 @@ class _Execution:
                 self.pending.pop(0)
             else:
                 self.pending[0] = (cs[upto:], table[upto:])
-
-
-def _positions(steps, wanted):
-    """Indices of ``wanted`` step numbers in the observer's ``steps`` (each must be there)."""
-    pos = np.searchsorted(steps, wanted)
-    if len(steps) == 0 or pos.max() >= len(steps) or not np.array_equal(steps[pos], wanted):
-        raise RuntimeError(f"libcosim's observer lacks samples of steps {wanted[0]}..{wanted[-1]}")
-    return pos
-
-
-def _file_observer(cfg, directory):
-    from libcosimpy._internal import libcosimc
-    from libcosimpy.CosimObserver import CosimObserver
-
-    create = libcosimc().cosim_file_observer_create_from_cfg
-    create.restype, create.argtypes = POINTER(CosimObserver), [c_char_p, c_char_p]
-    ptr = create(str(directory).encode(), str(cfg).encode())
-    if not ptr:
-        raise RuntimeError(f"libcosim file observer from {cfg}: {_Lib().error()}")
-    return CosimObserver(CosimObserver._CosimObserver__create_key, ptr)
