@@ -10,6 +10,18 @@ reference (``orchestration.reference.plain_reference``, the same units without F
 best of 5 each; the two results are checked to be identical.  The ratio is the cost of FMI
 (pythonfmu's wrapper, ctypes, the value exchange) on top of the same Python physics.
 
+The floor, in the same rounds: the same master stepping two pythonfmu FMUs with the variables of
+ours (names, value references, causalities, types) whose doStep does nothing and whose get/set
+return zeros or ignore the values (``bench/floor_fmus.py``, built into a temporary directory for
+this run, never shipped).  That is what pythonfmu's C++ wrapper, fmpy's ctypes and the master cost
+per step before any code of ours runs in an FMU, so ``(plain + floor) / plain`` is the best ratio
+any glue and physics could reach with pythonfmu.
+
+``--compare DIR``: another checkout of this project (its own ``.venv`` and FMUs built from its own
+sources in ``DIR/build/fmus``, e.g. the main checkout as "before") is measured in the same rounds,
+alternating child processes (pythonfmu FMUs of two builds cannot share one interpreter), best of
+``--rounds`` x 3 runs each of the co-simulation and the plain loop, with the digests of the results.
+
 (b) ``python -m orchestration run scenarios/ramp_rated_load.yaml --out TMP --fmus DIR --no-build`` in
 a child process, best of 3: its wall time against the master's ``wall_time`` (metrics.json: FMU
 extraction, instantiation, the stepping loop and the streamed CSV/Parquet writes).  Its parts,
@@ -21,10 +33,12 @@ measured apart: the imports of the command (a child process that only imports), 
 
 from __future__ import annotations
 
+import argparse
 import cProfile
 import datetime
 import json
 import math
+import os
 import platform
 import pstats
 import subprocess
@@ -33,6 +47,7 @@ import tempfile
 import time
 from pathlib import Path
 
+import floor_fmus
 import numpy as np
 from bench_plant import cpu_model, write_section
 
@@ -51,15 +66,120 @@ IMPORTS = ("import orchestration.cli, orchestration.master, orchestration.result
            "orchestration.plots, pyarrow.parquet")
 
 
-def alternate(fns, repeats):
-    """Best wall time of each function, called in turn ``repeats`` times; (times, last results)."""
-    best, res = [math.inf] * len(fns), [None] * len(fns)
+def alternate(fns, repeats, cpu=None):
+    """Best wall time of each function, called in turn ``repeats`` times; (times, last results).
+    ``cpu``: a list that receives the best CPU time (``time.process_time``) of each."""
+    best, res, best_cpu = [math.inf] * len(fns), [None] * len(fns), [math.inf] * len(fns)
     for _ in range(repeats):
         for i, fn in enumerate(fns):
-            t0 = time.perf_counter()
+            t0, c0 = time.perf_counter(), time.process_time()
             res[i] = fn()
             best[i] = min(best[i], time.perf_counter() - t0)
+            best_cpu[i] = min(best_cpu[i], time.process_time() - c0)
+    if cpu is not None:
+        cpu[:] = best_cpu
     return best, res
+
+
+# run in the checkout measured (cwd), with that checkout's interpreter: only APIs every checkout has
+CHILD = r"""
+import hashlib, json, sys, time
+from orchestration import fmus
+from orchestration.master import run
+from orchestration.reference import plain_reference
+from orchestration.scenario import load_scenario
+
+repeats = int(sys.argv[1])
+sc = load_scenario("scenarios/ramp_rated_load.yaml")
+plant, ctrl = (str(p) for p in fmus.paths("build/fmus"))
+out = {k: float("inf") for k in ("cosim", "plain", "cosim_cpu", "plain_cpu")}
+for _ in range(repeats):
+    for k, fn in (("cosim", lambda: run(sc, plant, ctrl)), ("plain", lambda: plain_reference(sc))):
+        t0, c0 = time.perf_counter(), time.process_time()
+        r = fn()
+        out[k] = min(out[k], time.perf_counter() - t0)
+        out[k + "_cpu"] = min(out[k + "_cpu"], time.process_time() - c0)
+        if k == "cosim":
+            assert r.ok, r.message
+            res = r.frame
+        else:
+            ref = r
+h = hashlib.sha256()
+for c in ref.columns:
+    h.update(c.encode() + b"\0" + res[c].to_numpy().tobytes())
+out["digest"] = h.hexdigest()
+out["same"] = all((res[c].to_numpy() == ref[c].to_numpy()).all() for c in ref.columns)
+print(json.dumps(out))
+"""
+
+
+def interpreter(root):
+    """The checkout's own ``.venv`` interpreter, else this one."""
+    venv = Path(root) / ".venv" / "bin" / "python"
+    return str(venv) if venv.exists() else sys.executable
+
+
+def measure_checkout(root, repeats):
+    """Best co-simulation and plain-loop times of the checkout ``root`` in a child process (no
+    bytecode written into it)."""
+    r = subprocess.run([interpreter(root), "-c", CHILD, str(repeats)], cwd=root, capture_output=True,
+                       text=True, env={**os.environ, "PYTHONDONTWRITEBYTECODE": "1"})
+    if r.returncode != 0:
+        raise SystemExit(f"{root}: the measuring child failed:\n{r.stderr[-3000:]}")
+    return json.loads(r.stdout.strip().splitlines()[-1])
+
+
+def git_head(root):
+    r = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=root, capture_output=True, text=True)
+    return r.stdout.strip() or "?"
+
+
+def compare(other, rounds, repeats=3):
+    """``{name: best times}`` of the checkout ``other`` ("before") and this one ("after"), measured
+    alternately in child processes; the digests of their results."""
+    checkouts = {"before": Path(other).resolve(), "after": ROOT}
+    missing = [p for p in fmus.paths(checkouts["before"] / "build" / "fmus") if not p.exists()]
+    if missing:
+        raise SystemExit(f"--compare {other}: no {missing[0].name} in its build/fmus (build it there with "
+                         "its own interpreter: python -m orchestration build)")
+    best = {}
+    for _ in range(rounds):
+        for name, root in checkouts.items():
+            out = measure_checkout(root, repeats)
+            old = best.setdefault(name, out)
+            for k in ("cosim", "plain", "cosim_cpu", "plain_cpu"):
+                old[k] = min(old[k], out[k])
+            old["same"] = old["same"] and out["same"]
+            old.setdefault("digests", set()).add(out["digest"])
+    for name, root in checkouts.items():
+        best[name]["head"] = git_head(root)
+    return best
+
+
+def compare_lines(best, steps, other):
+    b, a = best["before"], best["after"]
+    same = len(b["digests"] | a["digests"]) == 1
+
+    def us(x):
+        return f"{1e6 * x / steps:.1f} us/step"
+
+    return [
+        f"Before / after, measured in one run (`--compare {other}`): \"before\" is commit "
+        f"`{b['head']}`, \"after\" `{a['head']}` (this checkout), each with FMUs built from its own "
+        "sources; child processes alternating, best of all rounds.",
+        "",
+        "| default scenario | before | after |",
+        "|---|---|---|",
+        f"| co-simulation, `master.run` | {us(b['cosim'])} | {us(a['cosim'])} |",
+        f"| plain Python, `plain_reference` | {us(b['plain'])} | {us(a['plain'])} |",
+        f"| **ratio co-simulation / plain (wall)** | **{b['cosim'] / b['plain']:.2f}** | "
+        f"**{a['cosim'] / a['plain']:.2f}** |",
+        f"| ratio co-simulation / plain (CPU time) | {b['cosim_cpu'] / b['plain_cpu']:.2f} | "
+        f"{a['cosim_cpu'] / a['plain_cpu']:.2f} |",
+        f"| co-simulation = plain, every column | {b['same']} | {a['same']} |",
+        f"| before and after results identical (SHA-256 of every column) | {same} | |",
+        "",
+    ]
 
 
 def best_of(fn, repeats=3):
@@ -95,14 +215,29 @@ def profile_top(sc, plant, ctrl, n=10):
     return lines, total
 
 
-def main():
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--compare", metavar="DIR", help="another checkout to measure in the same rounds")
+    ap.add_argument("--rounds", type=int, default=5, help="rounds of --compare (default 5)")
+    ap.add_argument("--no-write", action="store_true", help="do not rewrite bench/RESULTS.md")
+    args = ap.parse_args(argv)
     sc = load_scenario(SCENARIO)
     fmu_dir = fmus.DEFAULT_DIR if Path(fmus.DEFAULT_DIR).is_absolute() else ROOT / fmus.DEFAULT_DIR
     plant, ctrl = (str(p) for p in fmus.ensure(fmu_dir, quiet=True))
-    (t_co, t_py), (res, ref) = alternate([lambda: run(sc, plant, ctrl), lambda: plain_reference(sc)], 5)
-    assert res.ok
+    cpu = []
+    with tempfile.TemporaryDirectory(prefix="satmotor-floor-") as floor_dir:
+        floor_p, floor_c = (str(p) for p in floor_fmus.build(floor_dir, Path(plant).parent))
+        fns = [lambda: run(sc, plant, ctrl), lambda: run(sc, floor_p, floor_c), lambda: plain_reference(sc)]
+        (t_co, t_floor, t_py), (res, res_floor, ref) = alternate(fns, 5, cpu)
+    assert res.ok and res_floor.ok, (res.message, res_floor.message)
     same = all(np.array_equal(res.frame[c].to_numpy(), ref[c].to_numpy()) for c in ref.columns)
     steps = round(sc.stop_time / sc.step)
+    attainable = (t_py + t_floor) / t_py
+    c_co, c_floor, c_py = cpu
+    verdict = ("reachable" if attainable <= 1.3 else
+               f"**not reachable with pythonfmu**: the floor alone is {1e6 * t_floor / steps:.1f} us per "
+               f"step, more than 0.3 x plain = {0.3e6 * t_py / steps:.1f} us")
+    before_after = compare(args.compare, args.rounds) if args.compare else None
 
     total, loop = run_command(fmu_dir)
     t_imp = best_of(lambda: subprocess.run([sys.executable, "-c", IMPORTS], cwd=ROOT, check=True))
@@ -140,6 +275,14 @@ def main():
         f"simulated second, {1e6 * t_py / steps:.1f} us per step) |",
         f"| **(a) ratio co-simulation / plain Python** | **{t_co / t_py:.2f}** |",
         f"| (a) results identical (every column) | {same} |",
+        f"| (a) floor: the same master stepping two do-nothing pythonfmu FMUs with our FMUs' variables | "
+        f"{t_floor:.3f} s ({1e6 * t_floor / steps:.1f} us per step) |",
+        f"| (a) co-simulation beyond the floor (our glue and physics inside the FMUs) | "
+        f"{1e6 * (t_co - t_floor) / steps:.1f} us per step (plain Python: {1e6 * t_py / steps:.1f}) |",
+        f"| **(a) best ratio attainable with pythonfmu, (plain + floor) / plain** | **{attainable:.2f}** |",
+        f"| (a) target ratio 1.3 | {verdict} |",
+        f"| (a) the same ratios in CPU time (co-simulation / plain; best attainable) | {c_co / c_py:.2f}; "
+        f"{(c_py + c_floor) / c_py:.2f} |",
         f"| (b) `run` command, whole (child process) | {total:.3f} s |",
         f"| (b) its master `wall_time` (extraction, instantiation, loop, CSV/Parquet) | {loop:.3f} s |",
         f"| **(b) command overhead beyond `wall_time`** | **{total - loop:.3f} s** |",
@@ -154,11 +297,14 @@ def main():
         "",
         *prof,
         "",
-        "Rerun with `python bench/bench_cosim.py` (or `make bench`); it rewrites this section.",
+        *(compare_lines(before_after, steps, args.compare) if before_after else []),
+        "Rerun with `python bench/bench_cosim.py` (or `make bench`; `--compare DIR` adds another "
+        "checkout); it rewrites this section.",
     ]
     text = "\n".join(lines)
     print(text)
-    write_section("cosim", text)
+    if not args.no_write:
+        write_section("cosim", text)
 
 
 if __name__ == "__main__":

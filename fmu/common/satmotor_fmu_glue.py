@@ -124,14 +124,29 @@ def guid_problem(name, resources):
     return None
 
 
-def _picker(names):
-    """A function ``mapping -> tuple of mapping[name] for names`` (one C-level call)."""
-    if len(names) >= 2:
-        return itemgetter(*names)
-    if len(names) == 1:
-        name = names[0]
-        return lambda d: (d[name],)
-    return lambda d: ()
+def _picker(indices):
+    """A function ``tuple -> tuple of its items at indices``, one C-level call: a slice when the
+    indices are consecutive (one index or none included), else an itemgetter."""
+    indices = list(indices)
+    start = indices[0] if indices else 0
+    if indices == list(range(start, start + len(indices))):
+        return itemgetter(slice(start, start + len(indices)))
+    return itemgetter(*indices)
+
+
+def _slot(sequence, i, name):
+    """The attribute ``name`` of a slave as item ``i`` of its tuple ``sequence`` (``_in``: the inputs,
+    ``_out``: the outputs); setting it makes a new tuple (initialization, fmi2Set of one input,
+    restoring a state: never per step)."""
+
+    def fget(self):
+        return getattr(self, sequence)[i]
+
+    def fset(self, value):
+        old = tuple(getattr(self, sequence))
+        setattr(self, sequence, old[:i] + (value,) + old[i + 1:])
+
+    return property(fget, fset, doc=f"{name}: item {i} of {sequence}")
 
 
 def _tag_text(tag):
@@ -146,11 +161,23 @@ def _describe(var):
 
 class UnitSlave(Fmi2Slave):
     """Base of the two slaves.  Subclasses set VARIABLES (interface tables), UNIT (a satmotor
-    interface unit class taking ``{parameter: value}``) and FINGERPRINT (filled in by the build)."""
+    interface unit class taking ``{parameter: value}``) and FINGERPRINT (filled in by the build).
+
+    The inputs live in one tuple, ``_in`` (the order of the unit's INPUTS, as ``UNIT.step`` takes
+    them), the outputs in another, ``_out`` (as ``UNIT.outputs()`` returns them); the attribute of
+    each input or output is a view on its item (:func:`_slot`), so every path that reads or writes
+    variables by name (pythonfmu's per-variable getters and setters, the FMU state) sees them, and a
+    step moves no value into or out of attributes one by one.  Parameters are plain attributes."""
 
     VARIABLES = ()
     UNIT = None
     FINGERPRINT = ""
+
+    def __init_subclass__(cls, **kwargs):
+        super().__init_subclass__(**kwargs)
+        for sequence, causality in (("_in", "input"), ("_out", "output")):
+            for i, var in enumerate(v for v in cls.VARIABLES if v.causality == causality):
+                setattr(cls, var.name, _slot(sequence, i, var.name))
 
     def __init__(self, **kwargs):
         super().__init__(**kwargs)
@@ -165,15 +192,16 @@ class UnitSlave(Fmi2Slave):
         if problem:  # pythonfmu reports it as fmi2Fatal with this text; fmi2Instantiate returns NULL
             raise ValueError(problem)
         self._params = tuple(v.name for v in self.VARIABLES if v.causality == "parameter")
-        self._inputs = tuple(v.name for v in self.VARIABLES if v.causality == "input")
-        self._outputs = tuple(v.name for v in self.VARIABLES if v.causality == "output")
+        self._in = tuple(v.start for v in self.VARIABLES if v.causality == "input")
+        self._out = tuple(v.start for v in self.VARIABLES if v.causality == "output")
         self._unit = None
         self._phase = INSTANTIATED
         self._pending = []  # refusals not yet reported by a doStep
         self._go = False  # doStep may run: initialized, not terminated, no refusal pending
         self._kinds = {v.name: v.type for v in self.VARIABLES}
-        self._take_inputs = _picker(self._inputs)
-        self._plans = {}  # fmi2Get/SetReal fast path: (tuple(vrs), is a set) -> plan (see get_real)
+        # fmi2Get*/fmi2SetReal fast paths: tuple(vrs) -> plan (see get_real)
+        self._gets = {Real: {}, Integer: {}, Boolean: {}}
+        self._sets = {}
         self._identity = {"model": type(self).__name__, "fingerprint": self.FINGERPRINT or _FINGERPRINT,
                           "guid": _guid(self.resources)}
         type(self)._current = weakref.ref(self)  # for _fmu_state_from_bytes, called on the class
@@ -232,12 +260,13 @@ class UnitSlave(Fmi2Slave):
         """Advance the unit; a bad input or a failed step is logged and discarded, never raised."""
         if not (self._go and 0.0 < step_size < _INF and -_INF < current_time < _INF):
             return self._refuse_step(current_time, step_size)
+        unit = self._unit
         try:
-            self._unit.step(current_time, step_size, self._take_inputs(self.__dict__))
+            unit.step(current_time, step_size, self._in)
+            self._out = unit.outputs()
         except Exception as exc:
             self.log(f"{type(self).__name__} at t = {current_time!r} s: {exc}", Fmi2Status.discard)
             return False
-        self._publish()
         return True
 
     def _refuse_step(self, t, dt):
@@ -260,59 +289,87 @@ class UnitSlave(Fmi2Slave):
         return False
 
     def _publish(self):
-        self.__dict__.update(zip(self._outputs, self._unit.outputs()))
+        self._out = self._unit.outputs()
 
     # --- fmi2GetReal / fmi2SetReal (and fmi2GetInteger / fmi2GetBoolean) ------------------------------
     # pythonfmu's get_real/set_real call a Python getter or setter per variable.  Here a list of value
-    # references seen before is served by a plan made once for it: the names of the variables, read from
-    # or written to the instance's attributes in one C-level call.  A set_real plan exists only for a
-    # list of Real inputs (settable in every phase); any other list (parameters, outputs, refusals after
-    # initialization, a value reference of another type or unknown) takes pythonfmu's per-variable path,
-    # with its setters (swapped by exit_initialization_mode), its errors and its order of effects.
+    # references seen before is served by a plan made once for it: a list of outputs of one type is
+    # picked from ``_out`` in one C-level call (a slice or an itemgetter) and returned as they are (the
+    # unit's outputs are float, int and bool as declared; pythonfmu converts them in C); a list of Real
+    # inputs replaces ``_in`` (all of them in the unit's order: the values, as a tuple; else one pick
+    # from the old inputs followed by the new values).  Any other list (parameters, inputs read back,
+    # outputs set, a value reference of another type or unknown, a length mismatch) takes pythonfmu's
+    # per-variable path, with its setters (swapped by exit_initialization_mode), its errors and its
+    # order of effects.
 
     _MAX_PLANS = 64
 
-    def _plan(self, key, settable, kind=Real):
-        if len(self._plans) >= self._MAX_PLANS:
-            self._plans.clear()
-        names = []
+    def _vars_of(self, key, kind, causality):
+        """The variables of ``key`` when all are of ``kind`` and ``causality``, else None."""
+        found = []
         for vr in key:
             var = self.vars.get(vr)
-            if (not isinstance(var, kind) or "." in var.name
-                    or (settable and var.causality != Fmi2Causality.input)):
-                names = None
-                break
-            names.append(var.local_name)
-        plan = False if names is None else (tuple(names) if settable else _picker(names))
-        self._plans[key, settable, kind] = plan
-        return plan
+            if not isinstance(var, kind) or var.causality != causality:
+                return None
+            found.append(var)
+        return found
 
-    def _get(self, vrs, kind, cast, fallback):
-        key = tuple(vrs)
-        plan = self._plans.get((key, False, kind))
-        if plan is None:
-            plan = self._plan(key, False, kind)
-        if plan is False:
-            return fallback(vrs)
-        return list(map(cast, plan(self.__dict__)))
+    def _slots(self, causality):
+        """``{name: index in _in or _out}`` of the variables of ``causality``."""
+        return {v.name: i for i, v in enumerate(v for v in self.VARIABLES if v.causality == causality)}
 
-    def get_real(self, vrs):
-        return self._get(vrs, Real, float, super().get_real)
+    def _get_plan(self, key, kind):
+        found = self._vars_of(key, kind, Fmi2Causality.output)
+        if found is None:
+            return False
+        slots = self._slots("output")
+        return _picker(slots[v.name] for v in found)
 
-    def get_integer(self, vrs):  # the controller's phase: read once per sample, as the Reals
-        return self._get(vrs, Integer, int, super().get_integer)
+    def _set_plan(self, key):
+        found = self._vars_of(key, Real, Fmi2Causality.input)
+        if found is None:
+            return False
+        slots = self._slots("input")
+        n = len(slots)
+        if [slots[v.name] for v in found] == list(range(n)):
+            return True  # every input, in the unit's order
+        source = list(range(n))  # item i of the new _in: in old _in + values (the last one set wins)
+        for j, var in enumerate(found):
+            source[slots[var.name]] = n + j
+        return _picker(source)
 
-    def get_boolean(self, vrs):  # the controller's limiter flags
-        return self._get(vrs, Boolean, bool, super().get_boolean)
+    def _fast_get(kind, fallback):  # noqa: N805 - builds the methods below, at class creation
+        def get(self, vrs):
+            key = tuple(vrs)
+            plans = self._gets[kind]
+            pick = plans.get(key)
+            if pick is None:
+                if len(plans) >= self._MAX_PLANS:
+                    plans.clear()
+                pick = plans[key] = self._get_plan(key, kind)
+            if pick is False:
+                return fallback(self, vrs)
+            return list(pick(self._out))
+
+        get.__name__ = fallback.__name__
+        get.__doc__ = f"{fallback.__name__}: outputs picked from _out by a plan, else pythonfmu's path."
+        return get
+
+    get_real = _fast_get(Real, Fmi2Slave.get_real)
+    get_integer = _fast_get(Integer, Fmi2Slave.get_integer)  # the controller's phase
+    get_boolean = _fast_get(Boolean, Fmi2Slave.get_boolean)  # the controller's limiter flags
+    del _fast_get
 
     def set_real(self, vrs, values):
         key = tuple(vrs)
-        plan = self._plans.get((key, True, Real))
+        plan = self._sets.get(key)
         if plan is None:
-            plan = self._plan(key, True)
-        if plan is False or len(values) != len(plan):
+            if len(self._sets) >= self._MAX_PLANS:
+                self._sets.clear()
+            plan = self._sets[key] = self._set_plan(key)
+        if plan is False or len(values) != len(key):
             return super().set_real(vrs, values)
-        self.__dict__.update(zip(plan, values))
+        self._in = tuple(values) if plan is True else plan(self._in + tuple(values))
         return None
 
     # --- FMU state -----------------------------------------------------------------------------------
