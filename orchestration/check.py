@@ -35,7 +35,21 @@ CHECKS = ("validate", "fmutool", "instantiate", "wrong-guid", "cycles", "state",
           "bad-parameter", "non-finite-input", "reference")
 PROBED = CHECKS[2:]
 ITEMIZED = ("non-finite-input", "foreign-state")  # probes that try one item at a time
-REFERENCE_DIR = Path(__file__).resolve().parents[1] / "reference"
+
+
+def _reference_dir():
+    """The reference results: the installed ``satmotor_reference`` package (``reference/`` of the
+    checkout, packed by pyproject.toml), else the checkout's ``reference/``."""
+    import importlib.util
+
+    spec = importlib.util.find_spec("satmotor_reference")
+    for location in (spec.submodule_search_locations or []) if spec else []:
+        if Path(location).is_dir():
+            return Path(location).resolve()
+    return Path(__file__).resolve().parents[1] / "reference"
+
+
+REFERENCE_DIR = _reference_dir()
 REFERENCE_BAND = 1e-9  # of each column's largest |value|
 TIMEOUT = 300.0  # [s] per probe
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import ast
 import os
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -73,6 +74,9 @@ def test_installed_package_runs_build_validate_run_and_batch_outside_a_checkout(
     r = cli("batch", ".", "--out", "res_batch", "--jobs", "1")
     assert r.returncode == 0, r.stdout + r.stderr
     assert (work / "res_batch" / "summary.csv").exists()
+    # check finds the reference results in the installed package (no --reference, no checkout)
+    r = cli("check", "build/fmus/BacksteppingController.fmu")
+    assert re.search(r"^PASS .* reference: 18 outputs over \d+ rows", r.stdout, re.M), r.stdout + r.stderr
 
 
 def test_a_change_to_any_build_input_makes_the_fmus_stale(fmu_dir, tmp_path, monkeypatch):
