@@ -237,7 +237,7 @@ def parser():
     c.add_argument("fmu", nargs="+", help="FMU file(s)")
     c.add_argument("--junit", metavar="FILE", help="write the results as JUnit XML")
     c.add_argument("--reference", metavar="DIR", help="directory holding <modelName>/ reference results "
-                   "(default: reference/ of this checkout)")
+                   "(default: the reference results installed with the package, reference/ of the checkout)")
     c.set_defaults(func=cmd_check)
     e = sub.add_parser("export-ssp", help="write a scenario as an SSP 1.0 package", description="Write "
                        "SCENARIO as an SSP 1.0 package: SystemStructure.ssd (components plant, controller, "
