@@ -573,6 +573,26 @@ def test_parameters_and_outputs_set_after_initialization_are_refused_and_stay(ne
     _run_checked(name, s, 2, 6)
 
 
+def test_a_valid_state_set_after_a_refusal_clears_it_and_the_run_goes_on_from_that_state(new):
+    """A refused call makes the next doStep discard, unless the host then sets a valid state: the
+    instance is then exactly that state, and it steps as the plain PlantUnit from there."""
+    s = new("SaturatedInductionMotor")
+    run_plant(s, 0, 20)
+    state = s.fmu.getFMUState()
+    run_plant(s, 20, 25)
+    s.set({"J": 0.5})  # a fixed parameter after initialization: refused, pending
+    assert "J: a fixed parameter cannot be set after initialization" in s.messages(min_status=3)
+    s.fmu.setFMUState(state)
+    s.fmu.freeFMUState(state)
+    n = len(s.log)
+    got = run_plant(s, 20, 40)  # raises FMICallException on a discard
+    assert all(st < 2 for st, _ in s.log[n:]), s.log[n:]
+    unit = PlantUnit({})
+    for k in range(40):
+        unit.step(k * H, H, tuple(dol_inputs(k)[v] for v in PLANT_IN))
+    assert got[-1] == list(unit.outputs())
+
+
 FOREIGN_STATES = {  # attempt (tests/fmu_helpers.py _child_state): what its refusal must name
     "controller state": "BacksteppingController", "controller blob": "BacksteppingController",
     "truncated": "not valid", "garbled": "not valid", "empty": "not valid", "not an object": "list",

@@ -17,7 +17,8 @@ exit_initialization_mode, terminate and _set_fmu_state return (the host gets fmi
 can report anything else: returning False gives fmi2Discard.  fmi2Error cannot be reached from
 Python.  So any later refusal never raises: it logs a message naming the variable and the value
 (status error), leaves the instance unchanged, and is reported again by the next doStep, which
-returns fmi2Discard (the host may redo that step).
+returns fmi2Discard (the host may redo that step) -- unless a valid FMU state is set in between:
+the instance is then exactly that state.
 """
 
 from __future__ import annotations
@@ -392,6 +393,9 @@ class UnitSlave(Fmi2Slave):
             problem = f"{type(exc).__name__}: {exc}"  # its last, infallible lines
         if problem:
             self._refuse(f"setFMUState refused, the instance is unchanged: {problem}")
+        else:  # the instance is now exactly the state the host set: earlier refusals no longer matter
+            self._pending.clear()
+            self._go = self._phase == STEPPING
 
     def _state_problem(self, state):
         """Why ``state`` is not a state of this FMU, or None."""
