@@ -99,6 +99,11 @@ class StreamingRecorder(Recorder):
     is found before the run starts.
     """
 
+    #: None, or an object told of each chunk before its files are written (``chunk(array)``) and of
+    #: the end of the run, before the last chunk's files are written (``done(columns, n_rows)``):
+    #: the figure helper (:mod:`orchestration.figure_process`) draws while the files are written
+    tee = None
+
     def __init__(self, columns, directory, keep=None, chunk_rows=CHUNK_ROWS):
         super().__init__(columns, keep, chunk_rows)
         import pyarrow as pa
@@ -116,6 +121,11 @@ class StreamingRecorder(Recorder):
         self._closed = False
 
     def _write(self, chunk):
+        if self.tee is not None:
+            self.tee.chunk(chunk)
+        self._write_files(chunk)
+
+    def _write_files(self, chunk):
         self._csv.write(csv_text(chunk))
         self._csv.flush()
         pa = self._pa  # columns from their buffers: pa.array would import pandas (~0.3 s) to check types
@@ -127,7 +137,17 @@ class StreamingRecorder(Recorder):
         if self._closed:
             return
         try:
-            self.flush()
+            if self.tee is None:
+                self.flush()
+            else:  # the tee gets everything before the last chunk's files are written
+                chunk = self._chunk_array() if self.rows else None
+                if chunk is not None:
+                    self.tee.chunk(chunk)
+                self.tee.done(self.columns, self.n_rows + len(self.rows))
+                if chunk is not None:
+                    self._write_files(chunk)
+                    self.n_rows += len(self.rows)
+                    self.rows.clear()
         finally:
             self._closed = True
             self._csv.close()
