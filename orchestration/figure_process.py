@@ -81,6 +81,7 @@ class FigureProcess:
         child_end.close()
         self._chunks = []
         self._sent = False
+        self.drawn_by_helper = False  #: after draw(): whether the helper drew the figure
 
     def chunk(self, a):
         """A recorded chunk (rows x recorded columns), kept for the figure."""
@@ -107,6 +108,7 @@ class FigureProcess:
                 ok = self._conn.recv() == "ok"
             except (OSError, EOFError):  # the helper died
                 ok = False
+        self.drawn_by_helper = ok
         self.close()
         if not ok:
             from .plots import figure
