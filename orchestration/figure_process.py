@@ -25,17 +25,21 @@ from __future__ import annotations
 import multiprocessing
 import os
 import signal
-import sys
 import threading
 
 import numpy as np
 
+from .interrupts import WATCHER
+
 
 def wanted():
-    """Whether a helper gains anything here: matplotlib not imported yet (a warm batch child has it),
-    ``fork`` available, and no other Python thread (forking a threaded process is unsafe)."""
-    return ("matplotlib.figure" not in sys.modules and "fork" in multiprocessing.get_all_start_methods()
-            and threading.active_count() == 1)
+    """Whether a helper can be forked here: ``fork`` available, and no other Python thread than the
+    watchers of :func:`orchestration.interrupts.die_with` (blocked in ``select``, holding no lock;
+    forking a process whose other threads may hold locks is unsafe).  In a warm batch child,
+    matplotlib is imported already: the helper then only draws while the files are written."""
+    others = [t for t in threading.enumerate() if t is not threading.current_thread()]
+    return ("fork" in multiprocessing.get_all_start_methods()
+            and all(t.name.startswith(WATCHER) for t in others))
 
 
 def _helper(conn, parent, path, title):
@@ -49,6 +53,9 @@ def _helper(conn, parent, path, title):
         pass
     if os.getppid() != parent:  # the parent died before prctl took effect
         return
+    from setproctitle import setproctitle
+
+    setproctitle(f"satmotor figure helper of process {parent}: {path}")  # not its parent's command line
     from .plots import canvas, figure
 
     blank = canvas()

@@ -18,6 +18,7 @@ from contextlib import contextmanager
 
 SIGNALS = (signal.SIGINT, signal.SIGTERM)
 PARENT_ENV = "SATMOTOR_PARENT_PID"  # set by batch for its children: see die_with_parent
+WATCHER = "satmotor-die-with-"  # the name of die_with's threads (they start with it)
 
 
 def signal_name(signum):
@@ -108,7 +109,7 @@ def die_with(pid):
                 time.sleep(1.0)
         terminate()
 
-    threading.Thread(target=watch, name=f"die-with-{pid}", daemon=True).start()
+    threading.Thread(target=watch, name=f"{WATCHER}{pid}", daemon=True).start()
 
 
 def _exists(pid):

@@ -18,12 +18,12 @@ pytestmark = pytest.mark.slow
 ROOT = Path(__file__).resolve().parents[1]
 PNG = b"\x89PNG\r\n\x1a\n"
 
-# the run command in a child process, saying whether the helper drew the figure; "plain" imports
-# matplotlib first, so that no helper is started (a warm batch child's situation)
+# the run command in a child process, saying whether the helper drew the figure; "plain" starts a
+# thread first, so that no helper is forked (figure_process.wanted)
 RUN = r"""
-import sys
+import sys, threading, time
 if sys.argv[1] == "plain":
-    import matplotlib.figure
+    threading.Thread(target=time.sleep, args=(600,), daemon=True).start()
 from orchestration import figure_process as fp
 used = []
 draw = fp.FigureProcess.draw
