@@ -69,6 +69,7 @@ def run_file(path, out, fmu_dir, algorithm=None, build=True, plot=True, stop=Non
     ``figure_process``: draw the figure with a helper process that imports matplotlib while the
     run steps (:mod:`orchestration.figure_process`; used where it gains something)."""
     from .master import run
+    from .recorder import FILES
     from .results import figure_target, prepare_dir, streaming_recorder, write_results
     from .scenario import ScenarioError, load_scenario
 
@@ -104,10 +105,13 @@ def run_file(path, out, fmu_dir, algorithm=None, build=True, plot=True, stop=Non
     if plot and figure_process:
         from . import figure_process as fp
 
-        helper = fp.FigureProcess(*figure_target(sc, out)) if fp.wanted() else None
+        try:
+            helper = fp.FigureProcess(directory / FILES[1], *figure_target(sc, out)) if fp.wanted() else None
+        except OSError:  # no fork today: the figure is drawn here
+            helper = None
     try:
-        result = run(sc, str(plant), str(ctrl), algorithm=algorithm,
-                     recorder=streaming_recorder(sc, directory, tee=helper), stop=stop)
+        result = run(sc, str(plant), str(ctrl), algorithm=algorithm, stop=stop,
+                     recorder=streaming_recorder(sc, directory, on_parquet=helper and helper.parquet_done))
         summary = write_results(result, out, plot=plot, draw=helper and helper.draw)
     finally:
         if helper is not None:

@@ -1,23 +1,23 @@
-"""The ``run`` command's figure, drawn by a forked helper while the run steps and its files are written.
+"""The ``run`` command's figure, drawn by a forked helper while the run steps and its CSV is written.
 
-Importing matplotlib costs about 0.3 s and drawing the figure about 0.2 s; writing the last chunk
-of the time series (CSV and Parquet) about 0.25 s for 15 001 rows.  :class:`FigureProcess` forks a
-helper (multiprocessing's ``fork`` context) before the run starts; the helper imports
+Importing matplotlib costs about 0.3 s and drawing the figure about 0.25 s; writing the last chunk
+of the time series to CSV about 0.2 s for 15 001 rows.  :class:`FigureProcess` forks a helper
+(multiprocessing's ``fork`` context) before the run starts; the helper imports
 :mod:`orchestration.plots` and makes the empty canvas while the parent loads the FMUs and steps, on
-another core.  As the recorder's tee (:attr:`orchestration.recorder.StreamingRecorder.tee`) it
-keeps each recorded chunk; when the run ends it sends them (float64 arrays, pickled through a
-pipe) *before* the last chunk's files are written, so the helper draws while the parent writes.
-The helper draws exactly what :func:`orchestration.plots.figure` draws in the parent, the same code
-on the same values (the Parquet file holds the same float64 values): the PNG is byte for byte the
-same.  If anything about the helper fails (it was killed, the pipe broke, the figure raised), the
-parent draws the figure itself, so the result and any error are those of the plain path.
+another core (a warm batch child has matplotlib imported already: its helper only draws).  When
+the run ends, the recorder completes the Parquet file first and tells the helper
+(:attr:`orchestration.recorder.StreamingRecorder.on_parquet`); the helper reads it and draws while
+the parent writes the last CSV lines.  It draws exactly what :func:`orchestration.plots.figure`
+draws in the parent from the same file (the same code on the same float64 values): the PNG is byte
+for byte the same.  If anything about the helper fails (it was killed, the pipe broke, the figure
+raised), the parent draws the figure itself, so the result and any error are those of the plain
+path.
 
-The recorded chunks are kept until the end (the parent reads the whole record back for the
-metrics then anyway).  Nothing is left behind: the helper ignores SIGINT (a Ctrl-C reaches the
-whole process group; the parent decides, and it still wants the figure of a partial run), gets
-SIGKILL from Linux when the parent dies (``PR_SET_PDEATHSIG``), and :meth:`FigureProcess.close`,
-called in a ``finally`` by the parent, waits for a figure being drawn and kills the helper in every
-other case (before it has been sent data, it holds nothing but its imports).
+Nothing is left behind: the helper ignores SIGINT (a Ctrl-C reaches the whole process group; the
+parent decides, and it still wants the figure of a partial run), gets SIGKILL from Linux when the
+parent dies (``PR_SET_PDEATHSIG``), and :meth:`FigureProcess.close`, called in a ``finally`` by the
+parent, waits for a figure being drawn (a whole PNG, never a cut one) and kills the helper in every
+other case (before it has been told to draw, it holds nothing but its imports).
 """
 
 from __future__ import annotations
@@ -27,9 +27,9 @@ import os
 import signal
 import threading
 
-import numpy as np
-
 from .interrupts import WATCHER
+from .recorder import read_arrays
+from .warm_children import set_title
 
 
 def wanted():
@@ -42,7 +42,7 @@ def wanted():
             and all(t.name.startswith(WATCHER) for t in others))
 
 
-def _helper(conn, parent, path, title):
+def _helper(conn, parent, parquet, path, title):
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_DFL)  # not the parent's stop request
     try:
@@ -53,18 +53,16 @@ def _helper(conn, parent, path, title):
         pass
     if os.getppid() != parent:  # the parent died before prctl took effect
         return
-    from setproctitle import setproctitle
-
-    setproctitle(f"satmotor figure helper of process {parent}: {path}")  # not its parent's command line
+    set_title(f"satmotor figure helper of process {parent}: {path}")  # not its parent's command line
     from .plots import canvas, figure
 
     blank = canvas()
     try:
-        data = conn.recv()
+        conn.recv()
     except EOFError:  # the parent needs no figure
         return
     try:
-        figure(data, path, title, blank)
+        figure(read_arrays(parquet), path, title, blank)
         answer = "ok"
     except Exception as exc:  # noqa: BLE001 - the parent draws it again and gets the error itself
         answer = repr(exc)
@@ -75,40 +73,36 @@ def _helper(conn, parent, path, title):
 
 
 class FigureProcess:
-    """A helper process that draws one figure, to ``path`` with ``title``: the tee of the run's
-    recorder, then :meth:`draw` (``write_results``' ``draw``), then :meth:`close`."""
+    """A helper process that draws one figure, of the record in the Parquet file ``parquet``, to
+    ``path`` with ``title``: :meth:`parquet_done` (the recorder's ``on_parquet``), then :meth:`draw`
+    (``write_results``' ``draw``), then :meth:`close`.  Raises OSError if it cannot fork."""
 
-    def __init__(self, path, title):
+    def __init__(self, parquet, path, title):
+        import pyarrow.parquet  # noqa: F401 - imported once, before the fork: the helper reads the file
+
         self.path, self.title = str(path), title
         ctx = multiprocessing.get_context("fork")
         self._conn, child_end = ctx.Pipe()
-        self._proc = ctx.Process(target=_helper, args=(child_end, os.getpid(), self.path, title), daemon=True,
-                                 name="satmotor-figure")
+        args = (child_end, os.getpid(), str(parquet), self.path, title)
+        self._proc = ctx.Process(target=_helper, args=args, daemon=True, name="satmotor-figure")
         self._proc.start()
         child_end.close()
-        self._chunks = []
         self._sent = False
         self.drawn_by_helper = False  #: after draw(): whether the helper drew the figure
 
-    def chunk(self, a):
-        """A recorded chunk (rows x recorded columns), kept for the figure."""
-        self._chunks.append(a)
-
-    def done(self, columns, rows):
-        """The run has ended with ``rows`` rows: send them, unless there is no figure to draw."""
-        chunks, self._chunks = self._chunks, []
+    def parquet_done(self, rows):
+        """The Parquet file is complete with ``rows`` rows: the helper draws, if there is a figure."""
         if rows < 2 or self._proc is None:  # write_results draws no figure of fewer than 2 rows
             return
-        a = np.concatenate(chunks) if len(chunks) > 1 else chunks[0]
         try:
-            self._conn.send({c: a[:, i] for i, c in enumerate(columns)})
+            self._conn.send("draw")
             self._sent = True
         except OSError:  # the helper is gone: draw() draws here
             pass
 
     def draw(self, data, path, title):
-        """Write the figure: the helper's, if it was sent this run's record for ``path`` and
-        ``title``, else drawn here from ``data`` (:func:`orchestration.plots.figure`)."""
+        """Write the figure: the helper's, if it was told to draw it for ``path`` and ``title``,
+        else drawn here from ``data`` (:func:`orchestration.plots.figure`)."""
         ok = False
         if self._sent and (str(path), title) == (self.path, self.title):
             try:
@@ -123,8 +117,7 @@ class FigureProcess:
             figure(data, path, title)
 
     def close(self):
-        """End the helper: it finishes a figure it was sent (a whole PNG, never a cut one), it is
-        killed otherwise."""
+        """End the helper: it finishes a figure it was told to draw, it is killed otherwise."""
         if self._proc is None:
             return
         self._conn.close()

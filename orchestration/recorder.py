@@ -92,6 +92,15 @@ def _numpy(column):
                            else c.to_numpy(zero_copy_only=False) for c in column.chunks])
 
 
+def read_arrays(path, columns=None):
+    """``{column: float64 array}`` of a Parquet file of float64 columns (``columns``: only those)."""
+    import pyarrow.parquet as pq
+
+    with pq.ParquetFile(path) as f:  # not read_table: pyarrow.dataset imports pandas
+        table = f.read(columns=columns)
+    return {c: _numpy(table.column(c)) for c in table.column_names}
+
+
 class StreamingRecorder(Recorder):
     """A :class:`Recorder` that appends each chunk to ``directory/timeseries.{csv,parquet}``.
 
@@ -99,10 +108,10 @@ class StreamingRecorder(Recorder):
     is found before the run starts.
     """
 
-    #: None, or an object told of each chunk before its files are written (``chunk(array)``) and of
-    #: the end of the run, before the last chunk's files are written (``done(columns, n_rows)``):
-    #: the figure helper (:mod:`orchestration.figure_process`) draws while the files are written
-    tee = None
+    #: None, or a function ``on_parquet(n_rows)`` called by :meth:`close` once the Parquet file is
+    #: complete, before the last chunk's CSV lines are written: the figure helper
+    #: (:mod:`orchestration.figure_process`) reads it and draws while the CSV is written
+    on_parquet = None
 
     def __init__(self, columns, directory, keep=None, chunk_rows=CHUNK_ROWS):
         super().__init__(columns, keep, chunk_rows)
@@ -121,13 +130,14 @@ class StreamingRecorder(Recorder):
         self._closed = False
 
     def _write(self, chunk):
-        if self.tee is not None:
-            self.tee.chunk(chunk)
-        self._write_files(chunk)
+        self._write_csv(chunk)
+        self._write_parquet(chunk)
 
-    def _write_files(self, chunk):
+    def _write_csv(self, chunk):
         self._csv.write(csv_text(chunk))
         self._csv.flush()
+
+    def _write_parquet(self, chunk):
         pa = self._pa  # columns from their buffers: pa.array would import pandas (~0.3 s) to check types
         cols = [pa.Array.from_buffers(pa.float64(), len(chunk), [None, pa.py_buffer(np.ascontiguousarray(c))])
                 for c in chunk.T]
@@ -137,15 +147,16 @@ class StreamingRecorder(Recorder):
         if self._closed:
             return
         try:
-            if self.tee is None:
+            if self.on_parquet is None:
                 self.flush()
-            else:  # the tee gets everything before the last chunk's files are written
+            else:  # the Parquet file first, complete, then the last CSV lines
                 chunk = self._chunk_array() if self.rows else None
                 if chunk is not None:
-                    self.tee.chunk(chunk)
-                self.tee.done(self.columns, self.n_rows + len(self.rows))
+                    self._write_parquet(chunk)
+                self._parquet.close()
+                self.on_parquet(self.n_rows + len(self.rows))
                 if chunk is not None:
-                    self._write_files(chunk)
+                    self._write_csv(chunk)
                     self.n_rows += len(self.rows)
                     self.rows.clear()
         finally:
@@ -155,11 +166,7 @@ class StreamingRecorder(Recorder):
 
     def arrays(self, columns=None):
         """``{column: float64 array}`` read back from the Parquet file (``columns``: only those)."""
-        import pyarrow.parquet as pq
-
-        with pq.ParquetFile(self.parquet_path) as f:  # not read_table: pyarrow.dataset imports pandas
-            table = f.read(columns=columns)
-        return {c: _numpy(table.column(c)) for c in table.column_names}
+        return read_arrays(self.parquet_path, columns)
 
     def frame(self, columns=None):
         """The recorded rows read back from the Parquet file (``columns``: only those)."""

@@ -82,12 +82,12 @@ def recorded_selection(scenario, columns):
             or wanted is None or c in wanted]
 
 
-def streaming_recorder(scenario, directory, tee=None):
-    """A ``columns -> StreamingRecorder`` factory for :func:`orchestration.master.run`; ``tee``: see
-    :attr:`StreamingRecorder.tee`."""
+def streaming_recorder(scenario, directory, on_parquet=None):
+    """A ``columns -> StreamingRecorder`` factory for :func:`orchestration.master.run`;
+    ``on_parquet``: see :attr:`StreamingRecorder.on_parquet`."""
     def make(columns):
         rec = StreamingRecorder(columns, directory, keep=recorded_selection(scenario, columns))
-        rec.tee = tee
+        rec.on_parquet = on_parquet
         return rec
 
     return make

@@ -52,10 +52,17 @@ def _context():
     return ctx
 
 
+def set_title(text):
+    """Show ``text`` as this process's command line in ``ps`` (``setproctitle``; nothing without it)."""
+    try:
+        from setproctitle import setproctitle
+    except ImportError:  # a dependency, but only cosmetic
+        return
+    setproctitle(text)
+
+
 def _child(argv, stdout_path, stderr_path, batch_pid, tmpdir):
     """The body of a forked child: the ``run`` command with ``argv``; never returns."""
-    from setproctitle import setproctitle
-
     from .clean_exit import exit_now
     from .interrupts import die_with
 
@@ -63,7 +70,7 @@ def _child(argv, stdout_path, stderr_path, batch_pid, tmpdir):
         f = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)
         os.dup2(f, fd)
         os.close(f)
-    setproctitle(" ".join([sys.executable, "-m", "orchestration", *argv]))
+    set_title(" ".join([sys.executable, "-m", "orchestration", *argv]))
     if tmpdir:  # where the FMUs are extracted, as TMPDIR does for a fresh process
         os.environ["TMPDIR"] = str(tmpdir)
         tempfile.tempdir = None
