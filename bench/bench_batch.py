@@ -190,6 +190,9 @@ def main(argv=None):
               lambda name, jobs=jobs: f"{wall[name, jobs]:.1f} s, **{60 * n[name] / wall[name, jobs]:.1f} "
               "scenarios per minute**") for jobs in (1, 2)),
         row("scenarios", lambda name: str(n[name])),
+        row("each scenario's process", lambda name: "forked from a warm server (imports once per batch)"
+            if (checkouts[name] / "orchestration" / "warm_children.py").exists()
+            else "a fresh interpreter (imports per scenario)"),
         row("CPU time of the batch's process tree per scenario (`--jobs 1`)",
             lambda name: f"{cpu[name, 1] / n[name]:.2f} s"),
         row("sum of the runs' own `wall_time` (master: extraction, instantiation, loop, files)",

@@ -22,11 +22,15 @@ sources in ``DIR/build/fmus``, e.g. the main checkout as "before") is measured i
 alternating child processes (pythonfmu FMUs of two builds cannot share one interpreter), best of
 ``--rounds`` x 3 runs each of the co-simulation and the plain loop, with the digests of the results.
 
-(b) ``python -m orchestration run scenarios/ramp_rated_load.yaml --out TMP --fmus DIR --no-build`` in
-a child process, best of 3: its wall time against the master's ``wall_time`` (metrics.json: FMU
-extraction, instantiation, the stepping loop and the streamed CSV/Parquet writes).  Its parts,
-measured apart: the imports of the command (a child process that only imports), writing the
-15 001 recorded rows to CSV and Parquet (``StreamingRecorder``), the metrics and the figure.
+(b) ``python -m orchestration run scenarios/ramp_rated_load.yaml --out TMP --fmus build/fmus --no-build``
+in a child process (the checkout's interpreter, in its directory), best of 5, with and without
+``--no-plot``: its wall time against its stepping loop (``master._loop``, timed inside the child by
+a wrapper that calls the command's ``main``) and against the master's ``wall_time`` (metrics.json:
+FMU extraction, instantiation, the loop and the streamed CSV/Parquet writes); the CPU time of the
+command's whole process tree (the figure helper included).  ``--compare DIR`` measures another
+checkout (its ``.venv``, its FMUs in ``DIR/build/fmus``) in the same rounds, alternating.  Parts of
+this checkout, measured apart: the imports of the command, writing the 15 001 recorded rows to CSV
+and Parquet (``StreamingRecorder``), the metrics, importing matplotlib and the figure.
 
 (c) cProfile of one co-simulation run: the top entries by own time.
 """
@@ -41,6 +45,7 @@ import math
 import os
 import platform
 import pstats
+import resource
 import subprocess
 import sys
 import tempfile
@@ -63,7 +68,9 @@ from orchestration.scenario import load_scenario  # noqa: E402
 
 SCENARIO = ROOT / "scenarios" / "ramp_rated_load.yaml"
 IMPORTS = ("import orchestration.cli, orchestration.master, orchestration.results, orchestration.scenario, "
-           "orchestration.plots, pyarrow.parquet")
+           "orchestration.figure_process, pyarrow.parquet")  # what the command imports itself (no matplotlib)
+MPL_IMPORT = ("import time, orchestration.cli, orchestration.master, orchestration.results, pyarrow.parquet\n"
+              "t0 = time.perf_counter()\nimport orchestration.plots\nprint(time.perf_counter() - t0)")
 
 
 def alternate(fns, repeats, cpu=None):
@@ -186,18 +193,54 @@ def best_of(fn, repeats=3):
     return alternate([fn], repeats)[0][0]
 
 
-def run_command(fmu_dir, repeats=3):
-    """Best (command wall time, its master wall_time) of the ``run`` command in a child process."""
-    out = []
+# the run command as ``python -m orchestration`` runs it, with its stepping loop timed
+WRAPPED = r"""
+import json, sys, time
+import orchestration.master as m
+loop = m._loop
+spent = []
+def timed(*a, **k):
+    t0 = time.perf_counter()
+    try:
+        return loop(*a, **k)
+    finally:
+        spent.append(time.perf_counter() - t0)
+m._loop = timed
+from orchestration.cli import main
+code = main(sys.argv[1:])
+print("LOOP", json.dumps(spent[0]))
+sys.exit(code)
+"""
+
+
+def run_command(root, *extra):
+    """(command wall time, its stepping loop, its master wall_time, CPU time of its process tree)."""
+    with tempfile.TemporaryDirectory() as d:
+        c0 = resource.getrusage(resource.RUSAGE_CHILDREN)
+        t0 = time.perf_counter()
+        args = ["run", str(SCENARIO.relative_to(ROOT)), "--out", d, "--fmus", "build/fmus", "--no-build",
+                *extra]
+        r = subprocess.run([interpreter(root), "-c", WRAPPED, *args], cwd=root, check=True,
+                           capture_output=True, text=True)
+        total = time.perf_counter() - t0
+        c1 = resource.getrusage(resource.RUSAGE_CHILDREN)
+        loop = json.loads(r.stdout.split("LOOP", 1)[1])
+        wall = json.loads((Path(d) / "ramp_rated_load" / "metrics.json").read_text())["wall_time"]
+    return total, loop, wall, (c1.ru_utime + c1.ru_stime) - (c0.ru_utime + c0.ru_stime)
+
+
+def command_rounds(checkouts, repeats=5):
+    """{(checkout, plot): best (total, loop, wall, cpu)}, the checkouts and modes alternating;
+    "best" is the run with the least time beyond its loop."""
+    best = {}
     for _ in range(repeats):
-        with tempfile.TemporaryDirectory() as d:
-            t0 = time.perf_counter()
-            subprocess.run([sys.executable, "-m", "orchestration", "run", str(SCENARIO), "--out", d, "--fmus",
-                            str(fmu_dir), "--no-build"], cwd=ROOT, check=True, stdout=subprocess.DEVNULL)
-            total = time.perf_counter() - t0
-            loop = json.loads((Path(d) / "ramp_rated_load" / "metrics.json").read_text())["wall_time"]
-        out.append((total, loop))
-    return min(out, key=lambda x: x[0] - x[1])
+        for plot in (True, False):
+            for name, root in checkouts.items():
+                m = run_command(root, *([] if plot else ["--no-plot"]))
+                key = (name, plot)
+                if key not in best or m[0] - m[1] < best[key][0] - best[key][1]:
+                    best[key] = m
+    return best
 
 
 def profile_top(sc, plant, ctrl, n=10):
@@ -217,8 +260,9 @@ def profile_top(sc, plant, ctrl, n=10):
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--compare", metavar="DIR", help="another checkout to measure in the same rounds")
-    ap.add_argument("--rounds", type=int, default=5, help="rounds of --compare (default 5)")
+    ap.add_argument("--compare", metavar="DIR", help="another checkout, measured in (a) and (b)")
+    ap.add_argument("--rounds", type=int, default=5, help="rounds of (a) with --compare (default 5)")
+    ap.add_argument("--repeats", type=int, default=5, help="rounds of (b) (default 5)")
     ap.add_argument("--no-write", action="store_true", help="do not rewrite bench/RESULTS.md")
     args = ap.parse_args(argv)
     sc = load_scenario(SCENARIO)
@@ -239,9 +283,18 @@ def main(argv=None):
                f"step, more than 0.3 x plain = {0.3e6 * t_py / steps:.1f} us")
     before_after = compare(args.compare, args.rounds) if args.compare else None
 
-    total, loop = run_command(fmu_dir)
+    checkouts = {"this": ROOT}
+    if args.compare:
+        checkouts = {"before": Path(args.compare).resolve(), "this": ROOT}
+    heads = {n: subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=r, capture_output=True,
+                               text=True).stdout.strip() for n, r in checkouts.items()}
+    load0 = os.getloadavg()[0]
+    cmd = command_rounds(checkouts, args.repeats)
+    load1 = os.getloadavg()[0]
     t_imp = best_of(lambda: subprocess.run([sys.executable, "-c", IMPORTS], cwd=ROOT, check=True))
     t_py0 = best_of(lambda: subprocess.run([sys.executable, "-c", "pass"], check=True))
+    t_mpl = min(float(subprocess.run([sys.executable, "-c", MPL_IMPORT], cwd=ROOT, check=True,
+                                     capture_output=True, text=True).stdout) for _ in range(3))
     df = res.frame
     keep = recorded_selection(sc, list(df.columns))
     arr = df.to_numpy()
@@ -260,11 +313,17 @@ def main(argv=None):
     with tempfile.TemporaryDirectory() as d:
         t_fig = best_of(lambda: figure(data, Path(d) / "figure.png", "bench"))
     prof, prof_total = profile_top(sc, plant, ctrl)
+    names = list(checkouts)
+
+    def row(label, fn, bold=False):
+        b = "**" if bold else ""
+        return f"| {b}{label}{b} | " + " | ".join(f"{b}{fn(n)}{b}" for n in names) + " |"
 
     lines = [
         "## Co-simulation benchmark",
         "",
-        f"Measured {datetime.date.today()}, Python {platform.python_version()}, CPU: {cpu_model()}.",
+        f"Measured {datetime.date.today()}, Python {platform.python_version()}, CPU: {cpu_model()} "
+        f"({os.cpu_count()} cores, shared: load average {load0:.1f} before (b), {load1:.1f} after).",
         "",
         "| quantity | value |",
         "|---|---|",
@@ -283,14 +342,34 @@ def main(argv=None):
         f"| (a) target ratio 1.3 | {verdict} |",
         f"| (a) the same ratios in CPU time (co-simulation / plain; best attainable) | {c_co / c_py:.2f}; "
         f"{(c_py + c_floor) / c_py:.2f} |",
-        f"| (b) `run` command, whole (child process) | {total:.3f} s |",
-        f"| (b) its master `wall_time` (extraction, instantiation, loop, CSV/Parquet) | {loop:.3f} s |",
-        f"| **(b) command overhead beyond `wall_time`** | **{total - loop:.3f} s** |",
-        f"| (b) part: Python start-up (`python -c pass`) | {t_py0:.3f} s |",
-        f"| (b) part: imports of the command (start-up included) | {t_imp:.3f} s |",
-        f"| (b) part: CSV + Parquet of the {len(df)} rows (inside `wall_time`) | {t_files:.3f} s |",
-        f"| (b) part: metrics | {t_metrics:.3f} s |",
-        f"| (b) part: figure | {t_fig:.3f} s |",
+        "",
+        f"(b) the `run` command in a child process, best of {args.repeats}"
+        + (", the checkouts alternating" if len(names) > 1 else "") + ":",
+        "",
+        "| (b) `run` command | " + " | ".join(f"{n} `{heads[n]}`" for n in names) + " |",
+        "|---|" + "---|" * len(names),
+        row("whole command (wall time)", lambda n: f"{cmd[n, True][0]:.3f} s"),
+        row("its stepping loop (`master._loop`)", lambda n: f"{cmd[n, True][1]:.3f} s"),
+        row("its master `wall_time` (extraction, instantiation, loop, CSV/Parquet)",
+            lambda n: f"{cmd[n, True][2]:.3f} s"),
+        row("command beyond its stepping loop", lambda n: f"{cmd[n, True][0] - cmd[n, True][1]:.3f} s", True),
+        row("command beyond `wall_time`", lambda n: f"{cmd[n, True][0] - cmd[n, True][2]:.3f} s", True),
+        row("CPU time of the command's process tree", lambda n: f"{cmd[n, True][3]:.3f} s"),
+        row("with `--no-plot`: beyond its stepping loop",
+            lambda n: f"{cmd[n, False][0] - cmd[n, False][1]:.3f} s"),
+        row("with `--no-plot`: CPU time of the process tree", lambda n: f"{cmd[n, False][3]:.3f} s"),
+        "",
+        "Parts of this checkout, measured apart:",
+        "",
+        "| (b) part | value |",
+        "|---|---|",
+        f"| Python start-up (`python -c pass`) | {t_py0:.3f} s |",
+        f"| imports of the command (start-up included; matplotlib is imported by the figure helper) | "
+        f"{t_imp:.3f} s |",
+        f"| importing `orchestration.plots` (matplotlib) after those | {t_mpl:.3f} s |",
+        f"| CSV + Parquet of the {len(df)} rows (inside `wall_time`) | {t_files:.3f} s |",
+        f"| metrics | {t_metrics:.3f} s |",
+        f"| figure (drawing and PNG) | {t_fig:.3f} s |",
         "",
         f"(c) cProfile of one co-simulation run ({prof_total:.2f} s under the profiler), top entries by own "
         "time (a ctypes call into an FMU counts in its caller, `_loop`, less the Python it runs):",
@@ -299,7 +378,7 @@ def main(argv=None):
         "",
         *(compare_lines(before_after, steps, args.compare) if before_after else []),
         "Rerun with `python bench/bench_cosim.py` (or `make bench`; `--compare DIR` adds another "
-        "checkout); it rewrites this section.",
+        "checkout to (a) and (b)); it rewrites this section.",
     ]
     text = "\n".join(lines)
     print(text)

@@ -59,15 +59,18 @@ def cmd_validate(args):
 
 
 def run_file(path, out, fmu_dir, algorithm=None, build=True, plot=True, stop=None,
-             variant=fmus.DEFAULT_VARIANT, engine="fmpy"):
+             variant=fmus.DEFAULT_VARIANT, engine="fmpy", figure_process=False):
     """Load, run and write one scenario; returns (exit code, summary dict).
 
     Checked before any FMU runs: the scenario (every problem at once), that ``engine`` can run it
     (``libcosim``: :func:`orchestration.libcosim_engine.problems`) and that ``out`` can be
     written.  The time series stream to disk as the run goes; ``stop`` (an
-    :class:`orchestration.interrupts.StopRequest`) ends the run early with what it has."""
+    :class:`orchestration.interrupts.StopRequest`) ends the run early with what it has.
+    ``figure_process``: draw the figure with a helper process that imports matplotlib while the
+    run steps (:mod:`orchestration.figure_process`; used where it gains something)."""
     from .master import run
-    from .results import prepare_dir, streaming_recorder, write_results
+    from .recorder import FILES
+    from .results import figure_target, prepare_dir, streaming_recorder, write_results
     from .scenario import ScenarioError, load_scenario
 
     def refused(message, name=Path(path).stem):
@@ -98,9 +101,21 @@ def run_file(path, out, fmu_dir, algorithm=None, build=True, plot=True, stop=Non
     except OSError as exc:
         return refused(f"--out {out}: cannot write the results: {exc}", sc.name)
     plant, ctrl = fmus.paths(fmu_dir, variant)
-    result = run(sc, str(plant), str(ctrl), algorithm=algorithm, recorder=streaming_recorder(sc, directory),
-                 stop=stop)
-    summary = write_results(result, out, plot=plot)
+    helper = None
+    if plot and figure_process:
+        from . import figure_process as fp
+
+        try:
+            helper = fp.FigureProcess(directory / FILES[1], *figure_target(sc, out)) if fp.wanted() else None
+        except OSError:  # no fork today: the figure is drawn here
+            helper = None
+    try:
+        result = run(sc, str(plant), str(ctrl), algorithm=algorithm, stop=stop,
+                     recorder=streaming_recorder(sc, directory, on_parquet=helper and helper.parquet_done))
+        summary = write_results(result, out, plot=plot, draw=helper and helper.draw)
+    finally:
+        if helper is not None:
+            helper.close()
     if result.status == "interrupted":
         return stop.exit_code, summary
     if not result.ok:
@@ -116,7 +131,7 @@ def cmd_run(args):
         variant = args.variant or ("native" if args.engine == "libcosim" else fmus.DEFAULT_VARIANT)
         code, s = run_file(args.scenario, args.out, args.fmus, args.algorithm, build=not args.no_build,
                            variant=variant, engine=args.engine,
-                           plot=not args.no_plot, stop=stop)
+                           plot=not args.no_plot, stop=stop, figure_process=True)
     if s.get("status") == "invalid":
         print(s["message"], file=sys.stderr)
         return code

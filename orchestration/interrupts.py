@@ -10,12 +10,15 @@ code of an interrupted command is ``128 + signum`` (130 for Ctrl-C, 143 for SIGT
 from __future__ import annotations
 
 import os
+import select
 import signal
 import threading
+import time
 from contextlib import contextmanager
 
 SIGNALS = (signal.SIGINT, signal.SIGTERM)
 PARENT_ENV = "SATMOTOR_PARENT_PID"  # set by batch for its children: see die_with_parent
+WATCHER = "satmotor-die-with-"  # the name of die_with's threads (they start with it)
 
 
 def signal_name(signum):
@@ -80,3 +83,40 @@ def die_with_parent():
         return
     if str(os.getppid()) != parent:  # the parent died before prctl took effect
         os.kill(os.getpid(), signal.SIGTERM)
+
+
+def die_with(pid):
+    """SIGTERM to this process when process ``pid`` (not necessarily its parent) ends: a daemon
+    thread waits on a pidfd of ``pid`` (Linux 5.3+), or, where there is none, looks every second
+    whether it still exists.  If ``pid`` is gone already, SIGTERM is sent at once."""
+
+    def terminate():
+        os.kill(os.getpid(), signal.SIGTERM)
+
+    try:
+        fd = os.pidfd_open(pid)
+    except ProcessLookupError:
+        terminate()
+        return
+    except (AttributeError, OSError):
+        fd = None
+
+    def watch():
+        if fd is not None:
+            select.select([fd], [], [])
+        else:
+            while _exists(pid):
+                time.sleep(1.0)
+        terminate()
+
+    threading.Thread(target=watch, name=f"{WATCHER}{pid}", daemon=True).start()
+
+
+def _exists(pid):
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True

@@ -25,9 +25,22 @@ def _mark(ax, t, flags, y, label):
         ax.plot(t[flags], y[flags], ".", ms=1.5, label=label)
 
 
-def figure(data, path, title):
+def canvas():
+    """The empty figure and its six axes (what :func:`figure` draws on; nothing depends on the data).
+    Fixed margins (those constrained_layout finds for this figure): no layout pass, which would
+    measure every text and tick of the six axes once more before drawing (~0.3 s)."""
+    fig = Figure(figsize=(9, 13))
+    FigureCanvasAgg(fig)
+    ax = fig.subplots(6, 1, sharex=True)
+    fig.subplots_adjust(left=0.08, right=0.994, bottom=0.036, top=0.982, hspace=0.075)
+    return fig, ax
+
+
+def figure(data, path, title, blank=None):
     """Write a PNG of a recorded run (a DataFrame, or ``{column: array}``, with ``unit.variable``
-    columns) to ``path``: the run phase and the shaped references are the controller's outputs."""
+    columns) to ``path``: the run phase and the shaped references are the controller's outputs.
+    ``blank``: a fresh ``canvas()`` made ahead (None: made here)."""
+    fig, ax = blank or canvas()
     df = {c: np.asarray(data[c], dtype=float) for c in _COLUMNS}
     t = df["time"]
     phi = np.hypot(df["plant.psi_r_alpha"], df["plant.psi_r_beta"])
@@ -39,12 +52,6 @@ def figure(data, path, title):
     def where_running(x):  # NaN (a gap in the line) outside the run phase
         return np.where(running, x, np.nan)
 
-    # fixed margins (those constrained_layout finds for this figure): no layout pass, which would
-    # measure every text and tick of the six axes once more before drawing (~0.3 s)
-    fig = Figure(figsize=(9, 13))
-    FigureCanvasAgg(fig)
-    ax = fig.subplots(6, 1, sharex=True)
-    fig.subplots_adjust(left=0.08, right=0.994, bottom=0.036, top=0.982, hspace=0.075)
     ax[0].plot(t, df["profile.omega_ref"], "k:", label="set-point omega_ref")
     ax[0].plot(t, where_running(df["controller.omega_ref_shaped"]), "k--", lw=0.8, label="shaped reference")
     ax[0].plot(t, df["plant.omega_m"], label="omega_m")

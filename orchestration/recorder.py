@@ -92,12 +92,26 @@ def _numpy(column):
                            else c.to_numpy(zero_copy_only=False) for c in column.chunks])
 
 
+def read_arrays(path, columns=None):
+    """``{column: float64 array}`` of a Parquet file of float64 columns (``columns``: only those)."""
+    import pyarrow.parquet as pq
+
+    with pq.ParquetFile(path) as f:  # not read_table: pyarrow.dataset imports pandas
+        table = f.read(columns=columns)
+    return {c: _numpy(table.column(c)) for c in table.column_names}
+
+
 class StreamingRecorder(Recorder):
     """A :class:`Recorder` that appends each chunk to ``directory/timeseries.{csv,parquet}``.
 
     The files are created (empty, with the header) by the constructor, so an unwritable directory
     is found before the run starts.
     """
+
+    #: None, or a function ``on_parquet(n_rows)`` called by :meth:`close` once the Parquet file is
+    #: complete, before the last chunk's CSV lines are written: the figure helper
+    #: (:mod:`orchestration.figure_process`) reads it and draws while the CSV is written
+    on_parquet = None
 
     def __init__(self, columns, directory, keep=None, chunk_rows=CHUNK_ROWS):
         super().__init__(columns, keep, chunk_rows)
@@ -116,8 +130,14 @@ class StreamingRecorder(Recorder):
         self._closed = False
 
     def _write(self, chunk):
+        self._write_csv(chunk)
+        self._write_parquet(chunk)
+
+    def _write_csv(self, chunk):
         self._csv.write(csv_text(chunk))
         self._csv.flush()
+
+    def _write_parquet(self, chunk):
         pa = self._pa  # columns from their buffers: pa.array would import pandas (~0.3 s) to check types
         cols = [pa.Array.from_buffers(pa.float64(), len(chunk), [None, pa.py_buffer(np.ascontiguousarray(c))])
                 for c in chunk.T]
@@ -127,7 +147,18 @@ class StreamingRecorder(Recorder):
         if self._closed:
             return
         try:
-            self.flush()
+            if self.on_parquet is None:
+                self.flush()
+            else:  # the Parquet file first, complete, then the last CSV lines
+                chunk = self._chunk_array() if self.rows else None
+                if chunk is not None:
+                    self._write_parquet(chunk)
+                self._parquet.close()
+                self.on_parquet(self.n_rows + len(self.rows))
+                if chunk is not None:
+                    self._write_csv(chunk)
+                    self.n_rows += len(self.rows)
+                    self.rows.clear()
         finally:
             self._closed = True
             self._csv.close()
@@ -135,11 +166,7 @@ class StreamingRecorder(Recorder):
 
     def arrays(self, columns=None):
         """``{column: float64 array}`` read back from the Parquet file (``columns``: only those)."""
-        import pyarrow.parquet as pq
-
-        with pq.ParquetFile(self.parquet_path) as f:  # not read_table: pyarrow.dataset imports pandas
-            table = f.read(columns=columns)
-        return {c: _numpy(table.column(c)) for c in table.column_names}
+        return read_arrays(self.parquet_path, columns)
 
     def frame(self, columns=None):
         """The recorded rows read back from the Parquet file (``columns``: only those)."""

@@ -82,15 +82,27 @@ def recorded_selection(scenario, columns):
             or wanted is None or c in wanted]
 
 
-def streaming_recorder(scenario, directory):
-    """A ``columns -> StreamingRecorder`` factory for :func:`orchestration.master.run`."""
-    return lambda columns: StreamingRecorder(columns, directory, keep=recorded_selection(scenario, columns))
+def streaming_recorder(scenario, directory, on_parquet=None):
+    """A ``columns -> StreamingRecorder`` factory for :func:`orchestration.master.run`;
+    ``on_parquet``: see :attr:`StreamingRecorder.on_parquet`."""
+    def make(columns):
+        rec = StreamingRecorder(columns, directory, keep=recorded_selection(scenario, columns))
+        rec.on_parquet = on_parquet
+        return rec
+
+    return make
 
 
-def write_results(result, out_dir, plot=True):
+def figure_target(scenario, out_dir):
+    """(path, title) of the run's figure."""
+    return Path(out_dir) / scenario.name / "figure.png", f"{scenario.name}: {scenario.description}"[:110]
+
+
+def write_results(result, out_dir, plot=True, draw=None):
     """Write the files of one run under ``out_dir/<name>/``; returns the summary dict (also in
     metrics.json).  A streamed run has its time series on disk already; a run recorded in memory
-    gets them written here.  Partial results of a failed or interrupted run are written too."""
+    gets them written here.  Partial results of a failed or interrupted run are written too.
+    ``draw(data, path, title)`` draws the figure (default :func:`orchestration.plots.figure`)."""
     sc = result.scenario
     d = Path(out_dir) / sc.name
     d.mkdir(parents=True, exist_ok=True)
@@ -112,7 +124,7 @@ def write_results(result, out_dir, plot=True):
     }
     (d / "metrics.json").write_text(json.dumps(summary, indent=2, default=float) + "\n")
     if plot and rows > 1:
-        from .plots import figure
-
-        figure(df, d / "figure.png", f"{sc.name}: {sc.description}"[:110])
+        if draw is None:
+            from .plots import figure as draw
+        draw(df, *figure_target(sc, out_dir))
     return summary

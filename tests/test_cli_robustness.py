@@ -159,6 +159,27 @@ def _batch_dir(tmp_path, n_long=3):
     return d
 
 
+def _descendants(pid):
+    """Every process below ``pid`` (the warm children, their forkserver, multiprocessing's resource
+    tracker, figure helpers): each must be gone when the command is."""
+    import psutil
+
+    return psutil.Process(pid).children(recursive=True)
+
+
+def _alive(procs):
+    import psutil
+
+    out = []
+    for p in procs:
+        try:
+            if p.is_running() and p.status() != psutil.STATUS_ZOMBIE:
+                out.append(p)
+        except psutil.NoSuchProcess:
+            pass
+    return out
+
+
 def _wait_children(marker, n, timeout=120.0):
     t0 = time.monotonic()
     while time.monotonic() - t0 < timeout:
@@ -175,6 +196,7 @@ def test_batch_stops_on_a_signal_summarizes_everything_and_leaves_no_process(sig
     p = _start("batch", d, "--jobs", 2, "--out", out, "--fmus", fmu_dir, start_new_session=True)
     _wait_children(d, 2)
     _wait_running(out / "long0" / "metrics.json", p)  # a loaded machine: rows before the signal
+    below = _descendants(p.pid)
     if sig == signal.SIGINT:
         os.killpg(p.pid, sig)  # Ctrl-C in a terminal: the whole foreground process group
     else:
@@ -183,6 +205,7 @@ def test_batch_stops_on_a_signal_summarizes_everything_and_leaves_no_process(sig
     assert p.returncode == code, stderr
     assert "Traceback" not in stderr
     assert _processes(d) == []
+    assert len(below) >= 2 and _alive(below) == []  # nor a forkserver, nor any other helper
     summary = pd.read_csv(out / "summary.csv")
     status = dict(zip(summary["scenario"], summary["status"]))
     assert set(status) == {"quick", "long0", "long1", "long2"}
@@ -199,12 +222,14 @@ def test_a_killed_batch_leaves_no_child_behind(tmp_path, fmu_dir):
     p = _start("batch", d, "--jobs", 2, "--out", out, "--fmus", fmu_dir, start_new_session=True,
                env={**os.environ, "TMPDIR": str(tmp)})
     _wait_children(d, 2)
+    below = _descendants(p.pid)
     p.kill()
     p.communicate(timeout=60)
     t0 = time.monotonic()
-    while _processes(d) and time.monotonic() - t0 < 60:
+    while (_processes(d) or _alive(below)) and time.monotonic() - t0 < 60:
         time.sleep(0.2)
     assert _processes(d) == []
+    assert len(below) >= 2 and _alive(below) == []  # the forkserver went too
 
 
 def test_a_child_killed_by_a_signal_is_a_failed_row_and_a_failed_batch(tmp_path, fmu_dir):
