@@ -36,7 +36,7 @@ import time
 from pathlib import Path
 
 import pandas as pd
-from bench_plant import cpu_model, write_section
+from bench_plant import cpu_model, git_head, interpreter, write_section
 
 ROOT = Path(__file__).resolve().parents[1]
 IMPORTS = ("import orchestration.cli, orchestration.master, orchestration.results, orchestration.scenario, "
@@ -72,16 +72,6 @@ for _ in range(3):
     fig = min(fig, time.perf_counter() - t0)
 print(json.dumps({"extract": best, "plots_import": t_import, "figure": fig}))
 """
-
-
-def interpreter(root):
-    venv = Path(root) / ".venv" / "bin" / "python"
-    return str(venv) if venv.exists() else sys.executable
-
-
-def git_head(root):
-    r = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=root, capture_output=True, text=True)
-    return r.stdout.strip() or "?"
 
 
 def children_cpu():

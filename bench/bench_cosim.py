@@ -54,7 +54,7 @@ from pathlib import Path
 
 import floor_fmus
 import numpy as np
-from bench_plant import cpu_model, write_section
+from bench_plant import cpu_model, git_head, interpreter, write_section
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
@@ -120,12 +120,6 @@ print(json.dumps(out))
 """
 
 
-def interpreter(root):
-    """The checkout's own ``.venv`` interpreter, else this one."""
-    venv = Path(root) / ".venv" / "bin" / "python"
-    return str(venv) if venv.exists() else sys.executable
-
-
 def measure_checkout(root, repeats):
     """Best co-simulation and plain-loop times of the checkout ``root`` in a child process (no
     bytecode written into it)."""
@@ -134,11 +128,6 @@ def measure_checkout(root, repeats):
     if r.returncode != 0:
         raise SystemExit(f"{root}: the measuring child failed:\n{r.stderr[-3000:]}")
     return json.loads(r.stdout.strip().splitlines()[-1])
-
-
-def git_head(root):
-    r = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=root, capture_output=True, text=True)
-    return r.stdout.strip() or "?"
 
 
 def compare(other, rounds, repeats=3):

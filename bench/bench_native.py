@@ -32,7 +32,7 @@ import subprocess
 import sys
 from pathlib import Path
 
-from bench_plant import cpu_model, write_section
+from bench_plant import cpu_model, git_head, interpreter, write_section
 
 ROOT = Path(__file__).resolve().parents[1]
 VARIANTS = ("python", "native", "native-fmi3")
@@ -75,23 +75,12 @@ print(json.dumps(out))
 """
 
 
-def interpreter(root):
-    """The checkout's own ``.venv`` interpreter, else this one."""
-    venv = Path(root) / ".venv" / "bin" / "python"
-    return str(venv) if venv.exists() else sys.executable
-
-
 def measure(root, variant, repeats, profile=False):
     r = subprocess.run([interpreter(root), "-c", CHILD, variant, str(repeats), "1" if profile else "0"],
                        cwd=root, capture_output=True, text=True)
     if r.returncode != 0:
         raise SystemExit(f"{root} {variant}: the measuring child failed:\n{r.stderr[-3000:]}")
     return json.loads(r.stdout.strip().splitlines()[-1])
-
-
-def git_head(root):
-    r = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=root, capture_output=True, text=True)
-    return r.stdout.strip() or "?"
 
 
 def load():

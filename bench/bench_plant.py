@@ -16,6 +16,7 @@ from __future__ import annotations
 import datetime
 import math
 import platform
+import subprocess
 import sys
 import time
 from pathlib import Path
@@ -103,6 +104,18 @@ def rhs_rate(x):
             der(0.0, x, v_a, v_b, T_N)
 
     return N_RHS / best_time(loop)[0]
+
+
+def interpreter(root):
+    """The checkout ``root``'s own ``.venv`` interpreter, else this one (``--compare DIR``)."""
+    venv = Path(root) / ".venv" / "bin" / "python"
+    return str(venv) if venv.exists() else sys.executable
+
+
+def git_head(root):
+    """The short commit of the checkout ``root`` ("?" outside git)."""
+    r = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=root, capture_output=True, text=True)
+    return r.stdout.strip() or "?"
 
 
 def cpu_model():
