@@ -39,8 +39,9 @@ import pandas as pd
 from bench_plant import cpu_model, git_head, interpreter, write_section
 
 ROOT = Path(__file__).resolve().parents[1]
-IMPORTS = ("import orchestration.cli, orchestration.master, orchestration.results, orchestration.scenario, "
-           "orchestration.plots, orchestration.interrupts, pyarrow.parquet")
+IMPORTS = ("import orchestration.cli.commands, orchestration.run.master, orchestration.results.writer, "
+           "orchestration.scenario.load, orchestration.results.plots, orchestration.process.interrupts, "
+           "pyarrow.parquet")
 METRICS = ("iae_speed", "iae_flux", "ss_speed", "ss_flux", "overshoot_speed", "settling_time_speed",
            "peak_current", "peak_voltage", "min_W")
 
@@ -48,8 +49,8 @@ METRICS = ("iae_speed", "iae_flux", "ss_speed", "ss_flux", "overshoot_speed", "s
 # figure of a recorded run (argv: variant, a timeseries.parquet, a scratch directory)
 PARTS = r"""
 import json, sys, time
-from orchestration import fmus
-from orchestration.fmu_instance import extract_owned, remove_extracted
+from orchestration.build import fmus
+from orchestration.run.fmu_instance import extract_owned, remove_extracted
 variant, parquet, scratch = sys.argv[1:4]
 best = float("inf")
 for _ in range(5):
@@ -59,7 +60,7 @@ for _ in range(5):
     for d in dirs:
         remove_extracted(d)
 t0 = time.perf_counter()
-from orchestration.plots import figure
+from orchestration.results.plots import figure
 t_import = time.perf_counter() - t0
 import pyarrow.parquet as pq
 with pq.ParquetFile(parquet) as f:
@@ -134,7 +135,7 @@ def main(argv=None):
     ap.add_argument("--no-write", action="store_true", help="do not rewrite bench/RESULTS.md")
     args = ap.parse_args(argv)
     sys.path.insert(0, str(ROOT))
-    from orchestration import fmus
+    from orchestration.build import fmus
 
     fmus.ensure(ROOT / "build" / "fmus", quiet=True)
     checkouts = {"this": ROOT}
@@ -191,7 +192,7 @@ def main(argv=None):
         row("part: Python start-up (`python -c pass`)", lambda name: f"{part[name]['start']:.3f} s"),
         row("part: imports of the `run` command (start-up included)",
             lambda name: f"{part[name]['imports']:.3f} s"),
-        row("part: importing `orchestration.plots` (matplotlib) after the rest",
+        row("part: importing `orchestration.results.plots` (matplotlib) after the rest",
             lambda name: f"{part[name]['plots_import']:.3f} s"),
         row("part: drawing the figure (default scenario)", lambda name: f"{part[name]['figure']:.3f} s"),
         row(f"part: extracting the two `{args.variant}` FMUs (inside `wall_time`)",

@@ -5,8 +5,8 @@ Run ``python bench/bench_cosim.py``; prints the numbers and replaces its own sec
 ``bench/RESULTS.md`` (the block between ``<!-- cosim:start -->`` and ``<!-- cosim:end -->``).
 
 (a) The default scenario (``scenarios/ramp_rated_load.yaml``: 1.5 s at h = Ts = 100 us, i.e. 15 000
-steps of each FMU) is run through ``orchestration.master.run`` and through the plain-Python
-reference (``orchestration.reference.plain_reference``, the same units without FMI), alternately,
+steps of each FMU) is run through ``orchestration.run.master.run`` and through the plain-Python
+reference (``orchestration.run.reference.plain_reference``, the same units without FMI), alternately,
 best of 5 each; the two results are checked to be identical.  The ratio is the cost of FMI
 (pythonfmu's wrapper, ctypes, the value exchange) on top of the same Python physics.
 
@@ -59,18 +59,21 @@ from bench_plant import cpu_model, git_head, interpreter, write_section
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from orchestration import fmus  # noqa: E402
-from orchestration.master import run  # noqa: E402
-from orchestration.recorder import StreamingRecorder  # noqa: E402
-from orchestration.reference import plain_reference  # noqa: E402
-from orchestration.results import compute_metrics, recorded_selection  # noqa: E402
-from orchestration.scenario import load_scenario  # noqa: E402
+from orchestration.build import fmus  # noqa: E402
+from orchestration.results.writer import compute_metrics, recorded_selection  # noqa: E402
+from orchestration.run.master import run  # noqa: E402
+from orchestration.run.recorder import StreamingRecorder  # noqa: E402
+from orchestration.run.reference import plain_reference  # noqa: E402
+from orchestration.scenario.load import load_scenario  # noqa: E402
 
 SCENARIO = ROOT / "scenarios" / "ramp_rated_load.yaml"
-IMPORTS = ("import orchestration.cli, orchestration.master, orchestration.results, orchestration.scenario, "
-           "orchestration.figure_process, pyarrow.parquet")  # what the command imports itself (no matplotlib)
-MPL_IMPORT = ("import time, orchestration.cli, orchestration.master, orchestration.results, pyarrow.parquet\n"
-              "t0 = time.perf_counter()\nimport orchestration.plots\nprint(time.perf_counter() - t0)")
+# what the command imports itself (no matplotlib)
+IMPORTS = ("import orchestration.cli.commands, orchestration.run.master, orchestration.results.writer, "
+           "orchestration.scenario.load, orchestration.results.figure_process, pyarrow.parquet")
+MPL_IMPORT = ("import time, orchestration.cli.commands, orchestration.run.master, "
+              "orchestration.results.writer, "
+              "pyarrow.parquet\n"
+              "t0 = time.perf_counter()\nimport orchestration.results.plots\nprint(time.perf_counter() - t0)")
 
 
 def alternate(fns, repeats, cpu=None):
@@ -91,10 +94,10 @@ def alternate(fns, repeats, cpu=None):
 # run in the checkout measured (cwd), with that checkout's interpreter: only APIs every checkout has
 CHILD = r"""
 import hashlib, json, sys, time
-from orchestration import fmus
-from orchestration.master import run
-from orchestration.reference import plain_reference
-from orchestration.scenario import load_scenario
+from orchestration.build import fmus
+from orchestration.run.master import run
+from orchestration.run.reference import plain_reference
+from orchestration.scenario.load import load_scenario
 
 repeats = int(sys.argv[1])
 sc = load_scenario("scenarios/ramp_rated_load.yaml")
@@ -185,7 +188,7 @@ def best_of(fn, repeats=3):
 # the run command as ``python -m orchestration`` runs it, with its stepping loop timed
 WRAPPED = r"""
 import json, sys, time
-import orchestration.master as m
+import orchestration.run.master as m
 loop = m._loop
 spent = []
 def timed(*a, **k):
@@ -195,7 +198,7 @@ def timed(*a, **k):
     finally:
         spent.append(time.perf_counter() - t0)
 m._loop = timed
-from orchestration.cli import main
+from orchestration.cli.commands import main
 code = main(sys.argv[1:])
 print("LOOP", json.dumps(spent[0]))
 sys.exit(code)
@@ -297,7 +300,7 @@ def main(argv=None):
     t_files = best_of(write_files)
     data = {c: df[c].to_numpy() for c in df.columns}
     t_metrics = best_of(lambda: compute_metrics(data, sc))
-    from orchestration.plots import figure
+    from orchestration.results.plots import figure
 
     with tempfile.TemporaryDirectory() as d:
         t_fig = best_of(lambda: figure(data, Path(d) / "figure.png", "bench"))
@@ -355,7 +358,7 @@ def main(argv=None):
         f"| Python start-up (`python -c pass`) | {t_py0:.3f} s |",
         f"| imports of the command (start-up included; matplotlib is imported by the figure helper) | "
         f"{t_imp:.3f} s |",
-        f"| importing `orchestration.plots` (matplotlib) after those | {t_mpl:.3f} s |",
+        f"| importing `orchestration.results.plots` (matplotlib) after those | {t_mpl:.3f} s |",
         f"| CSV + Parquet of the {len(df)} rows (inside `wall_time`) | {t_files:.3f} s |",
         f"| metrics | {t_metrics:.3f} s |",
         f"| figure (drawing and PNG) | {t_fig:.3f} s |",

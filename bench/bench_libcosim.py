@@ -1,4 +1,4 @@
-"""Benchmark of the libcosim engine (orchestration.libcosim_engine) against our fmpy master.
+"""Benchmark of the libcosim engine (orchestration.run.libcosim_engine) against our fmpy master.
 
 Run ``python bench/bench_libcosim.py [--repeats N] [--out FILE] [--no-write]``; prints a table,
 writes it to FILE if given, and rewrites its section of ``bench/RESULTS.md`` (between
@@ -21,7 +21,7 @@ one process, best of N (default 5):
   system, stepping, recording), the ScenarioSignals FMU built beforehand (its build, a C compile,
   is timed once apart);
 * the same whole run with the pythonfmu FMUs;
-* the fmpy master (``orchestration.master.run``, ``wall_time``) with the native FMUs and with the
+* the fmpy master (``orchestration.run.master.run``, ``wall_time``) with the native FMUs and with the
   pythonfmu FMUs;
 * the native plant FMU alone, stepped by a C host without Python (the physics' floor).
 
@@ -45,11 +45,12 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from orchestration import fmus, libcosim_engine  # noqa: E402
-from orchestration.master import run as master_run  # noqa: E402
-from orchestration.recorder import Recorder  # noqa: E402
-from orchestration.scenario import load_scenario  # noqa: E402
-from orchestration.signals_fmu import build as build_signals  # noqa: E402
+from orchestration.build import fmus  # noqa: E402
+from orchestration.build.signals_fmu import build as build_signals  # noqa: E402
+from orchestration.run import libcosim_engine  # noqa: E402
+from orchestration.run.master import run as master_run  # noqa: E402
+from orchestration.run.recorder import Recorder  # noqa: E402
+from orchestration.scenario.load import load_scenario  # noqa: E402
 
 SCENARIO = ROOT / "scenarios" / "ramp_rated_load.yaml"
 
@@ -70,7 +71,7 @@ def libcosim_parts(sc, plant, ctrl, signals, work):
     from libcosimpy.CosimExecution import CosimExecution
     from libcosimpy.CosimLogging import CosimLogLevel, log_output_level
 
-    from orchestration.ssp import ssd_xml
+    from orchestration.tools.ssp import ssd_xml
 
     log_output_level(CosimLogLevel.ERROR)
     fmus_ = {"plant": plant, "controller": ctrl, "signals": signals}

@@ -8,7 +8,7 @@ Run ``python bench/bench_native.py``; prints the numbers and replaces its own se
 ``DIR/build/fmus``) in the same rounds, so "before" and "after" see the same machine load.
 ``--no-write`` leaves RESULTS.md alone.
 
-What is measured: ``orchestration.master.run`` of ``scenarios/ramp_rated_load.yaml`` (1.5 s at
+What is measured: ``orchestration.run.master.run`` of ``scenarios/ramp_rated_load.yaml`` (1.5 s at
 h = Ts = 100 us: 15 000 steps of each FMU, every step recorded, in memory), wall time including the
 FMU extraction and instantiation of the run, and its CPU time (``time.process_time``: on a shared
 machine the time the process waited for a core is in the wall time only, so the CPU times give
@@ -42,9 +42,9 @@ LABELS = {"python": "pythonfmu (FMI 2.0)", "native": "native C, FMI 2.0", "nativ
 CHILD = r"""
 import cProfile, hashlib, json, pstats, sys, time
 from pathlib import Path
-from orchestration import fmus
-from orchestration.master import run
-from orchestration.scenario import load_scenario
+from orchestration.build import fmus
+from orchestration.run.master import run
+from orchestration.scenario.load import load_scenario
 
 variant, repeats, profile = sys.argv[1], int(sys.argv[2]), sys.argv[3] == "1"
 sc = load_scenario("scenarios/ramp_rated_load.yaml")
@@ -106,7 +106,7 @@ def main(argv=None):
     args = ap.parse_args(argv)
 
     sys.path.insert(0, str(ROOT))
-    from orchestration import fmus
+    from orchestration.build import fmus
 
     fmus.ensure(ROOT / "build" / "fmus", quiet=True)
     checkouts = {"this": ROOT}
@@ -150,7 +150,7 @@ def main(argv=None):
         f"({os.cpu_count()} cores, shared: load average {load0} at the start, {load1} at the end).",
         "",
         f"Default scenario ({stop} s simulated, {steps} steps of each FMU, every step recorded, in memory), "
-        f"`orchestration.master.run`, best of {args.rounds} alternating rounds x {args.repeats} runs, "
+        f"`orchestration.run.master.run`, best of {args.rounds} alternating rounds x {args.repeats} runs, "
         "one child process per measurement.",
         "",
         head,

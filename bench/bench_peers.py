@@ -31,8 +31,8 @@ What each side computes (every one at a 100 us control / communication period):
   of the magnetizing current in every right-hand-side evaluation), 6 states (``psi_s``, ``psi_r``,
   speed, angle), one fixed-step RK4 step per 100 us period; the backstepping controller (saturated
   control model, reference shapers, limits) every 100 us; every step recorded.  Four ways: the
-  plain-Python loop (``orchestration.reference.plain_reference``: the same units without FMI) and
-  the fmpy master (``orchestration.master.run``) with the pythonfmu FMUs, the native C FMI 2.0
+  plain-Python loop (``orchestration.run.reference.plain_reference``: the same units without FMI) and
+  the fmpy master (``orchestration.run.master.run``) with the pythonfmu FMUs, the native C FMI 2.0
   FMUs and the native C FMI 3.0 FMUs.
 
 Each measurement is a child process running one side twice and keeping its better run (a fresh
@@ -62,10 +62,10 @@ from bench_plant import cpu_model, write_section
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from orchestration import fmus  # noqa: E402
-from orchestration.master import run  # noqa: E402
-from orchestration.reference import plain_reference  # noqa: E402
-from orchestration.scenario import load_scenario  # noqa: E402
+from orchestration.build import fmus  # noqa: E402
+from orchestration.run.master import run  # noqa: E402
+from orchestration.run.reference import plain_reference  # noqa: E402
+from orchestration.scenario.load import load_scenario  # noqa: E402
 
 SCENARIO = ROOT / "scenarios" / "ramp_rated_load.yaml"
 GEM_TIME = 1.0  # [s] simulated by gym-electric-motor

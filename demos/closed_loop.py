@@ -17,8 +17,8 @@ from pathlib import Path
 
 import pandas as pd
 
-from orchestration.plots import figure
-from orchestration.reference import COLUMNS
+from orchestration.results.plots import figure
+from orchestration.run.reference import COLUMNS
 from satmotor.backstepping import ControllerConfig
 from satmotor.drive import BacksteppingDrive
 from satmotor.metrics import run_metrics
@@ -35,7 +35,7 @@ UNITS = {"t": "s", "v_s_alpha": "V", "v_s_beta": "V", "v_sd": "V", "v_sq": "V", 
 
 
 def plot(r, path, title):
-    """The co-simulation figure (orchestration.plots) of a plain-Python record."""
+    """The co-simulation figure (orchestration.results.plots) of a plain-Python record."""
     frame = pd.DataFrame({"time": r["t"], **{col: r[key] for col, key in COLUMNS.items()},
                           "profile.omega_ref": r["omega_set"], "profile.psi_ref": r["psi_set"],
                           "profile.T_load": r["T_load"]})

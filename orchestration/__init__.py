@@ -1,10 +1,19 @@
-"""Co-simulation of the saturated induction motor FMU with the backstepping controller FMU.
+"""The co-simulation tools around the two FMUs, one sub-package per job.
 
-* :mod:`orchestration.profiles` -- time profiles of the set-points and the load torque.
-* :mod:`orchestration.scenario` -- YAML scenario files: schema, validation, loading.
-* :mod:`orchestration.master` -- the fmpy co-simulation master (Gauss-Seidel or Jacobi).
-* :mod:`orchestration.results`, :mod:`orchestration.batch`, :mod:`orchestration.cli` -- results
-  files and metrics, batches of scenarios, the command line (``python -m orchestration``).
+Dependencies point one way, from the top of this list to the bottom (no import cycle):
+
+* :mod:`orchestration.cli` -- the command line (``satmotor-cosim``, ``python -m orchestration``):
+  the verbs, ``batch`` and its warm children.
+* :mod:`orchestration.tools` -- ``export-ssp`` (SSP 1.0 packages) and ``fit-curve`` (a magnetizing
+  curve from a no-load test).
+* :mod:`orchestration.check` -- the FMU checker, a product of its own: it checks anyone's FMUs.
+* :mod:`orchestration.scenario` -- YAML in: a validated scenario, every problem with file, field
+  and value; the time profiles; feasibility.
+* :mod:`orchestration.results` -- metrics, the results files, the figure.
+* :mod:`orchestration.run` -- the fmpy master (wiring, recorder, stepping loop), the libcosim engine,
+  the plain-Python reference loop, the run result.
+* :mod:`orchestration.build` -- every FMU and generated artefact: pythonfmu and native FMUs, model
+  descriptions, C variable tables, cross builds, reference results, the variable tables of the docs.
+* :mod:`orchestration.process` -- what every long-running command shares: Ctrl-C/SIGTERM as a stop
+  request, a clean process exit, process titles.
 """
-
-__all__ = ["profiles", "scenario", "master", "results", "batch", "cli", "fmus", "fmu_instance", "plots"]

@@ -1,6 +1,6 @@
-"""``python -m orchestration``: see :mod:`orchestration.cli`."""
+"""``python -m orchestration``: see :mod:`orchestration.cli.commands`."""
 
-from .clean_exit import exit_now
-from .cli import main
+from orchestration.cli import main
+from orchestration.process.clean_exit import exit_now
 
 exit_now(main())

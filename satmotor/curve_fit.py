@@ -4,7 +4,7 @@ Every family :func:`satmotor.params.make_curve` builds from parameters is fitted
 ``scipy.optimize.least_squares`` on the flux residual ``psi_fit(i_mu) - psi_m`` (absolute, in Wb,
 all points weighted alike).  ``satmotor`` depends on numpy only (``tests/test_packaging.py``
 holds it to that), so the caller hands the solver in: ``fit_all(i, psi, least_squares)`` with
-``from scipy.optimize import least_squares`` (``orchestration.fit_curve`` does).
+``from scipy.optimize import least_squares`` (``orchestration.tools.fit_curve`` does).
 
 * ``arctan``, ``exponential``: ``(L_m0, L_m_inf, I_par)``, fitted as ``(L_m_inf, L_m0 - L_m_inf,
   I_par)`` with each bounded below by 1e-9 of its scale, so ``0 < L_m_inf < L_m0`` and

@@ -4,7 +4,7 @@ The tables below are the single source of the units' interfaces: the FMU slaves 
 variables from them, the FMU documentation is generated from them, and the plain-Python
 reference uses the same units.  Defaults come from the parameter dataclasses (no number is
 written twice).  Units are in the descriptions and, added by the build
-(``orchestration.fmu_model_description``), in the FMUs' ``unit`` attributes.
+(``orchestration.build.fmu_model_description``), in the FMUs' ``unit`` attributes.
 """
 
 from __future__ import annotations

@@ -1,7 +1,7 @@
 """Performance figures of a closed-loop run: the one implementation (numpy arrays in, floats out).
 
 Used by the plain-Python loop (:func:`run_metrics` on a :func:`satmotor.simulate.closed_loop`
-record) and by the co-simulation (``orchestration.results.compute_metrics``, a thin adapter that
+record) and by the co-simulation (``orchestration.results.writer.compute_metrics``, a thin adapter that
 pulls the columns of its DataFrame and calls :func:`closed_loop_metrics`).
 
 Definitions (SI units; ``t`` the sample times [s], increasing)

@@ -40,7 +40,7 @@ phase peak; :mod:`satmotor.plant`), through these steps and corrections:
    current is a large part of the line current.  Record P_in when you can.
 
 Errors are :class:`satmotor.errors.ParameterError` naming the quantity and, in ``field``, the row
-index (``V_ll_rms[3]``); the CLI (``orchestration.fit_curve``) maps the index to the file line.
+index (``V_ll_rms[3]``); the CLI (``orchestration.tools.fit_curve``) maps the index to the file line.
 """
 
 from __future__ import annotations

@@ -37,7 +37,7 @@ def saturating_curve(request):
 @pytest.fixture(scope="session")
 def fmu_dir(tmp_path_factory):
     """Directory holding both pythonfmu FMUs, built once per test run (build_fmus.py)."""
-    from orchestration import fmus
+    from orchestration.build import fmus
 
     d = tmp_path_factory.mktemp("fmus")
     fmus.build(d, quiet=True)

@@ -12,7 +12,8 @@ from xml.etree import ElementTree as ET
 
 import pytest
 
-from orchestration import check, cli
+from orchestration.check import checker as check
+from orchestration.cli import commands as cli
 
 NAMES = ("SaturatedInductionMotor", "BacksteppingController")
 LINE = re.compile(r"^(PASS|FAIL|SKIP|KNOWN) +(\S+)  ([a-z-]+): (.*)$")

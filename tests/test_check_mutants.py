@@ -16,9 +16,9 @@ from pathlib import Path
 import pytest
 from test_check import rewrite_model_description, run_check
 
-from orchestration import fmu_build, fmus, native_build, native_fmus
-from orchestration import native_model_description as nmd
-from orchestration.native_vars import header
+from orchestration.build import fmu_build, fmus, native_build, native_fmus
+from orchestration.build import native_model_description as nmd
+from orchestration.build.native_vars import header
 
 pytestmark = pytest.mark.slow
 PLANT = "SaturatedInductionMotor"
@@ -67,7 +67,8 @@ def build_pythonfmu_copy(tmp_path, out_dir, glue_patches, name=PLANT):
     glue = tmp_path / "glue" / fmu_build.GLUE.name
     glue.parent.mkdir()
     glue.write_text(patched(fmu_build.GLUE.read_text(), glue_patches, fmu_build.GLUE))
-    code = (f"from pathlib import Path\nimport orchestration.fmu_build as b\nb.GLUE = Path({str(glue)!r})\n"
+    code = (f"from pathlib import Path\nimport orchestration.build.fmu_build as b\n"
+            f"b.GLUE = Path({str(glue)!r})\n"
             f"b.build_one({name!r}, {str(out_dir)!r})\n")
     Path(out_dir).mkdir()
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)

@@ -10,11 +10,11 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from orchestration import fmus
-from orchestration.master import DEFAULT_CONNECTIONS, Connection, run
-from orchestration.profiles import Constant, Step, Sum
-from orchestration.reference import COLUMNS, plain_reference
-from orchestration.scenario import load_scenario
+from orchestration.build import fmus
+from orchestration.run.master import DEFAULT_CONNECTIONS, Connection, run
+from orchestration.run.reference import COLUMNS, plain_reference
+from orchestration.scenario.load import load_scenario
+from orchestration.scenario.profiles import Constant, Step, Sum
 
 pytestmark = pytest.mark.slow
 ROOT = Path(__file__).resolve().parents[1]
@@ -204,7 +204,7 @@ def test_cli_run_of_a_failing_scenario_writes_the_partial_results(tmp_path, fmu_
 def test_fmu_instance_do_step_raises_tagged_with_the_unit_time_and_the_fmus_words(fmu_dir):
     from fmpy.fmi1 import FMICallException
 
-    from orchestration.fmu_instance import FMUInstance
+    from orchestration.run.fmu_instance import FMUInstance
 
     plant, _ = fmus.paths(fmu_dir)
     inst = FMUInstance(plant, "p")
@@ -221,7 +221,7 @@ def test_fmu_instance_do_step_raises_tagged_with_the_unit_time_and_the_fmus_word
 
 
 def test_a_run_recorded_in_memory_writes_the_same_files_as_a_streamed_run(tmp_path, fmu_dir):
-    from orchestration.results import prepare_dir, streaming_recorder, write_results
+    from orchestration.results.writer import prepare_dir, streaming_recorder, write_results
 
     sc = dataclasses.replace(load_scenario(ROOT / "scenarios" / "load_cycle_csv.yaml"), stop_time=0.05)
     plant, ctrl = fmus.paths(fmu_dir)

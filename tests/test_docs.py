@@ -8,9 +8,9 @@ from pathlib import Path
 
 import pytest
 
-from orchestration import variable_tables
-from orchestration.reference import plain_reference
-from orchestration.scenario import load_scenario
+from orchestration.build import variable_tables
+from orchestration.run.reference import plain_reference
+from orchestration.scenario.load import load_scenario
 
 ROOT = Path(__file__).resolve().parents[1]
 README = ROOT / "README.md"
@@ -62,7 +62,7 @@ def test_readme_variable_tables_are_the_generated_ones():
     text = README.read_text(encoding="utf-8")
     assert variable_tables.replace_block(text) == text, (
         "README.md's variable tables differ from satmotor/interface.py: run "
-        "`python -m orchestration.variable_tables --write README.md`")
+        "`python -m orchestration.build.variable_tables --write README.md`")
 
 
 def test_generated_tables_hold_every_variable_once():

@@ -6,7 +6,7 @@ import random
 
 import pytest
 
-from orchestration.scenario import validate_scenario_file
+from orchestration.scenario.load import validate_scenario_file
 from satmotor.errors import ParameterError
 from satmotor.integrate import rk4
 from satmotor.interface import PLANT_PARAMETERS, PlantUnit
@@ -128,8 +128,8 @@ def test_the_fan_load_scenario_settles_on_the_mechanical_balance():
     knows B but not B_2, equals the fan torque B_2 w^2."""
     from pathlib import Path
 
-    from orchestration.reference import plain_reference
-    from orchestration.scenario import load_scenario
+    from orchestration.run.reference import plain_reference
+    from orchestration.scenario.load import load_scenario
 
     sc = load_scenario(Path(__file__).resolve().parents[1] / "scenarios" / "fan_load.yaml")
     b2, B = sc.plant["B_2"], MotorParams().B

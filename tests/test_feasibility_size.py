@@ -9,9 +9,9 @@ import csv
 import pytest
 import yaml
 
-from orchestration import cli
-from orchestration.feasibility import recorded_size
-from orchestration.scenario import load_scenario
+from orchestration.cli import commands as cli
+from orchestration.scenario.feasibility import recorded_size
+from orchestration.scenario.load import load_scenario
 
 
 def written_size(path):

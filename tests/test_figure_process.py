@@ -1,4 +1,4 @@
-"""The ``run`` command's figure helper (orchestration.figure_process): the same files as the plain
+"""The ``run`` command's figure helper (orchestration.results.figure_process): the same files as the plain
 path, a figure even when the helper dies, and no process left after Ctrl-C or a killed run."""
 
 from __future__ import annotations
@@ -24,14 +24,14 @@ RUN = r"""
 import sys, threading, time
 if sys.argv[1] == "plain":
     threading.Thread(target=time.sleep, args=(600,), daemon=True).start()
-from orchestration import figure_process as fp
+from orchestration.results import figure_process as fp
 used = []
 draw = fp.FigureProcess.draw
 def spy(self, *a):
     draw(self, *a)
     used.append(self.drawn_by_helper)
 fp.FigureProcess.draw = spy
-from orchestration.cli import main
+from orchestration.cli.commands import main
 code = main(sys.argv[2:])
 print("HELPER", used)
 sys.exit(code)
@@ -105,7 +105,7 @@ def test_a_run_whose_helper_dies_still_writes_its_figure(tmp_path, fmu_dir):
     png = (out / "orphan" / "figure.png").read_bytes()
     import pyarrow.parquet as pq
 
-    from orchestration.plots import figure
+    from orchestration.results.plots import figure
 
     data = pq.read_table(out / "orphan" / "timeseries.parquet").to_pydict()
     figure(data, tmp_path / "plain.png", "orphan: helper test")

@@ -17,8 +17,8 @@ import numpy as np
 import pytest
 import yaml
 
-from orchestration.cli import main
-from orchestration.scenario import load_scenario
+from orchestration.cli.commands import main
+from orchestration.scenario.load import load_scenario
 from satmotor.errors import ParameterError
 from satmotor.magnetics import ArctanCurve
 from satmotor.params import MotorParams, make_curve

@@ -4,7 +4,7 @@ import os
 import signal
 import time
 
-from orchestration.interrupts import catch
+from orchestration.process.interrupts import catch
 
 
 def _deliver(sig):
@@ -34,6 +34,6 @@ def test_an_inherited_ignore_is_kept():
 
 
 def test_signal_names():
-    from orchestration.interrupts import signal_name
+    from orchestration.process.interrupts import signal_name
 
     assert signal_name(9) == "SIGKILL" and signal_name(15) == "SIGTERM" and signal_name(99) == "signal 99"

@@ -1,4 +1,4 @@
-"""The libcosim engine (orchestration.libcosim_engine) against our fmpy master's Jacobi run.
+"""The libcosim engine (orchestration.run.libcosim_engine) against our fmpy master's Jacobi run.
 
 libcosim's fixed-step algorithm is a Jacobi scheme with the same order of step and transfer as
 ``master.run(..., algorithm="jacobi")`` (see the engine's docstring).  One thing differs: libcosim
@@ -27,11 +27,12 @@ import pytest
 
 pytest.importorskip("libcosimpy")
 
-from orchestration import fmus, libcosim_engine  # noqa: E402
-from orchestration.cli import run_file  # noqa: E402
-from orchestration.master import run as master_run  # noqa: E402
-from orchestration.profiles import Constant  # noqa: E402
-from orchestration.scenario import Record, load_scenario  # noqa: E402
+from orchestration.build import fmus  # noqa: E402
+from orchestration.cli.commands import run_file  # noqa: E402
+from orchestration.run import libcosim_engine  # noqa: E402
+from orchestration.run.master import run as master_run  # noqa: E402
+from orchestration.scenario.load import Record, load_scenario  # noqa: E402
+from orchestration.scenario.profiles import Constant  # noqa: E402
 
 pytestmark = pytest.mark.slow
 ROOT = Path(__file__).resolve().parents[1]
@@ -117,7 +118,7 @@ def test_every_library_scenario_runs_as_the_jacobi_master_or_is_refused_for_its_
 
 
 def test_the_system_libcosim_loads_is_the_ssp_description_with_no_worker_thread(tmp_path, fmu_dir):
-    from orchestration.ssp import OSP_NS, SSD_NS, SSV_NS
+    from orchestration.tools.ssp import OSP_NS, SSD_NS, SSV_NS
 
     sc = dataclasses.replace(load_scenario(DECIMATED), plant={"J": 0.05})
     paths = dict(zip(("plant", "controller"), fmus.paths(fmu_dir, "native")))
@@ -138,7 +139,7 @@ def test_the_system_libcosim_loads_is_the_ssp_description_with_no_worker_thread(
 
 @pytest.mark.parametrize("ns", [1, 3, 50_000, 65_000, 100_000, 123_457, 129_000, 1_953_125, 10**9 - 1])
 def test_a_time_that_libcosim_would_truncate_is_written_so_it_reads_back_exactly(ns):
-    from orchestration.ssp import seconds_text
+    from orchestration.tools.ssp import seconds_text
 
     assert int(float(seconds_text(ns / 1e9)) * 1e9) == ns
 
@@ -208,7 +209,7 @@ class _StopAt:
         self.t, self.signum = t, 0
 
     def recorder(self, columns):
-        from orchestration.recorder import Recorder
+        from orchestration.run.recorder import Recorder
 
         rec = Recorder(columns)
         append = rec.append
@@ -278,7 +279,7 @@ def test_run_with_libcosim_writes_the_same_files_as_the_default_engine(tmp_path,
 @pytest.mark.parametrize("variant, path", [("native", DEFAULT), ("native", DECIMATED), ("python", DEFAULT)])
 def test_libcosim_runs_the_exported_ssp_package_as_the_engine_runs_the_scenario(variant, path, tmp_path,
                                                                                 fmu_dir):
-    from orchestration.ssp import export
+    from orchestration.tools.ssp import export
 
     sc = load_scenario(path)
     if variant == "python":

@@ -8,9 +8,15 @@ import numpy as np
 import pytest
 from fmpy import platform, platform_tuple
 
-from orchestration.fmu_instance import FMUInstance, RealPort, extract_owned, needed_to_run, remove_extracted
-from orchestration.master import _evaluator
-from orchestration.recorder import Recorder
+from orchestration.run.fmu_instance import (
+    FMUInstance,
+    RealPort,
+    extract_owned,
+    needed_to_run,
+    remove_extracted,
+)
+from orchestration.run.master import _evaluator
+from orchestration.run.recorder import Recorder
 
 
 def test_extraction_keeps_this_platform_the_description_and_the_resources_only(tmp_path):
@@ -60,7 +66,7 @@ def test_rows_appended_to_the_chunk_list_across_flushes_are_all_recorded():
 
 
 def test_the_fast_pointer_is_private_and_reads_what_fmpy_reads(fmu_dir):
-    from orchestration import fmus
+    from orchestration.build import fmus
 
     plant, _ = fmus.paths(fmu_dir, "native")
     inst = FMUInstance(plant, "plant")

@@ -12,11 +12,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from orchestration.cli import main as cli_main
-from orchestration.measurement_noise import MeasurementNoise, Measurements
-from orchestration.reference import COLUMNS, plain_reference
-from orchestration.scenario import load_scenario, validate_scenario_file
-from orchestration.wiring import MEASUREMENTS
+from orchestration.cli.commands import main as cli_main
+from orchestration.run.measurement_noise import MeasurementNoise, Measurements
+from orchestration.run.reference import COLUMNS, plain_reference
+from orchestration.run.wiring import MEASUREMENTS
+from orchestration.scenario.load import load_scenario, validate_scenario_file
 from satmotor.interface import ControllerUnit, PlantUnit
 from satmotor.simulate import closed_loop
 
@@ -208,8 +208,8 @@ def test_every_problem_of_a_section_at_once(tmp_path):
 
 
 def _cosim(sc, fmu_dir, **kw):
-    from orchestration import fmus
-    from orchestration.master import run
+    from orchestration.build import fmus
+    from orchestration.run.master import run
 
     plant, ctrl = fmus.paths(fmu_dir)
     res = run(sc, str(plant), str(ctrl), **kw)
@@ -237,8 +237,8 @@ def test_the_master_applies_the_same_noise_as_its_plain_python_twin(tmp_path, fm
 
 @pytest.mark.slow
 def test_without_a_section_the_master_records_the_same_columns_and_numbers(tmp_path, fmu_dir):
-    from orchestration.master import recorded_columns
-    from orchestration.results import write_results
+    from orchestration.results.writer import write_results
+    from orchestration.run.result import recorded_columns
 
     sc = _scenario(tmp_path, BASE.replace("stop_time: 0.5", "stop_time: 0.2"))
     none = _cosim(sc, fmu_dir).frame

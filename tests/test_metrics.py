@@ -9,8 +9,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from orchestration.results import check_acceptance, compute_metrics
-from orchestration.scenario import Acceptance
+from orchestration.results.writer import check_acceptance, compute_metrics
+from orchestration.scenario.load import Acceptance
 from satmotor.drive import PREMAG, RUN
 from satmotor.metrics import (
     SERIES,

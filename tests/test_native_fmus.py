@@ -16,10 +16,10 @@ from fmpy.fmi2 import FMU2Slave
 from fmpy.fmi3 import FMU3Slave
 from fmpy.validation import validate_fmu
 
-from orchestration import fmus
-from orchestration.fmu_instance import FMUInstance
-from orchestration.master import run
-from orchestration.scenario import load_scenario
+from orchestration.build import fmus
+from orchestration.run.fmu_instance import FMUInstance
+from orchestration.run.master import run
+from orchestration.scenario.load import load_scenario
 
 pytestmark = pytest.mark.slow
 ROOT = Path(__file__).resolve().parents[1]
@@ -187,8 +187,8 @@ def test_the_native_fmus_under_valgrind_touch_no_bad_memory(variant, fmu_dir, tm
     child = python_child(f"""
         import dataclasses, sys
         sys.path.insert(0, {str(ROOT)!r})
-        from orchestration.master import run
-        from orchestration.scenario import load_scenario
+        from orchestration.run.master import run
+        from orchestration.scenario.load import load_scenario
         sc = dataclasses.replace(load_scenario({str(scenario)!r}), stop_time=0.02)
         r = run(sc, {str(plant)!r}, {str(ctrl)!r})
         print(r.status, len(r.frame))
@@ -240,8 +240,8 @@ def test_no_global_mutable_state_in_the_core_or_the_models(tmp_path):
     import shutil
     import subprocess
 
-    from orchestration import native_build, native_fmus
-    from orchestration.native_vars import header
+    from orchestration.build import native_build, native_fmus
+    from orchestration.build.native_vars import header
 
     if shutil.which("gcc") is None or shutil.which("nm") is None:
         pytest.skip("needs gcc and nm")
@@ -270,7 +270,7 @@ def test_a_table_curve_reads_its_file_from_the_fmus_resources(version, tmp_path)
     same trajectory as the plain-Python unit reading that CSV."""
     from conftest import no_load_table
 
-    from orchestration import native_fmus
+    from orchestration.build import native_fmus
     from satmotor.interface import PlantUnit
 
     i_mu, psi = no_load_table()

@@ -7,7 +7,7 @@ fixes, each shown here against a control run with the fix taken away, same FMUs,
 
 * the FMU glue (``satmotor_fmu_glue.guard_process_exit``) registers the library's own
   ``finalizePythonInterpreter`` as an exit handler that runs first: any host, Python or C;
-* our hosts end with ``orchestration.clean_exit.exit_now``: no native exit code runs at all.
+* our hosts end with ``orchestration.process.clean_exit.exit_now``: no native exit code runs at all.
 
 valgrind checks addressability only (``--undef-value-errors=no``: some Python builds report
 uninitialised values in a plain ``python -c pass``; not ours, and slow).  Counted are every access to
@@ -28,7 +28,7 @@ from pathlib import Path
 
 import pytest
 
-from orchestration import fmus
+from orchestration.build import fmus
 
 ROOT = Path(__file__).resolve().parents[1]
 VALGRIND = shutil.which("valgrind")
@@ -98,11 +98,11 @@ else:
 """
 
 CLI_HOST = PREAMBLE + """
-from orchestration.cli import main
+from orchestration.cli.commands import main
 code = main(["run", os.environ["SCENARIO"], "--out", os.environ["OUT"], "--fmus", os.environ["FMU_DIR"],
              "--no-build", "--no-plot"])
 if os.environ["EXIT"] == "exit_now":
-    from orchestration.clean_exit import exit_now
+    from orchestration.process.clean_exit import exit_now
     exit_now(code)
 sys.exit(code)
 """
@@ -389,7 +389,7 @@ def test_failed_instantiation_with_plain_exit_is_clean(fmu_dir, tmp_path):
 
 EXIT_NOW_SEMANTICS = """
 import atexit, os, sys, threading, time
-from orchestration.clean_exit import exit_now
+from orchestration.process.clean_exit import exit_now
 
 out = os.environ["OUT"]
 atexit.register(lambda: open(os.path.join(out, "atexit"), "w").close())

@@ -9,11 +9,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from orchestration import fmus
-from orchestration.master import run
-from orchestration.reference import plain_reference
-from orchestration.results import check_acceptance, compute_metrics
-from orchestration.scenario import load_scenario
+from orchestration.build import fmus
+from orchestration.results.writer import check_acceptance, compute_metrics
+from orchestration.run.master import run
+from orchestration.run.reference import plain_reference
+from orchestration.scenario.load import load_scenario
 
 pytestmark = pytest.mark.slow
 ROOT = Path(__file__).resolve().parents[1]

@@ -9,24 +9,24 @@ from pathlib import Path
 
 import pytest
 
-from orchestration.cli import main as cli_main
-from orchestration.profiles import (
+from orchestration.cli.commands import main as cli_main
+from orchestration.scenario.load import (
+    Scenario,
+    ScenarioError,
+    interface_variables,
+    load_scenario,
+    validate_scenario_file,
+)
+from orchestration.scenario.problems import Problem
+from orchestration.scenario.profiles import (
     Constant,
     Csv,
-    Problem,
     Ramp,
     Sine,
     Step,
     Sum,
     Table,
     parse_profile,
-)
-from orchestration.scenario import (
-    Scenario,
-    ScenarioError,
-    interface_variables,
-    load_scenario,
-    validate_scenario_file,
 )
 from satmotor.backstepping import ControllerConfig
 from satmotor.params import RatedData

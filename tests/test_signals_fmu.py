@@ -1,4 +1,4 @@
-"""The ScenarioSignals native FMU (fmu/signals/native_model.c, orchestration/signals_fmu.py).
+"""The ScenarioSignals native FMU (fmu/signals/native_model.c, orchestration/build/signals_fmu.py).
 
 Its outputs, stepped with fmpy's FMU2Slave on the scenario's grid, are compared with the Python
 profiles' ``value(t_k)``, ``t_k = k h`` (the master's time), for every scenario of scenarios/ and
@@ -21,9 +21,9 @@ import pytest
 from fmpy.fmi1 import FMICallException
 from fmpy.validation import validate_fmu
 
-from orchestration import signals_fmu
-from orchestration.profiles import Constant, Sum, parse_profile
-from orchestration.scenario import Scenario, load_scenario
+from orchestration.build import signals_fmu
+from orchestration.scenario.load import Scenario, load_scenario
+from orchestration.scenario.profiles import Constant, Sum, parse_profile
 
 sys.path.insert(0, str(Path(__file__).parent))
 from fmu_helpers import Slave, open_fmu  # noqa: E402
@@ -332,7 +332,7 @@ def test_python_refuses_what_the_fmu_cannot_hold(tmp_path):
 @pytest.mark.skipif(shutil.which("gcc") is None or shutil.which("nm") is None, reason="needs gcc and nm")
 def test_no_global_mutable_state_in_the_model(tmp_path):
     """No writable data (bss/data/common symbols) in the compiled model: every instance independent."""
-    from orchestration import native_build
+    from orchestration.build import native_build
 
     (tmp_path / "ss_vars.h").write_text(signals_fmu.header())
     obj = tmp_path / "m.o"

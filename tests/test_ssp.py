@@ -1,4 +1,4 @@
-"""``export-ssp``: the SSP 1.0 package of a scenario (orchestration/ssp.py).
+"""``export-ssp``: the SSP 1.0 package of a scenario (orchestration/tools/ssp.py).
 
 Checked independently of the writer: the .ssd validates against the SSP 1.0 schemas FMPy ships
 (and each inline parameter set against the parameter-values schema); the parameter values, read
@@ -23,10 +23,12 @@ from fmpy import extract, read_model_description
 from fmpy.fmi2 import FMU2Slave
 from fmpy.validation import validate_fmu
 
-from orchestration import cli, fmus, ssp
-from orchestration.master import run
-from orchestration.scenario import load_scenario
-from orchestration.wiring import DEFAULT_CONNECTIONS
+from orchestration.build import fmus
+from orchestration.cli import commands as cli
+from orchestration.run.master import run
+from orchestration.run.wiring import DEFAULT_CONNECTIONS
+from orchestration.scenario.load import load_scenario
+from orchestration.tools import ssp
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENARIOS = sorted((ROOT / "scenarios").glob("*.yaml"))
@@ -419,7 +421,7 @@ def test_libcosim_loads_the_package_and_agrees_with_the_master(name, stop, fmu_d
 
 
 def test_connections_the_package_cannot_hold_are_refused(fmu_dir, signals_md, tmp_path):
-    from orchestration.wiring import Connection
+    from orchestration.run.wiring import Connection
 
     sc = load_scenario(DEFAULT)
     mds = model_descriptions(fmu_dir, signals_md)

@@ -1,4 +1,4 @@
-"""batch's warm children (orchestration.warm_children): the same files and rows as a fresh
+"""batch's warm children (orchestration.cli.warm_children): the same files and rows as a fresh
 ``python -m orchestration run`` process, the child's own error in its row, a crash as a failed row,
 and no forkserver left once the batch is done."""
 
@@ -12,8 +12,8 @@ from pathlib import Path
 import psutil
 import pytest
 
-from orchestration import warm_children
-from orchestration.batch import run_one
+from orchestration.cli import main, warm_children
+from orchestration.cli.batch import run_one
 
 pytestmark = [pytest.mark.slow,
               pytest.mark.skipif(not warm_children.available(), reason="no forkserver on this system")]
@@ -42,9 +42,9 @@ def _forkservers():
 
 def test_a_warm_child_writes_what_a_fresh_process_writes(tmp_path, tmp, fmu_dir):
     f = _scenario(tmp_path, "twin")
-    warm = run_one(f, tmp_path / "warm", fmu_dir, tmpdir=tmp, warm=True)
+    warm = run_one(f, tmp_path / "warm", fmu_dir, tmpdir=tmp, warm=main)
     assert _forkservers()  # the warm server ran it
-    fresh = run_one(f, tmp_path / "fresh", fmu_dir, tmpdir=tmp, warm=False)
+    fresh = run_one(f, tmp_path / "fresh", fmu_dir, tmpdir=tmp, warm=None)
     assert warm.pop("wall_time") > 0 and fresh.pop("wall_time") > 0
     assert warm["status"] == "ok" and warm["exit_code"] == 0
     assert {k: v for k, v in warm.items() if k != "file"} == {k: v for k, v in fresh.items() if k != "file"}
@@ -61,7 +61,7 @@ def test_a_warm_child_writes_what_a_fresh_process_writes(tmp_path, tmp, fmu_dir)
 
 def test_a_child_that_refuses_its_scenario_gives_its_own_message(tmp_path, tmp, fmu_dir):
     f = _scenario(tmp_path, "bad", extra="plant: {no_such_parameter: 1.0}\n")
-    row = run_one(f, tmp_path / "out", fmu_dir, tmpdir=tmp, warm=True)
+    row = run_one(f, tmp_path / "out", fmu_dir, tmpdir=tmp, warm=main)
     assert row["status"] == "invalid" and row["exit_code"] == 2
     assert "plant.no_such_parameter = 1.0: unknown plant variable" in row["message"]  # the child's stderr
 
@@ -82,6 +82,6 @@ def test_a_crashed_warm_child_is_a_failed_row(tmp_path, tmp, fmu_dir, sig):
             polls.append(child[0].pid)
         return False
 
-    row = run_one(f, out, fmu_dir, tmpdir=tmp, warm=True, should_stop=crash_once_running)
+    row = run_one(f, out, fmu_dir, tmpdir=tmp, warm=main, should_stop=crash_once_running)
     assert polls and row["status"] == "failed" and row["exit_code"] == 128 + sig
     assert signal.Signals(sig).name in row["message"]

@@ -85,7 +85,7 @@ def pin_namespace(namespace, defined=None):
 
 
 _GUIDS = {}
-# in resources/: the GUID the build wrote into modelDescription.xml (orchestration.fmu_build.BUILD_GUID)
+# in resources/: the GUID the build wrote into modelDescription.xml (orchestration.build.fmu_build.BUILD_GUID)
 BUILD_GUID_FILE = "build_guid.txt"
 
 

@@ -1,0 +1,67 @@
+"""Where the FMUs are, whether they match the current sources, and building them.
+
+The orchestration never imports the FMU code: it runs :mod:`orchestration.build.fmu_build` in a child
+process and compares the fingerprint of the build inputs it wrote into each FMU
+(``resources/build_inputs.sha256``) with the current sources.
+"""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+import zipfile
+from pathlib import Path
+
+DEFAULT_DIR = Path("build") / "fmus"  # relative to the working directory
+PLANT, CONTROLLER = "SaturatedInductionMotor.fmu", "BacksteppingController.fmu"
+# variant -> subdirectory of the FMU directory.  python: the pythonfmu FMUs (the executable
+# specification, the default); native: C, FMI 2.0; native-fmi3: C, FMI 3.0 (bit-identical results)
+VARIANTS = {"python": "", "native": "native", "native-fmi3": "native-fmi3"}
+DEFAULT_VARIANT = "python"
+
+
+def paths(fmu_dir=DEFAULT_DIR, variant=DEFAULT_VARIANT):
+    """(plant, controller) FMU paths of ``variant`` in ``fmu_dir``."""
+    d = Path(fmu_dir) / VARIANTS[variant]
+    return d / PLANT, d / CONTROLLER
+
+
+def _built_from(path, member):
+    try:
+        with zipfile.ZipFile(path) as z:
+            return z.read(member).decode().strip()
+    except (OSError, KeyError, zipfile.BadZipFile):
+        return None
+
+
+def up_to_date(fmu_dir=DEFAULT_DIR):
+    """True when every FMU of every variant exists and was built from the current sources
+    (:func:`orchestration.build.fmu_build.inputs_fingerprint`,
+    :func:`orchestration.build.native_fmus.inputs_fingerprint`)."""
+    from orchestration.build import native_fmus
+    from orchestration.build.fmu_build import BUILD_INPUTS, inputs_fingerprint
+
+    for variant in VARIANTS:
+        for p in paths(fmu_dir, variant):
+            if variant == "python":
+                ok = _built_from(p, BUILD_INPUTS) == inputs_fingerprint(p.stem)
+            else:
+                built = _built_from(p, "resources/" + native_fmus.BUILD_INPUTS)
+                ok = built == native_fmus.inputs_fingerprint(p.stem)
+            if not ok:
+                return False
+    return True
+
+
+def build(fmu_dir=DEFAULT_DIR, quiet=False):
+    """Build both FMUs into ``fmu_dir``; raises CalledProcessError when the build fails."""
+    subprocess.run([sys.executable, "-m", "orchestration.build.fmu_build", "--out", str(fmu_dir)], check=True,
+                   stdout=subprocess.DEVNULL if quiet else None)
+    return paths(fmu_dir)
+
+
+def ensure(fmu_dir=DEFAULT_DIR, quiet=False, variant=DEFAULT_VARIANT):
+    """The FMU paths of ``variant``, every variant built first when missing or stale."""
+    if not up_to_date(fmu_dir):
+        build(fmu_dir, quiet)
+    return paths(fmu_dir, variant)

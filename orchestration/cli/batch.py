@@ -1,0 +1,303 @@
+"""Batch runs: one process per scenario, locally (``jobs`` at a time) or on a Dask cluster.
+
+1. Every file is loaded and checked first, in this process: a file that cannot be read or is
+   invalid becomes a row with its message (never a traceback); two scenarios with the same
+   ``name`` (they would write the same results directory) refuse the batch before anything runs.
+2. Each valid scenario runs as ``python -m orchestration run FILE --no-build`` in its own process
+   (pythonfmu FMUs share one interpreter per process; a process of its own keeps runs independent).
+   Locally that process is forked from a server that has imported the run path once
+   (:mod:`orchestration.cli.warm_children`: about 0.5 s less per scenario); on Dask it is a fresh
+   interpreter.  Its exit code and ``metrics.json`` make its row, the tail of its standard error
+   the row's message when it fails; a child killed by a signal is a failed row.
+3. SIGINT/SIGTERM (:mod:`orchestration.process.interrupts`): nothing new starts, running children get
+   SIGTERM (they write their partial results), and every scenario not finished is a row with
+   status ``interrupted``.  ``summary.csv`` is written in every case once runs have started.
+
+Exit code: ``128 + signum`` when interrupted, else the largest exit code of the rows (0: all ok;
+1: a run failed; 2: a file invalid; 3: a run missed its acceptance bounds; a child killed by
+signal N counts as 128 + N).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+import tempfile
+from concurrent.futures import ThreadPoolExecutor, as_completed
+from pathlib import Path
+
+from orchestration.build import fmus
+from orchestration.process.interrupts import PARENT_ENV, StopRequest, signal_name
+
+SUMMARY_METRICS = ("iae_speed", "iae_flux", "ss_speed", "ss_flux", "overshoot_speed", "settling_time_speed",
+                   "peak_current", "peak_voltage", "min_W")
+INVALID = 2
+POLL = 0.2  # [s] how often a waiting batch looks for a stop request
+GRACE = 30.0  # [s] a child has to write its partial results after SIGTERM before it is killed
+
+
+def collect(items):
+    """Scenario files from files and directories (their ``*.yaml``, sorted)."""
+    out = []
+    for item in items:
+        p = Path(item)
+        out.extend(sorted(p.glob("*.yaml")) if p.is_dir() else [p])
+    return out
+
+
+def _row(path, name, status, exit_code, message=""):
+    return {"file": str(path), "scenario": name, "status": status, "exit_code": exit_code, "message": message}
+
+
+def plan(files, variables=None):
+    """``(runnable, rows)``: ``[(file, scenario name)]`` to run and the rows of the files that
+    cannot run (invalid or unreadable).  Never raises."""
+    from orchestration.scenario.load import ScenarioError, load_scenario
+
+    runnable, rows = [], []
+    for f in files:
+        try:
+            runnable.append((Path(f).resolve(), load_scenario(f, variables).name))
+        except ScenarioError as exc:
+            rows.append(_row(f, Path(f).stem, "invalid", INVALID, " | ".join(str(p) for p in exc.problems)))
+        except Exception as exc:  # noqa: BLE001 - a batch reports a file it cannot load, it goes on
+            rows.append(_row(f, Path(f).stem, "invalid", INVALID, f"cannot load: {exc!r}"))
+    return runnable, rows
+
+
+def duplicates(runnable):
+    """``{name: [files]}`` of the scenario names used by more than one file."""
+    by_name = {}
+    for f, name in runnable:
+        by_name.setdefault(name, []).append(str(f))
+    return {n: fs for n, fs in by_name.items() if len(fs) > 1}
+
+
+def run_one(path, out, fmu_dir, algorithm=None, name=None, should_stop=None, tmpdir=None, variant="python",
+            warm=None):
+    """Run one scenario in a child process; returns its summary row (a dict).  Never raises.
+
+    ``should_stop``: a function polled while the child runs; when it returns True the child gets
+    SIGTERM (it writes its partial results) and the row says ``interrupted``.  ``tmpdir``: the
+    child's TMPDIR (where it extracts the FMUs).  ``warm``: the command-line entry point
+    (:func:`orchestration.cli.main`) to call in a child forked from the warm server
+    (:mod:`orchestration.cli.warm_children`; ``tmpdir`` required, it also holds the child's
+    output) instead of starting ``python -m orchestration run`` afresh (None); the row is the same.
+    """
+    path, out, fmu_dir = Path(path).resolve(), Path(out).resolve(), Path(fmu_dir).resolve()
+    name = name or path.stem
+    if should_stop and should_stop():
+        return _row(path, name, "interrupted", 0, "not started: the batch was interrupted")
+    metrics = out / name / "metrics.json"
+    metrics.unlink(missing_ok=True)  # a child that dies early must not leave an old row to read
+    argv = ["run", str(path), "--out", str(out), "--fmus", str(fmu_dir), "--no-build"]
+    if algorithm:
+        argv += ["--algorithm", algorithm]
+    argv += ["--variant", variant]
+    try:
+        if warm:
+            from orchestration.cli.warm_children import WarmChild
+
+            child = WarmChild(warm, argv, tmpdir, tmpdir)
+        else:
+            child = _FreshChild(argv, tmpdir)
+    except OSError as exc:
+        return _row(path, name, "failed", 1, f"cannot start the child process: {exc}")
+    stopped = False
+    while not child.wait(POLL):
+        if should_stop and should_stop():
+            stopped = True
+            child.terminate()
+            if not child.wait(GRACE):
+                child.kill()
+                child.wait(None)
+            break
+    stdout, stderr = child.output()
+    return _child_row(path, name, child.returncode, stdout, stderr, metrics, stopped)
+
+
+class _FreshChild:
+    """``python -m orchestration run ...`` in a new interpreter (the interface of
+    :class:`orchestration.cli.warm_children.WarmChild`)."""
+
+    def __init__(self, argv, tmpdir=None):
+        env = {**os.environ, PARENT_ENV: str(os.getpid()), **({"TMPDIR": str(tmpdir)} if tmpdir else {})}
+        self._proc = subprocess.Popen([sys.executable, "-m", "orchestration", *argv], stdout=subprocess.PIPE,
+                                      stderr=subprocess.PIPE, text=True, env=env)
+        self._output = ("", "")
+
+    def wait(self, timeout):
+        try:
+            self._output = self._proc.communicate(timeout=timeout)
+        except subprocess.TimeoutExpired:
+            return False
+        return True
+
+    @property
+    def returncode(self):
+        return self._proc.returncode
+
+    def terminate(self):
+        self._proc.terminate()
+
+    def kill(self):
+        self._proc.kill()
+
+    def output(self):
+        return self._output
+
+
+def _child_row(path, name, rc, stdout, stderr, metrics, stopped):
+    lines = (stderr or stdout or "").strip().splitlines()
+    tail = " | ".join(lines[-6:])
+    try:
+        summary = json.loads(metrics.read_text())
+    except (OSError, ValueError):
+        summary = None
+    if rc < 0:
+        sig = signal_name(-rc)
+        status = "interrupted" if stopped else "failed"
+        return _row(path, name, status, 128 - rc, f"the child process was killed by {sig}" + (
+            f"; {tail}" if tail else ""))
+    if rc == INVALID:
+        return _row(path, name, "invalid", rc, tail)
+    if summary is None or summary.get("status") == "running":
+        return _row(path, name, "interrupted" if stopped else "failed", rc or 1,
+                    f"exit {rc} without results" + (f": {tail}" if tail else ""))
+    row = _row(path, name, summary["status"], rc, summary.get("message", ""))
+    row.update(accepted=summary.get("accepted"), wall_time=summary.get("wall_time"),
+               **{k: (summary.get("metrics") or {}).get(k) for k in SUMMARY_METRICS})
+    return row
+
+
+def _progress(total):
+    try:
+        from tqdm import tqdm
+
+        return tqdm(total=total, unit="scenario", file=sys.stderr)
+    except ImportError:  # pragma: no cover - tqdm is a dependency
+        return None
+
+
+def _run_local(runnable, out, fmu_dir, jobs, algorithm, stop, done, variant, command):
+    # the children extract their FMUs under a directory of ours, removed at the end: even a child
+    # killed with SIGKILL (which cannot clean up) leaves nothing in the system's temporary directory
+    from orchestration.cli import warm_children
+
+    warm = command if command is not None and warm_children.available() else None
+    try:
+        with tempfile.TemporaryDirectory(prefix="satmotor-batch-") as tmp, \
+                ThreadPoolExecutor(max_workers=max(1, jobs)) as pool:  # each task runs and watches a child
+            futures = [pool.submit(run_one, f, out, fmu_dir, algorithm, name, lambda: bool(stop.signum), tmp,
+                                   variant, warm)
+                       for f, name in runnable]
+            for fut in as_completed(futures):
+                done(fut.result())
+    finally:
+        if warm is not None:
+            warm_children.stop_server()
+
+
+def _run_dask(runnable, out, fmu_dir, scheduler, algorithm, stop, done, variant):
+    import uuid
+
+    from distributed import Client, Event
+
+    with Client(scheduler) as client:
+        event_name = f"satmotor-batch-stop-{uuid.uuid4().hex}"
+        event = Event(event_name, client=client)
+        remaining = {client.submit(_dask_task, str(f), str(out), str(fmu_dir), algorithm, name, event_name,
+                                   variant,
+                                   pure=False): (f, name) for f, name in runnable}
+        while remaining:
+            if stop.signum and not event.is_set():
+                event.set()  # every task still to start, or running, sees it and stops its child
+            for fut in [f for f in remaining if f.done()]:
+                f, name = remaining.pop(fut)
+                try:
+                    done(fut.result())
+                except Exception as exc:  # noqa: BLE001 - a lost worker is a failed row
+                    done(_row(f, name, "failed", 1, f"the Dask task failed: {exc!r}"))
+            if remaining:
+                stop.event.wait(POLL)
+
+
+def _dask_task(path, out, fmu_dir, algorithm, name, event_name, variant):
+    """``run_one`` on a Dask worker, stopping when the batch's Dask Event is set."""
+    from distributed import Event
+
+    event = Event(event_name)
+    return run_one(path, out, fmu_dir, algorithm, name, should_stop=event.is_set, variant=variant)
+
+
+def run_batch(items, out, fmu_dir, jobs=2, scheduler=None, algorithm=None, stop=None, variant="python",
+              command=None):
+    """Run every scenario of ``items``; write ``out/summary.csv``; return the exit code.  ``command``:
+    the command-line entry point that warm children call (:mod:`orchestration.cli.warm_children`;
+    the CLI passes its own ``main``); None starts a fresh ``python -m orchestration`` per scenario."""
+    stop = stop or StopRequest()
+    files = collect(items)
+    if not files:
+        print("no scenario files found", file=sys.stderr)
+        return INVALID
+    runnable, rows = plan(files)
+    dup = duplicates(runnable)
+    if dup:
+        for name, fs in dup.items():
+            print(f"scenario name {name!r} is used by {len(fs)} files (they would write the same results "
+                  f"directory): {', '.join(fs)}", file=sys.stderr)
+        print("batch refused: nothing was run", file=sys.stderr)
+        return INVALID
+    out = Path(out)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        (out / "summary.csv").write_text("")  # --out is writable before anything runs
+    except OSError as exc:
+        print(f"--out {out}: cannot write the results: {exc}", file=sys.stderr)
+        return INVALID
+    started = set()
+    bar = _progress(len(files))
+    bar and bar.update(len(rows))
+
+    def done(row):
+        rows.append(row)
+        started.add(row["file"])
+        bar and bar.update(1)
+
+    error = ""
+    try:
+        if runnable:
+            fmus.ensure(fmu_dir, quiet=True)  # once, before any child starts
+            if scheduler:
+                _run_dask(runnable, out, fmu_dir, scheduler, algorithm, stop, done, variant)
+            else:
+                _run_local(runnable, out, fmu_dir, jobs, algorithm, stop, done, variant, command)
+    except Exception as exc:  # noqa: BLE001 - the summary is written whatever happened
+        error = f"the batch failed before running it: {exc!r}"
+        print(error, file=sys.stderr)
+    finally:
+        bar and bar.close()
+        for f, name in runnable:  # what never reported: interrupted, or not run because of the error
+            if str(f) not in started:
+                rows.append(_row(f, name, "failed", 1, error) if error and not stop.signum else
+                            _row(f, name, "interrupted", 0, "no result: the batch was interrupted"))
+        _write_summary(rows, out)
+    if stop.signum:
+        return stop.exit_code
+    return max(r["exit_code"] for r in rows)
+
+
+def _write_summary(rows, out):
+    import pandas as pd
+
+    df = pd.DataFrame(rows).sort_values("file").reset_index(drop=True)
+    df.to_csv(out / "summary.csv", index=False)
+    shown = [c for c in ("scenario", "status", "accepted", *SUMMARY_METRICS, "wall_time") if c in df]
+    print(df[shown].to_string(index=False, float_format=lambda v: f"{v:.4g}"))
+    for r in rows:
+        if r["status"] != "ok" or r["exit_code"] != 0:
+            print(f"{r['status'].upper()} {r['file']} (exit {r['exit_code']}): {r.get('message', '')}",
+                  file=sys.stderr)
+    print(f"summary: {out / 'summary.csv'}")

@@ -1,0 +1,295 @@
+"""Command line: ``python -m orchestration {build,run,batch,validate,check,export-ssp,fit-curve}``
+(also ``satmotor-cosim``).
+
+Exit codes: 0 success; 1 a run failed (FMI discard/error/fatal, or setup); 2 a scenario file is
+invalid, or ``--out`` cannot be written (found before anything runs); 3 a run completed but
+missed its acceptance bounds; 130 / 143 interrupted by SIGINT (Ctrl-C) / SIGTERM, after writing
+what was computed (status ``interrupted``).  ``batch`` exits with the largest code of its
+scenarios (see :mod:`orchestration.cli.batch`).  ``check``: 1 if a check FAILs, 2 for a path that is not an
+FMU (see :mod:`orchestration.check.checker`).  ``fit-curve``: 2 for a bad no-load file or option (see
+:mod:`orchestration.tools.fit_curve`).
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import subprocess
+import sys
+from functools import partial
+from pathlib import Path
+
+from orchestration.build import fmus
+from orchestration.process.clean_exit import exit_now
+
+OK, RUN_FAILED, INVALID, NOT_ACCEPTED = 0, 1, 2, 3
+
+
+def model_variables(fmu_dir):
+    """``{"plant": {name: (causality, type)}, "controller": ...}`` from the built FMUs, or None."""
+    plant, ctrl = fmus.paths(fmu_dir)
+    if not (plant.exists() and ctrl.exists()):
+        return None
+    from fmpy import read_model_description
+
+    out = {}
+    for unit, path in (("plant", plant), ("controller", ctrl)):
+        md = read_model_description(str(path))
+        out[unit] = {v.name: (v.causality, v.type) for v in md.modelVariables}
+    return out
+
+
+def cmd_build(args):
+    for p in fmus.build(args.out):
+        print(p)
+    return OK
+
+
+def cmd_validate(args):
+    from orchestration.scenario.load import validate_scenario_file
+
+    worst = OK
+    for path in args.scenario:
+        problems = validate_scenario_file(path, model_variables(args.fmus))
+        for p in problems:
+            print(p, file=sys.stderr)
+        print(f"{path}: {'valid' if not problems else f'{len(problems)} problem(s)'}")
+        worst = max(worst, INVALID if problems else OK)
+    return worst
+
+
+def run_file(path, out, fmu_dir, algorithm=None, build=True, plot=True, stop=None,
+             variant=fmus.DEFAULT_VARIANT, engine="fmpy", figure_process=False):
+    """Load, run and write one scenario; returns (exit code, summary dict).
+
+    Checked before any FMU runs: the scenario (every problem at once), that ``engine`` can run it
+    (``libcosim``: :func:`orchestration.run.libcosim_engine.problems`) and that ``out`` can be
+    written.  The time series stream to disk as the run goes; ``stop`` (an
+    :class:`orchestration.process.interrupts.StopRequest`) ends the run early with what it has.
+    ``figure_process``: draw the figure with a helper process that imports matplotlib while the
+    run steps (:mod:`orchestration.results.figure_process`; used where it gains something)."""
+    from orchestration.results.writer import figure_target, prepare_dir, streaming_recorder, write_results
+    from orchestration.run.master import run
+    from orchestration.run.recorder import FILES
+    from orchestration.scenario.load import ScenarioError, load_scenario
+
+    def refused(message, name=Path(path).stem):
+        return INVALID, {"scenario": name, "file": str(path), "status": "invalid", "message": message}
+
+    try:
+        if build:
+            fmus.ensure(fmu_dir, quiet=True)
+        sc = load_scenario(path, model_variables(fmu_dir))
+    except ScenarioError as exc:
+        return refused(str(exc))
+    except subprocess.CalledProcessError as exc:
+        return RUN_FAILED, {"scenario": Path(path).stem, "file": str(path), "status": "setup",
+                            "message": f"building the FMUs into {fmu_dir} failed (exit {exc.returncode})",
+                            "rows": 0, "wall_time": 0.0}
+    if engine == "libcosim":
+        from orchestration.run import libcosim_engine
+
+        found = libcosim_engine.problems(sc, algorithm)
+        if variant not in libcosim_engine.VARIANTS:
+            found.append(f"--variant {variant}: the libcosim engine runs the FMI 2.0 FMUs "
+                         f"({', '.join(libcosim_engine.VARIANTS)})")
+        if found:
+            return refused("\n".join(map(str, found)), sc.name)
+        run = partial(libcosim_engine.run, signals_cache=Path(fmu_dir) / "signals")  # built once per profiles
+    try:
+        directory = prepare_dir(out, sc)
+    except OSError as exc:
+        return refused(f"--out {out}: cannot write the results: {exc}", sc.name)
+    plant, ctrl = fmus.paths(fmu_dir, variant)
+    helper = None
+    if plot and figure_process:
+        from orchestration.results import figure_process as fp
+
+        try:
+            helper = fp.FigureProcess(directory / FILES[1], *figure_target(sc, out)) if fp.wanted() else None
+        except OSError:  # no fork today: the figure is drawn here
+            helper = None
+    try:
+        result = run(sc, str(plant), str(ctrl), algorithm=algorithm, stop=stop,
+                     recorder=streaming_recorder(sc, directory, on_parquet=helper and helper.parquet_done))
+        summary = write_results(result, out, plot=plot, draw=helper and helper.draw)
+    finally:
+        if helper is not None:
+            helper.close()
+    if result.status == "interrupted":
+        return stop.exit_code, summary
+    if not result.ok:
+        return RUN_FAILED, summary
+    return (NOT_ACCEPTED if summary["accepted"] is False else OK), summary
+
+
+def cmd_run(args):
+    from orchestration.process.interrupts import catch, die_with_parent
+
+    die_with_parent()
+    with catch() as stop:
+        variant = args.variant or ("native" if args.engine == "libcosim" else fmus.DEFAULT_VARIANT)
+        code, s = run_file(args.scenario, args.out, args.fmus, args.algorithm, build=not args.no_build,
+                           variant=variant, engine=args.engine,
+                           plot=not args.no_plot, stop=stop, figure_process=True)
+    if s.get("status") == "invalid":
+        print(s["message"], file=sys.stderr)
+        return code
+    print(f"{s['scenario']}: {s['status']}" + (f" ({s['message']})" if s["message"] else "")
+          + f", {s['rows']} rows, {s['wall_time']:.2f} s wall, results in {Path(args.out) / s['scenario']}")
+    for key, v in (s.get("metrics") or {}).items():
+        print(f"  {key:22s} {v:.6g}")
+    for key, v in (s.get("acceptance") or {}).items():
+        print(f"  accept {key:15s} {v['value']:.4g} <= {v['limit']:.4g}: {'pass' if v['pass'] else 'FAIL'}")
+    return code
+
+
+def cmd_batch(args):
+    from orchestration.cli.batch import run_batch
+    from orchestration.process.interrupts import catch
+
+    with catch() as stop:
+        return run_batch(args.scenarios, args.out, args.fmus, jobs=args.jobs, scheduler=args.scheduler,
+                         algorithm=args.algorithm, stop=stop, variant=args.variant or fmus.DEFAULT_VARIANT,
+                         command=main)
+
+
+def cmd_check(args):
+    from orchestration.check import checker as check
+
+    problems = [p for p in map(check.usage_problem, args.fmu) if p]
+    for p in problems:
+        print(p, file=sys.stderr)
+    if problems:
+        return INVALID
+    return check.run(args.fmu, args.junit, args.reference)
+
+
+def cmd_export_ssp(args):
+    """``export-ssp SCENARIO OUT.ssp``: 0 written, 2 the scenario is invalid or SSP cannot express it
+    (nothing written), 1 building the FMUs failed."""
+    from orchestration.build.native_build import NativeBuildError
+    from orchestration.scenario.load import ScenarioError, load_scenario
+    from orchestration.tools.ssp import NotExpressible, NotWritable, export
+
+    try:
+        fmus.ensure(args.fmus, quiet=True)
+        sc = load_scenario(args.scenario, model_variables(args.fmus))
+        plant, ctrl = fmus.paths(args.fmus, args.variant)
+        print(export(sc, args.out, plant, ctrl))
+    except (ScenarioError, NotExpressible, NotWritable) as exc:
+        print(exc, file=sys.stderr)
+        return INVALID
+    except subprocess.CalledProcessError as exc:
+        print(f"building the FMUs into {args.fmus} failed (exit {exc.returncode})", file=sys.stderr)
+        return RUN_FAILED
+    except NativeBuildError as exc:
+        print(f"building ScenarioSignals.fmu failed: {exc}", file=sys.stderr)
+        return RUN_FAILED
+    return OK
+
+
+def cmd_fit_curve(args):
+    from orchestration.tools.fit_curve import InputError, run
+
+    try:
+        run(args.noload, args.R_s, args.l_s, args.out)
+    except InputError as exc:
+        print(exc, file=sys.stderr)
+        return INVALID
+    return OK
+
+
+def parser():
+    ap = argparse.ArgumentParser(prog="python -m orchestration",
+                                 description="Co-simulate the saturated induction motor FMU with the "
+                                 "backstepping controller FMU over YAML scenarios (fmpy master).")
+    sub = ap.add_subparsers(dest="command", required=True)
+    b = sub.add_parser("build", help="build both FMUs", description="Build SaturatedInductionMotor.fmu and "
+                       "BacksteppingController.fmu with build_fmus.py.")
+    b.add_argument("--out", default=str(fmus.DEFAULT_DIR), help="output directory (default build/fmus)")
+    b.set_defaults(func=cmd_build)
+
+    def common(p):
+        p.add_argument("--out", default="results", help="results directory (default results)")
+        p.add_argument("--fmus", default=str(fmus.DEFAULT_DIR),
+                       help="FMU directory, built there when missing or stale (default build/fmus)")
+        p.add_argument("--algorithm", choices=("gauss-seidel", "jacobi"),
+                       help="override the scenario's coupling algorithm")
+        p.add_argument("--variant", choices=tuple(fmus.VARIANTS),
+                       help="which FMUs run: python (pythonfmu, the executable specification; default; "
+                       "native with --engine libcosim), "
+                       "native (C, FMI 2.0) or native-fmi3 (C, FMI 3.0); the results are bit-identical, "
+                       "the native ones about 6 times faster under the fmpy master")
+
+    r = sub.add_parser("run", help="run one scenario", description="Run one scenario; write timeseries "
+                       "(CSV, Parquet), metrics.json and figure.png under OUT/<scenario name>/.")
+    r.add_argument("scenario", help="scenario YAML file")
+    common(r)
+    r.add_argument("--no-build", action="store_true", help="do not build the FMUs, use them as they are")
+    r.add_argument("--no-plot", action="store_true", help="skip the figure")
+    r.add_argument("--engine", choices=("fmpy", "libcosim"), default="fmpy",
+                   help="co-simulation engine: fmpy (our master, default) or libcosim (OSP's C++ engine, "
+                   "Jacobi coupling, FMI 2.0 FMUs; see orchestration/run/libcosim_engine.py)")
+    r.set_defaults(func=cmd_run)
+    ba = sub.add_parser("batch", help="run many scenarios in parallel", description="Run every scenario "
+                        "(files, or the *.yaml of directories), one process each; a summary table of the "
+                        "metrics goes to OUT/summary.csv and the screen.")
+    ba.add_argument("scenarios", nargs="+", help="scenario files or directories")
+    common(ba)
+    ba.add_argument("--jobs", type=int, default=2, help="parallel processes (default 2)")
+    ba.add_argument("--scheduler", help="address of a Dask distributed scheduler (e.g. tcp://host:8786); "
+                    "the workers must see the same files")
+    ba.set_defaults(func=cmd_batch)
+    v = sub.add_parser("validate", help="check scenario files", description="Check scenario files against "
+                       "the schema and the FMUs' variables; list every problem.")
+    v.add_argument("scenario", nargs="+", help="scenario YAML file(s)")
+    v.add_argument("--fmus", default=str(fmus.DEFAULT_DIR), help="FMU directory whose variables to check")
+    v.set_defaults(func=cmd_validate)
+    c = sub.add_parser("check", help="check FMUs (any FMI 2.0 co-simulation FMU)", description="Check FMUs: "
+                       "fmpy validate, fmu-manipulation-toolbox, and run-time checks in child processes "
+                       "(instantiate, cycles, state, reset, bad-parameter, non-finite-input, reference); "
+                       "one line per check; exit 1 if any FAILs.")
+    c.add_argument("fmu", nargs="+", help="FMU file(s)")
+    c.add_argument("--junit", metavar="FILE", help="write the results as JUnit XML")
+    c.add_argument("--reference", metavar="DIR", help="directory holding <modelName>/ reference results "
+                   "(default: the reference results installed with the package, reference/ of the checkout)")
+    c.set_defaults(func=cmd_check)
+    e = sub.add_parser("export-ssp", help="write a scenario as an SSP 1.0 package", description="Write "
+                       "SCENARIO as an SSP 1.0 package: SystemStructure.ssd (components plant, controller, "
+                       "signals; connections; the scenario's parameters; libcosim step-size annotations) and "
+                       "the three FMUs, ScenarioSignals.fmu holding the scenario's profiles.")
+    e.add_argument("scenario", help="scenario YAML file")
+    e.add_argument("out", help="the .ssp file to write")
+    e.add_argument("--fmus", default=str(fmus.DEFAULT_DIR),
+                   help="FMU directory, built there when missing or stale (default build/fmus)")
+    e.add_argument("--variant", choices=("native", "python"), default="native",
+                   help="plant and controller FMUs: native (C, FMI 2.0; default) or python (pythonfmu)")
+    e.set_defaults(func=cmd_export_ssp)
+    fc = sub.add_parser("fit-curve", help="magnetizing curve from a no-load test", description="Fit every "
+                        "magnetizing-curve family to a no-load test (CSV: V_ll_rms, I_rms, f[, P_in]); write "
+                        "fit.yaml (scenario overrides), curve_table.csv (for curve: table) and fit.png.")
+    fc.add_argument("noload", help="no-load test CSV file")
+    fc.add_argument("--R-s", dest="R_s", required=True, metavar="OHM", help="stator resistance [Ohm]")
+    fc.add_argument("--l-s", dest="l_s", required=True, metavar="H", help="stator leakage inductance [H]")
+    fc.add_argument("--out", default="results/fit_curve", help="output directory (default results/fit_curve)")
+    fc.set_defaults(func=cmd_fit_curve)
+    return ap
+
+
+#: exit status when the reader of our standard output went away (``... | head``): 128 + SIGPIPE,
+#: what a shell reports for a command a broken pipe ended
+BROKEN_PIPE = 141
+
+
+def main(argv=None):
+    args = parser().parse_args(argv)
+    try:
+        code = args.func(args)
+    except BrokenPipeError:  # the reader closed the pipe: no traceback, nothing more to print
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())  # the final flush must not fail again
+        code = BROKEN_PIPE
+    if argv is None:  # this process's own command line (python -m orchestration, satmotor-cosim):
+        exit_now(code)  # end it here, before native exit code runs (see orchestration/process/clean_exit.py)
+    return code

@@ -1,0 +1,143 @@
+"""Warm children for ``batch``: each scenario runs ``python -m orchestration run ...`` in its own
+process, forked from a server that has imported the run path once.
+
+A fresh interpreter per scenario spends about 0.5 s importing numpy, fmpy, pyarrow and matplotlib
+before its first step.  Here the batch starts one :mod:`multiprocessing` forkserver that imports
+:data:`PRELOAD` once; each scenario is a new process forked from it (never a reused one: pythonfmu
+FMUs run their Python inside the host process, so two scenarios never share one).  The forkserver
+never instantiates an FMU.
+
+A child behaves as the ``run`` command does in a process of its own: it executes
+:func:`orchestration.cli.commands.main` with the same arguments, ends with :func:`~.clean_exit.exit_now`,
+shows that command line in ``ps`` (``setproctitle``), writes its standard output and error to files
+that the batch reads for the row, and extracts its FMUs under the batch's temporary directory.
+Its parent is the forkserver, not the batch, so it watches the batch itself
+(:func:`orchestration.process.interrupts.die_with`): a batch that dies, even by SIGKILL, gets its children
+SIGTERM (they write their partial results and exit), and then the forkserver, left without
+clients, exits too.  :func:`stop_server` ends the forkserver (and multiprocessing's resource
+tracker) when the batch is done, so nothing outlives the batch's own exit.
+"""
+
+from __future__ import annotations
+
+import multiprocessing
+import os
+import sys
+import tempfile
+import threading
+import traceback
+from multiprocessing.connection import wait
+
+from orchestration.process.title import set_title
+
+#: what a ``run`` child imports (the pythonfmu glue and FMU binaries are not among them: every
+#: child loads its own FMUs)
+PRELOAD = ("orchestration.cli", "orchestration.run.master", "orchestration.results.writer",
+           "orchestration.scenario.load", "orchestration.run.recorder", "orchestration.run.fmu_instance",
+           "orchestration.process.interrupts", "orchestration.results.plots", "pyarrow.parquet", "fmpy.fmi2",
+           "fmpy.fmi3", "pythonfmu", "satmotor.drive", "satmotor.plant", "satmotor.metrics", "setproctitle")
+
+# multiprocessing's Popen of a forkserver child reads the exit status from a pipe once: two threads
+# that poll the same child at the same moment (Process.start polls every child) could both read
+# it, and one would see 255.  Every start and every status read goes through this lock.
+_LOCK = threading.Lock()
+
+
+def available():
+    """Whether this system has the forkserver start method (Linux and the other POSIX systems)."""
+    return "forkserver" in multiprocessing.get_all_start_methods()
+
+
+def _context():
+    ctx = multiprocessing.get_context("forkserver")
+    ctx.set_forkserver_preload(list(PRELOAD))
+    return ctx
+
+
+def _child(main, argv, stdout_path, stderr_path, batch_pid, tmpdir):
+    """The body of a forked child: the command-line entry point ``main`` with ``argv``; never returns."""
+    from orchestration.process.clean_exit import exit_now
+    from orchestration.process.interrupts import die_with
+
+    for fd, path in ((1, stdout_path), (2, stderr_path)):
+        f = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)
+        os.dup2(f, fd)
+        os.close(f)
+    set_title(" ".join([sys.executable, "-m", "orchestration", *argv]))
+    if tmpdir:  # where the FMUs are extracted, as TMPDIR does for a fresh process
+        os.environ["TMPDIR"] = str(tmpdir)
+        tempfile.tempdir = None
+    die_with(batch_pid)
+    try:
+        code = main(argv)
+    except SystemExit as exc:  # argparse refusing an argument, as in a process of its own
+        code = exc.code
+    except BaseException:  # noqa: BLE001 - printed as an uncaught exception would be, then exit 1
+        traceback.print_exc()
+        code = 1
+    exit_now(code)
+
+
+class WarmChild:
+    """One ``run`` child forked from the warm server; the interface ``batch.run_one`` drives."""
+
+    def __init__(self, main, argv, workdir, tmpdir=None):
+        fd, self._out = tempfile.mkstemp(prefix="child-", suffix=".out", dir=workdir)
+        os.close(fd)
+        self._err = self._out[:-4] + ".err"
+        args = (main, list(argv), self._out, self._err, os.getpid(), tmpdir and str(tmpdir))
+        self._proc = _context().Process(target=_child, args=args, daemon=False)
+        with _LOCK:
+            self._proc.start()
+        self.pid = self._proc.pid
+        self._returncode = None
+
+    def wait(self, timeout):
+        """True once the child has ended (within ``timeout`` seconds; None: however long it takes)."""
+        if not wait([self._proc.sentinel], timeout):
+            return False
+        with _LOCK:
+            return self._proc.exitcode is not None
+
+    @property
+    def returncode(self):
+        """The exit code (negative: the signal that ended the child), None while it runs."""
+        if self._returncode is None:
+            with _LOCK:
+                self._returncode = self._proc.exitcode
+        return self._returncode
+
+    def terminate(self):
+        self._proc.terminate()
+
+    def kill(self):
+        self._proc.kill()
+
+    def output(self):
+        """(standard output, standard error) of the ended child; the files are removed."""
+        self.returncode  # noqa: B018 - read before the process object is closed
+        texts = []
+        for path in (self._out, self._err):
+            try:
+                with open(path, errors="replace") as f:
+                    texts.append(f.read())
+                os.unlink(path)
+            except OSError:
+                texts.append("")
+        self._proc.close()
+        return tuple(texts)
+
+
+def stop_server():
+    """End the forkserver and multiprocessing's resource tracker now (they would end by themselves
+    once the batch exits, a moment later).  Uses their private ``_stop`` methods (CPython's own tests
+    stop them so; looked up, not assumed: without them the two end with the batch)."""
+    from multiprocessing import forkserver, resource_tracker
+
+    for server in (forkserver._forkserver, resource_tracker._resource_tracker):
+        stop = getattr(server, "_stop", None)
+        if stop is not None:
+            try:
+                stop()
+            except OSError:  # already gone
+                pass

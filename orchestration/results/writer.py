@@ -1,0 +1,129 @@
+"""Results of a co-simulation run: metrics, acceptance checks, and the files written.
+
+Files per run, under ``OUT/<scenario name>/``: ``timeseries.csv`` and ``timeseries.parquet`` (the
+recorded outputs, streamed as the run goes; column names ``unit.variable``, SI units as in the
+FMUs' descriptions; with a ``measurements:`` section also ``measured.NAME``, the values the controller
+received),
+``metrics.json`` (metrics, acceptance verdicts and how the run ended) and ``figure.png``.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+
+from orchestration.run.measurement_noise import COLUMN_PREFIX as MEASURED
+from orchestration.run.recorder import FILES, StreamingRecorder
+from satmotor.drive import RUN
+from satmotor.metrics import acceptance, closed_loop_metrics
+
+
+def compute_metrics(df, scenario):
+    """Metrics of a recorded run (SI units): :func:`satmotor.metrics.closed_loop_metrics` on the
+    columns of ``df`` (a DataFrame, or ``{column: array}``; definitions there), the steady-state
+    window from the scenario's acceptance ``ss_window`` (default: the last 10 % of the run).  ``{}``
+    for an empty record."""
+    if len(df["time"]) == 0:
+        return {}
+    columns = {"t": "time", "omega_m": "plant.omega_m", "omega_set": "profile.omega_ref",
+               "psi_r_alpha": "plant.psi_r_alpha", "psi_r_beta": "plant.psi_r_beta",
+               "psi_set": "profile.psi_ref", "z1": "controller.z1", "e1": "controller.e1",
+               "i_s_alpha": "plant.i_s_alpha", "i_s_beta": "plant.i_s_beta",
+               "v_s_alpha": "controller.v_s_alpha", "v_s_beta": "controller.v_s_beta", "W": "controller.W"}
+    acc = scenario.acceptance
+    return closed_loop_metrics(**{k: np.asarray(df[c]) for k, c in columns.items()},
+                               run=np.asarray(df["controller.phase"]) == RUN,
+                               ss_window=acc.ss_window if acc is not None and acc.ss_window else None,
+                               voltage_limited=np.asarray(df["controller.voltage_limited"]),
+                               current_limited=np.asarray(df["controller.current_limited"]))
+
+
+def check_acceptance(metrics, scenario):
+    """``{bound: {"limit": x, "value": y, "pass": bool}}`` for the scenario's acceptance bounds
+    (:func:`satmotor.metrics.acceptance`; a nan value fails)."""
+    acc = scenario.acceptance
+    if acc is None or not metrics:
+        return {}
+    keys = ("ss_speed", "ss_flux", "overshoot_speed", "peak_current", "peak_current_run")
+    return acceptance(metrics, {key: getattr(acc, key) for key in keys})
+
+
+RESULT_FILES = (*FILES, "metrics.json", "figure.png")
+# what compute_metrics and the figure read: always recorded, whatever record.outputs lists
+NEEDED = ("plant.omega_m", "plant.psi_r_alpha", "plant.psi_r_beta", "plant.i_s_alpha", "plant.i_s_beta",
+          "plant.T_e", "plant.i_mu", "controller.v_s_alpha", "controller.v_s_beta", "controller.v_sd",
+          "controller.v_sq", "controller.e1", "controller.z1", "controller.W", "controller.T_load_est",
+          "controller.phase", "controller.voltage_limited", "controller.current_limited",
+          "controller.omega_ref_shaped", "controller.psi_ref_shaped", "controller.psi_r_hat_alpha",
+          "controller.psi_r_hat_beta")
+
+
+def prepare_dir(out_dir, scenario):
+    """``out_dir/<name>/``, made ready before a run: created, the previous results of the scenario
+    removed (a failed rerun never sits beside an old figure), and ``metrics.json`` written with
+    status ``running``.  An OSError here means the results could not be written: nothing has run."""
+    d = Path(out_dir) / scenario.name
+    d.mkdir(parents=True, exist_ok=True)
+    for name in RESULT_FILES:
+        (d / name).unlink(missing_ok=True)
+    (d / "metrics.json").write_text(json.dumps({"scenario": scenario.name, "file": str(scenario.path),
+                                                "status": "running"}) + "\n")
+    return d
+
+
+def recorded_selection(scenario, columns):
+    """Indices of ``columns`` to record: time, the profiles, the measured signals (``measured.NAME``),
+    ``record.outputs`` (all outputs when empty) and the columns the metrics and the figure need."""
+    wanted = set(scenario.record.outputs) | set(NEEDED) if scenario.record.outputs else None
+    return [i for i, c in enumerate(columns) if c == "time" or c.startswith(("profile.", MEASURED))
+            or wanted is None or c in wanted]
+
+
+def streaming_recorder(scenario, directory, on_parquet=None):
+    """A ``columns -> StreamingRecorder`` factory for :func:`orchestration.run.master.run`;
+    ``on_parquet``: see :attr:`StreamingRecorder.on_parquet`."""
+    def make(columns):
+        rec = StreamingRecorder(columns, directory, keep=recorded_selection(scenario, columns))
+        rec.on_parquet = on_parquet
+        return rec
+
+    return make
+
+
+def figure_target(scenario, out_dir):
+    """(path, title) of the run's figure."""
+    return Path(out_dir) / scenario.name / "figure.png", f"{scenario.name}: {scenario.description}"[:110]
+
+
+def write_results(result, out_dir, plot=True, draw=None):
+    """Write the files of one run under ``out_dir/<name>/``; returns the summary dict (also in
+    metrics.json).  A streamed run has its time series on disk already; a run recorded in memory
+    gets them written here.  Partial results of a failed or interrupted run are written too.
+    ``draw(data, path, title)`` draws the figure (default :func:`orchestration.results.plots.figure`)."""
+    sc = result.scenario
+    d = Path(out_dir) / sc.name
+    d.mkdir(parents=True, exist_ok=True)
+    rec = result.recorder
+    if not isinstance(rec, StreamingRecorder):  # the same writer as a streamed run
+        disk = StreamingRecorder(rec.columns, d, keep=recorded_selection(sc, rec.columns))
+        for row in np.column_stack(list(rec.arrays().values())).tolist():
+            disk.append(row)
+        disk.close()
+    df = rec.arrays()  # {column: array}: the metrics and the figure need no DataFrame
+    rows = len(df["time"]) if "time" in df else 0
+    metrics = compute_metrics(df, sc) if result.ok and rows else {}
+    acceptance = check_acceptance(metrics, sc)
+    summary = {
+        "scenario": sc.name, "file": str(sc.path), "status": result.status, "message": result.message,
+        "failed_unit": result.failed_unit, "t_end": result.t_end, "stop_time": sc.stop_time,
+        "wall_time": result.wall_time, "rows": rows, "metrics": metrics, "acceptance": acceptance,
+        "accepted": all(v["pass"] for v in acceptance.values()) if acceptance else None,
+    }
+    (d / "metrics.json").write_text(json.dumps(summary, indent=2, default=float) + "\n")
+    if plot and rows > 1:
+        if draw is None:
+            from orchestration.results.plots import figure as draw
+        draw(df, *figure_target(sc, out_dir))
+    return summary

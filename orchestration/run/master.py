@@ -1,0 +1,297 @@
+"""The co-simulation master: the plant and controller FMUs stepped together over a scenario.
+
+Three small parts, FMPy's way: the wiring (:mod:`orchestration.run.wiring`: connections resolved once
+into named sources), the recorder (:mod:`orchestration.run.recorder`: in memory, or streamed to disk)
+and the stepping loop here.
+
+* Time is ``t_k = t0 + k h`` (never accumulated); the controller is stepped every
+  ``controller_every`` plant steps with ``dt = Ts``, the plant every ``h``.
+* Gauss-Seidel (default): at a sample the controller steps first, then the plant uses its new
+  voltages.  Jacobi: the plant uses the voltages of the previous sample (both units see only
+  values of the previous communication point), so the two orders differ by a one-sample delay
+  that shrinks with the step.
+* Row ``k`` of the record holds the plant outputs at ``t_k``, the controller outputs computed at
+  ``t_k`` and the profiles at ``t_k``, as in :func:`satmotor.simulate.closed_loop`.
+* Measurements (the scenario's ``measurements:`` section, :mod:`orchestration.run.measurement_noise`):
+  at each controller sample the clean plant outputs are read, then the noise and quantization are
+  applied to the values passed to the controller only (the plant and the ``plant.*`` columns keep
+  the clean values); the measured signals are recorded as ``measured.NAME`` columns after the
+  profiles.  Without the section the loop passes the plant outputs through untouched.
+* An FMI discard, error or fatal status stops the run: what was recorded so far is kept, with the
+  status, the time and the first error the failing FMU logged.  A stop request (``stop.signum``
+  set, e.g. by a signal handler) ends the run at the next controller sample with status
+  ``interrupted``.
+* The master extracts each FMU once per run into a temporary directory it removes at the end
+  (unless the caller passes its own ``unzip_dirs``).
+"""
+
+from __future__ import annotations
+
+import time
+from ctypes import c_double
+from operator import itemgetter
+
+from fmpy.fmi1 import FMICallException
+
+from orchestration.process.interrupts import signal_name
+from orchestration.run.fmu_instance import (
+    STATUS,
+    DiscretePort,
+    FMUInstance,
+    RealPort,
+    check,
+    extract_owned,
+    remove_extracted,
+)
+from orchestration.run.measurement_noise import MeasurementNoise
+from orchestration.run.recorder import Recorder
+from orchestration.run.result import RunResult, failure_message, recorded_columns
+from orchestration.run.wiring import (
+    CONTROLLER,
+    DEFAULT_CONNECTIONS,
+    PLANT,
+    PROFILE,
+    Connection,
+    inputs_of,
+    resolve,
+)
+
+__all__ = ["run", "Connection", "DEFAULT_CONNECTIONS"]
+
+
+def _outputs(inst, kind="Real"):
+    declared = inst.declared_type(kind)
+    return [v.name for v in inst.md.modelVariables if v.causality == "output" and v.type == declared]
+
+
+class _NoStop:
+    signum = 0
+
+
+def run(scenario, plant_fmu, controller_fmu, connections=DEFAULT_CONNECTIONS, algorithm=None,
+        unzip_dirs=None, recorder=None, stop=None):
+    """Run ``scenario`` (an :class:`orchestration.scenario.load.Scenario`) with the two FMU files.
+
+    ``algorithm`` overrides the scenario's ('gauss-seidel' or 'jacobi'); ``unzip_dirs`` optional
+    (plant, controller) extracted copies, to share between runs (the caller owns them);
+    ``recorder``: a function ``columns -> Recorder`` (default: in memory, every column);
+    ``stop``: an object whose ``signum`` becomes non-zero to stop the run.  Never raises for an FMU
+    failure: the :class:`RunResult` says what happened.
+    """
+    algorithm = algorithm or scenario.algorithm
+    if algorithm not in ("gauss-seidel", "jacobi"):
+        raise ValueError(f"algorithm = {algorithm!r}: must be gauss-seidel or jacobi")
+    stop = stop or _NoStop()
+    owned = unzip_dirs is None
+    wall0 = time.perf_counter()
+    units, current = [], "plant"
+    rec, extracted = None, []
+    status, message, t_reached = "ok", "", 0.0
+    try:
+        if owned:
+            for path in (plant_fmu, controller_fmu):
+                extracted.append(extract_owned(path))
+        ud = extracted if owned else unzip_dirs
+        plant = FMUInstance(plant_fmu, PLANT, ud[0])
+        units.append(plant)
+        current = CONTROLLER
+        ctrl = FMUInstance(controller_fmu, CONTROLLER, ud[1])
+        units.append(ctrl)
+        for inst, overrides in ((plant, scenario.plant), (ctrl, {**scenario.controller, "Ts": scenario.Ts})):
+            current = inst.name
+            inst.set_parameters(overrides)
+            inst.initialize(0.0)
+        current = "master"
+        p_out, c_out = RealPort(plant, _outputs(plant)), RealPort(ctrl, _outputs(ctrl))
+        c_disc = DiscretePort(ctrl, _outputs(ctrl, "Integer"), _outputs(ctrl, "Boolean"))
+        profiles = {k: p.value for k, p in scenario.profiles.items()}
+        meas = getattr(scenario, "measurements", None)
+        measure = MeasurementNoise(meas, p_out.names) if meas is not None and meas.signals else None
+        columns = recorded_columns(p_out.names, c_out.names + c_disc.names, sorted(profiles),
+                                   measure.columns if measure else ())
+        rec = recorder(columns) if recorder else Recorder(columns)
+        t_reached, complete = _loop(scenario, jacobi=algorithm == "jacobi", plant=plant, ctrl=ctrl,
+                                    p_out=p_out, c_out=c_out, c_disc=c_disc, connections=connections,
+                                    profiles=profiles, rec=rec, stop=stop, measure=measure)
+        if not complete:
+            status, message = "interrupted", f"stopped by {signal_name(stop.signum)} at t = {t_reached:.6g} s"
+    except FMICallException as exc:
+        current = getattr(exc, "unit", current)  # FMUInstance.do_step tags the unit and the time
+        t_reached = getattr(exc, "time", t_reached)
+        inst = next((u for u in units if u.name == current), None)
+        status = STATUS[exc.status] if 0 <= exc.status < len(STATUS) else str(exc.status)
+        message = failure_message(current, exc, inst)
+    except Exception as exc:  # noqa: BLE001 - instantiation, a bad override, a missing variable
+        inst = next((u for u in units if u.name == current), None)
+        status = "setup"
+        message = failure_message(current, exc, inst)
+    finally:
+        for u in units:
+            u.close()
+        for d in extracted:
+            remove_extracted(d)
+    if rec is None:  # the run failed before its first row: an empty record of the same kind
+        try:
+            rec = recorder(["time"]) if recorder else Recorder(["time"])
+        except Exception:  # noqa: BLE001 - e.g. the streaming recorder's directory went away
+            rec = Recorder(["time"])
+    rec.close()
+    return RunResult(scenario, rec, status, message, t_reached, time.perf_counter() - wall0,
+                     current if status not in ("ok", "interrupted") else "")
+
+
+def _input_port(inst, unit, connections, outputs, profiles, prof):
+    """The input port of ``unit`` and a function ``(plant values, controller values, profile values)
+    -> the port's values``.  The port lists the inputs fed by the plant, then by the controller,
+    then by profiles (``prof``: the value functions in recording order), so the values are the
+    picks of the groups that feed the port, joined; the FMI call sets them all at once in that
+    order."""
+    names = inputs_of(connections, unit)
+    srcs = resolve(connections, unit, names, outputs, profiles)
+    groups = {PLANT: [], CONTROLLER: [], PROFILE: []}
+    for name, s in zip(names, srcs):
+        ref = s.ref if s.unit != PROFILE else next(i for i, f in enumerate(prof) if f is s.ref)
+        groups[s.unit].append((name, ref))
+    order = groups[PLANT] + groups[CONTROLLER] + groups[PROFILE]
+    port = RealPort(inst, [name for name, _ in order])
+    pick_p, pick_c, pick_f = (_picker([ref for _, ref in groups[u]]) for u in (PLANT, CONTROLLER, PROFILE))
+    fed = tuple(bool(groups[u]) for u in (PLANT, CONTROLLER, PROFILE))
+    if fed == (True, False, True):  # the controller of the default connections
+
+        def values(pv, cv, fv):
+            return pick_p(pv) + pick_f(fv)
+    elif fed == (False, True, True):  # the plant of the default connections
+
+        def values(pv, cv, fv):
+            return pick_c(cv) + pick_f(fv)
+    else:
+
+        def values(pv, cv, fv):
+            return pick_p(pv) + pick_c(cv) + pick_f(fv)
+
+    return port, values
+
+
+def _picker(indices):
+    """``sequence -> tuple of sequence[i] for i in indices`` (one C-level call)."""
+    if len(indices) >= 2:
+        return itemgetter(*indices)
+    if len(indices) == 1:
+        i = indices[0]
+        return lambda seq: (seq[i],)
+    return lambda seq: ()
+
+
+def _evaluator(funcs):
+    """``t -> tuple of f(t) for f in funcs`` without a comprehension's frame (the profiles, called
+    once per step): fixed-arity closures for up to four functions."""
+    if not funcs:
+        return lambda t: ()
+    if len(funcs) == 1:
+        (a,) = funcs
+        return lambda t: (a(t),)
+    if len(funcs) == 2:
+        a, b = funcs
+        return lambda t: (a(t), b(t))
+    if len(funcs) == 3:
+        a, b, c = funcs
+        return lambda t: (a(t), b(t), c(t))
+    if len(funcs) == 4:
+        a, b, c, d = funcs
+        return lambda t: (a(t), b(t), c(t), d(t))
+    return lambda t: tuple([f(t) for f in funcs])
+
+
+def _loop(sc, jacobi, plant, ctrl, p_out, c_out, c_disc, connections, profiles, rec, stop, measure=None):
+    """The stepping loop; returns (the last communication point reached [s], whether the run
+    reached its stop time).  A failing doStep raises FMICallException tagged with the unit and the
+    time (:meth:`FMUInstance.step_failed`).  The FMI functions are called through private ctypes
+    pointers declaring no argument types (:meth:`FMUInstance.fast`) with argument tuples made once:
+    the communication point is one ``c_double`` whose value is set once per step and shared by both
+    units; the profiles are evaluated once per step (pure functions of t); every value exchanged is
+    a plain float.  The controller's Integer and Boolean outputs (``c_disc``) follow its Reals in
+    each row (stored as float64, as every column).  Rows go straight to the recorder's current chunk
+    (:attr:`Recorder.rows`), flushed every :attr:`Recorder.chunk_rows` rows.
+    ``measure``: None, or a :class:`MeasurementNoise` giving, at each controller sample, the plant
+    outputs as the controller receives them and the row of measured values."""
+    h, N = sc.step, sc.controller_every
+    n = round(sc.stop_time / h)
+    every = max(1, round(sc.record.interval / h))
+    outputs = {PLANT: p_out.names, CONTROLLER: c_out.names}
+    prof = [profiles[p] for p in sorted(profiles)]
+    c_in, c_values = _input_port(ctrl, CONTROLLER, connections, outputs, profiles, prof)
+    p_in, p_values = _input_port(plant, PLANT, connections, outputs, profiles, prof)
+    calls_p, calls_c = plant.calls, ctrl.calls
+    get_p, get_c = plant.fast(calls_p["get_real"]), ctrl.fast(calls_c["get_real"])
+    set_p, set_c = plant.fast(calls_p["set_real"]), ctrl.fast(calls_c["set_real"])
+    T = c_double(0.0)  # the communication point of both doSteps
+    step_p, sp = plant.step_args(T, c_double(h))
+    step_c, sc_args = ctrl.step_args(T, c_double(sc.Ts))
+    pg, cg, pvals, cvals = p_out.get_args, c_out.get_args, p_out.values, c_out.values
+    ps, cs, p_invals, c_invals = p_in.set_args, c_in.set_args, p_in.values, c_in.values
+    get_i, get_b, ia, ba = c_disc.get_int, c_disc.get_bool, c_disc.int_args, c_disc.bool_args
+    ivals, bvals = c_disc.int_values, c_disc.bool_values
+    if ia is None or ba is None:  # a controller without Integer or Boolean outputs: the general path
+        get_i = get_b = None
+    evaluate = _evaluator(prof)
+    pv, cv = p_out.read()[:], c_out.read()[:] + c_disc.read()  # new lists after each read
+    held = cv  # controller outputs seen by the plant (Jacobi: one sample old)
+    mrow = ()  # the measured signals' values at the last sample (recorded after the profiles)
+    t0, t = 0.0, 0.0
+    rows, chunk = rec.rows, rec.chunk_rows
+    append, left = rows.append, chunk
+    for k in range(n + 1):
+        t = t0 + k * h
+        T.value = t
+        fv = evaluate(t)
+        if k % N == 0:
+            if stop.signum:
+                return t, False
+            if measure is None:
+                c_invals[:] = c_values(pv, held, fv)
+            else:
+                mv, mrow = measure(pv)
+                c_invals[:] = c_values(mv, held, fv)
+            r = set_c(*cs)
+            if r > 1:
+                check(calls_c["set_real"], r)
+            if jacobi:
+                held = cv  # the previous sample's voltages
+            r = step_c(*sc_args)
+            if r > 1:
+                ctrl.step_failed(r, t)
+            r = get_c(*cg)
+            if r > 1:
+                check(calls_c["get_real"], r)
+            if get_i is not None:
+                r = get_i(*ia)
+                if r > 1:
+                    check(calls_c["get_int"], r)
+                r = get_b(*ba)
+                if r > 1:
+                    check(calls_c["get_bool"], r)
+                cv = cvals[:] + ivals[:] + bvals[:]
+            else:
+                cv = cvals[:] + c_disc.read()
+            if not jacobi:
+                held = cv
+        if k % every == 0:
+            append((t, *pv, *cv, *fv, *mrow))
+            left -= 1
+            if not left:
+                rec.flush()  # empties rows in place
+                left = chunk
+        if k == n:
+            break
+        p_invals[:] = p_values(pv, held, fv)
+        r = set_p(*ps)
+        if r > 1:
+            check(calls_p["set_real"], r)
+        r = step_p(*sp)
+        if r > 1:
+            plant.step_failed(r, t)
+        r = get_p(*pg)
+        if r > 1:
+            check(calls_p["get_real"], r)
+        pv = pvals[:]
+    return t, True

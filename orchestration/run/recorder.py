@@ -1,0 +1,175 @@
+"""The recorder of a run: rows gathered in chunks, kept in memory or streamed to disk.
+
+:class:`Recorder` keeps the chunks in memory (the library use: ``master.run`` returns a frame);
+:class:`StreamingRecorder` appends each full chunk to ``timeseries.csv`` and
+``timeseries.parquet`` as the run goes, so a run holds at most one chunk of rows, and what was
+recorded before a failure or an interrupt is on disk already.  Both give the recorded rows back as
+a DataFrame with :meth:`frame`.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+CHUNK_ROWS = 20_000  # rows per chunk: about 4 MB of Python floats for 24 columns
+FILES = ("timeseries.csv", "timeseries.parquet")
+
+
+class Recorder:
+    """Rows ``[time, values...]`` in the order of ``columns``, in memory.
+
+    ``keep``: indices of the row entries to record (None: all), chosen once so the stepping loop
+    appends whole rows and the recorder drops what is not wanted per chunk, not per row.  Each full
+    chunk becomes one float64 array (rows x kept columns); pandas is imported only by :meth:`frame`.
+    The stepping loop appends its rows to :attr:`rows` itself and calls :meth:`flush` every
+    :attr:`chunk_rows` rows (no method call per row); :meth:`flush` empties :attr:`rows` in place, so
+    the list stays the same object for the whole run.
+    """
+
+    def __init__(self, columns, keep=None, chunk_rows=CHUNK_ROWS):
+        self._all = list(columns)
+        self._keep = None if keep is None else list(keep)
+        self.columns = self._all if keep is None else [self._all[i] for i in keep]
+        self.rows = []  # the current chunk; the stepping loop appends to it
+        self.chunk_rows = chunk_rows
+        self._chunks = []
+        self.n_rows = 0
+
+    def append(self, row):
+        self.rows.append(row)
+        if len(self.rows) >= self.chunk_rows:
+            self.flush()
+
+    def _chunk_array(self):
+        a = np.array(self.rows, dtype=float).reshape(len(self.rows), len(self._all))
+        return a if self._keep is None else a[:, self._keep]
+
+    def flush(self):
+        if self.rows:
+            self._write(self._chunk_array())
+            self.n_rows += len(self.rows)
+            self.rows.clear()
+
+    def _write(self, chunk):
+        self._chunks.append(chunk)
+
+    def close(self):
+        self.flush()
+
+    def arrays(self, columns=None):
+        """``{column: float64 array}`` of every recorded row (after :meth:`close`); ``columns``:
+        only those.  No pandas."""
+        if len(self._chunks) > 1:
+            self._chunks = [np.concatenate(self._chunks)]  # once
+        a = self._chunks[0] if self._chunks else np.empty((0, len(self.columns)))
+        index = {c: i for i, c in enumerate(self.columns)}
+        return {c: a[:, index[c]] for c in (self.columns if columns is None else columns)}
+
+    def frame(self):
+        """Every recorded row (after :meth:`close`) as a DataFrame."""
+        import pandas as pd
+
+        return pd.DataFrame(self.arrays(), columns=self.columns, dtype=float)
+
+
+def csv_text(chunk):
+    """The CSV lines of a float array, as pandas' ``to_csv`` writes them (shortest round-trip
+    ``repr`` of each value, an empty field for NaN), in one pass of precomputed formatting."""
+    fmt = ",".join(["%r"] * chunk.shape[1]) + "\n"
+    rows = chunk.tolist()
+    if np.isnan(chunk).any():
+        return "".join([",".join("" if v != v else repr(v) for v in r) + "\n" for r in rows])
+    return "".join([fmt % tuple(r) for r in rows])
+
+
+def _numpy(column):
+    """A float64 array of a pyarrow column (no pandas: ChunkedArray.to_numpy imports it)."""
+    if column.num_chunks == 0:
+        return np.empty(0)
+    return np.concatenate([np.frombuffer(c.buffers()[1], np.float64, len(c), 8 * c.offset) if not c.null_count
+                           else c.to_numpy(zero_copy_only=False) for c in column.chunks])
+
+
+def read_arrays(path, columns=None):
+    """``{column: float64 array}`` of a Parquet file of float64 columns (``columns``: only those)."""
+    import pyarrow.parquet as pq
+
+    with pq.ParquetFile(path) as f:  # not read_table: pyarrow.dataset imports pandas
+        table = f.read(columns=columns)
+    return {c: _numpy(table.column(c)) for c in table.column_names}
+
+
+class StreamingRecorder(Recorder):
+    """A :class:`Recorder` that appends each chunk to ``directory/timeseries.{csv,parquet}``.
+
+    The files are created (empty, with the header) by the constructor, so an unwritable directory
+    is found before the run starts.
+    """
+
+    #: None, or a function ``on_parquet(n_rows)`` called by :meth:`close` once the Parquet file is
+    #: complete, before the last chunk's CSV lines are written: the figure helper
+    #: (:mod:`orchestration.results.figure_process`) reads it and draws while the CSV is written
+    on_parquet = None
+
+    def __init__(self, columns, directory, keep=None, chunk_rows=CHUNK_ROWS):
+        super().__init__(columns, keep, chunk_rows)
+        import pyarrow as pa
+        import pyarrow.parquet as pq
+
+        self.directory = Path(directory)
+        self.csv_path = self.directory / FILES[0]
+        self.parquet_path = self.directory / FILES[1]
+        self._pa = pa
+        self._csv = open(self.csv_path, "w", newline="")  # noqa: SIM115 - closed in close()
+        self._csv.write(",".join(self.columns) + "\n")
+        self._csv.flush()
+        self._schema = pa.schema([(c, pa.float64()) for c in self.columns])
+        self._parquet = pq.ParquetWriter(self.parquet_path, self._schema)
+        self._closed = False
+
+    def _write(self, chunk):
+        self._write_csv(chunk)
+        self._write_parquet(chunk)
+
+    def _write_csv(self, chunk):
+        self._csv.write(csv_text(chunk))
+        self._csv.flush()
+
+    def _write_parquet(self, chunk):
+        pa = self._pa  # columns from their buffers: pa.array would import pandas (~0.3 s) to check types
+        cols = [pa.Array.from_buffers(pa.float64(), len(chunk), [None, pa.py_buffer(np.ascontiguousarray(c))])
+                for c in chunk.T]
+        self._parquet.write_table(pa.Table.from_arrays(cols, schema=self._schema))
+
+    def close(self):
+        if self._closed:
+            return
+        try:
+            if self.on_parquet is None:
+                self.flush()
+            else:  # the Parquet file first, complete, then the last CSV lines
+                chunk = self._chunk_array() if self.rows else None
+                if chunk is not None:
+                    self._write_parquet(chunk)
+                self._parquet.close()
+                self.on_parquet(self.n_rows + len(self.rows))
+                if chunk is not None:
+                    self._write_csv(chunk)
+                    self.n_rows += len(self.rows)
+                    self.rows.clear()
+        finally:
+            self._closed = True
+            self._csv.close()
+            self._parquet.close()
+
+    def arrays(self, columns=None):
+        """``{column: float64 array}`` read back from the Parquet file (``columns``: only those)."""
+        return read_arrays(self.parquet_path, columns)
+
+    def frame(self, columns=None):
+        """The recorded rows read back from the Parquet file (``columns``: only those)."""
+        import pandas as pd
+
+        return pd.read_parquet(self.parquet_path, columns=columns)

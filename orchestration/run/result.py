@@ -1,0 +1,47 @@
+"""What a run gives back, whichever engine ran it (the fmpy master or libcosim): the
+:class:`RunResult`, the column names of a recorded row, and the one-line message of a failed FMU call."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from orchestration.run.recorder import Recorder
+from orchestration.run.wiring import CONTROLLER, PLANT, PROFILE
+
+__all__ = ["RunResult", "recorded_columns", "failure_message"]
+
+
+@dataclass
+class RunResult:
+    """Outcome of one run: the recorder and how the run ended."""
+
+    scenario: object
+    recorder: Recorder
+    status: str  # ok, discard, error, fatal (FMI status of the failing call), setup, or interrupted
+    message: str
+    t_end: float  # [s] last communication point reached (where a failure happened)
+    wall_time: float  # [s]
+    failed_unit: str = ""  # "plant" or "controller" when an FMU failed
+
+    @property
+    def ok(self):
+        return self.status == "ok"
+
+    @property
+    def frame(self):
+        """The recorded rows as a DataFrame."""
+        return self.recorder.frame()
+
+
+def recorded_columns(plant_outputs, controller_outputs, profile_names, measured=()):
+    """Column names of a row: time, the plant and controller outputs, the profiles, then the
+    measured signals (``measured``: their column names, ``measured.NAME``)."""
+    return (["time"] + [f"{PLANT}.{v}" for v in plant_outputs]
+            + [f"{CONTROLLER}.{v}" for v in controller_outputs] + [f"{PROFILE}.{v}" for v in profile_names]
+            + list(measured))
+
+
+def failure_message(unit, exc, inst):
+    """``unit: what failed -- the FMU's first error message``."""
+    first = inst.first_error() if inst else ""
+    return f"{unit}: {exc}" + (f" -- {first}" if first else "")

@@ -1,0 +1,363 @@
+"""Scenario files (YAML): what the co-simulation master runs, checked before anything is run.
+
+Top-level keys (SI units; see ``scenarios/ramp_rated_load.yaml`` for a full example):
+
+``name`` (required, ``[A-Za-z0-9_.-]+``), ``description``, ``stop_time`` [s] (required, a multiple of
+``step``), ``step`` [s] (plant communication step, default 1e-4), ``controller_every`` (plant steps
+per controller sample, default 1; the controller's ``Ts = step * controller_every``),
+``algorithm`` (``gauss-seidel`` default, or ``jacobi``), ``plant`` and ``controller`` (parameter
+overrides by FMI variable name), ``profiles`` (``omega_ref`` [rad/s], default 0; ``psi_ref`` [Wb],
+required; ``T_load`` [N m], default 0; see :mod:`orchestration.scenario.profiles`), ``record``
+(``interval`` [s], a multiple of ``step``, default ``step``; ``outputs``: ``plant.NAME`` /
+``controller.NAME``, default all), ``acceptance`` (bounds checked after the run: ``ss_speed``,
+``ss_flux`` relative steady-state errors over ``ss_window: [t_from, t_to]`` [s],
+``overshoot_speed`` relative, ``peak_current``, ``peak_current_run`` [A]), ``measurements``
+(noise and quantization the master applies to the plant outputs it passes to the controller:
+``seed`` (integer >= 0, default 0), ``noise: {NAME: std}`` (Gaussian standard deviation >= 0) and
+``quantization: {NAME: step}`` (step > 0), each in the signal's unit, NAME one of
+:data:`orchestration.run.wiring.MEASUREMENTS`; see :mod:`orchestration.run.measurement_noise`).
+
+Once the file is well formed, :func:`orchestration.scenario.feasibility.physics_problems` builds the
+plain-Python units from the overrides (the ranges live in :mod:`satmotor`), checks that the flux
+set-points are reachable and that the recording stays within its bound.
+
+:func:`validate_scenario_file` returns every problem and never raises; :func:`load_scenario`
+raises one :class:`ScenarioError` listing all of them.  Numbers are ints or floats; YAML 1.1
+reads ``1e-4`` (no dot) as a string, which is reported with the spelling to use (``1.0e-4``).
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass, field, fields
+from pathlib import Path
+from types import MappingProxyType
+
+import yaml
+
+from orchestration.run.measurement_noise import Measurements
+from orchestration.scenario.feasibility import physics_problems
+from orchestration.scenario.problems import Checker, Problem
+from orchestration.scenario.profiles import Constant, parse_profile
+
+__all__ = ["Problem", "ScenarioError", "Acceptance", "Record", "Scenario", "Measurements", "load_scenario",
+           "validate_scenario_file", "interface_variables", "ALGORITHMS", "PROFILE_NAMES"]
+
+ALGORITHMS = ("gauss-seidel", "jacobi")
+PROFILE_NAMES = ("omega_ref", "psi_ref", "T_load")
+UNITS = ("plant", "controller")
+TOP_KEYS = ("name", "description", "stop_time", "step", "controller_every", "algorithm", "plant",
+            "controller", "profiles", "record", "acceptance", "measurements")
+ACCEPTANCE_KEYS = ("ss_speed", "ss_flux", "ss_window", "overshoot_speed", "peak_current", "peak_current_run")
+_NAME = re.compile(r"[A-Za-z0-9_.-]+")
+_REL = 1e-9  # relative tolerance of "a multiple of step"
+
+
+class ScenarioError(ValueError):
+    """A scenario file with problems; ``.problems`` lists every :class:`Problem`."""
+
+    def __init__(self, problems, file=None):
+        self.problems = list(problems)
+        where = file or (self.problems[0].file if self.problems else "scenario")
+        lines = "\n".join(f"  {p}" for p in self.problems)
+        super().__init__(f"{where}: {len(self.problems)} problem(s):\n{lines}")
+
+
+@dataclass(frozen=True)
+class Acceptance:
+    """Bounds checked after a run; None: not checked."""
+
+    ss_speed: float | None = None  # [1] largest |omega_m - omega_ref| / |final omega_ref| in the window
+    ss_flux: float | None = None  # [1] largest ||psi_r| - psi_ref| / final psi_ref in the window
+    ss_window: tuple[float, float] | None = None  # [s] (t_from, t_to); None: the last 10 % of the run
+    overshoot_speed: float | None = None  # [1] relative to the total speed change
+    peak_current: float | None = None  # [A] largest |i_s|
+    peak_current_run: float | None = None  # [A] largest |i_s| once the law runs (the current limit)
+
+
+@dataclass(frozen=True)
+class Record:
+    interval: float  # [s] a multiple of the step
+    outputs: tuple[str, ...] = ()  # "plant.NAME" / "controller.NAME"; empty: all outputs of both
+
+
+@dataclass(frozen=True)
+class Scenario:
+    name: str
+    description: str
+    path: Path | None  # the scenario file
+    stop_time: float  # [s]
+    step: float = 1e-4  # [s] plant communication step
+    controller_every: int = 1  # plant steps per controller sample
+    algorithm: str = "gauss-seidel"
+    plant: MappingProxyType = field(default_factory=lambda: MappingProxyType({}))  # {FMI name: value}
+    controller: MappingProxyType = field(default_factory=lambda: MappingProxyType({}))
+    profiles: MappingProxyType = field(default_factory=lambda: MappingProxyType({}))  # name -> profile
+    record: Record | None = None  # None: every step, all outputs
+    acceptance: Acceptance | None = None
+    measurements: Measurements | None = None  # None: the controller gets the clean plant outputs
+
+    @property
+    def Ts(self):
+        """Controller sample period [s] (the controller FMU's ``Ts`` is set to it)."""
+        return self.step * self.controller_every
+
+    def __reduce__(self):  # a MappingProxyType does not pickle: send dicts (process pools, Dask)
+        values = {f.name: getattr(self, f.name) for f in fields(self)}
+        return _unpickle, ({k: dict(v) if isinstance(v, MappingProxyType) else v for k, v in values.items()},)
+
+
+def _unpickle(values):
+    return Scenario(**{k: MappingProxyType(v) if isinstance(v, dict) else v for k, v in values.items()})
+
+
+def interface_variables():
+    """``{"plant": {name: (causality, type)}, "controller": {...}}`` from :mod:`satmotor.interface`,
+    the same shape as the master reads from the FMUs' model descriptions."""
+    from satmotor import interface as itf
+
+    def table(*groups):
+        return {v.name: (v.causality, v.type) for g in groups for v in g}
+
+    return {"plant": table(itf.PLANT_INPUTS, itf.PLANT_OUTPUTS, itf.PLANT_PARAMETERS),
+            "controller": table(itf.CONTROLLER_INPUTS, itf.CONTROLLER_OUTPUTS, itf.CONTROLLER_PARAMETERS)}
+
+
+def _choices():
+    """Allowed values of String parameters, by (unit, name)."""
+    from satmotor.backstepping import LOAD_MODES
+    from satmotor.interface import CONTROLLER_MODES
+    from satmotor.params import CURVE_NAMES
+
+    return {("controller", "mode"): CONTROLLER_MODES, ("controller", "load_mode"): tuple(LOAD_MODES),
+            ("plant", "curve"): CURVE_NAMES, ("controller", "curve"): CURVE_NAMES}
+
+
+def _multiple(x, step):
+    n = round(x / step)
+    return n >= 1 and abs(x - n * step) <= _REL * x
+
+
+def _overrides(chk, raw, unit, variables, base_dir):
+    """Check ``plant:`` / ``controller:`` overrides against the unit's variables."""
+    if raw is None:
+        return {}
+    if not isinstance(raw, dict):
+        chk.add(unit, raw, "must be a mapping {parameter name: value}")
+        return {}
+    table, out, choices = variables.get(unit, {}), {}, _choices()
+    for name, value in raw.items():
+        where = f"{unit}.{name}"
+        if unit == "controller" and name == "Ts":
+            chk.add(where, value, "Ts is set by the master to step * controller_every; "
+                    "set step and controller_every instead")
+            continue
+        if name not in table:
+            chk.add(where, value, f"unknown {unit} variable")
+            continue
+        causality, vtype = table[name]
+        if causality != "parameter":
+            chk.add(where, value, f"is {'an' if causality[0] in 'aeio' else 'a'} {causality} of the {unit}, "
+                    "only parameters can be overridden")
+            continue
+        if vtype == "Real":
+            v = chk.number(value, where)
+        elif vtype in ("Integer", "Enumeration"):
+            v = chk.integer(value, where)
+        elif vtype == "Boolean":
+            v = value if isinstance(value, bool) else None
+            if v is None:
+                chk.add(where, value, "must be true or false")
+        elif vtype == "String":
+            v = chk.string(value, where)
+            allowed = choices.get((unit, name))
+            if v is not None and allowed and v not in allowed:
+                chk.add(where, value, f"must be one of {', '.join(allowed)}")
+                v = None
+            if v and name == "table_file":
+                resolved = (base_dir / v).resolve()
+                if not resolved.is_file():
+                    chk.add(where, value, f"no such file: {resolved}")
+                    v = None
+                else:
+                    v = str(resolved)
+        else:
+            chk.add(where, value, f"variables of type {vtype} cannot be overridden")
+            v = None
+        if v is not None:
+            out[name] = v
+    return out
+
+
+def _record(chk, raw, step, variables):
+    if raw is None:
+        return Record(step if step else 1e-4, ())
+    if not chk.mapping(raw, "record", (), ("interval", "outputs")):
+        return None
+    interval = step
+    if "interval" in raw:
+        interval = chk.number(raw["interval"], "record.interval", low=0.0, strict=True)
+        if interval is not None and step and not _multiple(interval, step):
+            chk.add("record.interval", raw["interval"], f"must be a multiple of step = {step!r}")
+    outputs = raw.get("outputs") or []
+    if not isinstance(outputs, list):
+        chk.add("record.outputs", outputs, "must be a list of 'plant.NAME' / 'controller.NAME'")
+        outputs = []
+    for i, name in enumerate(outputs):
+        unit, _, var = name.partition(".") if isinstance(name, str) else ("", "", "")
+        if unit not in UNITS or variables.get(unit, {}).get(var, ("",))[0] != "output":
+            chk.add(f"record.outputs[{i}]", name, "not an output; write 'plant.NAME' or 'controller.NAME' "
+                    "with NAME an output of that FMU")
+    return Record(interval or step or 1e-4, tuple(o for o in outputs if isinstance(o, str)))
+
+
+def _acceptance(chk, raw, stop_time):
+    if raw is None:
+        return None
+    if not chk.mapping(raw, "acceptance", (), ACCEPTANCE_KEYS):
+        return None
+    vals = {}
+    for key in ("ss_speed", "ss_flux", "overshoot_speed", "peak_current", "peak_current_run"):
+        if key in raw:
+            vals[key] = chk.number(raw[key], f"acceptance.{key}", low=0.0, strict=True)
+    if "ss_window" in raw:
+        w = raw["ss_window"]
+        if not (isinstance(w, list) and len(w) == 2):
+            chk.add("acceptance.ss_window", w, "must be a pair [t_from, t_to] [s]")
+        else:
+            a = chk.number(w[0], "acceptance.ss_window[0]", low=0.0)
+            b = chk.number(w[1], "acceptance.ss_window[1]", low=0.0)
+            if a is not None and b is not None:
+                if not a < b:
+                    chk.add("acceptance.ss_window", w, "t_from must be < t_to")
+                elif stop_time is not None and b > stop_time * (1 + _REL):
+                    chk.add("acceptance.ss_window[1]", w[1], f"must be <= stop_time = {stop_time!r}")
+                else:
+                    vals["ss_window"] = (a, b)
+    return Acceptance(**vals)
+
+
+def _measurements(chk, raw):
+    """The ``measurements:`` section: seed, noise and quantization by measured signal."""
+    from orchestration.run.wiring import MEASUREMENTS
+
+    if raw is None:
+        return None
+    if not chk.mapping(raw, "measurements", (), ("seed", "noise", "quantization")):
+        return None
+    seed = chk.integer(raw.get("seed", 0), "measurements.seed", low=0)
+    tables = {}
+    for key, strict, what in (("noise", False, "standard deviation"), ("quantization", True, "step")):
+        table = raw.get(key)
+        if table is None:
+            tables[key] = ()
+            continue
+        if not isinstance(table, dict):
+            chk.add(f"measurements.{key}", table, f"must be a mapping {{signal: {what}}}")
+            continue
+        vals = {}
+        for name, value in table.items():
+            where = f"measurements.{key}.{name}"
+            if name not in MEASUREMENTS:
+                chk.add(where, value, f"not a measured signal; allowed: {', '.join(MEASUREMENTS)}")
+                continue
+            v = chk.number(value, where, low=0.0, strict=strict)
+            if v is not None:
+                vals[name] = v
+        tables[key] = tuple((n, vals[n]) for n in MEASUREMENTS if n in vals)
+    if seed is None or len(tables) < 2:
+        return None
+    return Measurements(seed, tables["noise"], tables["quantization"])
+
+
+def _check(data, file, variables):
+    """``(Scenario or None, problems)`` from the parsed YAML ``data`` of ``file``."""
+    chk = Checker(file)
+    if not isinstance(data, dict):
+        chk.add("", data, "a scenario file must be a YAML mapping")
+        return None, chk.problems
+    required = ("name", "stop_time")
+    chk.mapping(data, "", required, [k for k in TOP_KEYS if k not in required])
+    variables = variables if variables is not None else interface_variables()
+    base_dir = Path(file).parent
+    name = data.get("name")
+    if "name" in data and chk.string(name, "name") is not None and not _NAME.fullmatch(name):
+        chk.add("name", name, "must match [A-Za-z0-9_.-]+ (it names the results directory)")
+    description = data.get("description", "")
+    if description is None:
+        description = ""
+    chk.string(description, "description")
+    stop_time = step = None
+    if "stop_time" in data:
+        stop_time = chk.number(data["stop_time"], "stop_time", low=0.0, strict=True)
+    step = chk.number(data.get("step", 1e-4), "step", low=0.0, strict=True)
+    if stop_time is not None and step is not None and not _multiple(stop_time, step):
+        chk.add("stop_time", data["stop_time"], f"must be a multiple of step = {step!r}")
+    every = chk.integer(data.get("controller_every", 1), "controller_every", low=1)
+    algorithm = data.get("algorithm", "gauss-seidel")
+    if algorithm not in ALGORITHMS:
+        chk.add("algorithm", algorithm, f"must be one of {', '.join(ALGORITHMS)}")
+    plant = _overrides(chk, data.get("plant"), "plant", variables, base_dir)
+    controller = _overrides(chk, data.get("controller"), "controller", variables, base_dir)
+    profiles = {"omega_ref": Constant(0.0), "T_load": Constant(0.0)}
+    raw = data.get("profiles", {})
+    chk.mapping(raw, "profiles", ("psi_ref",), ("omega_ref", "T_load"))
+    if isinstance(raw, dict):
+        for key in PROFILE_NAMES:
+            if key in raw:
+                p, probs = parse_profile(raw[key], f"profiles.{key}", str(file))
+                chk.problems += probs
+                profiles[key] = p
+    record = _record(chk, data.get("record"), step, variables)
+    acceptance = _acceptance(chk, data.get("acceptance"), stop_time)
+    measurements = _measurements(chk, data.get("measurements"))
+    if chk.problems:
+        return None, chk.problems
+    sc = Scenario(name, description, Path(file), stop_time, step, every, algorithm,
+                  MappingProxyType(plant), MappingProxyType(controller),
+                  MappingProxyType({k: profiles[k] for k in PROFILE_NAMES}), record, acceptance,
+                  measurements)
+    problems = physics_problems(sc)
+    return (None, problems) if problems else (sc, [])
+
+
+def _read(path):
+    """``(data, problems)`` of a YAML file; never raises."""
+    file = str(path)
+    try:
+        text = Path(path).read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        return None, [Problem(file, "(file)", file, f"cannot read: {exc}")]
+    try:
+        return yaml.safe_load(text), []
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        where = f"line {mark.line + 1}, column {mark.column + 1}" if mark else "?"
+        what = getattr(exc, "problem", None) or str(exc)
+        return None, [Problem(file, "(yaml syntax)", where, f"invalid YAML: {what}")]
+
+
+def validate_scenario_file(path, variables=None):
+    """Every problem of the scenario file ``path`` (empty list: valid).  Never raises.
+
+    ``variables``: ``{"plant": {name: (causality, type)}, "controller": {...}}`` of the FMUs
+    (e.g. from fmpy's model descriptions); None: :func:`interface_variables`.
+    """
+    try:
+        data, problems = _read(path)
+        if problems:
+            return problems
+        return _check(data, str(path), variables)[1]
+    except Exception as exc:  # noqa: BLE001 - a validator reports, it does not crash
+        return [Problem(str(path), "(internal)", None, f"validation failed: {exc!r}")]
+
+
+def load_scenario(path, variables=None):
+    """The :class:`Scenario` of the YAML file ``path``; raises :class:`ScenarioError` listing every
+    problem.  ``variables`` as for :func:`validate_scenario_file`."""
+    data, problems = _read(path)
+    if not problems:
+        sc, problems = _check(data, str(path), variables)
+    if problems:
+        raise ScenarioError(problems, str(path))
+    return sc
