@@ -46,14 +46,18 @@ def cmd_build(args):
 
 
 def cmd_validate(args):
-    from .scenario import validate_scenario_file
+    """Every problem of each file (exit 2 if any), and the notes of the valid ones (plant/controller
+    mismatch, a load beyond the current limit's torque: said on stderr, exit 0)."""
+    from .scenario import check_scenario_file
 
     worst = OK
     for path in args.scenario:
-        problems = validate_scenario_file(path, model_variables(args.fmus))
-        for p in problems:
+        problems, notes = check_scenario_file(path, model_variables(args.fmus))
+        for p in [*problems, *notes]:
             print(p, file=sys.stderr)
-        print(f"{path}: {'valid' if not problems else f'{len(problems)} problem(s)'}")
+        status = f"{len(problems)} problem(s)" if problems else "valid" + (
+            f" ({len(notes)} note(s))" if notes else "")
+        print(f"{path}: {status}")
         worst = max(worst, INVALID if problems else OK)
     return worst
 
