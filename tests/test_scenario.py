@@ -51,6 +51,7 @@ def test_library_has_the_required_scenarios():
 def test_library_scenario_is_valid(path):
     assert validate_scenario_file(path) == []
     assert validate_scenario_file(path, interface_variables()) == []
+    assert check_scenario_file(path) == ([], [])  # no silent mismatch, no load beyond the limit
     sc = load_scenario(path)
     assert isinstance(sc, Scenario)
     assert sc.name == path.stem
@@ -88,6 +89,17 @@ def test_default_scenario_reproduces_ramp_scenario():
 def test_rotor_resistance_mismatch_overrides_only_the_plant():
     sc = load_scenario(LIBRARY / "rotor_resistance_mismatch.yaml")
     assert dict(sc.plant) == {"R_r": pytest.approx(1.5 * 1.395)} and "R_r" not in sc.controller
+    assert sc.mismatch and dict(sc.motor) == {}  # said to be intended
+
+
+def test_every_library_mismatch_is_declared():
+    from satmotor.interface import MOTOR_PARAMETERS
+
+    for f in FILES:
+        sc = load_scenario(f)
+        differ = [v.name for v in MOTOR_PARAMETERS
+                  if sc.plant.get(v.name, v.start) != sc.controller.get(v.name, v.start)]
+        assert bool(differ) == sc.mismatch, (f.stem, differ)
 
 
 def test_field_weakening_stays_below_the_voltage_limit():
