@@ -406,7 +406,9 @@ def test_a_motor_parameter_set_on_one_unit_is_a_note_naming_file_field_and_value
     assert "plant 0.05 kg m2, controller 0.0131 kg m2 (default)" in by_field["plant.J"]
     assert "plant 0.2772 H (default), controller 0.25 H" in by_field["controller.L_m0"]
     assert all("mismatch: true" in line for line in by_field.values())
-    assert load_scenario(path).notes == tuple(notes)
+    sc = load_scenario(path)
+    assert sc.notes == tuple(notes)
+    assert pickle.loads(pickle.dumps(sc)) == sc and copy.deepcopy(sc).notes == sc.notes  # process pools
     # validate says it on stderr, one line each, and the file stays valid
     assert cli_main(["validate", str(path), "--fmus", str(tmp_path / "no_fmus")]) == 0
     out, err = capsys.readouterr()
