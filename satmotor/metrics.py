@@ -39,6 +39,16 @@ run phase
 ``voltage_limited_fraction``, ``current_limited_fraction`` [1]
     Share of all samples whose voltage command was limited to V_dc/sqrt(3), resp. whose current
     demand was bounded by I_max (the controller's flags; only when the flags are given).
+``ss_voltage_limited_fraction``, ``ss_current_limited_fraction`` [1]
+    The same share over the steady-state window only (nan if no sample falls in it).
+
+Holding the set-points (:func:`setpoint_status`)
+------------------------------------------------
+A run holds its set-points when, over the steady-state window, ``ss_speed`` and ``ss_flux`` stay
+within their margins and neither limiter flag is set at any sample.  The margins are the
+scenario's acceptance bounds ``ss_speed`` / ``ss_flux`` when it states them, else
+:data:`SS_SPEED_MARGIN` and :data:`SS_FLUX_MARGIN` (2 %).  A limit active in the window means the
+drive is saturated there: what it holds is what the limit allows, not the set-point.
 """
 
 from __future__ import annotations
@@ -53,6 +63,8 @@ SETTLING_BAND = 0.02  # [1] relative band of the settling time
 SS_SPEED_FLOOR = 1.0  # [rad/s] least denominator of ss_speed
 SS_FLUX_FLOOR = 1e-3  # [Wb] least denominator of ss_flux
 SS_DEFAULT_FRACTION = 0.1  # [1] default steady-state window: this last fraction of the record
+SS_SPEED_MARGIN = 0.02  # [1] default margin of ss_speed for holding the set-points
+SS_FLUX_MARGIN = 0.02  # [1] default margin of ss_flux
 _T_REL = 1e-9  # relative tolerance of the window bounds (sample times carry rounding)
 #: The series :func:`closed_loop_metrics` reads (also the keys of a closed_loop record).
 SERIES = ("t", "omega_m", "omega_set", "psi_r_alpha", "psi_r_beta", "psi_set", "z1", "e1", "i_s_alpha",
@@ -83,6 +95,16 @@ def steady_state_window(t, window=None):
     t_from, t_to = window
     tol = _T_REL * max(abs(t_from), abs(t_to), 1.0)
     return (t >= t_from - tol) & (t <= t_to + tol)
+
+
+def steady_state_bounds(t, window=None):
+    """``(t_from, t_to)`` [s] of the steady-state window of the sample times ``t`` (non-empty):
+    ``window`` itself, or the last ``SS_DEFAULT_FRACTION`` of the record (as
+    :func:`steady_state_window` selects it)."""
+    if window is not None:
+        return float(window[0]), float(window[1])
+    t0, t1 = float(t[0]), float(t[-1])
+    return t0 + (1.0 - SS_DEFAULT_FRACTION) * (t1 - t0), t1
 
 
 def steady_state_error(y, y_set, in_window, floor=0.0):
@@ -144,11 +166,43 @@ def closed_loop_metrics(*, t, omega_m, omega_set, psi_r_alpha, psi_r_beta, psi_s
         "peak_current_run": float(np.max(np.hypot(i_s_alpha, i_s_beta)[run])) if running else math.nan,
         "min_W": float(np.min(np.asarray(W, dtype=float)[run])) if running else math.nan,
     }
-    for name, flags in (("voltage_limited_fraction", voltage_limited), ("current_limited_fraction",
-                                                                        current_limited)):
+    for name, flags in (("voltage_limited", voltage_limited), ("current_limited", current_limited)):
         if flags is not None:
-            out[name] = float(np.mean(np.asarray(flags, dtype=float) != 0.0))
+            on = np.asarray(flags, dtype=float) != 0.0
+            out[f"{name}_fraction"] = float(np.mean(on))
+            out[f"ss_{name}_fraction"] = float(np.mean(on[ss])) if ss.any() else math.nan
     return out
+
+
+def setpoint_status(metrics, window, speed_margin=None, flux_margin=None):
+    """``(holds, line)``: whether the run held its set-points over the steady-state ``window``
+    ``(t_from, t_to)`` [s] (module docstring; margins None: :data:`SS_SPEED_MARGIN`,
+    :data:`SS_FLUX_MARGIN`), and one line saying so, naming what missed.  ``holds`` is None (not
+    judged) for empty metrics (a failed run) or an empty window."""
+    if not metrics:
+        return None, ""
+    speed_margin = SS_SPEED_MARGIN if speed_margin is None else speed_margin
+    flux_margin = SS_FLUX_MARGIN if flux_margin is None else flux_margin
+    where = f"[{window[0]:.6g}, {window[1]:.6g}] s"
+    ss_w, ss_f = metrics["ss_speed"], metrics["ss_flux"]
+    if math.isnan(ss_w) or math.isnan(ss_f):
+        return None, f"set-points not judged: no sample in the steady-state window {where}"
+    missed = []
+    for what, value, margin in (("speed", ss_w, speed_margin), ("flux", ss_f, flux_margin)):
+        if not value <= margin:
+            missed.append(f"{what} off its set-point by up to {_percent(value)} (margin {_percent(margin)})")
+    for what in ("current", "voltage"):
+        share = metrics.get(f"ss_{what}_limited_fraction", 0.0)
+        if share > 0.0:
+            missed.append(f"{what} limit active in {_percent(share)} of the window")
+    if missed:
+        return False, f"set-points NOT held in {where}: " + "; ".join(missed)
+    return True, (f"set-points held in {where}: speed within {ss_w:.2g} (margin {_percent(speed_margin)}), "
+                  f"flux within {ss_f:.2g} (margin {_percent(flux_margin)}), no limit active")
+
+
+def _percent(x):
+    return f"{100.0 * x:.3g} %"
 
 
 def run_metrics(res, ss_window=None):

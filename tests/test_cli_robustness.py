@@ -88,6 +88,89 @@ def test_every_bad_override_is_reported_at_once(tmp_path, fmu_dir):
         assert f": {field} = " in r.stderr, r.stderr
 
 
+# --- set-points held or not, mismatch notes: said, never refused ------------------------------------------
+
+LOADED = "  omega_ref: {type: step, time: 0.15, value: 50.0}\n"
+
+
+def _loaded(d, name, T_load, stop_time=0.5, extra=""):
+    f = Path(d) / f"{name}.yaml"
+    f.write_text(f"name: {name}\nstop_time: {stop_time}\nprofiles:\n{PSI}{LOADED}"
+                 f"  T_load: {{type: step, time: 0.3, value: {T_load!r}}}\n" + extra)
+    return f
+
+
+def test_run_says_in_one_line_when_the_set_points_are_not_held(tmp_path, fmu_dir):
+    # 90 N m on the default motor at 0.9 Wb with the default I_max = 30 A: more than the current allows
+    f = _loaded(tmp_path, "overload", 90.0)
+    r = _cli("run", f, "--out", tmp_path / "out", "--fmus", fmu_dir, "--no-build", "--no-plot")
+    assert r.returncode == 0, r.stderr  # no acceptance bounds: the exit code is unchanged
+    first = r.stdout.splitlines()[0]
+    assert first.startswith("overload: ok, set-points NOT held in [0.45, 0.5] s: speed off its set-point")
+    assert "current limit active in" in first
+    m = json.loads((tmp_path / "out" / "overload" / "metrics.json").read_text())
+    assert m["holds_setpoints"] is False and m["setpoints"] in first and m["accepted"] is None
+    assert m["metrics"]["ss_speed"] > 0.02 and m["metrics"]["ss_current_limited_fraction"] > 0
+    (note,) = [ln for ln in r.stderr.splitlines() if ": note: " in ln]  # said before it ran, too
+    assert note.startswith(f"{f}: note: profiles.T_load: the load's peak |T_load| = 90 N m exceeds")
+    assert m["notes"] == [note]
+
+
+def test_run_says_when_the_set_points_are_held(tmp_path, fmu_dir):
+    f = _loaded(tmp_path, "held", 20.0)
+    r = _cli("run", f, "--out", tmp_path / "out", "--fmus", fmu_dir, "--no-build", "--no-plot")
+    assert r.returncode == 0, r.stderr
+    lines = r.stdout.splitlines()
+    assert lines[0].startswith("held: ok, ") and "NOT held" not in r.stdout
+    assert lines[1].startswith("  set-points held in [0.45, 0.5] s: speed within")
+    m = json.loads((tmp_path / "out" / "held" / "metrics.json").read_text())
+    assert m["holds_setpoints"] is True and m["notes"] == [] and ": note: " not in r.stderr
+
+
+@pytest.mark.parametrize("share, held", [(0.95, True), (1.05, False)])
+def test_the_torque_limit_validate_notes_is_where_the_closed_loop_stops_holding(tmp_path, fmu_dir, share,
+                                                                                  held):
+    from satmotor.limits import torque_limit
+    from satmotor.params import MotorParams
+
+    T = round(share * torque_limit(MotorParams(), 0.9, 30.0).T_max, 3)
+    f = _loaded(tmp_path, "near", T, stop_time=1.0)
+    r = _cli("validate", f, "--fmus", fmu_dir)
+    assert r.returncode == 0 and ("profiles.T_load" in r.stderr) == (not held), r.stderr
+    r = _cli("run", f, "--out", tmp_path / "out", "--fmus", fmu_dir, "--no-build", "--no-plot")
+    m = json.loads((tmp_path / "out" / "near" / "metrics.json").read_text())
+    assert r.returncode == 0 and m["holds_setpoints"] is held, m["setpoints"]
+
+
+def test_batch_lists_the_runs_that_do_not_hold(tmp_path, fmu_dir):
+    d = tmp_path / "scenarios"
+    d.mkdir()
+    _loaded(d, "overload", 90.0)
+    _loaded(d, "held", 20.0)
+    r = _cli("batch", d, "--out", tmp_path / "out", "--fmus", fmu_dir, "--jobs", 1)
+    assert r.returncode == 0, r.stderr
+    summary = pd.read_csv(tmp_path / "out" / "summary.csv").set_index("scenario")
+    assert summary.loc["overload", "holds_setpoints"] == False  # noqa: E712 - read back from CSV
+    assert summary.loc["held", "holds_setpoints"] == True  # noqa: E712
+    assert summary.loc["overload", "setpoints"].startswith("set-points NOT held")
+    (line,) = [ln for ln in r.stderr.splitlines() if ln.startswith("NOT HELD")]
+    assert "overload.yaml (exit 0): set-points NOT held in [0.45, 0.5] s" in line
+    assert sum(": note: profiles.T_load" in ln for ln in r.stderr.splitlines()) == 1
+
+
+def test_a_plant_only_motor_parameter_is_said_by_validate_and_run(tmp_path, fmu_dir):
+    f = _scenario(tmp_path, "bigger", stop_time=0.05, extra="plant: {J: 0.05}\n")
+    for args in (("validate", f, "--fmus", fmu_dir),
+                 ("run", f, "--out", tmp_path / "out", "--fmus", fmu_dir, "--no-build", "--no-plot")):
+        r = _cli(*args)
+        assert r.returncode == 0, r.stderr
+        (note,) = [ln for ln in r.stderr.splitlines() if ": note: " in ln]
+        assert note.startswith(f"{f}: note: plant.J: plant 0.05 kg m2, controller 0.0131 kg m2 (default)")
+    f.write_text(f.read_text() + "mismatch: true\n")
+    r = _cli("validate", f, "--fmus", fmu_dir)
+    assert r.returncode == 0 and ": note: " not in r.stderr
+
+
 # --- failures explained -----------------------------------------------------------------------------------
 
 def test_a_plant_failure_names_the_plant_and_quotes_its_message(tmp_path, fmu_dir):

@@ -10,16 +10,21 @@ import pandas as pd
 import pytest
 
 from orchestration.results.writer import check_acceptance, compute_metrics
+from orchestration.results.writer import setpoint_status as results_setpoint_status
 from orchestration.scenario.load import Acceptance
 from satmotor.drive import PREMAG, RUN
 from satmotor.metrics import (
     SERIES,
+    SS_FLUX_MARGIN,
+    SS_SPEED_MARGIN,
     acceptance,
     closed_loop_metrics,
     iae,
     overshoot,
     run_metrics,
+    setpoint_status,
     settling_time,
+    steady_state_bounds,
     steady_state_error,
     steady_state_window,
 )
@@ -201,8 +206,10 @@ def test_compute_metrics_is_the_same_figures_from_the_dataframe():
                                     current_limited=np.zeros(N))
     assert list(m) == ["t_switch", "iae_speed", "iae_flux", "ss_speed", "ss_flux", "overshoot_speed",
                        "settling_time_speed", "peak_current", "peak_voltage", "peak_current_run", "min_W",
-                       "voltage_limited_fraction", "current_limited_fraction"]
+                       "voltage_limited_fraction", "ss_voltage_limited_fraction", "current_limited_fraction",
+                       "ss_current_limited_fraction"]
     assert m["voltage_limited_fraction"] == pytest.approx(6 / 21, rel=1e-15)
+    assert m["ss_voltage_limited_fraction"] == 1.0  # t = 8 .. 10 s: 5 samples, all flagged
     assert m["current_limited_fraction"] == 0.0
     check(m)
     check(compute_metrics(frame(r), scenario()))  # default window: the last 10 %
@@ -233,3 +240,77 @@ def test_check_acceptance_pass_and_fail_at_the_bound(limit, passes):
     assert check_acceptance(m, scenario(ss_window=(8.0, 10.0))) == {}  # no bounds given
     assert check_acceptance(m, scenario()) == {}  # no acceptance section
     assert check_acceptance({}, sc) == {}  # a failed run has no metrics
+
+
+# ----- holding the set-points ---------------------------------------------------------------------
+
+
+def test_limiter_shares_over_the_window():
+    r = record()
+    flags = T >= 9.0  # t = 9, 9.5, 10: 3 of the 5 samples of [8, 10], 3 of 21 overall
+    m = closed_loop_metrics(**r, run=T >= 1.0, ss_window=(8.0, 10.0), voltage_limited=np.zeros(N),
+                            current_limited=flags)
+    assert m["ss_current_limited_fraction"] == pytest.approx(3 / 5, rel=1e-15)
+    assert m["current_limited_fraction"] == pytest.approx(3 / 21, rel=1e-15)
+    assert m["ss_voltage_limited_fraction"] == 0.0
+    m = closed_loop_metrics(**r, run=T >= 1.0, ss_window=(20.0, 30.0), current_limited=flags)
+    assert math.isnan(m["ss_current_limited_fraction"])
+
+
+def _m(**kw):
+    return {"ss_speed": 0.001, "ss_flux": 0.001, "ss_current_limited_fraction": 0.0,
+            "ss_voltage_limited_fraction": 0.0, **kw}
+
+
+def test_a_run_within_the_default_margins_holds():
+    holds, line = setpoint_status(_m(ss_speed=0.0199, ss_flux=0.02), (1.3, 1.5))
+    assert holds is True and line.startswith("set-points held in [1.3, 1.5] s")
+    assert "margin 2 %" in line
+
+
+@pytest.mark.parametrize("kw, words", [
+    ({"ss_speed": 0.0201}, ["speed off its set-point by up to 2.01 % (margin 2 %)"]),
+    ({"ss_flux": 0.4}, ["flux off its set-point by up to 40 % (margin 2 %)"]),
+    ({"ss_current_limited_fraction": 1.0}, ["current limit active in 100 % of the window"]),
+    ({"ss_voltage_limited_fraction": 0.25}, ["voltage limit active in 25 % of the window"]),
+    ({"ss_speed": 0.4, "ss_current_limited_fraction": 0.5}, ["speed off", "current limit active in 50 %"]),
+])
+def test_what_is_missed_is_named_in_one_line(kw, words):
+    holds, line = setpoint_status(_m(**kw), (1.35, 1.5))
+    assert holds is False and "\n" not in line
+    assert line.startswith("set-points NOT held in [1.35, 1.5] s: ")
+    for w in words:
+        assert w in line, line
+
+
+def test_stated_margins_replace_the_defaults():
+    assert setpoint_status(_m(ss_speed=0.025), (0, 1), speed_margin=0.03)[0] is True
+    assert setpoint_status(_m(ss_flux=0.005), (0, 1), flux_margin=0.001)[0] is False
+    assert SS_SPEED_MARGIN == 0.02 and SS_FLUX_MARGIN == 0.02  # the documented defaults
+
+
+def test_not_judged_without_metrics_or_samples():
+    assert setpoint_status({}, (0, 1)) == (None, "")
+    holds, line = setpoint_status(_m(ss_speed=math.nan), (2.0, 3.0))
+    assert holds is None and "no sample" in line
+
+
+def test_the_default_window_bounds_are_the_last_tenth():
+    assert steady_state_bounds(np.array([1.0, 2.0, 11.0])) == (10.0, 11.0)
+    assert steady_state_bounds(np.array([0.0, 1.0]), (0.2, 0.5)) == (0.2, 0.5)
+
+
+@pytest.mark.parametrize("bounds, margins", [({}, "2 %"), ({"ss_speed": 0.05, "ss_flux": 0.05}, "5 %")])
+def test_results_judge_with_the_scenarios_window_and_bounds(bounds, margins):
+    r = record()  # ss_speed 0.005, ss_flux 0.01 over [8, 10]; no limiter flag there
+    sc = scenario(ss_window=(8.0, 10.0), **bounds)
+    m = compute_metrics(frame(r), sc)
+    holds, line = results_setpoint_status(m, T, sc)
+    assert holds is False  # the voltage flags of frame() cover t >= 7.5 s
+    assert "[8, 10] s" in line and "voltage limit active in 100 %" in line and "speed off" not in line
+    df = frame(r)
+    df["controller.voltage_limited"] = False
+    holds, line = results_setpoint_status(compute_metrics(df, sc), T, sc)
+    assert holds is True and f"margin {margins}" in line
+    holds, line = results_setpoint_status(compute_metrics(df, scenario()), T, scenario())
+    assert "[9, 10] s" in line  # the default window: the last 10 % of 0 .. 10 s

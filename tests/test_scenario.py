@@ -13,6 +13,7 @@ from orchestration.cli.commands import main as cli_main
 from orchestration.scenario.load import (
     Scenario,
     ScenarioError,
+    check_scenario_file,
     interface_variables,
     load_scenario,
     validate_scenario_file,
@@ -50,6 +51,7 @@ def test_library_has_the_required_scenarios():
 def test_library_scenario_is_valid(path):
     assert validate_scenario_file(path) == []
     assert validate_scenario_file(path, interface_variables()) == []
+    assert check_scenario_file(path) == ([], [])  # no silent mismatch, no load beyond the limit
     sc = load_scenario(path)
     assert isinstance(sc, Scenario)
     assert sc.name == path.stem
@@ -87,6 +89,17 @@ def test_default_scenario_reproduces_ramp_scenario():
 def test_rotor_resistance_mismatch_overrides_only_the_plant():
     sc = load_scenario(LIBRARY / "rotor_resistance_mismatch.yaml")
     assert dict(sc.plant) == {"R_r": pytest.approx(1.5 * 1.395)} and "R_r" not in sc.controller
+    assert sc.mismatch and dict(sc.motor) == {}  # said to be intended
+
+
+def test_every_library_mismatch_is_declared():
+    from satmotor.interface import MOTOR_PARAMETERS
+
+    for f in FILES:
+        sc = load_scenario(f)
+        differ = [v.name for v in MOTOR_PARAMETERS
+                  if sc.plant.get(v.name, v.start) != sc.controller.get(v.name, v.start)]
+        assert bool(differ) == sc.mismatch, (f.stem, differ)
 
 
 def test_field_weakening_stays_below_the_voltage_limit():
@@ -361,3 +374,121 @@ def test_unhashable_type_and_empty_list(tmp_path):
     assert [p.field for p in validate_scenario_file(path)] == ["profiles.T_load.type"]
     path.write_text(_edit(TL, "  T_load: []\n"))
     assert [p.field for p in validate_scenario_file(path)] == ["profiles.T_load"]
+
+
+# --- the motor: section, mismatch notes, one pass, the load against the current limit ----------
+
+
+def _notes(path):
+    problems, notes = check_scenario_file(path)
+    assert problems == []
+    return notes
+
+
+def test_motor_section_goes_to_both_units_and_unit_entries_override_it(tmp_path):
+    path = tmp_path / "m.yaml"
+    path.write_text(BASE + "motor: {R_r: 1.2, J: 0.02, curve: linear}\n"
+                    "plant: {J: 0.02, B_2: 1.0e-3}\ncontroller: {I_max: 25.0}\n")
+    sc = load_scenario(path)
+    assert dict(sc.plant) == {"R_r": 1.2, "J": 0.02, "curve": "linear", "B_2": 1.0e-3}
+    assert dict(sc.controller) == {"R_r": 1.2, "J": 0.02, "curve": "linear", "I_max": 25.0}
+    assert dict(sc.motor) == {"R_r": 1.2, "J": 0.02, "curve": "linear"} and not sc.mismatch
+    assert sc.notes == () and _notes(path) == []
+
+
+def test_a_motor_parameter_set_on_one_unit_is_a_note_naming_file_field_and_values(tmp_path, capsys):
+    path = tmp_path / "m.yaml"
+    path.write_text(BASE + "motor: {R_r: 1.2}\nplant: {R_r: 1.5, J: 0.05}\ncontroller: {L_m0: 0.25}\n")
+    notes = _notes(path)
+    by_field = {n.field: str(n) for n in notes}
+    assert set(by_field) == {"plant.R_r", "plant.J", "controller.L_m0"}  # one line per parameter
+    assert by_field["plant.R_r"].startswith(f"{path}: note: plant.R_r: plant 1.5 Ohm, controller 1.2 Ohm")
+    assert "plant 0.05 kg m2, controller 0.0131 kg m2 (default)" in by_field["plant.J"]
+    assert "plant 0.2772 H (default), controller 0.25 H" in by_field["controller.L_m0"]
+    assert all("mismatch: true" in line for line in by_field.values())
+    sc = load_scenario(path)
+    assert sc.notes == tuple(notes)
+    assert pickle.loads(pickle.dumps(sc)) == sc and copy.deepcopy(sc).notes == sc.notes  # process pools
+    # validate says it on stderr, one line each, and the file stays valid
+    assert cli_main(["validate", str(path), "--fmus", str(tmp_path / "no_fmus")]) == 0
+    out, err = capsys.readouterr()
+    assert "valid (3 note(s))" in out
+    assert sorted(ln for ln in err.splitlines() if ": note: " in ln) == sorted(by_field.values())
+
+
+def test_mismatch_true_silences_the_notes_and_is_itself_noted_when_nothing_differs(tmp_path):
+    path = tmp_path / "m.yaml"
+    path.write_text(BASE + "mismatch: true\nplant: {R_r: 2.0925}\n")
+    assert _notes(path) == [] and load_scenario(path).mismatch is True
+    path.write_text(BASE + "mismatch: true\nmotor: {R_r: 2.0925}\n")
+    (note,) = _notes(path)
+    assert note.field == "mismatch" and "same motor parameters" in note.message
+
+
+def test_the_same_value_given_twice_is_no_mismatch(tmp_path):
+    path = tmp_path / "m.yaml"
+    path.write_text(BASE + "plant: {R_r: 1.5}\ncontroller: {R_r: 1.5}\n")
+    assert _notes(path) == []
+
+
+@pytest.mark.parametrize("text, field, words", [
+    ("motor: {B_2: 1.0e-3}\n", "motor.B_2", "a plant parameter only: set it under plant:"),
+    ("motor: {I_max: 20.0}\n", "motor.I_max", "a controller parameter only: set it under controller:"),
+    ("motor: {omega_m: 1.0}\n", "motor.omega_m", "not a motor parameter"),
+    ("motor: [1, 2]\n", "motor", "must be a mapping"),
+    ("motor: {R_r: -1.0}\n", "motor.R_r", "> 0"),
+    ("motor: {n_p: 2.5}\n", "motor.n_p", "integer"),
+    ("motor: {curve: spline}\n", "motor.curve", "must be one of"),
+    ("mismatch: yes please\n", "mismatch", "true or false"),
+])
+def test_bad_motor_section(tmp_path, text, field, words):
+    path = tmp_path / "m.yaml"
+    path.write_text(BASE + text)
+    problems = validate_scenario_file(path)
+    assert [p.field for p in problems] == [field]  # a bad motor value: once, not once per unit
+    assert words in problems[0].message and str(path) in str(problems[0])
+
+
+def test_schema_problems_and_bad_values_are_reported_in_one_pass(tmp_path):
+    path = tmp_path / "all.yaml"
+    path.write_text(BASE + "colour: red\nplant: {R_s: abc, l_s: 0.0}\ncontroller: {I_max: -3}\n"
+                    "motor: {R_r: -1.0}\nrecord: {interval: 1.5e-4}\n")
+    problems = validate_scenario_file(path)
+    assert {(p.field, p.value) for p in problems} == {
+        ("colour", "red"), ("plant.R_s", "abc"), ("record.interval", 1.5e-4),  # the schema's
+        ("plant.l_s", 0.0), ("controller.I_max", -3.0), ("motor.R_r", -1.0)}  # the physics'
+    assert all(p.file == str(path) for p in problems)
+
+
+def test_an_unreachable_flux_is_found_beside_a_schema_problem(tmp_path):
+    path = tmp_path / "psi.yaml"
+    path.write_text(_edit(PSI, "  psi_ref: {type: constant, value: 5.0}\n") + "colour: red\n")
+    assert [p.field for p in validate_scenario_file(path)] == ["colour", "profiles.psi_ref"]
+
+
+def _textbook_torque(psi, I_max, L_m=0.2772, l_r=5.839e-3, n_p=2):
+    """3/2 n_p L_m/(l_r + L_m) psi_r i_sq with i_sd = psi_r / L_m (constant inductance, k = 1)."""
+    return 1.5 * n_p * L_m / (l_r + L_m) * psi * math.sqrt(I_max**2 - (psi / L_m) ** 2)
+
+
+@pytest.mark.parametrize("share, noted", [(1.01, True), (0.99, False)])
+def test_a_load_beyond_the_current_limits_torque_is_noted(tmp_path, share, noted):
+    T = share * _textbook_torque(0.95, 20.0)
+    path = tmp_path / "load.yaml"
+    path.write_text(_edit(TL, f"  T_load: {{type: step, time: 0.005, value: {-T!r}}}\n")
+                    + "motor: {curve: linear}\ncontroller: {I_max: 20.0}\n")
+    notes = _notes(path)
+    assert [n.field for n in notes] == (["profiles.T_load"] if noted else [])
+    if noted:
+        assert notes[0].value == pytest.approx(T) and "20 A" in notes[0].message
+        assert f"{_textbook_torque(0.95, 20.0):.4g} N m" in notes[0].message
+
+
+def test_the_torque_limit_takes_the_best_flux_of_a_varying_set_point(tmp_path):
+    # psi_ref from 0.3 to 0.95 Wb: the limit is the largest torque over those set-points (at 0.95)
+    T = 0.99 * _textbook_torque(0.95, 20.0)
+    path = tmp_path / "load.yaml"
+    path.write_text(_edit(PSI, "  psi_ref: {type: ramp, start: 0.0, end: 0.01, from: 0.3, to: 0.95}\n")
+                    .replace(TL, f"  T_load: {{type: constant, value: {T!r}}}\n")
+                    + "motor: {curve: linear}\ncontroller: {I_max: 20.0}\n")
+    assert _notes(path) == []

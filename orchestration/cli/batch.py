@@ -13,6 +13,11 @@
    SIGTERM (they write their partial results), and every scenario not finished is a row with
    status ``interrupted``.  ``summary.csv`` is written in every case once runs have started.
 
+Each row also says whether the run held its set-points (``holds_setpoints``, ``setpoints``: see
+:mod:`orchestration.results`); a row that did not is listed after the table (``NOT HELD ...``), without
+changing the exit code.  The notes of the scenarios (plant/controller mismatch, a load beyond the
+current limit's torque) are printed when the files are loaded.
+
 Exit code: ``128 + signum`` when interrupted, else the largest exit code of the rows (0: all ok;
 1: a run failed; 2: a file invalid; 3: a run missed its acceptance bounds; a child killed by
 signal N counts as 128 + N).
@@ -51,15 +56,19 @@ def _row(path, name, status, exit_code, message=""):
     return {"file": str(path), "scenario": name, "status": status, "exit_code": exit_code, "message": message}
 
 
-def plan(files, variables=None):
+def plan(files, variables=None, notes=None):
     """``(runnable, rows)``: ``[(file, scenario name)]`` to run and the rows of the files that
-    cannot run (invalid or unreadable).  Never raises."""
+    cannot run (invalid or unreadable).  ``notes``: a list the scenarios' notes are appended to.
+    Never raises."""
     from orchestration.scenario.load import ScenarioError, load_scenario
 
     runnable, rows = [], []
     for f in files:
         try:
-            runnable.append((Path(f).resolve(), load_scenario(f, variables).name))
+            sc = load_scenario(f, variables)
+            runnable.append((Path(f).resolve(), sc.name))
+            if notes is not None:
+                notes.extend(sc.notes)
         except ScenarioError as exc:
             rows.append(_row(f, Path(f).stem, "invalid", INVALID, " | ".join(str(p) for p in exc.problems)))
         except Exception as exc:  # noqa: BLE001 - a batch reports a file it cannot load, it goes on
@@ -82,7 +91,7 @@ def run_one(path, out, fmu_dir, algorithm=None, name=None, should_stop=None, tmp
     ``should_stop``: a function polled while the child runs; when it returns True the child gets
     SIGTERM (it writes its partial results) and the row says ``interrupted``.  ``tmpdir``: the
     child's TMPDIR (where it extracts the FMUs).  ``warm``: the command-line entry point
-    (:func:`orchestration.cli.main`) to call in a child forked from the warm server
+    (:func:`orchestration.cli.commands.main`) to call in a child forked from the warm server
     (:mod:`orchestration.cli.warm_children`; ``tmpdir`` required, it also holds the child's
     output) instead of starting ``python -m orchestration run`` afresh (None); the row is the same.
     """
@@ -167,7 +176,8 @@ def _child_row(path, name, rc, stdout, stderr, metrics, stopped):
         return _row(path, name, "interrupted" if stopped else "failed", rc or 1,
                     f"exit {rc} without results" + (f": {tail}" if tail else ""))
     row = _row(path, name, summary["status"], rc, summary.get("message", ""))
-    row.update(accepted=summary.get("accepted"), wall_time=summary.get("wall_time"),
+    row.update(accepted=summary.get("accepted"), holds_setpoints=summary.get("holds_setpoints"),
+               setpoints=summary.get("setpoints", ""), wall_time=summary.get("wall_time"),
                **{k: (summary.get("metrics") or {}).get(k) for k in SUMMARY_METRICS})
     return row
 
@@ -242,7 +252,10 @@ def run_batch(items, out, fmu_dir, jobs=2, scheduler=None, algorithm=None, stop=
     if not files:
         print("no scenario files found", file=sys.stderr)
         return INVALID
-    runnable, rows = plan(files)
+    notes = []
+    runnable, rows = plan(files, notes=notes)
+    for note in notes:
+        print(note, file=sys.stderr)
     dup = duplicates(runnable)
     if dup:
         for name, fs in dup.items():
@@ -294,10 +307,14 @@ def _write_summary(rows, out):
 
     df = pd.DataFrame(rows).sort_values("file").reset_index(drop=True)
     df.to_csv(out / "summary.csv", index=False)
-    shown = [c for c in ("scenario", "status", "accepted", *SUMMARY_METRICS, "wall_time") if c in df]
-    print(df[shown].to_string(index=False, float_format=lambda v: f"{v:.4g}"))
+    table = df.rename(columns={"holds_setpoints": "held"})
+    shown = [c for c in ("scenario", "status", "accepted", "held", *SUMMARY_METRICS, "wall_time")
+             if c in table]
+    print(table[shown].to_string(index=False, float_format=lambda v: f"{v:.4g}"))
     for r in rows:
         if r["status"] != "ok" or r["exit_code"] != 0:
             print(f"{r['status'].upper()} {r['file']} (exit {r['exit_code']}): {r.get('message', '')}",
                   file=sys.stderr)
+        elif r.get("holds_setpoints") is False:
+            print(f"NOT HELD {r['file']} (exit {r['exit_code']}): {r.get('setpoints', '')}", file=sys.stderr)
     print(f"summary: {out / 'summary.csv'}")

@@ -3,7 +3,9 @@
 
 Exit codes: 0 success; 1 a run failed (FMI discard/error/fatal, or setup); 2 a scenario file is
 invalid, or ``--out`` cannot be written (found before anything runs); 3 a run completed but
-missed its acceptance bounds; 130 / 143 interrupted by SIGINT (Ctrl-C) / SIGTERM, after writing
+missed its acceptance bounds (a run that does not hold its set-points says so in its first line and
+in ``metrics.json``, ``holds_setpoints``, but exits 0 without acceptance bounds); 130 / 143
+interrupted by SIGINT (Ctrl-C) / SIGTERM, after writing
 what was computed (status ``interrupted``).  ``batch`` exits with the largest code of its
 scenarios (see :mod:`orchestration.cli.batch`).  ``check``: 1 if a check FAILs, 2 for a path that is not an
 FMU (see :mod:`orchestration.check.checker`).  ``fit-curve``: 2 for a bad no-load file or option (see
@@ -46,14 +48,18 @@ def cmd_build(args):
 
 
 def cmd_validate(args):
-    from orchestration.scenario.load import validate_scenario_file
+    """Every problem of each file (exit 2 if any), and the notes of the valid ones (plant/controller
+    mismatch, a load beyond the current limit's torque: said on stderr, exit 0)."""
+    from orchestration.scenario.load import check_scenario_file
 
     worst = OK
     for path in args.scenario:
-        problems = validate_scenario_file(path, model_variables(args.fmus))
-        for p in problems:
+        problems, notes = check_scenario_file(path, model_variables(args.fmus))
+        for p in [*problems, *notes]:
             print(p, file=sys.stderr)
-        print(f"{path}: {'valid' if not problems else f'{len(problems)} problem(s)'}")
+        status = f"{len(problems)} problem(s)" if problems else "valid" + (
+            f" ({len(notes)} note(s))" if notes else "")
+        print(f"{path}: {status}")
         worst = max(worst, INVALID if problems else OK)
     return worst
 
@@ -135,12 +141,17 @@ def cmd_run(args):
     if s.get("status") == "invalid":
         print(s["message"], file=sys.stderr)
         return code
-    print(f"{s['scenario']}: {s['status']}" + (f" ({s['message']})" if s["message"] else "")
+    for note in s.get("notes") or ():
+        print(note, file=sys.stderr)
+    held = f", {s['setpoints']}" if s.get("holds_setpoints") is False else ""
+    print(f"{s['scenario']}: {s['status']}" + (f" ({s['message']})" if s["message"] else "") + held
           + f", {s['rows']} rows, {s['wall_time']:.2f} s wall, results in {Path(args.out) / s['scenario']}")
+    if s.get("setpoints") and not held:
+        print(f"  {s['setpoints']}")
     for key, v in (s.get("metrics") or {}).items():
-        print(f"  {key:22s} {v:.6g}")
+        print(f"  {key:27s} {v:.6g}")
     for key, v in (s.get("acceptance") or {}).items():
-        print(f"  accept {key:15s} {v['value']:.4g} <= {v['limit']:.4g}: {'pass' if v['pass'] else 'FAIL'}")
+        print(f"  accept {key:20s} {v['value']:.4g} <= {v['limit']:.4g}: {'pass' if v['pass'] else 'FAIL'}")
     return code
 
 

@@ -4,7 +4,14 @@ Files per run, under ``OUT/<scenario name>/``: ``timeseries.csv`` and ``timeseri
 recorded outputs, streamed as the run goes; column names ``unit.variable``, SI units as in the
 FMUs' descriptions; with a ``measurements:`` section also ``measured.NAME``, the values the controller
 received),
-``metrics.json`` (metrics, acceptance verdicts and how the run ended) and ``figure.png``.
+``metrics.json`` (metrics, acceptance verdicts, whether the set-points were held, the scenario's
+notes and how the run ended) and ``figure.png``.
+
+Whether a completed run held its set-points (:func:`setpoint_status`; the rule and the default
+margins in :mod:`satmotor.metrics`) is judged with or without acceptance bounds: ``metrics.json``
+has ``holds_setpoints`` (true, false, or null when not judged: a failed run, an empty window) and
+``setpoints``, one line saying what missed.  It does not change the exit code: only acceptance
+bounds do.
 """
 
 from __future__ import annotations
@@ -16,6 +23,7 @@ import numpy as np
 
 from orchestration.run.measurement_noise import COLUMN_PREFIX as MEASURED
 from orchestration.run.recorder import FILES, StreamingRecorder
+from satmotor import metrics as _m
 from satmotor.drive import RUN
 from satmotor.metrics import acceptance, closed_loop_metrics
 
@@ -48,6 +56,17 @@ def check_acceptance(metrics, scenario):
         return {}
     keys = ("ss_speed", "ss_flux", "overshoot_speed", "peak_current", "peak_current_run")
     return acceptance(metrics, {key: getattr(acc, key) for key in keys})
+
+
+def setpoint_status(metrics, times, scenario):
+    """``(holds, line)`` of :func:`satmotor.metrics.setpoint_status` for a run of ``scenario``:
+    the window is the acceptance ``ss_window`` (default the last 10 % of ``times``), the margins the
+    acceptance ``ss_speed`` / ``ss_flux`` bounds when stated, else the defaults."""
+    if not metrics or len(times) == 0:
+        return None, ""
+    acc = scenario.acceptance
+    window = _m.steady_state_bounds(times, acc.ss_window if acc is not None and acc.ss_window else None)
+    return _m.setpoint_status(metrics, window, acc and acc.ss_speed, acc and acc.ss_flux)
 
 
 RESULT_FILES = (*FILES, "metrics.json", "figure.png")
@@ -115,11 +134,14 @@ def write_results(result, out_dir, plot=True, draw=None):
     rows = len(df["time"]) if "time" in df else 0
     metrics = compute_metrics(df, sc) if result.ok and rows else {}
     acceptance = check_acceptance(metrics, sc)
+    holds, setpoints = setpoint_status(metrics, df["time"] if rows else (), sc)
     summary = {
         "scenario": sc.name, "file": str(sc.path), "status": result.status, "message": result.message,
         "failed_unit": result.failed_unit, "t_end": result.t_end, "stop_time": sc.stop_time,
         "wall_time": result.wall_time, "rows": rows, "metrics": metrics, "acceptance": acceptance,
         "accepted": all(v["pass"] for v in acceptance.values()) if acceptance else None,
+        "holds_setpoints": holds, "setpoints": setpoints,
+        "notes": [str(n) for n in getattr(sc, "notes", ())],
     }
     (d / "metrics.json").write_text(json.dumps(summary, indent=2, default=float) + "\n")
     if plot and rows > 1:

@@ -5,12 +5,17 @@ naming the field and the value): here the plain-Python plant and controller unit
 the scenario's overrides, exactly as the FMUs build them at initialization, and every refusal
 becomes a :class:`~orchestration.scenario.profiles.Problem` (file, field, value).  Then the flux set-point
 profile is checked against what the controller can magnetize, and the size of the recording
-against :data:`MAX_RECORDED_VALUES`.
+against :data:`MAX_RECORDED_VALUES`.  A load whose peak exceeds the torque the controller's
+current limit allows (:func:`load_torque_limit`) is a note, not a problem: the run is allowed (a
+current-limited drive is a legitimate study), and its steady-state status then says the speed is
+not held.  The checks run on whatever part of a scenario is well formed (a missing stop time, a
+profile with problems: the checks that need it are skipped), so that a file's schema problems and
+its bad values are found in one pass.
 """
 
 from __future__ import annotations
 
-from orchestration.scenario.problems import Problem
+from orchestration.scenario.problems import Note, Problem
 
 #: Largest number of recorded values (rows x columns) a run may produce.  The recorder streams
 #: its rows to disk in chunks, so the run itself holds one chunk; the bound keeps the files and
@@ -19,9 +24,11 @@ from orchestration.scenario.problems import Problem
 MAX_RECORDED_VALUES = 100_000_000
 
 
-def _build(unit_class, unit, overrides, extra, file, problems):
+def _build(unit_class, unit, overrides, extra, file, problems, fields=None):
     """Build ``unit_class`` from ``extra`` + ``overrides``; on each refusal, record it and retry
-    without the refused override, so that every bad override is reported.  The unit, or None."""
+    without the refused override, so that every bad override is reported.  ``fields``: the field
+    path of each override (``motor.R_r`` for a value of the ``motor:`` section; default
+    ``unit.NAME``).  The unit, or None."""
     from satmotor.errors import ParameterError
 
     values = dict(overrides)
@@ -32,7 +39,10 @@ def _build(unit_class, unit, overrides, extra, file, problems):
             reason = f"{exc.reason} (in {exc.source})" if exc.source else exc.reason
             name = exc.field.split(".")[0]
             name = name if name in values else exc.field
-            problems.append(Problem(file, f"{unit}.{name}", values.get(name, exc.value), reason))
+            where = (fields or {}).get(name, f"{unit}.{name}")
+            problem = Problem(file, where, values.get(name, exc.value), reason)
+            if problem not in problems:  # a bad motor: value refused by both units: said once
+                problems.append(problem)
             if name not in values:
                 return None  # a default or a derived value is refused: nothing more to learn
             del values[name]
@@ -44,14 +54,27 @@ def _build(unit_class, unit, overrides, extra, file, problems):
 
 def physics_problems(sc):
     """Every problem the physics package finds with scenario ``sc`` (empty list: none)."""
+    return physics_check(sc)[0]
+
+
+def physics_check(sc, fields=None):
+    """``(problems, notes)`` the physics finds with scenario ``sc``: the problems refuse it, the
+    notes (:class:`orchestration.scenario.problems.Note`) are said.  ``fields``: ``{"plant": {name: field
+    path}, "controller": ...}`` of the overrides (default ``unit.NAME``).  ``sc.stop_time`` None,
+    ``sc.record`` None or a profile missing: the checks that need it are skipped."""
     from satmotor.interface import ControllerUnit, PlantUnit
 
     file = str(sc.path)
-    problems = []
-    _build(PlantUnit, "plant", sc.plant, {}, file, problems)
-    ctrl = _build(ControllerUnit, "controller", sc.controller, {"Ts": sc.Ts}, file, problems)
-    psi = sc.profiles["psi_ref"]
+    fields = fields or {}
+    problems, notes = [], []
+    plant = _build(PlantUnit, "plant", sc.plant, {}, file, problems, fields.get("plant"))
+    ctrl = _build(ControllerUnit, "controller", sc.controller, {"Ts": sc.Ts}, file, problems,
+                  fields.get("controller"))
+    psi = sc.profiles.get("psi_ref")
+    if psi is None or sc.stop_time is None:
+        return problems, notes
     lo, hi = psi.bounds(0.0, sc.stop_time)
+    reachable = False
     if not lo > 0:
         problems.append(Problem(file, "profiles.psi_ref", lo, f"the flux set-point must stay > 0 over "
                                 f"[0, stop_time = {sc.stop_time!r}] s (its lowest value is {lo!r} Wb)"))
@@ -60,16 +83,55 @@ def physics_problems(sc):
 
         try:
             ctrl.drive.magnetizing_current(hi)
+            reachable = True
         except ParameterError as exc:
             problems.append(Problem(file, "profiles.psi_ref", hi, f"unreachable: the highest set-point "
                                     f"{exc.reason} (raise controller.I_max or lower the set-point)"))
-    rows, cols = recorded_size(sc)
-    if rows * cols > MAX_RECORDED_VALUES:
-        problems.append(Problem(file, "stop_time", sc.stop_time, (
-            f"would record {rows:.4g} rows x {cols} columns = {rows * cols:.3g} values (every "
-            f"record.interval = {sc.record.interval!r} s); the limit is {MAX_RECORDED_VALUES:.0e} values: "
-            "shorten stop_time, raise record.interval or list fewer record.outputs")))
-    return problems
+    if sc.record is not None:
+        rows, cols = recorded_size(sc)
+        if rows * cols > MAX_RECORDED_VALUES:
+            problems.append(Problem(file, "stop_time", sc.stop_time, (
+                f"would record {rows:.4g} rows x {cols} columns = {rows * cols:.3g} values (every "
+                f"record.interval = {sc.record.interval!r} s); the limit is {MAX_RECORDED_VALUES:.0e} "
+                "values: shorten stop_time, raise record.interval or list fewer record.outputs")))
+    load = sc.profiles.get("T_load")
+    if reachable and plant is not None and load is not None:
+
+        T_lo, T_hi = load.bounds(0.0, sc.stop_time)
+        peak = max(abs(T_lo), abs(T_hi))
+        I_max = ctrl.drive.dcfg.I_max
+        T_max, psi_at = load_torque_limit(plant.params, I_max, lo, hi)
+        if peak > T_max:
+            notes.append(Note(file, "profiles.T_load", peak, (
+                f"the load's peak |T_load| = {peak:.4g} N m exceeds {T_max:.4g} N m, the most torque the "
+                f"plant gives at |i_s| = controller I_max = {I_max:.4g} A and |psi_r| = {psi_at:.4g} Wb "
+                "(psi_ref): the speed cannot hold its set-point there (raise controller.I_max or lower "
+                "the load)")))
+    return problems, notes
+
+
+#: flux set-points at which :func:`load_torque_limit` evaluates the limit when psi_ref varies
+FLUX_POINTS = 9
+
+
+def load_torque_limit(params, I_max, psi_lo, psi_hi):
+    """``(T_max, psi)``: the largest steady torque [N m] the motor ``params`` gives with ``|i_s| <=
+    I_max`` [A] at any flux set-point in ``[psi_lo, psi_hi]`` [Wb] (evaluated at :data:`FLUX_POINTS`
+    points; :func:`satmotor.limits.torque_limit`), and the flux where it is reached.  A load beyond
+    it cannot be held at any flux set-point the scenario gives."""
+    from satmotor.errors import ParameterError
+    from satmotor.limits import torque_limit
+
+    n = 1 if psi_hi == psi_lo else FLUX_POINTS
+    best = (0.0, psi_hi)
+    for i in range(n):
+        psi = psi_lo + (psi_hi - psi_lo) * i / max(n - 1, 1)
+        try:
+            T = torque_limit(params, psi, I_max).T_max
+        except ParameterError:
+            continue
+        best = max(best, (T, psi))
+    return best
 
 
 def recorded_size(sc):

@@ -5,9 +5,13 @@ Top-level keys (SI units; see ``scenarios/ramp_rated_load.yaml`` for a full exam
 ``name`` (required, ``[A-Za-z0-9_.-]+``), ``description``, ``stop_time`` [s] (required, a multiple of
 ``step``), ``step`` [s] (plant communication step, default 1e-4), ``controller_every`` (plant steps
 per controller sample, default 1; the controller's ``Ts = step * controller_every``),
-``algorithm`` (``gauss-seidel`` default, or ``jacobi``), ``plant`` and ``controller`` (parameter
-overrides by FMI variable name), ``profiles`` (``omega_ref`` [rad/s], default 0; ``psi_ref`` [Wb],
-required; ``T_load`` [N m], default 0; see :mod:`orchestration.scenario.profiles`), ``record``
+``algorithm`` (``gauss-seidel`` default, or ``jacobi``), ``motor`` (motor parameters given to
+both units: the names of :data:`satmotor.interface.MOTOR_PARAMETERS`, which the plant and the
+controller's model share), ``plant`` and ``controller`` (parameter overrides by FMI variable name,
+over ``motor``: only the deliberate differences), ``mismatch`` (``true``: the plant and the
+controller are meant to get different motor parameters; default false), ``profiles``
+(``omega_ref`` [rad/s], default 0; ``psi_ref`` [Wb], required; ``T_load`` [N m], default 0; see
+:mod:`orchestration.scenario.profiles`), ``record``
 (``interval`` [s], a multiple of ``step``, default ``step``; ``outputs``: ``plant.NAME`` /
 ``controller.NAME``, default all), ``acceptance`` (bounds checked after the run: ``ss_speed``,
 ``ss_flux`` relative steady-state errors over ``ss_window: [t_from, t_to]`` [s],
@@ -17,37 +21,45 @@ required; ``T_load`` [N m], default 0; see :mod:`orchestration.scenario.profiles
 ``quantization: {NAME: step}`` (step > 0), each in the signal's unit, NAME one of
 :data:`orchestration.run.wiring.MEASUREMENTS`; see :mod:`orchestration.run.measurement_noise`).
 
-Once the file is well formed, :func:`orchestration.scenario.feasibility.physics_problems` builds the
-plain-Python units from the overrides (the ranges live in :mod:`satmotor`), checks that the flux
-set-points are reachable and that the recording stays within its bound.
+In the same pass, :func:`orchestration.scenario.feasibility.physics_check` builds the plain-Python units from
+the values that passed the schema (the ranges live in :mod:`satmotor`), checks that the flux
+set-points are reachable and that the recording stays within its bound: a file's schema problems
+and its bad values are reported together.
 
-:func:`validate_scenario_file` returns every problem and never raises; :func:`load_scenario`
-raises one :class:`ScenarioError` listing all of them.  Numbers are ints or floats; YAML 1.1
+Notes (:class:`Note`: said, never refused): a motor parameter that ends up different in the plant
+and the controller (one line per parameter, unless ``mismatch: true``), ``mismatch: true`` with no
+difference, and a load whose peak exceeds the torque the controller's current limit allows
+(:func:`orchestration.scenario.feasibility.physics_check`).
+
+:func:`validate_scenario_file` returns every problem and never raises (:func:`check_scenario_file`
+also the notes); :func:`load_scenario` raises one :class:`ScenarioError` listing all of them, and
+the scenario it returns carries its notes (``Scenario.notes``).  Numbers are ints or floats; YAML 1.1
 reads ``1e-4`` (no dot) as a string, which is reported with the spelling to use (``1.0e-4``).
 """
 
 from __future__ import annotations
 
 import re
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
 from types import MappingProxyType
 
 import yaml
 
 from orchestration.run.measurement_noise import Measurements
-from orchestration.scenario.feasibility import physics_problems
-from orchestration.scenario.problems import Checker, Problem
+from orchestration.scenario.feasibility import physics_check
+from orchestration.scenario.problems import Checker, Note, Problem
 from orchestration.scenario.profiles import Constant, parse_profile
 
-__all__ = ["Problem", "ScenarioError", "Acceptance", "Record", "Scenario", "Measurements", "load_scenario",
-           "validate_scenario_file", "interface_variables", "ALGORITHMS", "PROFILE_NAMES"]
+__all__ = ["Problem", "Note", "ScenarioError", "Acceptance", "Record", "Scenario", "Measurements",
+           "load_scenario", "validate_scenario_file", "check_scenario_file", "interface_variables",
+           "motor_variables", "ALGORITHMS", "PROFILE_NAMES"]
 
 ALGORITHMS = ("gauss-seidel", "jacobi")
 PROFILE_NAMES = ("omega_ref", "psi_ref", "T_load")
 UNITS = ("plant", "controller")
-TOP_KEYS = ("name", "description", "stop_time", "step", "controller_every", "algorithm", "plant",
-            "controller", "profiles", "record", "acceptance", "measurements")
+TOP_KEYS = ("name", "description", "stop_time", "step", "controller_every", "algorithm", "motor", "plant",
+            "controller", "mismatch", "profiles", "record", "acceptance", "measurements")
 ACCEPTANCE_KEYS = ("ss_speed", "ss_flux", "ss_window", "overshoot_speed", "peak_current", "peak_current_run")
 _NAME = re.compile(r"[A-Za-z0-9_.-]+")
 _REL = 1e-9  # relative tolerance of "a multiple of step"
@@ -96,6 +108,10 @@ class Scenario:
     record: Record | None = None  # None: every step, all outputs
     acceptance: Acceptance | None = None
     measurements: Measurements | None = None  # None: the controller gets the clean plant outputs
+    # the ``motor:`` section as written (plant and controller above already hold it, merged)
+    motor: MappingProxyType = field(default_factory=lambda: MappingProxyType({}))
+    mismatch: bool = False  # the scenario says a plant/controller motor mismatch is intended
+    notes: tuple = ()  # Note: what is allowed but said (mismatch, load beyond the torque limit)
 
     @property
     def Ts(self):
@@ -123,6 +139,18 @@ def interface_variables():
             "controller": table(itf.CONTROLLER_INPUTS, itf.CONTROLLER_OUTPUTS, itf.CONTROLLER_PARAMETERS)}
 
 
+def motor_variables(variables=None):
+    """``{name: (causality, type)}`` of the motor parameters (:data:`satmotor.interface.MOTOR_PARAMETERS`:
+    the ones the plant and the controller's model share) that both units of ``variables`` (default
+    :func:`interface_variables`) have as parameters."""
+    from satmotor.interface import MOTOR_PARAMETERS
+
+    variables = variables if variables is not None else interface_variables()
+    plant, ctrl = variables.get("plant", {}), variables.get("controller", {})
+    return {v.name: plant[v.name] for v in MOTOR_PARAMETERS
+            if plant.get(v.name, ("",))[0] == "parameter" and ctrl.get(v.name, ("",))[0] == "parameter"}
+
+
 def _choices():
     """Allowed values of String parameters, by (unit, name)."""
     from satmotor.backstepping import LOAD_MODES
@@ -145,9 +173,17 @@ def _overrides(chk, raw, unit, variables, base_dir):
     if not isinstance(raw, dict):
         chk.add(unit, raw, "must be a mapping {parameter name: value}")
         return {}
-    table, out, choices = variables.get(unit, {}), {}, _choices()
+    table = motor_variables(variables) if unit == "motor" else variables.get(unit, {})
+    out, choices = {}, _choices()
     for name, value in raw.items():
         where = f"{unit}.{name}"
+        if unit == "motor" and name not in table:
+            owners = [u for u in UNITS if variables.get(u, {}).get(name, ("",))[0] == "parameter"]
+            hint = (f"a {owners[0]} parameter only: set it under {owners[0]}:" if len(owners) == 1 else
+                    "unknown parameter")
+            chk.add(where, value, f"not a motor parameter (those shared by plant and controller: "
+                    f"{', '.join(table)}); {hint}")
+            continue
         if unit == "controller" and name == "Ts":
             chk.add(where, value, "Ts is set by the master to step * controller_every; "
                     "set step and controller_every instead")
@@ -170,7 +206,7 @@ def _overrides(chk, raw, unit, variables, base_dir):
                 chk.add(where, value, "must be true or false")
         elif vtype == "String":
             v = chk.string(value, where)
-            allowed = choices.get((unit, name))
+            allowed = choices.get(("plant" if unit == "motor" else unit, name))
             if v is not None and allowed and v not in allowed:
                 chk.add(where, value, f"must be one of {', '.join(allowed)}")
                 v = None
@@ -297,8 +333,13 @@ def _check(data, file, variables):
     algorithm = data.get("algorithm", "gauss-seidel")
     if algorithm not in ALGORITHMS:
         chk.add("algorithm", algorithm, f"must be one of {', '.join(ALGORITHMS)}")
+    motor = _overrides(chk, data.get("motor"), "motor", variables, base_dir)
     plant = _overrides(chk, data.get("plant"), "plant", variables, base_dir)
     controller = _overrides(chk, data.get("controller"), "controller", variables, base_dir)
+    mismatch = data.get("mismatch", False)
+    if not isinstance(mismatch, bool):
+        chk.add("mismatch", mismatch, "must be true or false")
+        mismatch = False
     profiles = {"omega_ref": Constant(0.0), "T_load": Constant(0.0)}
     raw = data.get("profiles", {})
     chk.mapping(raw, "profiles", ("psi_ref",), ("omega_ref", "T_load"))
@@ -307,18 +348,53 @@ def _check(data, file, variables):
             if key in raw:
                 p, probs = parse_profile(raw[key], f"profiles.{key}", str(file))
                 chk.problems += probs
-                profiles[key] = p
+                if p is None:
+                    profiles.pop(key, None)
+                else:
+                    profiles[key] = p
     record = _record(chk, data.get("record"), step, variables)
     acceptance = _acceptance(chk, data.get("acceptance"), stop_time)
     measurements = _measurements(chk, data.get("measurements"))
-    if chk.problems:
-        return None, chk.problems
-    sc = Scenario(name, description, Path(file), stop_time, step, every, algorithm,
-                  MappingProxyType(plant), MappingProxyType(controller),
-                  MappingProxyType({k: profiles[k] for k in PROFILE_NAMES}), record, acceptance,
-                  measurements)
-    problems = physics_problems(sc)
-    return (None, problems) if problems else (sc, [])
+    # the physics, on every value that passed the schema, in the same pass as the schema problems
+    fields_of = {u: {**{n: f"motor.{n}" for n in motor}, **{n: f"{u}.{n}" for n in over}}
+                 for u, over in (("plant", plant), ("controller", controller))}
+    sc = Scenario(name if isinstance(name, str) else "", description, Path(file), stop_time, step or 1e-4,
+                  every or 1, algorithm, MappingProxyType({**motor, **plant}),
+                  MappingProxyType({**motor, **controller}),
+                  MappingProxyType({k: profiles[k] for k in PROFILE_NAMES if k in profiles}),
+                  record, acceptance, measurements, MappingProxyType(motor), mismatch)
+    problems, notes = physics_check(sc, fields_of)
+    problems = chk.problems + [p for p in problems if p not in chk.problems]
+    if problems:
+        return None, problems
+    notes = _mismatch_notes(sc, plant, controller, str(file)) + notes
+    return replace(sc, notes=tuple(notes)), []
+
+
+def _mismatch_notes(sc, plant_over, ctrl_over, file):
+    """One :class:`Note` per motor parameter whose value differs between the plant and the
+    controller (none with ``mismatch: true``), or one saying ``mismatch: true`` has nothing to
+    allow."""
+    from satmotor.interface import MOTOR_PARAMETERS
+
+    notes = []
+    for v in MOTOR_PARAMETERS:
+        p, c = sc.plant.get(v.name, v.start), sc.controller.get(v.name, v.start)
+        if p == c:
+            continue
+        where = ", ".join(f"{u}.{v.name}" for u, over in (("plant", plant_over), ("controller", ctrl_over))
+                          if v.name in over)
+        unit = f" {v.unit}" if v.unit not in ("", "1") else ""
+        shown = [f"{u} {x!r}{unit}" + ("" if v.name in over or v.name in sc.motor else " (default)")
+                 for u, x, over in (("plant", p, plant_over), ("controller", c, ctrl_over))]
+        notes.append(Note(file, where, (p, c), f"{shown[0]}, {shown[1]}: the controller's model "
+                          "differs from the plant (a mismatch study? say mismatch: true to silence this)"))
+    if sc.mismatch:
+        if notes:
+            return []
+        return [Note(file, "mismatch", True, "set to true, but the plant and the controller get the "
+                     "same motor parameters")]
+    return notes
 
 
 def _read(path):
@@ -337,8 +413,9 @@ def _read(path):
         return None, [Problem(file, "(yaml syntax)", where, f"invalid YAML: {what}")]
 
 
-def validate_scenario_file(path, variables=None):
-    """Every problem of the scenario file ``path`` (empty list: valid).  Never raises.
+def check_scenario_file(path, variables=None):
+    """``(problems, notes)`` of the scenario file ``path``: every :class:`Problem` (empty: valid)
+    and, for a valid file, its :class:`Note` lines.  Never raises.
 
     ``variables``: ``{"plant": {name: (causality, type)}, "controller": {...}}`` of the FMUs
     (e.g. from fmpy's model descriptions); None: :func:`interface_variables`.
@@ -346,10 +423,17 @@ def validate_scenario_file(path, variables=None):
     try:
         data, problems = _read(path)
         if problems:
-            return problems
-        return _check(data, str(path), variables)[1]
+            return problems, []
+        sc, problems = _check(data, str(path), variables)
+        return problems, list(sc.notes) if sc is not None else []
     except Exception as exc:  # noqa: BLE001 - a validator reports, it does not crash
-        return [Problem(str(path), "(internal)", None, f"validation failed: {exc!r}")]
+        return [Problem(str(path), "(internal)", None, f"validation failed: {exc!r}")], []
+
+
+def validate_scenario_file(path, variables=None):
+    """Every problem of the scenario file ``path`` (empty list: valid).  Never raises.
+    ``variables`` as for :func:`check_scenario_file`."""
+    return check_scenario_file(path, variables)[0]
 
 
 def load_scenario(path, variables=None):

@@ -3,7 +3,8 @@
 :class:`Problem` is one problem (``file: field = value: what is wrong``); :class:`Checker` collects
 the problems of one file while its check methods return the checked value (or None after recording
 why not), so a validator reports every problem of a file in one pass; :class:`ProblemError` raises
-one problem where a caller cannot go on (a profile that SSP cannot express, say).  Used by the
+one problem where a caller cannot go on (a profile that SSP cannot express, say); a :class:`Note`
+is what a file may do but must not do silently (a plant/controller mismatch, say).  Used by the
 scenario loader, the profiles, the FMU builds that embed profiles, and SSP export.
 """
 
@@ -13,7 +14,7 @@ import math
 import re
 from typing import NamedTuple
 
-__all__ = ["Problem", "ProblemError", "MISSING", "Checker"]
+__all__ = ["Problem", "Note", "ProblemError", "MISSING", "Checker"]
 
 
 class _Missing:
@@ -37,6 +38,16 @@ class Problem(NamedTuple):
         v = v if len(v) <= 80 else v[:77] + "..."
         return f"{self.file}: {self.field or '(top level)'} = {v}: {self.message}"
 
+
+
+class Note(Problem):
+    """Something a scenario file does that is allowed but must not pass silently (a plant/controller
+    mismatch, a load beyond the current limit's torque): ``FILE: note: FIELD: MESSAGE``."""
+
+    __slots__ = ()
+
+    def __str__(self):
+        return f"{self.file}: note: {self.field}: {self.message}"
 
 
 class ProblemError(ValueError):
