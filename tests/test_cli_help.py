@@ -65,3 +65,11 @@ def test_the_speed_up_in_the_run_help_is_the_measured_one():
         assert f"**{r}x**" in results, r
     assert "about" not in text[text.index("--variant"):text.index("--no-build")]
 
+
+def test_every_command_of_the_help_is_on_the_readme():
+    usage = _help()
+    commands = re.search(r"\{([a-z,-]+)\}", usage).group(1).split(",")
+    readme = (ROOT / "README.md").read_text(encoding="utf-8")
+    assert len(commands) == 7
+    for c in commands:
+        assert f"satmotor-cosim {c} " in readme, c
