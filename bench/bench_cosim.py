@@ -155,7 +155,7 @@ def compare(other, rounds, repeats=3):
     return best
 
 
-def compare_lines(best, steps, other):
+def compare_lines(best, steps):
     b, a = best["before"], best["after"]
     same = len(b["digests"] | a["digests"]) == 1
 
@@ -163,7 +163,7 @@ def compare_lines(best, steps, other):
         return f"{1e6 * x / steps:.1f} us/step"
 
     return [
-        f"Before / after, measured in one run (`--compare {other}`): \"before\" is commit "
+        "Before / after, measured in one run (`--compare DIR`): \"before\" is commit "
         f"`{b['head']}`, \"after\" `{a['head']}` (this checkout), each with FMUs built from its own "
         "sources; child processes alternating, best of all rounds.",
         "",
@@ -368,7 +368,7 @@ def main(argv=None):
         "",
         *prof,
         "",
-        *(compare_lines(before_after, steps, args.compare) if before_after else []),
+        *(compare_lines(before_after, steps) if before_after else []),
         "Rerun with `python bench/bench_cosim.py` (or `make bench`; `--compare DIR` adds another "
         "checkout to (a) and (b)); it rewrites this section.",
     ]

@@ -1,9 +1,8 @@
-"""The README's variable tables, generated from the interface tables of :mod:`satmotor.interface`.
+"""The page ``docs/variables.md``, generated from the interface tables of :mod:`satmotor.interface`.
 
-``python -m orchestration.build.variable_tables`` prints the Markdown; ``--write README.md`` replaces the
-text between the ``<!-- variables:begin -->`` and ``<!-- variables:end -->`` markers in place.
-``tests/test_docs.py`` checks that the README holds exactly what this module generates, so a
-variable added to the FMUs cannot be missing from the README.
+``python -m orchestration.build.variable_tables`` prints the page; ``--write docs/variables.md`` writes it.
+``tests/test_docs.py`` checks that the committed page is exactly what this module generates, so a
+variable added to the FMUs cannot be missing from the documentation.
 """
 
 from __future__ import annotations
@@ -22,7 +21,8 @@ from satmotor.interface import (
     PLANT_PARAMETERS,
 )
 
-BEGIN, END = "<!-- variables:begin -->", "<!-- variables:end -->"
+#: where the page lives, relative to the repository root
+PAGE = "docs/variables.md"
 
 
 def _start(var):
@@ -42,18 +42,15 @@ def _table(variables):
 
 
 def markdown():
-    """The Markdown of both units' variables (without the markers)."""
+    """The Markdown tables of both units' variables, under a heading of each unit."""
     motor = {v.name for v in MOTOR_PARAMETERS}
     own = [v for v in CONTROLLER_PARAMETERS if v.name not in motor]
     parts = [
-        "Generated from `satmotor/interface.py` by `python -m orchestration.build.variable_tables --write "
-        "README.md`; the same table is in each pythonfmu FMU's `documentation/index.html`. Both "
-        "variants (pythonfmu, native FMI 2.0 and 3.0) have these names and start values.",
-        "### `SaturatedInductionMotor` (the plant)",
+        "## `SaturatedInductionMotor` (the plant)",
         "Inputs:", _table(PLANT_INPUTS),
         "Outputs (none with direct feedthrough):", _table(PLANT_OUTPUTS),
         "Parameters:", _table(PLANT_PARAMETERS),
-        "### `BacksteppingController`",
+        "## `BacksteppingController`",
         "Inputs:", _table(CONTROLLER_INPUTS),
         "Outputs (computed at a sample, held until the next):", _table(CONTROLLER_OUTPUTS),
         "Parameters (and the motor parameters of the plant's table, under the same names and "
@@ -62,22 +59,32 @@ def markdown():
     return "\n\n".join(parts)
 
 
-def replace_block(text):
-    """``text`` with the block between the markers replaced by :func:`markdown`."""
-    i, j = text.find(BEGIN), text.find(END)
-    if i < 0 or j < i:
-        raise ValueError(f"the markers {BEGIN} ... {END} are missing")
-    return text[: i + len(BEGIN)] + "\n" + markdown() + "\n" + text[j:]
+def page():
+    """The whole text of ``docs/variables.md``."""
+    head = [
+        "# The FMUs' variables",
+        "<!-- Generated: do not edit. Run `python -m orchestration.build.variable_tables --write "
+        f"{PAGE}` after a change to `satmotor/interface.py`. -->",
+        "Every variable of the two FMUs, from the tables in `satmotor/interface.py`, the single source the "
+        "FMUs are built from. The same tables are in each FMU's `documentation/index.html`. The pythonfmu "
+        "FMUs and the native ones (FMI 2.0 and 3.0) have these names, value references and start values; "
+        "FMI 3.0 adds the independent variable `time`. How to wire them, step them and start them: "
+        "[hosts.md](hosts.md).",
+        "In the descriptions, \"the seed\" is the paper this project implements: Ouadi, Giri and Ikhouane, "
+        "*Backstepping control of saturated induction motors* (\"the seed's law\": its control law, "
+        "without the integral action we added; \"H1\" and the equation numbers are the paper's).",
+    ]
+    return "\n\n".join(head) + "\n\n" + markdown() + "\n"
 
 
 def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--write", type=Path, metavar="FILE", help="replace the block between the markers")
+    p.add_argument("--write", type=Path, metavar="FILE", help=f"write the page to FILE ({PAGE})")
     a = p.parse_args(argv)
     if a.write is None:
-        print(markdown())
+        print(page(), end="")
         return 0
-    a.write.write_text(replace_block(a.write.read_text(encoding="utf-8")), encoding="utf-8")
+    a.write.write_text(page(), encoding="utf-8")
     return 0
 
 
