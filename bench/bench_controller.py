@@ -30,11 +30,19 @@ from typing import NamedTuple
 import numpy as np
 from bench_plant import best_time, cpu_model, write_section
 
-from satmotor.backstepping import BacksteppingGains, ControllerConfig, control
-from satmotor.drive import RUN, STATE_FLUX, STATE_LAW, STATE_PHASE, STATE_SPEED, BacksteppingDrive, IFOCDrive
-from satmotor.magnetics import LinearCurve
-from satmotor.params import MotorParams
-from satmotor.plant import Plant
+from satmotor.control.backstepping import BacksteppingGains, ControllerConfig, control
+from satmotor.control.drive import (
+    RUN,
+    STATE_FLUX,
+    STATE_LAW,
+    STATE_PHASE,
+    STATE_SPEED,
+    BacksteppingDrive,
+    IFOCDrive,
+)
+from satmotor.machine.magnetics import LinearCurve
+from satmotor.machine.params import MotorParams
+from satmotor.machine.plant import Plant
 from satmotor.simulate import RampScenario
 
 REPEATS = 3
@@ -240,7 +248,7 @@ Measured {env}.
 What was measured: the inputs of (a)-(c) are the {n_run} running samples (t = {t_run:.4f} s to {t_end} s:
 speed ramp, steady speed, rated load step) of closed-loop `RampScenario` runs of the default 4 kW motor
 (saturated plant), one run per design, so every controller sees its own trajectory. (a) calls of the
-pure function `satmotor.backstepping.control` with the recorded measurements, shaped references, load
+pure function `satmotor.control.backstepping.control` with the recorded measurements, shaped references, load
 torque and load estimate; the constant-m model is `dataclasses.replace(params, curve=LinearCurve(L_m0))`
 (closed-form magnetizing state instead of the Newton solve on the curve). (b) the same samples replayed
 in order through `drive.step` from the drive state recorded at the first running sample (shapers,

@@ -6,7 +6,7 @@ Run ``python bench/bench_plant.py``; prints the numbers and replaces its own sec
 (a) ``Plant.derivatives`` calls per second on a running, loaded state of the default motor.
 (b) One simulated second of a DOL start (rated smooth voltage ``V cos(w t), V sin(w t)`` inside
     the right-hand side, rated load torque step at ``T_LOAD``, integrated in two segments
-    ``[0, T_LOAD]`` and ``[T_LOAD, 1]``): fixed-step RK4 (``satmotor.integrate.rk4``) against
+    ``[0, T_LOAD]`` and ``[T_LOAD, 1]``): fixed-step RK4 (``satmotor.machine.integrate.rk4``) against
     ``solve_ivp(RK45, rtol=1e-8, atol=1e-10)`` at equal accuracy, both measured against a
     ``solve_ivp(DOP853, rtol=atol=1e-12)`` reference at t = 1 s.
 """
@@ -24,9 +24,9 @@ from pathlib import Path
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from satmotor.integrate import rk4
-from satmotor.params import MotorParams, RatedData
-from satmotor.plant import N_STATES, OMEGA_M, PSI_R_A, PSI_R_B, PSI_S_A, PSI_S_B, THETA_M, Plant
+from satmotor.machine.integrate import rk4
+from satmotor.machine.params import MotorParams, RatedData
+from satmotor.machine.plant import N_STATES, OMEGA_M, PSI_R_A, PSI_R_B, PSI_S_A, PSI_S_B, THETA_M, Plant
 
 T_END, T_LOAD = 1.0, 0.6
 RK45_TOL = dict(rtol=1e-8, atol=1e-10)
@@ -197,7 +197,7 @@ segments. The error is the largest state-component error at t = 1 s against a `s
 (|psi_s|, |psi_r|, |omega_m|, |theta_m|). The RK4 step is the largest in the scan whose error does not
 exceed that of RK45, so both solvers are timed at (at least) equal accuracy; times are the best of
 {REPEATS} runs with `time.perf_counter`, integration only (no output recording beyond what `solve_ivp`
-keeps internally). RK4 is `satmotor.integrate.rk4` with the voltages computed at the stage times; the
+keeps internally). RK4 is `satmotor.machine.integrate.rk4` with the voltages computed at the stage times; the
 `Plant.step` row is the per-step loop used by the simulations (voltage held at its mid-step value),
 timed for the per-call overhead only. Rerun with `python bench/bench_plant.py` (or `make bench`);
 it prints the same numbers and rewrites this section.

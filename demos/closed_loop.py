@@ -19,10 +19,10 @@ import pandas as pd
 
 from orchestration.results.plots import figure
 from orchestration.run.reference import COLUMNS
-from satmotor.backstepping import ControllerConfig
-from satmotor.drive import BacksteppingDrive
+from satmotor.control.backstepping import ControllerConfig
+from satmotor.control.drive import BacksteppingDrive
+from satmotor.machine.params import MotorParams
 from satmotor.metrics import run_metrics
-from satmotor.params import MotorParams
 from satmotor.simulate import RECORDED, RampScenario
 
 UNITS = {"t": "s", "v_s_alpha": "V", "v_s_beta": "V", "v_sd": "V", "v_sq": "V", "T_load": "N m",

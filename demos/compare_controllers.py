@@ -30,11 +30,11 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from satmotor.backstepping import ControllerConfig
-from satmotor.drive import BacksteppingDrive, IFOCDrive
-from satmotor.magnetics import LinearCurve
+from satmotor.control.backstepping import ControllerConfig
+from satmotor.control.drive import BacksteppingDrive, IFOCDrive
+from satmotor.machine.magnetics import LinearCurve
+from satmotor.machine.params import MotorParams, RatedData
 from satmotor.metrics import run_metrics
-from satmotor.params import MotorParams, RatedData
 from satmotor.simulate import RampScenario, closed_loop
 
 COLUMNS = {"iae_speed": "IAE speed [rad]", "iae_flux": "IAE flux [Wb s]",

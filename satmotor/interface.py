@@ -13,13 +13,13 @@ import dataclasses
 import math
 from typing import NamedTuple
 
-from .backstepping import BacksteppingGains, ControllerConfig
-from .drive import BacksteppingDrive, DriveConfig, IFOCDrive
-from .errors import ParameterError, require_integer, require_number
-from .ifoc import IFOCGains
-from .magnetics import ArctanCurve, LinearCurve, PolynomialCurve
-from .params import CURVE_NAMES, MotorParams, make_curve
-from .plant import OMEGA_M, PSI_R_A, PSI_R_B, PSI_S_A, PSI_S_B, THETA_M, Plant, initial_state
+from satmotor.control.backstepping import BacksteppingGains, ControllerConfig
+from satmotor.control.drive import BacksteppingDrive, DriveConfig, IFOCDrive
+from satmotor.control.ifoc import IFOCGains
+from satmotor.errors import ParameterError, require_integer, require_number
+from satmotor.machine.magnetics import ArctanCurve, LinearCurve, PolynomialCurve
+from satmotor.machine.params import CURVE_NAMES, MotorParams, make_curve
+from satmotor.machine.plant import OMEGA_M, PSI_R_A, PSI_R_B, PSI_S_A, PSI_S_B, THETA_M, Plant, initial_state
 
 
 class Variable(NamedTuple):

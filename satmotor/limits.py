@@ -1,18 +1,18 @@
 """The largest steady torque a stator current limit allows at a rotor flux (SI units).
 
 In the rotor-flux frame (``Phi_rq = 0``) a steady state at the flux ``Phi_rd`` needs
-``Phi_rd' = 0``, i.e. ``k m i_mu_d = Phi_rd`` (:func:`satmotor.fo_model.flux_rate`).  With the stator
+``Phi_rd' = 0``, i.e. ``k m i_mu_d = Phi_rd`` (:func:`satmotor.control.fo_model.flux_rate`).  With the stator
 current at its limit, ``i_s = I_max (cos g, sin g)``, the magnetizing state follows from the curve
-(:func:`satmotor.measurements.from_rotor_flux`, the controller's own inversion), and
+(:func:`satmotor.control.measurements.from_rotor_flux`, the controller's own inversion), and
 ``k m i_mu_d - Phi_rd`` falls strictly as the angle g goes from 0 (all the current on the flux axis)
 to pi/2; the steady angle is its root, found by bisection.  The torque there is
-``T_max = J K m Phi_rd i_mu_q`` (``K`` of :func:`satmotor.fo_model.model_constants`, i.e.
+``T_max = J K m Phi_rd i_mu_q`` (``K`` of :func:`satmotor.control.fo_model.model_constants`, i.e.
 ``3/2 n_p k m Phi_rd i_mu_q / l_r``): the most the motor gives at that flux without the current
 exceeding ``I_max``.  With a constant inductance it is the textbook
 ``3/2 n_p (k m / (l_r + k^2 m)) Phi_rd sqrt(I_max^2 - (Phi_rd / (k m))^2)``.
 
 Friction (``B omega_m``) is not subtracted: it is a load like ``T_load``.  The drive's law gives the
-flux axis at most ``D_SHARE I_max`` (:mod:`satmotor.backstepping`); :attr:`TorqueLimit.i_sd` says how
+flux axis at most ``D_SHARE I_max`` (:mod:`satmotor.control.backstepping`); :attr:`TorqueLimit.i_sd` says how
 much of the limit the flux takes.
 """
 
@@ -21,9 +21,9 @@ from __future__ import annotations
 import math
 from typing import NamedTuple
 
-from .errors import ParameterError, require_number
-from .fo_model import model_constants
-from .measurements import from_rotor_flux
+from satmotor.control.fo_model import model_constants
+from satmotor.control.measurements import from_rotor_flux
+from satmotor.errors import ParameterError, require_number
 
 _ITER = 200  # bisection steps (stops earlier when the angle no longer changes)
 
@@ -46,7 +46,7 @@ def _state(params, psi_r, I_max, g):
 
 
 def torque_limit(params, psi_r, I_max):
-    """:class:`TorqueLimit` of the motor ``params`` (:class:`satmotor.params.MotorParams`) at the
+    """:class:`TorqueLimit` of the motor ``params`` (:class:`satmotor.machine.params.MotorParams`) at the
     steady rotor flux ``psi_r`` [Wb] with ``|i_s| = I_max`` [A].  Raises :class:`ParameterError`
     (field ``psi_ref``) when even ``I_max`` on the flux axis cannot hold ``psi_r``."""
     require_number("psi_ref", psi_r, 0)

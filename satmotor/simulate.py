@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .plant import N_STATES, OMEGA_M, PSI_R_A, PSI_R_B, PSI_S_A, PSI_S_B, THETA_M, Plant
+from satmotor.machine.plant import N_STATES, OMEGA_M, PSI_R_A, PSI_R_B, PSI_S_A, PSI_S_B, THETA_M, Plant
 
 RECORDED = ("t", "v_s_alpha", "v_s_beta", "v_sd", "v_sq", "T_load", "omega_set", "psi_set",
             "omega_ref", "psi_ref", "i_s_alpha", "i_s_beta", "psi_s_alpha", "psi_s_beta",
@@ -34,7 +34,7 @@ def closed_loop(plant_params, drive, t_end, omega_set, psi_set, T_load=0.0, n_su
     ----------
     plant_params : MotorParams
         The plant (may differ from the drive's model: mismatch studies).
-    drive : satmotor.drive.BacksteppingDrive or IFOCDrive
+    drive : satmotor.control.drive.BacksteppingDrive or IFOCDrive
         Called every ``drive.Ts`` [s].
     t_end : float
         Stop time [s] (``round((t_end - t0) / Ts)`` samples).
@@ -67,7 +67,7 @@ def closed_loop(plant_params, drive, t_end, omega_set, psi_set, T_load=0.0, n_su
         t = t0 + k * Ts
         o = plant.outputs(x)
         psa, psb, pra, prb, w = x[PSI_S_A], x[PSI_S_B], x[PSI_R_A], x[PSI_R_B], x[OMEGA_M]
-        # layout of satmotor.measurements, the plant's true i_mu last (the design comparison)
+        # layout of satmotor.control.measurements, the plant's true i_mu last (the design comparison)
         meas = (o.i_s_alpha, o.i_s_beta, pra, prb, w, psa, psb, o.i_mu_alpha, o.i_mu_beta)
         ws, ps, tl = w_set(t), p_set(t), load(t)
         d = drive.step(meas, ws, ps, tl)

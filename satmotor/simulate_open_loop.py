@@ -11,8 +11,8 @@ import math
 
 import numpy as np
 
-from .params import MotorParams, RatedData
-from .plant import N_STATES, STATE_NAMES, Plant
+from satmotor.machine.params import MotorParams, RatedData
+from satmotor.machine.plant import N_STATES, STATE_NAMES, Plant
 
 _OUTPUT_NAMES = (
     "t", "v_s_alpha", "v_s_beta", "T_load", "i_s_alpha", "i_s_beta",

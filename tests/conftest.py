@@ -2,8 +2,8 @@
 
 import pytest
 
-from satmotor.magnetics import ArctanCurve, ExponentialCurve, LinearCurve, PolynomialCurve
-from satmotor.table_curve import TableCurve
+from satmotor.machine.magnetics import ArctanCurve, ExponentialCurve, LinearCurve, PolynomialCurve
+from satmotor.machine.table_curve import TableCurve
 
 
 def no_load_table():

@@ -12,14 +12,14 @@ import pytest
 from conftest import CURVES
 from scipy.integrate import solve_ivp
 
-from satmotor.backstepping import BacksteppingGains, ControllerConfig, control, error_system
+from satmotor.control.backstepping import BacksteppingGains, ControllerConfig, control, error_system
+from satmotor.control.fo_model import FluxOrientedModel, from_stationary, to_stationary
+from satmotor.control.measurements import from_rotor_flux, from_stator_flux
 from satmotor.errors import ParameterError
-from satmotor.fo_model import FluxOrientedModel, from_stationary, to_stationary
-from satmotor.integrate import rk4
-from satmotor.magnetics import LinearCurve
-from satmotor.measurements import from_rotor_flux, from_stator_flux
-from satmotor.params import MotorParams
-from satmotor.plant import PSI_R_A, PSI_R_B, PSI_S_A, PSI_S_B, Plant
+from satmotor.machine.integrate import rk4
+from satmotor.machine.magnetics import LinearCurve
+from satmotor.machine.params import MotorParams
+from satmotor.machine.plant import PSI_R_A, PSI_R_B, PSI_S_A, PSI_S_B, Plant
 
 P = MotorParams()
 G = BacksteppingGains()

@@ -131,7 +131,7 @@ def test_run_says_when_the_set_points_are_held(tmp_path, fmu_dir):
 def test_the_torque_limit_validate_notes_is_where_the_closed_loop_stops_holding(tmp_path, fmu_dir, share,
                                                                                   held):
     from satmotor.limits import torque_limit
-    from satmotor.params import MotorParams
+    from satmotor.machine.params import MotorParams
 
     T = round(share * torque_limit(MotorParams(), 0.9, 30.0).T_max, 3)
     f = _loaded(tmp_path, "near", T, stop_time=1.0)

@@ -6,13 +6,13 @@ import math
 import numpy as np
 import pytest
 
-from satmotor.backstepping import BacksteppingGains, ControllerConfig
-from satmotor.drive import PREMAG, RUN, BacksteppingDrive, DriveConfig, IFOCDrive
+from satmotor.control.backstepping import BacksteppingGains, ControllerConfig
+from satmotor.control.drive import PREMAG, RUN, BacksteppingDrive, DriveConfig, IFOCDrive
 from satmotor.errors import ParameterError
-from satmotor.magnetics import LinearCurve
+from satmotor.machine.magnetics import LinearCurve
+from satmotor.machine.params import MotorParams
+from satmotor.machine.plant import initial_state
 from satmotor.metrics import run_metrics
-from satmotor.params import MotorParams
-from satmotor.plant import initial_state
 from satmotor.simulate import RampScenario, closed_loop
 
 P = MotorParams()

@@ -9,14 +9,14 @@ import pytest
 from scipy.integrate import solve_ivp
 from test_backstepping import _flow_derivative, load, measure, ref
 
-from satmotor.backstepping import BacksteppingGains, ControllerConfig, control, error_system
-from satmotor.delay import DelayCompensator
-from satmotor.drive import PREMAG, RUN, BacksteppingDrive, DriveConfig
+from satmotor.control.backstepping import BacksteppingGains, ControllerConfig, control, error_system
+from satmotor.control.delay import DelayCompensator
+from satmotor.control.drive import PREMAG, RUN, BacksteppingDrive, DriveConfig
+from satmotor.control.fo_model import FluxOrientedModel
 from satmotor.errors import ParameterError
-from satmotor.fo_model import FluxOrientedModel
 from satmotor.interface import ControllerUnit
-from satmotor.params import MotorParams
-from satmotor.plant import Plant
+from satmotor.machine.params import MotorParams
+from satmotor.machine.plant import Plant
 
 P = MotorParams()
 GI = BacksteppingGains(c0=1.0e4, d0=2500.0)

@@ -8,10 +8,10 @@ import pytest
 
 from orchestration.scenario.load import validate_scenario_file
 from satmotor.errors import ParameterError
-from satmotor.integrate import rk4
 from satmotor.interface import PLANT_PARAMETERS, PlantUnit
-from satmotor.params import MotorParams, RatedData
-from satmotor.plant import OMEGA_M, Plant
+from satmotor.machine.integrate import rk4
+from satmotor.machine.params import MotorParams, RatedData
+from satmotor.machine.plant import OMEGA_M, Plant
 
 RATED = RatedData()
 V, W = RATED.V_phase_peak, RATED.omega_e

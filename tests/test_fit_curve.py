@@ -20,10 +20,10 @@ import yaml
 from orchestration.cli.commands import main
 from orchestration.scenario.load import load_scenario
 from satmotor.errors import ParameterError
-from satmotor.magnetics import ArctanCurve
-from satmotor.params import MotorParams, make_curve
-from satmotor.plant import N_STATES, Plant
-from satmotor.table_curve import TableCurve
+from satmotor.machine.magnetics import ArctanCurve
+from satmotor.machine.params import MotorParams, make_curve
+from satmotor.machine.plant import N_STATES, Plant
+from satmotor.machine.table_curve import TableCurve
 
 RATED_PHASE_PEAK = 400.0 * math.sqrt(2.0 / 3.0)  # 326.6 V
 F = 50.0
@@ -113,7 +113,7 @@ def _max_rel_error(curve, i_lo, i_hi, true=TRUE):
 
 
 def test_points_are_the_plants_own_magnetizing_state(noload):
-    from satmotor.noload import magnetizing_points
+    from satmotor.identify.noload import magnetizing_points
 
     rows, truth = noload
     p = MotorParams()
@@ -195,7 +195,7 @@ def test_fit_yaml_and_the_table_load_as_scenario_overrides(noload, tmp_path):
 def test_each_family_is_recovered_and_chosen(family, params):
     from scipy.optimize import least_squares
 
-    from satmotor.curve_fit import choose, fit_all
+    from satmotor.identify.curve_fit import choose, fit_all
 
     true = make_curve(family, **params)
     i = np.array([0.7, 1.3, 2.0, 2.8, 3.7, 5.0, 6.8, 9.6])
@@ -207,7 +207,7 @@ def test_each_family_is_recovered_and_chosen(family, params):
 
 
 def test_noisy_points_the_table_rejected_are_made_monotone(tmp_path):
-    from satmotor.curve_fit import monotone_table
+    from satmotor.identify.curve_fit import monotone_table
 
     # a no-load curve with noise in saturation: psi_m falls between lines 7 and 8
     f = tmp_path / "noisy.csv"

@@ -28,11 +28,11 @@ from fmu_helpers import (
     tamper_fingerprint,
 )
 
-from satmotor.backstepping import BacksteppingGains, ControllerConfig
-from satmotor.drive import PREMAG, RUN, DriveConfig
+from satmotor.control.backstepping import BacksteppingGains, ControllerConfig
+from satmotor.control.drive import PREMAG, RUN, DriveConfig
 from satmotor.interface import ControllerUnit, PlantUnit, motor_params
-from satmotor.magnetics import PolynomialCurve
-from satmotor.params import MotorParams, RatedData
+from satmotor.machine.magnetics import PolynomialCurve
+from satmotor.machine.params import MotorParams, RatedData
 from satmotor.simulate import RampScenario
 
 ROOT = Path(__file__).resolve().parents[1]

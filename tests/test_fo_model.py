@@ -7,9 +7,9 @@ import pytest
 from conftest import CURVES
 from scipy.integrate import solve_ivp
 
-from satmotor.fo_model import FluxOrientedModel, from_stationary, to_stationary
-from satmotor.params import MotorParams
-from satmotor.plant import Plant, initial_state
+from satmotor.control.fo_model import FluxOrientedModel, from_stationary, to_stationary
+from satmotor.machine.params import MotorParams
+from satmotor.machine.plant import Plant, initial_state
 
 T_STEP, T_END, LOAD = 0.2, 0.4, 15.0
 

@@ -4,11 +4,11 @@ import math
 
 import pytest
 
+from satmotor.control.ifoc import IFOCController, IFOCGains
 from satmotor.errors import ParameterError
-from satmotor.ifoc import IFOCController, IFOCGains
-from satmotor.magnetics import LinearCurve
-from satmotor.params import MotorParams, RatedData
-from satmotor.plant import OMEGA_M, PSI_R_A, PSI_R_B, Plant, initial_state
+from satmotor.machine.magnetics import LinearCurve
+from satmotor.machine.params import MotorParams, RatedData
+from satmotor.machine.plant import OMEGA_M, PSI_R_A, PSI_R_B, Plant, initial_state
 
 TS = 1e-4
 L_M = 0.1722

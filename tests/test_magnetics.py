@@ -9,15 +9,15 @@ from scipy.integrate import quad
 from scipy.interpolate import PchipInterpolator
 
 from satmotor.errors import ParameterError
-from satmotor.magnetics import (
+from satmotor.machine.magnetics import (
     ArctanCurve,
     ExponentialCurve,
     LinearCurve,
     PolynomialCurve,
     dynamic_inductances,
 )
-from satmotor.params import MotorParams, RatedData, make_curve
-from satmotor.table_curve import TableCurve
+from satmotor.machine.params import MotorParams, RatedData, make_curve
+from satmotor.machine.table_curve import TableCurve
 
 CURRENTS = [0.0, 1e-9, 1e-4, 0.003, 0.05, 0.4, 1.0, 2.5, 3.0, 4.5, 5.7, 8.0, 12.0, 25.0, 60.0]
 

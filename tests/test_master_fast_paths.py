@@ -15,8 +15,8 @@ from orchestration.run.fmu_instance import (
     needed_to_run,
     remove_extracted,
 )
-from orchestration.run.master import _evaluator
 from orchestration.run.recorder import Recorder
+from orchestration.run.step_plans import evaluator
 
 
 def test_extraction_keeps_this_platform_the_description_and_the_resources_only(tmp_path):
@@ -41,7 +41,7 @@ def test_extraction_keeps_this_platform_the_description_and_the_resources_only(t
 @pytest.mark.parametrize("n", range(7))
 def test_the_profile_evaluator_gives_each_function_at_t_in_order(n):
     funcs = [lambda t, i=i: t * (i + 1) + 0.1 * i for i in range(n)]
-    evaluate = _evaluator(funcs)
+    evaluate = evaluator(funcs)
     for t in (0.0, 0.25, 1.7):
         assert evaluate(t) == tuple(t * (i + 1) + 0.1 * i for i in range(n))
 

@@ -12,7 +12,7 @@ import pytest
 from orchestration.results.writer import check_acceptance, compute_metrics
 from orchestration.results.writer import setpoint_status as results_setpoint_status
 from orchestration.scenario.load import Acceptance
-from satmotor.drive import PREMAG, RUN
+from satmotor.control.drive import PREMAG, RUN
 from satmotor.metrics import (
     SERIES,
     SS_FLUX_MARGIN,

@@ -23,13 +23,13 @@ from pathlib import Path
 import pytest
 from native_core import SANITIZE, build, load, new_motor
 
-from satmotor.backstepping import BacksteppingGains, ControllerConfig, control, error_system
+from satmotor.control.backstepping import BacksteppingGains, ControllerConfig, control, error_system
+from satmotor.control.fo_model import ModelConstants, flux_rate, to_stationary, vector_fields
+from satmotor.control.measurements import from_magnetizing_current, from_rotor_flux, from_stator_flux
+from satmotor.control.references import RISE_TIME_PRODUCT, ReferenceShaper, transition_matrix
 from satmotor.errors import ParameterError
-from satmotor.fo_model import ModelConstants, flux_rate, to_stationary, vector_fields
-from satmotor.measurements import from_magnetizing_current, from_rotor_flux, from_stator_flux
-from satmotor.params import MotorParams, make_curve
-from satmotor.plant import Plant
-from satmotor.references import RISE_TIME_PRODUCT, ReferenceShaper, transition_matrix
+from satmotor.machine.params import MotorParams, make_curve
+from satmotor.machine.plant import Plant
 
 REL = 1e-12
 D = ctypes.c_double

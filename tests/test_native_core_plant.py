@@ -19,10 +19,10 @@ import pytest
 
 from satmotor.errors import ParameterError
 from satmotor.interface import PlantUnit
-from satmotor.magnetics import inductance_matrix
-from satmotor.params import MotorParams, make_curve
-from satmotor.plant import Plant, initial_state
-from satmotor.table_curve import TableCurve
+from satmotor.machine.magnetics import inductance_matrix
+from satmotor.machine.params import MotorParams, make_curve
+from satmotor.machine.plant import Plant, initial_state
+from satmotor.machine.table_curve import TableCurve
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import native_core as nc  # noqa: E402

@@ -1,4 +1,4 @@
-"""The IFOC PI baseline in C (fmu/native/core/sm_ifoc.c) against satmotor.ifoc, sample by sample:
+"""The IFOC PI baseline in C (fmu/native/core/sm_ifoc.c) against satmotor.control.ifoc, sample by sample:
 the Python is the specification."""
 
 import ctypes
@@ -9,8 +9,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from satmotor.ifoc import IFOCController, IFOCGains
-from satmotor.params import MotorParams, RatedData
+from satmotor.control.ifoc import IFOCController, IFOCGains
+from satmotor.machine.params import MotorParams, RatedData
 
 ROOT = Path(__file__).resolve().parents[1]
 FLAGS = ["-std=c99", "-O2", "-fPIC", "-shared", "-Wall", "-Wextra", "-Werror", "-pedantic", "-Wconversion",

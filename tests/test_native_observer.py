@@ -1,4 +1,4 @@
-"""The rotor-flux observer in C (fmu/native/core/sm_observer.c) against satmotor.observer, sample by
+"""The rotor-flux observer in C (fmu/native/core/sm_observer.c) against satmotor.control.observer, sample by
 sample over random input sequences, every curve family: the Python is the specification."""
 
 import ctypes
@@ -8,8 +8,8 @@ import pytest
 from conftest import CURVES
 from native_core import build
 
-from satmotor.observer import RotorFluxObserver
-from satmotor.params import MotorParams
+from satmotor.control.observer import RotorFluxObserver
+from satmotor.machine.params import MotorParams
 
 D = ctypes.c_double
 

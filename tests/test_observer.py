@@ -1,4 +1,4 @@
-"""RotorFluxObserver (satmotor.observer): against an independent ODE solve, against the plant, error
+"""RotorFluxObserver (satmotor.control.observer): against an independent ODE solve, against the plant, error
 decay from wrong initial estimates, R_r mismatch, state round trip and argument checks.
 
 Expected values come from scipy (solve_ivp, brentq, fsolve) on the equations written out here, from
@@ -12,10 +12,10 @@ import pytest
 from scipy.integrate import solve_ivp
 from scipy.optimize import brentq, fsolve
 
+from satmotor.control.observer import RotorFluxObserver
 from satmotor.errors import ParameterError
-from satmotor.observer import RotorFluxObserver
-from satmotor.params import MotorParams, make_curve
-from satmotor.plant import PSI_R_A, PSI_R_B, PSI_S_A, PSI_S_B, Plant, initial_state
+from satmotor.machine.params import MotorParams, make_curve
+from satmotor.machine.plant import PSI_R_A, PSI_R_B, PSI_S_A, PSI_S_B, Plant, initial_state
 
 P = MotorParams()
 PK = replace(P, k=0.8, l_r=4.0e-3, R_r=1.1)  # k != 1, l_r != l_s: catches a k for k^2 and the like

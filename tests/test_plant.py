@@ -8,10 +8,10 @@ import pytest
 from conftest import CURVES
 from scipy.integrate import solve_ivp
 
-from satmotor.integrate import rk4
-from satmotor.magnetics import LinearCurve
-from satmotor.params import MotorParams, RatedData
-from satmotor.plant import OMEGA_M, Plant, initial_state
+from satmotor.machine.integrate import rk4
+from satmotor.machine.magnetics import LinearCurve
+from satmotor.machine.params import MotorParams, RatedData
+from satmotor.machine.plant import OMEGA_M, Plant, initial_state
 
 RATED = RatedData()
 V, W = RATED.V_phase_peak, RATED.omega_e
@@ -188,9 +188,9 @@ def test_the_written_out_fast_paths_equal_the_generic_code_bit_for_bit():
     copy that forgets the other fails here."""
     import random
 
-    from satmotor.magnetics import ArctanCurve, _Curve
-    from satmotor.params import MotorParams
-    from satmotor.plant import Plant
+    from satmotor.machine.magnetics import ArctanCurve, _Curve
+    from satmotor.machine.params import MotorParams
+    from satmotor.machine.plant import Plant
 
     rng = random.Random(7)
     curve = ArctanCurve()

@@ -7,14 +7,14 @@ import pytest
 from scipy.integrate import solve_ivp
 from scipy.linalg import expm
 
-from satmotor.errors import ParameterError
-from satmotor.references import (
+from satmotor.control.references import (
     RISE_TIME_PRODUCT,
     ReferenceShaper,
     design_bandwidth_from_rise_time,
     input_vector,
     transition_matrix,
 )
+from satmotor.errors import ParameterError
 
 W = 40.0  # [rad/s]
 

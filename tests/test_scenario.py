@@ -29,8 +29,8 @@ from orchestration.scenario.profiles import (
     Table,
     parse_profile,
 )
-from satmotor.backstepping import ControllerConfig
-from satmotor.params import RatedData
+from satmotor.control.backstepping import ControllerConfig
+from satmotor.machine.params import RatedData
 from satmotor.simulate import RampScenario
 
 LIBRARY = Path(__file__).resolve().parents[1] / "scenarios"

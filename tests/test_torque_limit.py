@@ -6,12 +6,12 @@ import math
 
 import pytest
 
+from satmotor.control.fo_model import to_stationary
 from satmotor.errors import ParameterError
-from satmotor.fo_model import to_stationary
 from satmotor.limits import torque_limit
-from satmotor.magnetics import LinearCurve
-from satmotor.params import MotorParams
-from satmotor.plant import Plant
+from satmotor.machine.magnetics import LinearCurve
+from satmotor.machine.params import MotorParams
+from satmotor.machine.plant import Plant
 
 
 @pytest.mark.parametrize("psi, I_max, k", [(0.95, 30.0, 1.0), (0.5, 12.0, 1.0), (0.8, 20.0, 0.7)])

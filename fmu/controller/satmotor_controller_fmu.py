@@ -1,8 +1,8 @@
 """FMI 2.0 co-simulation slave: the backstepping speed and flux controller (glue around
 satmotor.interface.ControllerUnit).  One sample per doStep; dt must equal Ts.
 
-Variables, units and defaults: satmotor.interface (CONTROLLER_*).  Control law: satmotor.backstepping,
-drive logic: satmotor.drive.
+Variables, units and defaults: satmotor.interface (CONTROLLER_*).  Control law: satmotor.control.backstepping,
+drive logic: satmotor.control.drive.
 """
 
 from satmotor_fmu_glue import UnitSlave, pin_namespace

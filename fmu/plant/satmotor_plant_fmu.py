@@ -1,6 +1,6 @@
 """FMI 2.0 co-simulation slave: the saturated induction motor (glue around satmotor.interface.PlantUnit).
 
-Variables, units and defaults: satmotor.interface (PLANT_*).  Equations: satmotor.plant.
+Variables, units and defaults: satmotor.interface (PLANT_*).  Equations: satmotor.machine.plant.
 """
 
 from satmotor_fmu_glue import UnitSlave, pin_namespace

@@ -27,7 +27,7 @@ import math
 from pathlib import Path
 
 from satmotor.interface import ControllerUnit, PlantUnit
-from satmotor.params import RatedData
+from satmotor.machine.params import RatedData
 from satmotor.simulate import closed_loop
 
 H = 1e-4  # [s] communication step of both references (plant h_int, controller Ts)

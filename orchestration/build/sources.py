@@ -37,14 +37,14 @@ FMUS = {
     "SaturatedInductionMotor": (
         SOURCES / "plant" / "satmotor_plant_fmu.py",
         ("PLANT_INPUTS", "PLANT_OUTPUTS", "PLANT_PARAMETERS"),
-        ("satmotor.plant", "satmotor.magnetics", "satmotor.table_curve"),
+        ("satmotor.machine.plant", "satmotor.machine.magnetics", "satmotor.machine.table_curve"),
         {"canHandleVariableCommunicationStepSize": True},
     ),
     "BacksteppingController": (
         SOURCES / "controller" / "satmotor_controller_fmu.py",
         ("CONTROLLER_INPUTS", "CONTROLLER_OUTPUTS", "CONTROLLER_PARAMETERS"),
-        ("satmotor.fo_model", "satmotor.backstepping", "satmotor.drive", "satmotor.references",
-         "satmotor.ifoc"),
+        ("satmotor.control.fo_model", "satmotor.control.backstepping", "satmotor.control.drive",
+         "satmotor.control.references", "satmotor.control.ifoc"),
         {"canHandleVariableCommunicationStepSize": False},
     ),
 }

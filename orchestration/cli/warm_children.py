@@ -35,7 +35,8 @@ from orchestration.process.title import set_title
 PRELOAD = ("orchestration.cli", "orchestration.run.master", "orchestration.results.writer",
            "orchestration.scenario.load", "orchestration.run.recorder", "orchestration.run.fmu_instance",
            "orchestration.process.interrupts", "orchestration.results.plots", "pyarrow.parquet", "fmpy.fmi2",
-           "fmpy.fmi3", "pythonfmu", "satmotor.drive", "satmotor.plant", "satmotor.metrics", "setproctitle")
+           "fmpy.fmi3", "pythonfmu", "satmotor.control.drive", "satmotor.machine.plant", "satmotor.metrics",
+           "setproctitle")
 
 # multiprocessing's Popen of a forkserver child reads the exit status from a pipe once: two threads
 # that poll the same child at the same moment (Process.start polls every child) could both read

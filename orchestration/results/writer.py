@@ -24,7 +24,7 @@ import numpy as np
 from orchestration.run.measurement_noise import COLUMN_PREFIX as MEASURED
 from orchestration.run.recorder import FILES, StreamingRecorder
 from satmotor import metrics as _m
-from satmotor.drive import RUN
+from satmotor.control.drive import RUN
 from satmotor.metrics import acceptance, closed_loop_metrics
 
 

@@ -29,7 +29,6 @@ from __future__ import annotations
 
 import time
 from ctypes import c_double
-from operator import itemgetter
 
 from fmpy.fmi1 import FMICallException
 
@@ -46,14 +45,12 @@ from orchestration.run.fmu_instance import (
 from orchestration.run.measurement_noise import MeasurementNoise
 from orchestration.run.recorder import Recorder
 from orchestration.run.result import RunResult, failure_message, recorded_columns
+from orchestration.run.step_plans import evaluator, input_port
 from orchestration.run.wiring import (
     CONTROLLER,
     DEFAULT_CONNECTIONS,
     PLANT,
-    PROFILE,
     Connection,
-    inputs_of,
-    resolve,
 )
 
 __all__ = ["run", "Connection", "DEFAULT_CONNECTIONS"]
@@ -140,68 +137,6 @@ def run(scenario, plant_fmu, controller_fmu, connections=DEFAULT_CONNECTIONS, al
                      current if status not in ("ok", "interrupted") else "")
 
 
-def _input_port(inst, unit, connections, outputs, profiles, prof):
-    """The input port of ``unit`` and a function ``(plant values, controller values, profile values)
-    -> the port's values``.  The port lists the inputs fed by the plant, then by the controller,
-    then by profiles (``prof``: the value functions in recording order), so the values are the
-    picks of the groups that feed the port, joined; the FMI call sets them all at once in that
-    order."""
-    names = inputs_of(connections, unit)
-    srcs = resolve(connections, unit, names, outputs, profiles)
-    groups = {PLANT: [], CONTROLLER: [], PROFILE: []}
-    for name, s in zip(names, srcs):
-        ref = s.ref if s.unit != PROFILE else next(i for i, f in enumerate(prof) if f is s.ref)
-        groups[s.unit].append((name, ref))
-    order = groups[PLANT] + groups[CONTROLLER] + groups[PROFILE]
-    port = RealPort(inst, [name for name, _ in order])
-    pick_p, pick_c, pick_f = (_picker([ref for _, ref in groups[u]]) for u in (PLANT, CONTROLLER, PROFILE))
-    fed = tuple(bool(groups[u]) for u in (PLANT, CONTROLLER, PROFILE))
-    if fed == (True, False, True):  # the controller of the default connections
-
-        def values(pv, cv, fv):
-            return pick_p(pv) + pick_f(fv)
-    elif fed == (False, True, True):  # the plant of the default connections
-
-        def values(pv, cv, fv):
-            return pick_c(cv) + pick_f(fv)
-    else:
-
-        def values(pv, cv, fv):
-            return pick_p(pv) + pick_c(cv) + pick_f(fv)
-
-    return port, values
-
-
-def _picker(indices):
-    """``sequence -> tuple of sequence[i] for i in indices`` (one C-level call)."""
-    if len(indices) >= 2:
-        return itemgetter(*indices)
-    if len(indices) == 1:
-        i = indices[0]
-        return lambda seq: (seq[i],)
-    return lambda seq: ()
-
-
-def _evaluator(funcs):
-    """``t -> tuple of f(t) for f in funcs`` without a comprehension's frame (the profiles, called
-    once per step): fixed-arity closures for up to four functions."""
-    if not funcs:
-        return lambda t: ()
-    if len(funcs) == 1:
-        (a,) = funcs
-        return lambda t: (a(t),)
-    if len(funcs) == 2:
-        a, b = funcs
-        return lambda t: (a(t), b(t))
-    if len(funcs) == 3:
-        a, b, c = funcs
-        return lambda t: (a(t), b(t), c(t))
-    if len(funcs) == 4:
-        a, b, c, d = funcs
-        return lambda t: (a(t), b(t), c(t), d(t))
-    return lambda t: tuple([f(t) for f in funcs])
-
-
 def _loop(sc, jacobi, plant, ctrl, p_out, c_out, c_disc, connections, profiles, rec, stop, measure=None):
     """The stepping loop; returns (the last communication point reached [s], whether the run
     reached its stop time).  A failing doStep raises FMICallException tagged with the unit and the
@@ -219,8 +154,8 @@ def _loop(sc, jacobi, plant, ctrl, p_out, c_out, c_disc, connections, profiles, 
     every = max(1, round(sc.record.interval / h))
     outputs = {PLANT: p_out.names, CONTROLLER: c_out.names}
     prof = [profiles[p] for p in sorted(profiles)]
-    c_in, c_values = _input_port(ctrl, CONTROLLER, connections, outputs, profiles, prof)
-    p_in, p_values = _input_port(plant, PLANT, connections, outputs, profiles, prof)
+    c_in, c_values = input_port(ctrl, CONTROLLER, connections, outputs, profiles, prof)
+    p_in, p_values = input_port(plant, PLANT, connections, outputs, profiles, prof)
     calls_p, calls_c = plant.calls, ctrl.calls
     get_p, get_c = plant.fast(calls_p["get_real"]), ctrl.fast(calls_c["get_real"])
     set_p, set_c = plant.fast(calls_p["set_real"]), ctrl.fast(calls_c["set_real"])
@@ -233,7 +168,7 @@ def _loop(sc, jacobi, plant, ctrl, p_out, c_out, c_disc, connections, profiles, 
     ivals, bvals = c_disc.int_values, c_disc.bool_values
     if ia is None or ba is None:  # a controller without Integer or Boolean outputs: the general path
         get_i = get_b = None
-    evaluate = _evaluator(prof)
+    evaluate = evaluator(prof)
     pv, cv = p_out.read()[:], c_out.read()[:] + c_disc.read()  # new lists after each read
     held = cv  # controller outputs seen by the plant (Jacobi: one sample old)
     mrow = ()  # the measured signals' values at the last sample (recorded after the profiles)

@@ -153,9 +153,9 @@ def motor_variables(variables=None):
 
 def _choices():
     """Allowed values of String parameters, by (unit, name)."""
-    from satmotor.backstepping import LOAD_MODES
+    from satmotor.control.backstepping import LOAD_MODES
     from satmotor.interface import CONTROLLER_MODES
-    from satmotor.params import CURVE_NAMES
+    from satmotor.machine.params import CURVE_NAMES
 
     return {("controller", "mode"): CONTROLLER_MODES, ("controller", "load_mode"): tuple(LOAD_MODES),
             ("plant", "curve"): CURVE_NAMES, ("controller", "curve"): CURVE_NAMES}

@@ -7,14 +7,14 @@ current, ``f`` [Hz] supply frequency, optionally ``P_in`` [W] input power.  Line
 ``#`` and blank lines are skipped.  ``--R-s`` [Ohm] and ``--l-s`` [H] are the stator resistance and
 leakage inductance (finite, >= 0), from a DC and a locked-rotor test.
 
-The rows become magnetizing points by :func:`satmotor.noload.magnetizing_points` (the corrections
-are listed in its module docstring); every family is fitted by :mod:`satmotor.curve_fit`.  Written
+The rows become magnetizing points by :func:`satmotor.identify.noload.magnetizing_points` (the corrections
+are listed in its module docstring); every family is fitted by :mod:`satmotor.identify.curve_fit`.  Written
 into ``--out`` (default ``results/fit_curve``):
 
 * ``fit.yaml``: ``plant:`` and ``controller:`` overrides of the chosen curve, to paste into a
   scenario, plus ``chosen``, ``fits`` (every family's parameters and residuals) and ``input``;
 * ``curve_table.csv``: the points ``i_mu, psi_m`` for ``curve: table`` (made strictly increasing,
-  see :func:`satmotor.curve_fit.monotone_table`);
+  see :func:`satmotor.identify.curve_fit.monotone_table`);
 * ``fit.png``: the points, every fit, and the residuals.
 
 Exit codes: 0 written; 2 an input problem (the message names the file, the line and the value) or
@@ -121,7 +121,7 @@ def _float_option(name, raw):
 def points_from_file(path, R_s, l_s):
     """``(MagnetizingPoints, lines, has_P_in)`` of a no-load file; :class:`InputError` on bad input."""
     from satmotor.errors import ParameterError
-    from satmotor.noload import magnetizing_points
+    from satmotor.identify.noload import magnetizing_points
 
     cols, lines = read_noload(path)
     try:
@@ -214,8 +214,8 @@ def run(path, R_s, l_s, out=DEFAULT_OUT, stream=None):
     Raises :class:`InputError` for bad input or an unwritable ``out``."""
     from scipy.optimize import least_squares
 
-    from satmotor.curve_fit import choose, fit_all, monotone_table
     from satmotor.errors import ParameterError
+    from satmotor.identify.curve_fit import choose, fit_all, monotone_table
 
     stream = sys.stdout if stream is None else stream
     R_s = _float_option("--R-s", R_s)

@@ -1,4 +1,4 @@
-/* Magnetizing curves: satmotor/magnetics.py and satmotor/table_curve.py transcribed to C99.
+/* Magnetizing curves: satmotor/machine/magnetics.py and satmotor/machine/table_curve.py transcribed to C99.
  * Also the helpers of sm_common.h (Python-style messages).  No global mutable state. */
 #include "sm_curves.h"
 

@@ -1,4 +1,4 @@
-/* Magnetizing curves psi_m(I) of satmotor/magnetics.py and satmotor/table_curve.py, in C99.
+/* Magnetizing curves psi_m(I) of satmotor/machine/magnetics.py and satmotor/machine/table_curve.py, in C99.
  * Every function works on a caller-owned sm_curve; the struct holds no pointers (a byte copy is a
  * valid copy).  The same formulas in the same order as the Python, so the same floats. */
 #ifndef SM_CURVES_H

@@ -1,4 +1,4 @@
-/* satmotor/delay.py in C: the same operations in the same order (see sm_delay.h). */
+/* satmotor/control/delay.py in C: the same operations in the same order (see sm_delay.h). */
 #include "sm_delay.h"
 
 #include "sm_common.h"

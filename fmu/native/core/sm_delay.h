@@ -1,4 +1,4 @@
-/* The one-sample computational delay and its compensation by prediction: satmotor/delay.py in C
+/* The one-sample computational delay and its compensation by prediction: satmotor/control/delay.py in C
  * (its module docstring is the specification).  Plain struct (byte-copyable state). */
 #ifndef SM_DELAY_H
 #define SM_DELAY_H

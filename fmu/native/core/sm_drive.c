@@ -1,4 +1,4 @@
-/* satmotor/drive.py in C: the same operations in the same order (see sm_drive.h). */
+/* satmotor/control/drive.py in C: the same operations in the same order (see sm_drive.h). */
 #include "sm_drive.h"
 
 #include <math.h>

@@ -1,4 +1,4 @@
-/* The sampled drive around the control law, and the controller unit: satmotor/drive.py and the
+/* The sampled drive around the control law, and the controller unit: satmotor/control/drive.py and the
  * ControllerUnit of satmotor/interface.py in C (their docstrings are the specification).  Modes:
  * saturated (the backstepping law with the curve), constant_m (the same law, m = m(0)), pi (the IFOC
  * baseline).  Plain struct (byte-copyable: the FMU state).  C99, no global mutable state. */

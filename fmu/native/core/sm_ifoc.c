@@ -1,4 +1,4 @@
-/* satmotor/ifoc.py in C: same formulas in the same order (see sm_ifoc.h). */
+/* satmotor/control/ifoc.py in C: same formulas in the same order (see sm_ifoc.h). */
 #include "sm_ifoc.h"
 
 #include <math.h>

@@ -1,7 +1,7 @@
-/* Indirect field-oriented PI control (the baseline), sampled: satmotor/ifoc.py in C.
+/* Indirect field-oriented PI control (the baseline), sampled: satmotor/control/ifoc.py in C.
  *
  * The controller's model is the unsaturated machine with a constant magnetizing inductance L_m
- * [H]; the tuning rule, the limits and the anti-windup are those of satmotor/ifoc.py (its module
+ * [H]; the tuning rule, the limits and the anti-windup are those of satmotor/control/ifoc.py (its module
  * docstring is the specification).  Plain struct, no pointers: an FMU state is a byte copy.
  * C99, no global mutable state. */
 #ifndef SM_IFOC_H

@@ -1,5 +1,5 @@
-/* The backstepping control law of satmotor/backstepping.py in C99, with the control model of
- * satmotor/fo_model.py and the magnetizing state of satmotor/measurements.py.
+/* The backstepping control law of satmotor/control/backstepping.py in C99, with the control model of
+ * satmotor/control/fo_model.py and the magnetizing state of satmotor/control/measurements.py.
  *
  * The same formulas in the same order as the Python (so the same floats on an IEEE-754 double
  * target without FMA contraction: gcc contracts a*b+c into an FMA by default in its GNU modes

@@ -1,4 +1,4 @@
-/* satmotor/plant.py, satmotor/integrate.py and the PlantUnit checks of satmotor/interface.py. */
+/* satmotor/machine/plant.py, satmotor/machine/integrate.py and the PlantUnit checks of satmotor/interface.py. */
 #include "sm_plant.h"
 
 #include <math.h>

@@ -1,4 +1,4 @@
-/* The stationary-frame saturated induction motor of satmotor/plant.py (flux states) and the
+/* The stationary-frame saturated induction motor of satmotor/machine/plant.py (flux states) and the
  * checks of satmotor/interface.py PlantUnit, in C99.  Caller-owned structs, no pointers inside
  * (a byte copy of sm_motor is a valid copy); the same floats as the Python. */
 #ifndef SM_PLANT_H

@@ -1,4 +1,4 @@
-/* satmotor/references.py in C99; the same operations in the same order as the Python. */
+/* satmotor/control/references.py in C99; the same operations in the same order as the Python. */
 #include "sm_references.h"
 
 #include <math.h>

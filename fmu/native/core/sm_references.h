@@ -1,4 +1,4 @@
-/* The reference shaper of satmotor/references.py in C99: the critically damped third-order filter
+/* The reference shaper of satmotor/control/references.py in C99: the critically damped third-order filter
  * w_n^3 / (s + w_n)^3 with states z = (r, r', r''), stepped exactly (zero-order hold) with the
  * closed-form transition matrix Phi(h) = exp(-w h) (I + h N + h^2/2 N^2), N = A + w I.
  *

@@ -15,7 +15,7 @@ Start from standstill (the backstepping law is singular at Phi_rd = 0):
 
 2. *Switch* when ``|psi_r| >= premag_fraction psi_set`` (or after ``premag_time_max``): the
    flux shaper is put at the measured state ``(Phi_rd, Phi_rd', 0)`` with
-   ``Phi_rd' = (R_r/l_r)(k m i_mu_d - Phi_rd)`` (:func:`satmotor.fo_model.flux_rate`) and the
+   ``Phi_rd' = (R_r/l_r)(k m i_mu_d - Phi_rd)`` (:func:`satmotor.control.fo_model.flux_rate`) and the
    speed shaper at ``(omega_m, 0, 0)``, so that ``e1 = e2 = z1 = 0`` at the switch: the law
    takes over without a jump.
 
@@ -32,15 +32,22 @@ import math
 from dataclasses import dataclass
 from typing import NamedTuple
 
-from .backstepping import D_SHARE, BacksteppingGains, ControllerConfig, control
-from .delay import N_STATE as N_DELAY_STATE
-from .delay import DelayCompensator
-from .errors import ParameterError, require_number
-from .fo_model import flux_rate, model_constants
-from .ifoc import IFOCController, IFOCGains
-from .measurements import MEAS_I_S_A, MEAS_I_S_B, MEAS_OMEGA_M, MEAS_PSI_R_A, MEAS_PSI_R_B, from_rotor_flux
-from .observer import RotorFluxObserver
-from .references import REF_VALUE, ReferenceShaper
+from satmotor.control.backstepping import D_SHARE, BacksteppingGains, ControllerConfig, control
+from satmotor.control.delay import N_STATE as N_DELAY_STATE
+from satmotor.control.delay import DelayCompensator
+from satmotor.control.fo_model import flux_rate, model_constants
+from satmotor.control.ifoc import IFOCController, IFOCGains
+from satmotor.control.measurements import (
+    MEAS_I_S_A,
+    MEAS_I_S_B,
+    MEAS_OMEGA_M,
+    MEAS_PSI_R_A,
+    MEAS_PSI_R_B,
+    from_rotor_flux,
+)
+from satmotor.control.observer import RotorFluxObserver
+from satmotor.control.references import REF_VALUE, ReferenceShaper
+from satmotor.errors import ParameterError, require_number
 
 PREMAG, RUN = 0, 1
 FLUX_SOURCES = ("measured", "observer")
@@ -59,8 +66,8 @@ class DriveConfig:
     than premag_speed_tol [rad/s] or premag_time_max [s] has passed, never below it;
     premag_boost [1]; premag_gain [Ohm] K_pm of the pre-magnetization current loop;
     flux_source 'measured' (the psi_r inputs, the seed's assumption) or 'observer'
-    (:class:`satmotor.observer.RotorFluxObserver` from i_s and omega_m); delay_samples 0 or 1
-    (:mod:`satmotor.delay`).
+    (:class:`satmotor.control.observer.RotorFluxObserver` from i_s and omega_m); delay_samples 0 or 1
+    (:mod:`satmotor.control.delay`).
     """
 
     ref_bandwidth: float = 40.0
@@ -161,7 +168,7 @@ class _Drive:
         return I
 
     def step(self, meas, omega_set, psi_set, T_load):
-        """One sample: ``meas`` the measurement tuple of :mod:`satmotor.measurements`
+        """One sample: ``meas`` the measurement tuple of :mod:`satmotor.control.measurements`
         [A, A, Wb, Wb, rad/s, Wb, Wb]; set-points [rad/s], [Wb]; load torque [N m].
         Returns a :class:`DriveOutput`."""
         I_set = self.magnetizing_current(psi_set)
@@ -322,7 +329,7 @@ class BacksteppingDrive(_Drive):
 
 
 class IFOCDrive(_Drive):
-    """The indirect field-oriented PI baseline (:mod:`satmotor.ifoc`) in the same drive frame:
+    """The indirect field-oriented PI baseline (:mod:`satmotor.control.ifoc`) in the same drive frame:
     same pre-magnetization and shaped references; the PI loops see only currents and speed."""
 
     def __init__(self, params, gains=None, Ts=1e-4, L_m=None, drive_cfg=None):

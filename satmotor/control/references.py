@@ -27,7 +27,7 @@ from __future__ import annotations
 
 import math
 
-from .errors import ParameterError, require_number
+from satmotor.errors import ParameterError, require_number
 
 _CACHE_SIZE = 8
 # Layout of a shaper's state and value tuple (r, r', r'').

@@ -8,10 +8,10 @@ is 0.03 rad of the 50 Hz field and a third of the inner loops' 1/c2 = 1 ms.
 
 Compensation: the law is fed the state *predicted* at ``t_{k+1}``, the instant its voltage takes
 effect.  The prediction integrates the controller's own stationary-frame model
-(:class:`satmotor.plant.Plant` with the controller's parameters, one RK4 step of ``Ts``) from the
+(:class:`satmotor.machine.plant.Plant` with the controller's parameters, one RK4 step of ``Ts``) from the
 sampled state under the pending voltage and the load the law believes in.  The stator flux the
 model needs is rebuilt from the samples, ``psi_s = l_s i_s + m(|i_mu|) i_mu`` with i_mu from
-:func:`satmotor.measurements.from_rotor_flux`.
+:func:`satmotor.control.measurements.from_rotor_flux`.
 
 A model error (the plant's R_s, R_r or curve differ from the controller's, an unknown load)
 biases every prediction by about ``Ts`` times the error in the derivatives, and a steady bias in
@@ -30,9 +30,9 @@ from __future__ import annotations
 
 import math
 
-from .errors import require_number
-from .measurements import from_rotor_flux
-from .plant import OMEGA_M, PSI_R_A, PSI_R_B, PSI_S_A, PSI_S_B, Plant
+from satmotor.control.measurements import from_rotor_flux
+from satmotor.errors import require_number
+from satmotor.machine.plant import OMEGA_M, PSI_R_A, PSI_R_B, PSI_S_A, PSI_S_B, Plant
 
 # state layout: pending voltage (2), last prediction (5) and its valid flag, correction (5)
 N_STATE = 13
@@ -69,7 +69,7 @@ class DelayCompensator:
         return out
 
     def predict(self, meas, T_load):
-        """The measurement tuple (layout of :mod:`satmotor.measurements`) predicted at the next
+        """The measurement tuple (layout of :mod:`satmotor.control.measurements`) predicted at the next
         sample under the pending voltage, with the load torque ``T_load`` [N m] held."""
         p = self.params
         i_a, i_b, pr_a, pr_b, w = meas[0], meas[1], meas[2], meas[3], meas[4]

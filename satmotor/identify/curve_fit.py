@@ -1,6 +1,6 @@
 """Least-squares fit of the magnetizing-curve families to points (i_mu [A], psi_m [Wb]).
 
-Every family :func:`satmotor.params.make_curve` builds from parameters is fitted to the points by
+Every family :func:`satmotor.machine.params.make_curve` builds from parameters is fitted to the points by
 ``scipy.optimize.least_squares`` on the flux residual ``psi_fit(i_mu) - psi_m`` (absolute, in Wb,
 all points weighted alike).  ``satmotor`` depends on numpy only (``tests/test_packaging.py``
 holds it to that), so the caller hands the solver in: ``fit_all(i, psi, least_squares)`` with
@@ -32,8 +32,8 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .errors import ParameterError
-from .params import make_curve
+from satmotor.errors import ParameterError
+from satmotor.machine.params import make_curve
 
 POLY_EXPONENTS = tuple(range(3, 16, 2))
 N_PARAMS = {"linear": 1, "arctan": 3, "exponential": 3, "polynomial": 3}
@@ -159,7 +159,7 @@ def choose(fits):
 
 
 def monotone_table(i_mu, psi_m):
-    """Points made strictly increasing for :class:`satmotor.table_curve.TableCurve`.
+    """Points made strictly increasing for :class:`satmotor.machine.table_curve.TableCurve`.
 
     Sorted by i_mu; then the isotonic regression of psi_m on i_mu (pool-adjacent-violators: a run
     of points whose psi_m decreases is replaced by one point at the mean i_mu and mean psi_m of the
@@ -170,7 +170,7 @@ def monotone_table(i_mu, psi_m):
     two points are pooled.  Returns ``(i, psi, n_pooled)`` with ``n_pooled`` the number of points
     merged away.
     """
-    from .table_curve import TableCurve
+    from satmotor.machine.table_curve import TableCurve
 
     i = np.asarray(i_mu, dtype=float)
     psi = np.asarray(psi_m, dtype=float)

@@ -5,7 +5,7 @@ varied; per voltage level one records the line-to-line voltage ``V_ll_rms`` [V],
 ``I_rms`` [A], the frequency ``f`` [Hz] and, optionally, the input power ``P_in`` [W] (star
 connection, balanced sinusoidal supply).  Each row becomes one point of the magnetizing curve in
 the project's conventions (amplitude-invariant Clarke transform: a space vector's magnitude is the
-phase peak; :mod:`satmotor.plant`), through these steps and corrections:
+phase peak; :mod:`satmotor.machine.plant`), through these steps and corrections:
 
 1. Peaks: phase voltage ``V = sqrt(2) V_ll_rms / sqrt(3)``, current ``I = sqrt(2) I_rms``,
    ``omega_e = 2 pi f``.
@@ -50,7 +50,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .errors import ParameterError, require_number
+from satmotor.errors import ParameterError, require_number
 
 SQRT2, SQRT3 = math.sqrt(2.0), math.sqrt(3.0)
 

@@ -29,8 +29,8 @@ from __future__ import annotations
 import math
 from typing import NamedTuple
 
-from .magnetics import inductance_matrix
-from .plant import N_STATES, OMEGA_M, PSI_R_A, PSI_R_B, PSI_S_A, PSI_S_B, THETA_M
+from satmotor.machine.magnetics import inductance_matrix
+from satmotor.machine.plant import N_STATES, OMEGA_M, PSI_R_A, PSI_R_B, PSI_S_A, PSI_S_B, THETA_M
 
 PHI_RD, I_MU_D, I_MU_Q, OMEGA = range(4)
 
@@ -117,7 +117,7 @@ class FluxOrientedModel:
 
     Parameters
     ----------
-    params : satmotor.params.MotorParams
+    params : satmotor.machine.params.MotorParams
     """
 
     def __init__(self, params):

@@ -17,8 +17,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .errors import ParameterError
-from .magnetics import _Curve
+from satmotor.errors import ParameterError
+from satmotor.machine.magnetics import _Curve
 
 
 def _pchip_slopes(x, y):

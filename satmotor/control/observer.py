@@ -1,12 +1,12 @@
 """Rotor-flux observer ("current model") on the saturated model, for sampled i_s and omega_m.
 
-Model.  The rotor equation of :mod:`satmotor.plant` in the stationary frame::
+Model.  The rotor equation of :mod:`satmotor.machine.plant` in the stationary frame::
 
     d psi_r/dt = -R_r i_r(psi_r, i_s) + n_p omega_m J2 psi_r      (J2 = rotation by +90 deg)
 
 needs only the stator current i_s [A] and the speed omega_m [rad/s], both measured.  The rotor
 current follows from psi_r and i_s through the curve exactly as in
-:func:`satmotor.measurements.from_rotor_flux`: ``w = i_s + (k/l_r) psi_r``, ``I`` the root of
+:func:`satmotor.control.measurements.from_rotor_flux`: ``w = i_s + (k/l_r) psi_r``, ``I`` the root of
 ``(l_r/k^2) I + psi_m(I) = (l_r/k^2)|w|`` (``curve.solve``, the controller's solve),
 ``i_mu = (I/|w|) w`` and ``i_r = (psi_r - k m i_mu)/l_r = (psi_r - k psi_m(I) w/|w|)/l_r``.
 
@@ -50,7 +50,7 @@ from __future__ import annotations
 
 import math
 
-from .errors import ParameterError, require_integer, require_number
+from satmotor.errors import ParameterError, require_integer, require_number
 
 
 class RotorFluxObserver:
@@ -58,7 +58,7 @@ class RotorFluxObserver:
 
     Parameters
     ----------
-    params : satmotor.params.MotorParams
+    params : satmotor.machine.params.MotorParams
         The controller's model (R_r, l_r, k, n_p, curve).
     Ts : float
         Sampling period [s], > 0.

@@ -1,9 +1,9 @@
 """Backstepping speed and rotor-flux controller for the saturated motor (seed section 4, corrected).
 
-Control model: :mod:`satmotor.fo_model`, ``x = [Phi_rd, i_mu_d, i_mu_q, omega_m]``,
+Control model: :mod:`satmotor.control.fo_model`, ``x = [Phi_rd, i_mu_d, i_mu_q, omega_m]``,
 ``x' = F(x) + G(x) v``; the law takes F, ``L^-1`` (G's nonzero rows) and omega_s from
-:func:`satmotor.fo_model.vector_fields` and the parameter groups below from
-:func:`satmotor.fo_model.model_constants` (nothing of the model is derived here).
+:func:`satmotor.control.fo_model.vector_fields` and the parameter groups below from
+:func:`satmotor.control.fo_model.model_constants` (nothing of the model is derived here).
 Notation: ``a = R_r/l_r``, ``K = kappa k / (J l_r)``, ``kappa = 3/2 n_p``, ``b = B/J``,
 ``theta = T_L/J`` (or its estimate ``theta_hat``)::
 
@@ -67,9 +67,8 @@ import math
 from dataclasses import dataclass
 from typing import NamedTuple
 
-from .errors import ParameterError, require_number
-from .fo_model import model_constants, vector_fields
-from .measurements import (
+from satmotor.control.fo_model import model_constants, vector_fields
+from satmotor.control.measurements import (
     MEAS_I_MU_A,
     MEAS_I_MU_B,
     MEAS_I_S_A,
@@ -83,6 +82,7 @@ from .measurements import (
     from_rotor_flux,
     from_stator_flux,
 )
+from satmotor.errors import ParameterError, require_number
 
 _SQRT3 = math.sqrt(3.0)
 _W_REL_FLOOR = 1e-12
@@ -300,7 +300,7 @@ def control(meas, ref, load, params, gains, cfg, theta_hat=0.0, integ=(0.0, 0.0)
     Parameters
     ----------
     meas : tuple
-        The measurement tuple of :mod:`satmotor.measurements`, ``(i_s_alpha, i_s_beta,
+        The measurement tuple of :mod:`satmotor.control.measurements`, ``(i_s_alpha, i_s_beta,
         psi_r_alpha, psi_r_beta, omega_m[, psi_s_alpha, psi_s_beta])`` [A, A, Wb, Wb, rad/s, Wb,
         Wb]; psi_s is needed only with ``cfg.use_stator_flux``.
     ref : tuple

@@ -1,6 +1,6 @@
 """Classical indirect field-oriented control (IFOC) with PI loops: the baseline controller.
 
-Drives the stationary alpha-beta plant of :mod:`satmotor.plant` (same conventions:
+Drives the stationary alpha-beta plant of :mod:`satmotor.machine.plant` (same conventions:
 amplitude-invariant Clarke, mechanical speed ``omega_m`` [rad/s], rotor quantities
 on the rotor side with the turns ratio ``k``).  The controller's model is the
 *unsaturated* machine with a constant magnetizing inductance ``L_m`` [H] (default:
@@ -55,8 +55,8 @@ import math
 from dataclasses import dataclass
 from typing import NamedTuple
 
-from .errors import ParameterError, require_number
-from .params import MotorParams, RatedData
+from satmotor.errors import ParameterError, require_number
+from satmotor.machine.params import MotorParams, RatedData
 
 _TWO_PI = 2.0 * math.pi
 
@@ -109,7 +109,7 @@ class IFOCController:
 
     Parameters
     ----------
-    params : satmotor.params.MotorParams
+    params : satmotor.machine.params.MotorParams
         Motor data of the controller's model.
     gains : IFOCGains
     Ts : float
@@ -132,7 +132,7 @@ class IFOCController:
 
     def __init__(self, params, gains=None, Ts=1e-4, L_m=None):
         if not isinstance(params, MotorParams):
-            raise ParameterError("params", params, "must be a satmotor.params.MotorParams")
+            raise ParameterError("params", params, "must be a satmotor.machine.params.MotorParams")
         gains = IFOCGains() if gains is None else gains
         if not isinstance(gains, IFOCGains):
             raise ParameterError("gains", gains, "must be an IFOCGains")

@@ -26,7 +26,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from .errors import ParameterError, require_integer, require_number
+from satmotor.errors import ParameterError, require_integer, require_number
 
 _REL_TOL = 4.0e-16
 _MAX_ITER = 200

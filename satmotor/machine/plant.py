@@ -10,7 +10,7 @@ Conventions
 * Inputs: stator voltages ``v_s_alpha``, ``v_s_beta`` [V], load torque ``T_load`` [N m].
 * Plant-only parameter ``B_2`` [N m s2/rad2] (>= 0, default 0): a quadratic (fan/pump) load
   torque ``B_2 omega_m |omega_m|`` opposing motion.  It is an argument of :class:`Plant`, not a
-  field of :class:`~satmotor.params.MotorParams`, because MotorParams is also the controller's
+  field of :class:`~satmotor.machine.params.MotorParams`, because MotorParams is also the controller's
   model: the controller does not know the fan load and sees it as part of an unknown load.
 
 Equations (seed eqs 1, 4, 10-13 with the factor k of the errata)::
@@ -32,8 +32,8 @@ from __future__ import annotations
 import math
 from typing import NamedTuple
 
-from .errors import require_number
-from .integrate import rk4
+from satmotor.errors import require_number
+from satmotor.machine.integrate import rk4
 
 PSI_S_A, PSI_S_B, PSI_R_A, PSI_R_B, OMEGA_M, THETA_M = range(6)
 N_STATES = 6
@@ -60,7 +60,7 @@ class Plant:
 
     Parameters
     ----------
-    params : satmotor.params.MotorParams
+    params : satmotor.machine.params.MotorParams
     B_2 : float
         Quadratic (fan/pump) load coefficient [N m s2/rad2], >= 0: load torque
         ``B_2 omega_m |omega_m|`` opposing motion (default 0: none).

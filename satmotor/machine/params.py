@@ -35,9 +35,9 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
-from .errors import ParameterError, require_integer, require_number
-from .magnetics import ArctanCurve, ExponentialCurve, LinearCurve, PolynomialCurve
-from .table_curve import TableCurve
+from satmotor.errors import ParameterError, require_integer, require_number
+from satmotor.machine.magnetics import ArctanCurve, ExponentialCurve, LinearCurve, PolynomialCurve
+from satmotor.machine.table_curve import TableCurve
 
 CURVE_NAMES = ("arctan", "exponential", "polynomial", "table", "linear")
 
@@ -61,7 +61,7 @@ class MotorParams:
     B : float
         Viscous friction [N m s], >= 0.
     curve : magnetizing characteristic
-        One of the curves of :mod:`satmotor.magnetics` / :mod:`satmotor.table_curve`.
+        One of the curves of :mod:`satmotor.machine.magnetics` / :mod:`satmotor.machine.table_curve`.
     """
 
     R_s: float = 1.405
