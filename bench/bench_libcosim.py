@@ -71,7 +71,7 @@ def libcosim_parts(sc, plant, ctrl, signals, work):
     from libcosimpy.CosimExecution import CosimExecution
     from libcosimpy.CosimLogging import CosimLogLevel, log_output_level
 
-    from orchestration.tools.ssp import ssd_xml
+    from orchestration.build.ssd import ssd_xml
 
     log_output_level(CosimLogLevel.ERROR)
     fmus_ = {"plant": plant, "controller": ctrl, "signals": signals}

@@ -1,19 +1,23 @@
 """The co-simulation tools around the two FMUs, one sub-package per job.
 
-Dependencies point one way, from the top of this list to the bottom (no import cycle):
+Dependencies point one way, from the top of this list to the bottom (no import cycle, between
+modules or between sub-packages):
 
 * :mod:`orchestration.cli` -- the command line (``satmotor-cosim``, ``python -m orchestration``):
   the verbs, ``batch`` and its warm children.
 * :mod:`orchestration.tools` -- ``export-ssp`` (SSP 1.0 packages) and ``fit-curve`` (a magnetizing
   curve from a no-load test).
-* :mod:`orchestration.check` -- the FMU checker, a product of its own: it checks anyone's FMUs.
-* :mod:`orchestration.scenario` -- YAML in: a validated scenario, every problem with file, field
-  and value; the time profiles; feasibility.
+* :mod:`orchestration.check` -- the FMU checker, a product of its own: it checks anyone's FMUs
+  (it uses only :mod:`orchestration.process`).
 * :mod:`orchestration.results` -- metrics, the results files, the figure.
 * :mod:`orchestration.run` -- the fmpy master (wiring, recorder, stepping loop), the libcosim engine,
   the plain-Python reference loop, the run result.
 * :mod:`orchestration.build` -- every FMU and generated artefact: pythonfmu and native FMUs, model
-  descriptions, C variable tables, cross builds, reference results, the variable tables of the docs.
+  descriptions, C variable tables, the SSP system description, cross builds, reference results,
+  the variable tables of the docs.
+* :mod:`orchestration.scenario` -- YAML in: a validated scenario, every problem with file, field
+  and value; the time profiles; the system a scenario runs (units, connections, measurements) and
+  what a run records; feasibility.
 * :mod:`orchestration.process` -- what every long-running command shares: Ctrl-C/SIGTERM as a stop
   request, a clean process exit, process titles.
 """

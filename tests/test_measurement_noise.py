@@ -13,10 +13,10 @@ import numpy as np
 import pytest
 
 from orchestration.cli.commands import main as cli_main
-from orchestration.run.measurement_noise import MeasurementNoise, Measurements
+from orchestration.run.measurement_noise import MeasurementNoise
 from orchestration.run.reference import COLUMNS, plain_reference
-from orchestration.run.wiring import MEASUREMENTS
 from orchestration.scenario.load import load_scenario, validate_scenario_file
+from orchestration.scenario.system import MEASUREMENTS, Measurements
 from satmotor.interface import ControllerUnit, PlantUnit
 from satmotor.simulate import closed_loop
 
@@ -238,7 +238,7 @@ def test_the_master_applies_the_same_noise_as_its_plain_python_twin(tmp_path, fm
 @pytest.mark.slow
 def test_without_a_section_the_master_records_the_same_columns_and_numbers(tmp_path, fmu_dir):
     from orchestration.results.writer import write_results
-    from orchestration.run.result import recorded_columns
+    from orchestration.scenario.recording import recorded_columns
 
     sc = _scenario(tmp_path, BASE.replace("stop_time: 0.5", "stop_time: 0.2"))
     none = _cosim(sc, fmu_dir).frame

@@ -23,16 +23,16 @@ from fmpy import extract, read_model_description
 from fmpy.fmi2 import FMU2Slave
 from fmpy.validation import validate_fmu
 
-from orchestration.build import fmus
+from orchestration.build import fmus, ssd
 from orchestration.cli import commands as cli
 from orchestration.run.master import run
-from orchestration.run.wiring import DEFAULT_CONNECTIONS
 from orchestration.scenario.load import load_scenario
+from orchestration.scenario.system import DEFAULT_CONNECTIONS
 from orchestration.tools import ssp
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENARIOS = sorted((ROOT / "scenarios").glob("*.yaml"))
-NS = {"ssd": ssp.SSD_NS, "ssc": ssp.SSC_NS, "ssv": ssp.SSV_NS, "osp": ssp.OSP_NS}
+NS = {"ssd": ssd.SSD_NS, "ssc": ssd.SSC_NS, "ssv": ssd.SSV_NS, "osp": ssd.OSP_NS}
 REFUSED = {"noisy_measurements", "real_drive"}  # measurements: sections
 DEFAULT = ROOT / "scenarios" / "ramp_rated_load.yaml"
 
@@ -48,8 +48,8 @@ def default_ssp(fmu_dir, tmp_path_factory):
 def signals_md(default_ssp, tmp_path_factory):
     d = tmp_path_factory.mktemp("sig")
     with zipfile.ZipFile(default_ssp) as z:
-        z.extract(ssp.RESOURCES["signals"], d)
-    return read_model_description(str(d / ssp.RESOURCES["signals"]))
+        z.extract(ssd.RESOURCES["signals"], d)
+    return read_model_description(str(d / ssd.RESOURCES["signals"]))
 
 
 def ssd_root(path):
@@ -72,9 +72,9 @@ def typed_value(el):
 
 def test_the_package_holds_the_ssd_and_three_fmus_that_validate(default_ssp, tmp_path):
     with zipfile.ZipFile(default_ssp) as z:
-        assert sorted(z.namelist()) == sorted(["SystemStructure.ssd", *ssp.RESOURCES.values()])
+        assert sorted(z.namelist()) == sorted(["SystemStructure.ssd", *ssd.RESOURCES.values()])
         z.extractall(tmp_path)
-    for comp, name in ssp.RESOURCES.items():
+    for comp, name in ssd.RESOURCES.items():
         assert validate_fmu(str(tmp_path / name)) == [], comp
         md = read_model_description(str(tmp_path / name))
         assert (md.fmiVersion, md.coSimulation.modelIdentifier) == ("2.0", Path(name).stem)
@@ -85,7 +85,7 @@ def test_the_ssd_validates_against_the_ssp_1_0_schemas_of_fmpy(default_ssp):
     from lxml import etree
 
     parsed = fmpy_ssd.read_ssd(str(default_ssp), validate=True)  # raises on a schema violation
-    assert [c.name for c in parsed.system.elements] == list(ssp.COMPONENTS)
+    assert [c.name for c in parsed.system.elements] == list(ssd.COMPONENTS)
     # the inline parameter sets are 'lax' inside the .ssd schema: validate them on their own
     schema = etree.XMLSchema(file=str(Path(fmpy_ssd.__file__).parent / "schema" /
                                       "SystemStructureParameterValues.xsd"))
@@ -118,7 +118,7 @@ def test_parameters_connections_steps_of_every_scenario(path, fmu_dir, signals_m
             ssp.check_expressible(sc)
         return
     mds = model_descriptions(fmu_dir, signals_md)
-    root = ET.fromstring(ssp.ssd_xml(sc, mds))
+    root = ET.fromstring(ssd.ssd_xml(sc, mds))
     comps = {c.get("name"): c for c in root.findall("ssd:System/ssd:Elements/ssd:Component", NS)}
     assert list(comps) == ["plant", "controller", "signals"]
     want = {"plant": dict(sc.plant), "controller": {**sc.controller, "Ts": sc.step * sc.controller_every}}
@@ -132,7 +132,7 @@ def test_parameters_connections_steps_of_every_scenario(path, fmu_dir, signals_m
             if v.name in overrides:
                 assert value == overrides[v.name], (comp, v.name)
             else:  # the start value as the FMU's model description writes it
-                start = ET.Element(f"{{{ssp.SSV_NS}}}{v.type}", {"value": v.start or ""})
+                start = ET.Element(f"{{{ssd.SSV_NS}}}{v.type}", {"value": v.start or ""})
                 assert value == typed_value(start)[1], (comp, v.name)
     assert not comps["signals"].findall(".//ssv:Parameter", NS)
     conns = [(c.get("startElement"), c.get("startConnector"), c.get("endElement"), c.get("endConnector"))
@@ -179,7 +179,7 @@ def test_the_python_variant_packs_the_pythonfmu_fmus(fmu_dir, tmp_path):
     assert cli.main(args) == 0
     plant, _ = fmus.paths(fmu_dir, "python")
     with zipfile.ZipFile(out) as z:
-        assert z.read(ssp.RESOURCES["plant"]) == plant.read_bytes()
+        assert z.read(ssd.RESOURCES["plant"]) == plant.read_bytes()
 
 
 # --- refusals ---------------------------------------------------------------------------------------
@@ -227,7 +227,7 @@ def test_a_table_file_travels_in_the_native_fmus_resources(fmu_dir, tmp_path):
     root = ssd_root(out)
     with zipfile.ZipFile(out) as z:
         for comp in ("plant", "controller"):
-            with zipfile.ZipFile(z.open(ssp.RESOURCES[comp])) as f:
+            with zipfile.ZipFile(z.open(ssd.RESOURCES[comp])) as f:
                 assert f.read("resources/curve.csv") == (tmp_path / "curve.csv").read_bytes()
             el = root.find(f"ssd:System/ssd:Elements/ssd:Component[@name='{comp}']", NS)
             values = {p.get("name"): p[0].get("value") for p in el.findall(".//ssv:Parameter", NS)}
@@ -421,7 +421,7 @@ def test_libcosim_loads_the_package_and_agrees_with_the_master(name, stop, fmu_d
 
 
 def test_connections_the_package_cannot_hold_are_refused(fmu_dir, signals_md, tmp_path):
-    from orchestration.run.wiring import Connection
+    from orchestration.scenario.system import Connection
 
     sc = load_scenario(DEFAULT)
     mds = model_descriptions(fmu_dir, signals_md)
@@ -430,12 +430,12 @@ def test_connections_the_package_cannot_hold_are_refused(fmu_dir, signals_md, tm
                 Connection("controller.omega_ref", "plant.T_load")):  # an input as the source
         conns = (*DEFAULT_CONNECTIONS, bad)
         if bad.source == "plant.omega_m":
-            root = ET.fromstring(ssp.ssd_xml(sc, mds, conns))
+            root = ET.fromstring(ssd.ssd_xml(sc, mds, conns))
             assert len(root.findall("ssd:System/ssd:Connections/ssd:Connection", NS)) == len(conns)
             continue
         with pytest.raises(ssp.NotExpressible, match=rf"^{DEFAULT}: connections = "
                                                      rf"'{bad.source} -> {bad.target}': "):
-            ssp.ssd_xml(sc, mds, conns)
+            ssd.ssd_xml(sc, mds, conns)
     plant, ctrl = fmus.paths(fmu_dir, "native")
     with pytest.raises(ssp.NotExpressible):
         ssp.export(sc, tmp_path / "c.ssp", plant, ctrl, (*DEFAULT_CONNECTIONS, bad))

@@ -8,7 +8,8 @@
 * :mod:`~orchestration.build.fmu_model_description`, :mod:`~orchestration.build.native_model_description`,
   :mod:`~orchestration.build.native_vars`, :mod:`~orchestration.build.documentation` -- model
   descriptions, the C variable tables and the FMUs' documentation pages.
-* :mod:`~orchestration.build.signals_fmu` -- ScenarioSignals.fmu, a scenario's profiles for SSP engines.
+* :mod:`~orchestration.build.signals_fmu` -- ScenarioSignals.fmu, a scenario's profiles for SSP engines;
+  :mod:`~orchestration.build.ssd` -- the SSP system description of a scenario.
 * :mod:`~orchestration.build.reference_results` -- the reference results shipped for the FMUs.
 * :mod:`~orchestration.build.variable_tables` -- the variable tables of the documentation.
 """

@@ -21,8 +21,8 @@ from pathlib import Path
 
 import numpy as np
 
-from orchestration.run.measurement_noise import COLUMN_PREFIX as MEASURED
 from orchestration.run.recorder import FILES, StreamingRecorder
+from orchestration.scenario.recording import recorded_selection
 from satmotor import metrics as _m
 from satmotor.control.drive import RUN
 from satmotor.metrics import acceptance, closed_loop_metrics
@@ -70,15 +70,6 @@ def setpoint_status(metrics, times, scenario):
 
 
 RESULT_FILES = (*FILES, "metrics.json", "figure.png")
-# what compute_metrics and the figure read: always recorded, whatever record.outputs lists
-NEEDED = ("plant.omega_m", "plant.psi_r_alpha", "plant.psi_r_beta", "plant.i_s_alpha", "plant.i_s_beta",
-          "plant.T_e", "plant.i_mu", "controller.v_s_alpha", "controller.v_s_beta", "controller.v_sd",
-          "controller.v_sq", "controller.e1", "controller.z1", "controller.W", "controller.T_load_est",
-          "controller.phase", "controller.voltage_limited", "controller.current_limited",
-          "controller.omega_ref_shaped", "controller.psi_ref_shaped", "controller.psi_r_hat_alpha",
-          "controller.psi_r_hat_beta")
-
-
 def prepare_dir(out_dir, scenario):
     """``out_dir/<name>/``, made ready before a run: created, the previous results of the scenario
     removed (a failed rerun never sits beside an old figure), and ``metrics.json`` written with
@@ -90,14 +81,6 @@ def prepare_dir(out_dir, scenario):
     (d / "metrics.json").write_text(json.dumps({"scenario": scenario.name, "file": str(scenario.path),
                                                 "status": "running"}) + "\n")
     return d
-
-
-def recorded_selection(scenario, columns):
-    """Indices of ``columns`` to record: time, the profiles, the measured signals (``measured.NAME``),
-    ``record.outputs`` (all outputs when empty) and the columns the metrics and the figure need."""
-    wanted = set(scenario.record.outputs) | set(NEEDED) if scenario.record.outputs else None
-    return [i for i, c in enumerate(columns) if c == "time" or c.startswith(("profile.", MEASURED))
-            or wanted is None or c in wanted]
 
 
 def streaming_recorder(scenario, directory, on_parquet=None):

@@ -3,8 +3,8 @@
 
 What libcosim runs: the plant, the controller and the scenario's profiles as a third FMU
 (:mod:`orchestration.build.signals_fmu`, outputs ``omega_ref``, ``psi_ref``, ``T_load``), wired by
-:data:`orchestration.run.wiring.DEFAULT_CONNECTIONS`.  The system is written as the SSP description
-``SystemStructure.ssd`` of :func:`orchestration.tools.ssp.ssd_xml` (the one ``export-ssp`` packs), with
+:data:`orchestration.scenario.system.DEFAULT_CONNECTIONS`.  The system is written as the SSP description
+``SystemStructure.ssd`` of :func:`orchestration.build.ssd.ssd_xml` (the one ``export-ssp`` packs), with
 the FMUs by absolute ``file:`` URI, in the engine's temporary directory, and loaded with
 ``CosimExecution.from_ssp_file``.  That route, not an ``OspSystemStructure.xml``, because only the
 SSP annotation sets libcosim's worker threads (``numWorkerThreads``): 0 here, the units stepped one
@@ -74,9 +74,10 @@ from orchestration.run.libcosim_readers import (
     positions,
 )
 from orchestration.run.recorder import Recorder
-from orchestration.run.result import RunResult, failure_message, recorded_columns
-from orchestration.run.wiring import CONTROLLER, PLANT
+from orchestration.run.result import RunResult, failure_message
 from orchestration.scenario.problems import Problem
+from orchestration.scenario.recording import recorded_columns
+from orchestration.scenario.system import CONTROLLER, PLANT
 
 __all__ = ["run", "run_package", "signals_fmu_for", "problems", "system_structure", "CHUNK_TIME", "SIGNALS",
            "NS", "VARIANTS"]
@@ -120,11 +121,11 @@ def problems(scenario, algorithm=None):
 
 def system_structure(scenario, fmus, outputs, directory):
     """Write ``directory/SystemStructure.ssd``, the system libcosim loads: the SSP description of
-    :func:`orchestration.tools.ssp.ssd_xml` (parameters, connections, base step ``h``, the controller's step
+    :func:`orchestration.build.ssd.ssd_xml` (parameters, connections, base step ``h``, the controller's step
     hint ``Ts``, no worker thread) with each component's ``source`` the absolute ``file:`` URI of its
     FMU in ``fmus``.  ``outputs``: ``{unit: _Outputs}`` (their model descriptions).  Returns the
     path."""
-    from orchestration.tools.ssp import ssd_xml
+    from orchestration.build.ssd import ssd_xml
 
     path = Path(directory) / "SystemStructure.ssd"
     path.write_bytes(ssd_xml(scenario, {u: o.md for u, o in outputs.items()},
@@ -194,7 +195,7 @@ def run_package(scenario, package, recorder=None, stop=None, chunk_time=CHUNK_TI
     OSP step annotations), recorded as :func:`run` records.  ``scenario`` gives the record's layout
     and the parameters of the pre-flight initialization; the package must have been exported from
     it."""
-    from orchestration.tools.ssp import RESOURCES
+    from orchestration.build.ssd import RESOURCES
 
     def system(work):
         with zipfile.ZipFile(package) as z:

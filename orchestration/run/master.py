@@ -44,14 +44,10 @@ from orchestration.run.fmu_instance import (
 )
 from orchestration.run.measurement_noise import MeasurementNoise
 from orchestration.run.recorder import Recorder
-from orchestration.run.result import RunResult, failure_message, recorded_columns
+from orchestration.run.result import RunResult, failure_message
 from orchestration.run.step_plans import evaluator, input_port
-from orchestration.run.wiring import (
-    CONTROLLER,
-    DEFAULT_CONNECTIONS,
-    PLANT,
-    Connection,
-)
+from orchestration.scenario.recording import recorded_columns
+from orchestration.scenario.system import CONTROLLER, DEFAULT_CONNECTIONS, PLANT, Connection
 
 __all__ = ["run", "Connection", "DEFAULT_CONNECTIONS"]
 

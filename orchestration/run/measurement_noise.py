@@ -2,7 +2,7 @@
 
 A scenario's ``measurements:`` section (:class:`Measurements`, checked by
 :mod:`orchestration.scenario.load`) names plant outputs that feed the controller
-(:data:`orchestration.run.wiring.MEASUREMENTS`) with a Gaussian noise standard deviation and/or a
+(:data:`orchestration.scenario.system.MEASUREMENTS`) with a Gaussian noise standard deviation and/or a
 quantization step, in the signal's unit::
 
     measured = Q(clean + std * z),   Q(x) = step * floor(x / step + 1/2)   (no step: Q(x) = x)
@@ -15,7 +15,7 @@ controller received at the last sample (held between samples when ``controller_e
 
 Draws: ``z`` comes from ``numpy.random.default_rng(seed).standard_normal``, one row per controller
 sample, one column per signal with a noise ``std > 0`` in the order of
-:data:`~orchestration.run.wiring.MEASUREMENTS`, read row-major.  The rows are drawn in blocks
+:data:`~orchestration.scenario.system.MEASUREMENTS`, read row-major.  The rows are drawn in blocks
 (``block`` rows at a time, scaled by the standard deviations in numpy and turned into Python
 floats once per block), so the per-sample path does float arithmetic only; the stream does not
 depend on the block size, and the co-simulation master and the plain-Python reference
@@ -26,36 +26,10 @@ floats.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
-from orchestration.run.wiring import MEASUREMENTS
+__all__ = ["MeasurementNoise", "BLOCK_ROWS", "quantize"]
 
-__all__ = ["Measurements", "MeasurementNoise", "COLUMN_PREFIX", "BLOCK_ROWS", "quantize"]
-
-COLUMN_PREFIX = "measured."  # recorded column of a measured signal: measured.NAME
 BLOCK_ROWS = 4096  # controller samples drawn at a time
-
-
-@dataclass(frozen=True)
-class Measurements:
-    """A scenario's ``measurements:`` section, checked.  ``noise`` and ``quantization`` are
-    ``((name, value), ...)`` in the order of :data:`MEASUREMENTS` (tuples: the scenario pickles)."""
-
-    seed: int = 0
-    noise: tuple[tuple[str, float], ...] = ()  # (name, std >= 0 in the signal's unit)
-    quantization: tuple[tuple[str, float], ...] = ()  # (name, step > 0 in the signal's unit)
-
-    @property
-    def signals(self):
-        """Names of the signals the section changes (a noise std > 0 or a quantization step), in the
-        order of :data:`MEASUREMENTS`; empty: the section changes nothing."""
-        named = {n for n, s in self.noise if s > 0} | {n for n, _ in self.quantization}
-        return tuple(n for n in MEASUREMENTS if n in named)
-
-    @property
-    def columns(self):
-        """Recorded column names of the measured signals."""
-        return tuple(COLUMN_PREFIX + n for n in self.signals)
 
 
 def quantize(x, step):

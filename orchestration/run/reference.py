@@ -6,7 +6,7 @@ without FMI.  The co-simulation must match it (same code, same arithmetic).
 time ``t_k = k h``, the controller every ``controller_every`` plant steps with the set-points and
 load at ``t_k``, the plant every ``h`` with the voltages held (Gauss-Seidel: the voltages of the
 sample just taken; Jacobi: of the previous one) and the load torque at ``t_k``.  The controller's
-inputs are wired as :data:`orchestration.run.wiring.DEFAULT_CONNECTIONS`, and a scenario's
+inputs are wired as :data:`orchestration.scenario.system.DEFAULT_CONNECTIONS`, and a scenario's
 ``measurements:`` are applied by the same :class:`~orchestration.run.measurement_noise.MeasurementNoise`
 as the master's.  Without measurements and plant-only parameters (``B_2``) this is the loop of
 :func:`satmotor.simulate.closed_loop` (a test checks the two agree bit for bit).
@@ -19,7 +19,8 @@ from operator import itemgetter
 import pandas as pd
 
 from orchestration.run.measurement_noise import MeasurementNoise
-from orchestration.run.wiring import CONTROLLER, DEFAULT_CONNECTIONS, PLANT, PROFILE, resolve
+from orchestration.run.wiring import resolve
+from orchestration.scenario.system import CONTROLLER, DEFAULT_CONNECTIONS, PLANT, PROFILE
 from satmotor.interface import ControllerUnit, PlantUnit
 
 # co-simulation column -> plain-Python record key (satmotor.simulate.closed_loop's names)

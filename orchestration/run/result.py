@@ -1,14 +1,13 @@
 """What a run gives back, whichever engine ran it (the fmpy master or libcosim): the
-:class:`RunResult`, the column names of a recorded row, and the one-line message of a failed FMU call."""
+:class:`RunResult` and the one-line message of a failed FMU call."""
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 
 from orchestration.run.recorder import Recorder
-from orchestration.run.wiring import CONTROLLER, PLANT, PROFILE
 
-__all__ = ["RunResult", "recorded_columns", "failure_message"]
+__all__ = ["RunResult", "failure_message"]
 
 
 @dataclass
@@ -31,14 +30,6 @@ class RunResult:
     def frame(self):
         """The recorded rows as a DataFrame."""
         return self.recorder.frame()
-
-
-def recorded_columns(plant_outputs, controller_outputs, profile_names, measured=()):
-    """Column names of a row: time, the plant and controller outputs, the profiles, then the
-    measured signals (``measured``: their column names, ``measured.NAME``)."""
-    return (["time"] + [f"{PLANT}.{v}" for v in plant_outputs]
-            + [f"{CONTROLLER}.{v}" for v in controller_outputs] + [f"{PROFILE}.{v}" for v in profile_names]
-            + list(measured))
 
 
 def failure_message(unit, exc, inst):

@@ -13,7 +13,8 @@ from __future__ import annotations
 from operator import itemgetter
 
 from orchestration.run.fmu_instance import RealPort
-from orchestration.run.wiring import CONTROLLER, PLANT, PROFILE, inputs_of, resolve
+from orchestration.run.wiring import inputs_of, resolve
+from orchestration.scenario.system import CONTROLLER, PLANT, PROFILE
 
 __all__ = ["input_port", "picker", "evaluator"]
 

@@ -1,36 +1,16 @@
-"""Connections of the co-simulation as data, resolved once into named sources.
+"""Connections of the co-simulation resolved once into named sources.
 
-A :class:`Connection` joins ``source`` to ``target``, each ``"unit.variable"`` with unit ``plant``,
-``controller`` or ``profile``.  :func:`resolve` turns the connections feeding one FMU's inputs
-into one :class:`Source` per input, in the order of that FMU's input port; the stepping loop then
-reads each input from its source with no name lookup.
+A :class:`~orchestration.scenario.system.Connection` joins ``source`` to ``target``, each
+``"unit.variable"`` with unit ``plant``, ``controller`` or ``profile``.  :func:`resolve` turns
+the connections feeding one FMU's inputs into one :class:`Source` per input, in the order of that
+FMU's input port; the stepping loop then reads each input from its source with no name lookup.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import NamedTuple
 
-PLANT, CONTROLLER, PROFILE = "plant", "controller", "profile"
-UNITS = (PLANT, CONTROLLER, PROFILE)
-
-
-@dataclass(frozen=True)
-class Connection:
-    """``source`` -> ``target``, each "unit.variable" with unit plant, controller or profile."""
-
-    source: str
-    target: str
-
-
-MEASUREMENTS = ("i_s_alpha", "i_s_beta", "psi_r_alpha", "psi_r_beta", "psi_s_alpha", "psi_s_beta", "omega_m")
-DEFAULT_CONNECTIONS = tuple(
-    [Connection(f"plant.{n}", f"controller.{n}") for n in MEASUREMENTS]
-    + [Connection(f"profile.{n}", f"controller.{n}") for n in ("omega_ref", "psi_ref", "T_load")]
-    + [Connection("controller.v_s_alpha", "plant.v_s_alpha"),
-       Connection("controller.v_s_beta", "plant.v_s_beta"),
-       Connection("profile.T_load", "plant.T_load")]
-)
+from orchestration.scenario.system import CONTROLLER, PLANT, PROFILE, UNITS
 
 
 class Source(NamedTuple):

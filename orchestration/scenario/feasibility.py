@@ -136,10 +136,9 @@ def load_torque_limit(params, I_max, psi_lo, psi_hi):
 
 def recorded_size(sc):
     """(rows, columns) of the recording of ``sc``: the columns the results writer keeps
-    (:func:`orchestration.results.writer.recorded_selection`: time, the profiles, the measured signals, the
-    recorded outputs and the ones the metrics and the figure need)."""
-    from orchestration.results.writer import recorded_selection
-    from orchestration.run.result import recorded_columns
+    (:func:`orchestration.scenario.recording.recorded_selection`: time, the profiles, the measured
+    signals, the recorded outputs and the ones the metrics and the figure need)."""
+    from orchestration.scenario.recording import recorded_columns, recorded_selection
     from satmotor.interface import CONTROLLER_OUTPUTS, PLANT_OUTPUTS
 
     measured = sc.measurements.columns if sc.measurements is not None else ()

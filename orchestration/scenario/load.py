@@ -19,7 +19,7 @@ controller are meant to get different motor parameters; default false), ``profil
 (noise and quantization the master applies to the plant outputs it passes to the controller:
 ``seed`` (integer >= 0, default 0), ``noise: {NAME: std}`` (Gaussian standard deviation >= 0) and
 ``quantization: {NAME: step}`` (step > 0), each in the signal's unit, NAME one of
-:data:`orchestration.run.wiring.MEASUREMENTS`; see :mod:`orchestration.run.measurement_noise`).
+:data:`orchestration.scenario.system.MEASUREMENTS`; see :mod:`orchestration.run.measurement_noise`).
 
 In the same pass, :func:`orchestration.scenario.feasibility.physics_check` builds the plain-Python units from
 the values that passed the schema (the ranges live in :mod:`satmotor`), checks that the flux
@@ -46,10 +46,10 @@ from types import MappingProxyType
 
 import yaml
 
-from orchestration.run.measurement_noise import Measurements
 from orchestration.scenario.feasibility import physics_check
 from orchestration.scenario.problems import Checker, Note, Problem
 from orchestration.scenario.profiles import Constant, parse_profile
+from orchestration.scenario.system import Measurements
 
 __all__ = ["Problem", "Note", "ScenarioError", "Acceptance", "Record", "Scenario", "Measurements",
            "load_scenario", "validate_scenario_file", "check_scenario_file", "interface_variables",
@@ -275,7 +275,7 @@ def _acceptance(chk, raw, stop_time):
 
 def _measurements(chk, raw):
     """The ``measurements:`` section: seed, noise and quantization by measured signal."""
-    from orchestration.run.wiring import MEASUREMENTS
+    from orchestration.scenario.system import MEASUREMENTS
 
     if raw is None:
         return None
