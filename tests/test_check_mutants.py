@@ -18,7 +18,6 @@ from test_check import rewrite_model_description, run_check
 
 from orchestration import fmu_build, fmus, native_build, native_fmus
 from orchestration import native_model_description as nmd
-from orchestration.native_vars import header
 
 pytestmark = pytest.mark.slow
 PLANT = "SaturatedInductionMotor"
@@ -53,10 +52,9 @@ def build_native_copy(tmp_path, out, monkeypatch=None, model_patches=(), glue_pa
             f = glue / name_
             f.write_text(patched(f.read_text(), patches, f))
         monkeypatch.setattr(native_build, "GLUE_DIR", glue)
-    vars_h = src / "sm_vars.h"
-    vars_h.write_text(header(name))
+    generated = native_fmus.generated(name, src)
     xml = (nmd.fmi2 if version == "2.0" else nmd.fmi3)(name).decode("utf-8")
-    path, _ = native_build.build_native_fmu(name, [*sources, vars_h], xml, out, version,
+    path, _ = native_build.build_native_fmu(name, [*sources, *generated], xml, out, version,
                                             native_fmus.LINUX[version])
     return path
 

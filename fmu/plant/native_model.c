@@ -1,12 +1,14 @@
 /* The plant as a native FMU model: PlantUnit of satmotor/interface.py on the C core
- * (fmu/native/core/sm_plant.c), behind the FMI glue of fmu/native/fmi (sm_model.h). */
+ * (fmu/native/core/sm_plant.c), behind the FMI glue of fmu/native/fmi (sm_model.h).  The value
+ * references, start values and the parameter copy into the core's structs are generated (sm_vars.h /
+ * sm_vars.c, orchestration/native_tables.py); the get/set accessors are fmu/native/common/sm_values.c. */
 #include <math.h>
+#include <string.h>
 
 #include "sm_common.h"
 #include "sm_plant.h"
+#include "sm_values.h"
 #include "sm_vars.h"
-
-#include "sm_values_access.h"
 
 typedef struct {
     sm_values v; /* first: the generated value store */
@@ -45,15 +47,21 @@ void sm_model_start(sm_instance *inst, void *data)
 sm_status sm_model_exit_initialization(sm_instance *inst, void *data, double start_time)
 {
     plant_data *d = (plant_data *)data;
-    const double *r = d->v.r;
+    sm_motor_params motor;
+    sm_plant_params plant;
     char msg[SM_MSG_LEN], table[SM_VAR_STRING_MAX + 512];
     int st;
     d->v.r[SM_VR_time] = start_time;
-    sm_resolve_file(inst, d->v.s[SM_SLOT_table_file], table, sizeof table);
-    st = sm_motor_init(&d->p, r[SM_VR_R_s], r[SM_VR_R_r], r[SM_VR_l_s], r[SM_VR_l_r], r[SM_VR_k],
-                       d->v.i[SM_VR_n_p], r[SM_VR_J], r[SM_VR_B], d->v.s[SM_SLOT_curve], r[SM_VR_L_m0],
-                       r[SM_VR_L_m_inf], r[SM_VR_I_par], r[SM_VR_poly_b], d->v.i[SM_VR_poly_n], table,
-                       r[SM_VR_omega_m0], r[SM_VR_psi_r0], r[SM_VR_h_int], r[SM_VR_B_2], msg, sizeof msg);
+    sm_vars_motor_params(&d->v, &motor);
+    sm_vars_plant_params(&d->v, &plant);
+    sm_resolve_file(inst, motor.table_file, table, sizeof table);
+    if (strlen(table) >= sizeof motor.table_file) {
+        sm_log(inst, SM_ERROR, "logStatusError", "table_file: the path %s is longer than %d bytes", table,
+               (int)sizeof motor.table_file - 1);
+        return SM_ERROR;
+    }
+    strcpy(motor.table_file, table);
+    st = sm_motor_init(&d->p, &motor, &plant, msg, sizeof msg);
     if (st != 0) {
         sm_log(inst, SM_ERROR, "logStatusError", "%s", msg);
         return SM_ERROR;

@@ -13,32 +13,47 @@ static int all_finite(const double *v, int n)
     return 1;
 }
 
-int sm_motor_init(sm_motor *p, double R_s, double R_r, double l_s, double l_r, double k, int n_p,
-                  double J, double B, const char *curve, double L_m0, double L_m_inf, double I_par,
-                  double poly_b, int poly_n, const char *table_file, double omega_m0, double psi_r0,
-                  double h_int, double B_2, char *msg, size_t msg_len)
+int sm_motor_init(sm_motor *p, const sm_motor_params *m, const sm_plant_params *pp, char *msg, size_t msg_len)
 {
     sm_motor q;
+    sm_plant_params dflt;
     int st, i;
+    double R_s, R_r, l_s, l_r, k, J, B, omega_m0, psi_r0, h_int, B_2;
+    int n_p;
     const char *names[] = {"R_s", "R_r", "l_s", "l_r", "k"};
-    const double vals[] = {R_s, R_r, l_s, l_r, k};
+    double vals[5];
     if (msg != NULL && msg_len > 0) msg[0] = '\0';
-    if (p == NULL) {
-        if (msg != NULL && msg_len > 0) snprintf(msg, msg_len, "sm_motor_init: NULL motor");
+    if (p == NULL || m == NULL) {
+        if (msg != NULL && msg_len > 0) snprintf(msg, msg_len, "sm_motor_init: NULL motor or parameters");
         return SM_ERR_ARG;
     }
+    if (pp == NULL) {
+        sm_plant_params_default(&dflt);
+        pp = &dflt;
+    }
+    R_s = m->R_s;
+    R_r = m->R_r;
+    l_s = m->l_s;
+    l_r = m->l_r;
+    k = m->k;
+    n_p = m->n_p;
+    J = m->J;
+    B = m->B;
+    omega_m0 = pp->omega_m0;
+    psi_r0 = pp->psi_r0;
+    h_int = pp->h_int;
+    B_2 = pp->B_2;
+    vals[0] = R_s;
+    vals[1] = R_r;
+    vals[2] = l_s;
+    vals[3] = l_r;
+    vals[4] = k;
     /* interface._number over MOTOR_PARAMETERS (Real: finite; Integer: any int) */
-    for (i = 0; i < 5; ++i)
-        if (sm_require_number(names[i], vals[i], 0, 0.0, 0, msg, msg_len)) return SM_ERR_PARAM;
-    if (sm_require_number("J", J, 0, 0.0, 0, msg, msg_len)) return SM_ERR_PARAM;
-    if (sm_require_number("B", B, 0, 0.0, 0, msg, msg_len)) return SM_ERR_PARAM;
-    if (sm_require_number("L_m0", L_m0, 0, 0.0, 0, msg, msg_len)) return SM_ERR_PARAM;
-    if (sm_require_number("L_m_inf", L_m_inf, 0, 0.0, 0, msg, msg_len)) return SM_ERR_PARAM;
-    if (sm_require_number("I_par", I_par, 0, 0.0, 0, msg, msg_len)) return SM_ERR_PARAM;
-    if (sm_require_number("poly_b", poly_b, 0, 0.0, 0, msg, msg_len)) return SM_ERR_PARAM;
+    if (sm_motor_params_require_finite(m, msg, msg_len)) return SM_ERR_PARAM;
     /* make_curve */
     memset(&q, 0, sizeof q);
-    st = sm_curve_init(&q.curve, curve, L_m0, L_m_inf, I_par, poly_b, poly_n, table_file, msg, msg_len);
+    st = sm_curve_init(&q.curve, m->curve, m->L_m0, m->L_m_inf, m->I_par, m->poly_b, m->poly_n, m->table_file, msg,
+                       msg_len);
     if (st) return st;
     /* MotorParams.__post_init__ */
     for (i = 0; i < 5; ++i)
@@ -47,10 +62,7 @@ int sm_motor_init(sm_motor *p, double R_s, double R_r, double l_s, double l_r, d
     if (sm_require_integer("n_p", n_p, 1, msg, msg_len)) return SM_ERR_PARAM;
     if (sm_require_number("B", B, 1, 0.0, 1, msg, msg_len)) return SM_ERR_PARAM;
     /* PlantUnit: _number of omega_m0, psi_r0, h_int, B_2, then the bounds */
-    if (sm_require_number("omega_m0", omega_m0, 0, 0.0, 0, msg, msg_len)) return SM_ERR_PARAM;
-    if (sm_require_number("psi_r0", psi_r0, 0, 0.0, 0, msg, msg_len)) return SM_ERR_PARAM;
-    if (sm_require_number("h_int", h_int, 0, 0.0, 0, msg, msg_len)) return SM_ERR_PARAM;
-    if (sm_require_number("B_2", B_2, 0, 0.0, 0, msg, msg_len)) return SM_ERR_PARAM;
+    if (sm_plant_params_require_finite(pp, msg, msg_len)) return SM_ERR_PARAM;
     if (sm_require_number("psi_r0", psi_r0, 1, 0.0, 1, msg, msg_len)) return SM_ERR_PARAM;
     if (sm_require_number("h_int", h_int, 1, 0.0, 0, msg, msg_len)) return SM_ERR_PARAM;
     if (sm_require_number("B_2", B_2, 1, 0.0, 1, msg, msg_len)) return SM_ERR_PARAM;

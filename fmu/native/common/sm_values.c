@@ -1,60 +1,81 @@
-/* Get/set of a native model's values by value reference, shared by the plant and the controller
- * models: every value lives in the generated sm_values store (sm_vars.h), so the accessors are the
- * same for both (the glue has checked the type, causality and phase before any call).  Include
- * once, in the model's .c file, after sm_vars.h; the model's data struct starts with sm_values. */
-#ifndef SM_VALUES_ACCESS_H
-#define SM_VALUES_ACCESS_H
-
+/* The typed get/set of sm_model.h on the generated value store (sm_values of sm_vars.h), the same
+ * file for every native model (see sm_values.h).  Compiled once per model, with its sm_vars.h. */
 #include <stdio.h>
 #include <string.h>
 
-#include "sm_model.h"
+#include "sm_values.h"
+#include "sm_vars.h"
+
+/* the glue checks every value reference against SM_MODEL_VARIABLES before a call: this is a second,
+ * cheap guard against an out-of-range slot (vr of the given type, SM_N_VARS: time, a Real) */
+static int bad_vr(sm_instance *inst, uint32_t vr, sm_type type)
+{
+    if (vr < SM_N_VARS ? SM_MODEL_VARIABLES[vr].type == type : (vr == SM_VR_time && type == SM_REAL)) {
+        return 0;
+    }
+    sm_log(inst, SM_ERROR, NULL, "value reference %lu is not a variable of this type", (unsigned long)vr);
+    return 1;
+}
 
 sm_status sm_model_get_real(sm_instance *inst, const void *data, uint32_t vr, double *value)
 {
-    (void)inst;
+    if (bad_vr(inst, vr, SM_REAL)) {
+        return SM_ERROR;
+    }
     *value = ((const sm_values *)data)->r[vr];
     return SM_OK;
 }
 
 sm_status sm_model_set_real(sm_instance *inst, void *data, uint32_t vr, double value)
 {
-    (void)inst;
+    if (bad_vr(inst, vr, SM_REAL)) {
+        return SM_ERROR;
+    }
     ((sm_values *)data)->r[vr] = value;
     return SM_OK;
 }
 
 sm_status sm_model_get_integer(sm_instance *inst, const void *data, uint32_t vr, int32_t *value)
 {
-    (void)inst;
+    if (bad_vr(inst, vr, SM_INTEGER)) {
+        return SM_ERROR;
+    }
     *value = ((const sm_values *)data)->i[vr];
     return SM_OK;
 }
 
 sm_status sm_model_set_integer(sm_instance *inst, void *data, uint32_t vr, int32_t value)
 {
-    (void)inst;
+    if (bad_vr(inst, vr, SM_INTEGER)) {
+        return SM_ERROR;
+    }
     ((sm_values *)data)->i[vr] = value;
     return SM_OK;
 }
 
 sm_status sm_model_get_boolean(sm_instance *inst, const void *data, uint32_t vr, int *value)
 {
-    (void)inst;
+    if (bad_vr(inst, vr, SM_BOOLEAN)) {
+        return SM_ERROR;
+    }
     *value = ((const sm_values *)data)->b[vr];
     return SM_OK;
 }
 
 sm_status sm_model_set_boolean(sm_instance *inst, void *data, uint32_t vr, int value)
 {
-    (void)inst;
+    if (bad_vr(inst, vr, SM_BOOLEAN)) {
+        return SM_ERROR;
+    }
     ((sm_values *)data)->b[vr] = value ? 1 : 0;
     return SM_OK;
 }
 
 sm_status sm_model_get_string(sm_instance *inst, const void *data, uint32_t vr, const char **value)
 {
-    (void)inst;
+    if (bad_vr(inst, vr, SM_STRING)) {
+        return SM_ERROR;
+    }
     *value = ((const sm_values *)data)->s[SM_STRING_SLOT[vr]];
     return SM_OK;
 }
@@ -62,17 +83,24 @@ sm_status sm_model_get_string(sm_instance *inst, const void *data, uint32_t vr, 
 sm_status sm_model_set_string(sm_instance *inst, void *data, uint32_t vr, const char *value)
 {
     sm_values *v = (sm_values *)data;
+    if (bad_vr(inst, vr, SM_STRING)) {
+        return SM_ERROR;
+    }
+    if (value == NULL) {
+        sm_log(inst, SM_ERROR, NULL, "%s: NULL string", SM_MODEL_VARIABLES[vr].name);
+        return SM_ERROR;
+    }
     if (strlen(value) >= SM_VAR_STRING_MAX) {
         sm_log(inst, SM_ERROR, NULL, "%s: a string of %u bytes is longer than %d", SM_MODEL_VARIABLES[vr].name,
                (unsigned)strlen(value), SM_VAR_STRING_MAX - 1);
         return SM_ERROR;
     }
+    memset(v->s[SM_STRING_SLOT[vr]], 0, SM_VAR_STRING_MAX);
     strcpy(v->s[SM_STRING_SLOT[vr]], value);
     return SM_OK;
 }
 
-/* A table file: as given if it exists, else in the FMU's resources (the file's base name). */
-static void sm_resolve_file(sm_instance *inst, const char *path, char *out, size_t len)
+void sm_resolve_file(sm_instance *inst, const char *path, char *out, size_t len)
 {
     const char *res = sm_resource_path(inst), *base = strrchr(path, '/');
     FILE *f;
@@ -87,5 +115,3 @@ static void sm_resolve_file(sm_instance *inst, const char *path, char *out, size
     }
     (void)snprintf(out, len, "%s%s", res, base ? base + 1 : path);
 }
-
-#endif
