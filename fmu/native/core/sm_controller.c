@@ -86,8 +86,7 @@ int sm_controller_init(sm_controller *u, const sm_controller_params *v, const sm
     cfg.g_theta = v->g_theta;
     cfg.theta_max = v->theta_max;
     cfg.use_stator_flux = v->use_stator_flux ? 1 : 0;
-    ig.w_c = 2000.0;
-    ig.w_speed = 200.0;
+    sm_ifoc_gains_default(&ig); /* as ControllerUnit: IFOCGains() with the unit's V_dc and I_max */
     ig.I_max = v->I_max;
     ig.V_dc = v->V_dc;
     if ((st = sm_drive_init(&u->drive, mode, &p, &g, &cfg, &ig, &dc, msg, msg_len))) {
