@@ -198,7 +198,7 @@ def test_package_layout_exports_and_reproducibility(fmus, version, tmp_path):
         assert all(i.date_time == (1980, 1, 1, 0, 0, 0) for i in z.infolist())
     assert f"binaries/{folder}/lag.so" in names
     v = version[0]
-    for n in ("sm_model.h", "sm_instance.c", f"fmi{v}_glue.c", "model.c", f"fmi{v}Functions.h"):
+    for n in ("fg_model.h", "fg_instance.c", f"fmi{v}_glue.c", "model.c", f"fmi{v}Functions.h"):
         assert f"sources/{n}" in names
     assert "resources/note.txt" in names
     assert fmu["token"].startswith("{") and len(fmu["token"]) == 38
@@ -399,7 +399,7 @@ def test_sanitizers_clean(tmp_path, version):
            f"-I{inc}", f"-I{native_build.GLUE_DIR}", "-DMODEL_IDENTIFIER=lag",
            '-DINSTANTIATION_TOKEN="{asan}"', *(["-DHOST_FMI3"] if version == "3.0" else []),
            str(HOST_C), str(native_build.GLUE_DIR / f"fmi{version[0]}_glue.c"),
-           str(native_build.GLUE_DIR / "sm_instance.c"), str(MODEL), "-o", str(exe), "-lm"]
+           str(native_build.GLUE_DIR / "fg_instance.c"), str(MODEL), "-o", str(exe), "-lm"]
     subprocess.run(cmd, check=True, capture_output=True)
     r = subprocess.run([str(exe)], capture_output=True, text=True, timeout=60,
                        env={"ASAN_OPTIONS": "detect_leaks=1:abort_on_error=0",
@@ -415,7 +415,7 @@ def test_valgrind_clean(tmp_path):
     subprocess.run(["gcc", "-std=c99", "-O2", f"-I{native_build.fmi_headers_dir()}",
                     f"-I{native_build.GLUE_DIR}",
                     "-DMODEL_IDENTIFIER=lag", '-DINSTANTIATION_TOKEN="{vg}"', str(HOST_C),
-                    str(native_build.GLUE_DIR / "fmi2_glue.c"), str(native_build.GLUE_DIR / "sm_instance.c"),
+                    str(native_build.GLUE_DIR / "fmi2_glue.c"), str(native_build.GLUE_DIR / "fg_instance.c"),
                     str(MODEL), "-o", str(exe), "-lm"], check=True, capture_output=True)
     r = subprocess.run(["valgrind", "--error-exitcode=99", "--leak-check=full", "--errors-for-leak-kinds=all",
                         str(exe)], capture_output=True, text=True, timeout=120)

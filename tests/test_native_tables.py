@@ -90,7 +90,7 @@ def test_a_parameter_added_to_a_table_reaches_the_struct_and_the_copy():
     assert f"#define SM_VR_R_fe {len(table) - 1}" in head
     assert "    p->R_fe = v->r[SM_VR_R_fe];" in src.split("void sm_vars_motor_params")[1]
     assert "    v->r[SM_VR_R_fe] = 250.0; /* R_fe [Ohm] */" in src
-    assert '{SM_VR_R_fe, SM_REAL, SM_PARAMETER, "R_fe"},' in src
+    assert '{SM_VR_R_fe, FG_REAL, FG_PARAMETER, "R_fe"},' in src
 
 
 def test_the_generated_inputs_and_outputs_follow_the_tables():

@@ -1,5 +1,5 @@
 /* The controller as a native FMU model: ControllerUnit of satmotor/interface.py on the C core
- * (fmu/native/core/sm_controller.c), behind the FMI glue of fmu/native/fmi (sm_model.h).  The value
+ * (fmu/native/core/sm_controller.c), behind the FMI glue of fmu/native/fmi (fg_model.h).  The value
  * references, start values, the parameter copy into the core's structs and the input/output orders
  * are generated (sm_vars.h / sm_vars.c, orchestration/native_tables.py); the get/set accessors are
  * fmu/native/common/sm_values.c. */
@@ -16,18 +16,18 @@ typedef struct {
     int ready;
 } controller_data;
 
-const size_t SM_MODEL_DATA_SIZE = sizeof(controller_data);
+const size_t FG_MODEL_DATA_SIZE = sizeof(controller_data);
 /* the model's inputs and outputs are the core's, in the same order (one table): checked at compile time */
 typedef char sm_inputs_are_the_cores[SM_N_INPUTS == SM_CONTROLLER_N_IN ? 1 : -1];
 typedef char sm_outputs_are_the_cores[SM_N_OUTPUTS == SM_CONTROLLER_N_OUT ? 1 : -1];
 
-void sm_model_start(sm_instance *inst, void *data)
+void fg_model_start(fg_instance *inst, void *data)
 {
     (void)inst;
     sm_vars_start(&((controller_data *)data)->v);
 }
 
-sm_status sm_model_exit_initialization(sm_instance *inst, void *data, double start_time)
+fg_status fg_model_exit_initialization(fg_instance *inst, void *data, double start_time)
 {
     controller_data *d = (controller_data *)data;
     sm_controller_params params;
@@ -38,34 +38,34 @@ sm_status sm_model_exit_initialization(sm_instance *inst, void *data, double sta
     sm_vars_motor_params(&d->v, &motor);
     sm_resolve_file(inst, motor.table_file, table, sizeof table);
     if (strlen(table) >= sizeof motor.table_file) {
-        sm_log(inst, SM_ERROR, "logStatusError", "table_file: the path %s is longer than %d bytes", table,
+        fg_log(inst, FG_ERROR, "logStatusError", "table_file: the path %s is longer than %d bytes", table,
                (int)sizeof motor.table_file - 1);
-        return SM_ERROR;
+        return FG_ERROR;
     }
     strcpy(motor.table_file, table);
     if (sm_controller_init(&d->u, &params, &motor, msg, sizeof msg) != 0) {
-        sm_log(inst, SM_ERROR, "logStatusError", "%s", msg);
-        return SM_ERROR;
+        fg_log(inst, FG_ERROR, "logStatusError", "%s", msg);
+        return FG_ERROR;
     }
     d->ready = 1;
-    return SM_OK;
+    return FG_OK;
 }
 
-sm_status sm_model_do_step(sm_instance *inst, void *data, double t, double h)
+fg_status fg_model_do_step(fg_instance *inst, void *data, double t, double h)
 {
     controller_data *d = (controller_data *)data;
     double in[SM_CONTROLLER_N_IN];
     char msg[SM_MSG_LEN];
     if (!d->ready) {
-        sm_log(inst, SM_ERROR, "logStatusError", "doStep before initialization");
-        return SM_ERROR;
+        fg_log(inst, FG_ERROR, "logStatusError", "doStep before initialization");
+        return FG_ERROR;
     }
     sm_vars_get_inputs(&d->v, in);
     if (sm_controller_step(&d->u, t, h, in, msg, sizeof msg) != 0) {
-        sm_log(inst, SM_DISCARD, "logStatusDiscard", "BacksteppingController at t = %.17g s: %s", t, msg);
-        return SM_DISCARD;
+        fg_log(inst, FG_DISCARD, "logStatusDiscard", "BacksteppingController at t = %.17g s: %s", t, msg);
+        return FG_DISCARD;
     }
     sm_vars_put_outputs(&d->v, d->u.out);
     d->v.r[SM_VR_time] = t + h;
-    return SM_OK;
+    return FG_OK;
 }

@@ -45,7 +45,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "sm_model.h"
+#include "fg_model.h"
 #include "sm_values.h"
 #include "sm_vars.h"
 
@@ -79,7 +79,7 @@ typedef struct {
     double pt_t[SS_MAX_POINTS], pt_v[SS_MAX_POINTS];
 } ss_data;
 
-const size_t SM_MODEL_DATA_SIZE = sizeof(ss_data);
+const size_t FG_MODEL_DATA_SIZE = sizeof(ss_data);
 
 /* ---- evaluation ---- */
 
@@ -132,16 +132,16 @@ static void publish(ss_data *d, double t)
 /* ---- the profiles file ---- */
 
 typedef struct {
-    sm_instance *inst;
+    fg_instance *inst;
     const char *path;
     int line;
 } ss_reader;
 
-static sm_status fail(const ss_reader *r, const char *what, const char *text)
+static fg_status fail(const ss_reader *r, const char *what, const char *text)
 {
-    sm_log(r->inst, SM_ERROR, "logStatusError", "ScenarioSignals: %s, line %d: %s '%s'", r->path, r->line,
+    fg_log(r->inst, FG_ERROR, "logStatusError", "ScenarioSignals: %s, line %d: %s '%s'", r->path, r->line,
            what, text);
-    return SM_ERROR;
+    return FG_ERROR;
 }
 
 /* the next field of *p (NUL-terminated in place), or NULL at the end of the line */
@@ -174,7 +174,7 @@ static int number(const char *s, double *v)
 }
 
 /* exactly n numbers after the keyword; else an error naming the offending field */
-static sm_status numbers(const ss_reader *r, char *rest, int n, double *out, const char *usage)
+static fg_status numbers(const ss_reader *r, char *rest, int n, double *out, const char *usage)
 {
     int i;
     char *f;
@@ -183,11 +183,11 @@ static sm_status numbers(const ss_reader *r, char *rest, int n, double *out, con
         if (!number(f, &out[i])) return fail(r, "not a finite decimal number:", f);
     }
     if ((f = field(&rest)) != NULL) {
-        sm_log(r->inst, SM_ERROR, "logStatusError", "ScenarioSignals: %s, line %d: unexpected '%s' after '%s'",
+        fg_log(r->inst, FG_ERROR, "logStatusError", "ScenarioSignals: %s, line %d: unexpected '%s' after '%s'",
                r->path, r->line, f, usage);
-        return SM_ERROR;
+        return FG_ERROR;
     }
-    return SM_OK;
+    return FG_OK;
 }
 
 /* one line into buf (end of line and comment cut): 1, 0 at the end of the file, -1 for a line longer
@@ -212,7 +212,7 @@ static int read_line(FILE *fh, char *buf, size_t len)
     return 1;
 }
 
-static sm_status bad_line(const ss_reader *r, int got)
+static fg_status bad_line(const ss_reader *r, int got)
 {
     char text[32];
     snprintf(text, sizeof text, "%d", SS_LINE_MAX);
@@ -228,23 +228,23 @@ static int signal_index(const char *name)
     return -1;
 }
 
-static sm_status read_table(ss_reader *r, FILE *fh, ss_data *d, ss_term *term, char *rest)
+static fg_status read_table(ss_reader *r, FILE *fh, ss_data *d, ss_term *term, char *rest)
 {
     char line[SS_LINE_MAX + 1], text[32];
     double n_points, tv[2];
     int32_t k, n;
-    sm_status st = numbers(r, rest, 1, &n_points, "table N");
-    if (st != SM_OK) return st;
+    fg_status st = numbers(r, rest, 1, &n_points, "table N");
+    if (st != FG_OK) return st;
     if (n_points < 1 || n_points != floor(n_points)) {
         snprintf(text, sizeof text, "%.17g", n_points);
         return fail(r, "table N: N must be an integer >= 1, not", text);
     }
     if (n_points > SS_MAX_POINTS - d->n_points) {
         snprintf(text, sizeof text, "%.17g", n_points);
-        sm_log(r->inst, SM_ERROR, "logStatusError", "ScenarioSignals: %s, line %d: table of %s points does not "
+        fg_log(r->inst, FG_ERROR, "logStatusError", "ScenarioSignals: %s, line %d: table of %s points does not "
                "fit: at most %d points in all tables (SS_MAX_POINTS), %ld already used", r->path, r->line, text,
                SS_MAX_POINTS, (long)d->n_points);
-        return SM_ERROR;
+        return FG_ERROR;
     }
     n = (int32_t)n_points;
     term->kind = K_TABLE;
@@ -257,7 +257,7 @@ static sm_status read_table(ss_reader *r, FILE *fh, ss_data *d, ss_term *term, c
         got = read_line(fh, line, sizeof line);
         if (got == 0) return fail(r, "the file ends inside a table: expected point", "T V");
         if (got < 0) return bad_line(r, got);
-        if ((st = numbers(r, p, 2, tv, "T V")) != SM_OK) return st;
+        if ((st = numbers(r, p, 2, tv, "T V")) != FG_OK) return st;
         if (k > 0 && !(tv[0] > d->pt_t[term->first + k - 1])) {
             snprintf(text, sizeof text, "%.17g", tv[0]);
             return fail(r, "table times must increase strictly: time", text);
@@ -266,13 +266,13 @@ static sm_status read_table(ss_reader *r, FILE *fh, ss_data *d, ss_term *term, c
         d->pt_v[term->first + k] = tv[1];
     }
     d->n_points += n;
-    return SM_OK;
+    return FG_OK;
 }
 
-static sm_status read_term(ss_reader *r, FILE *fh, ss_data *d, ss_signal *sig, const char *kw, char *rest)
+static fg_status read_term(ss_reader *r, FILE *fh, ss_data *d, ss_signal *sig, const char *kw, char *rest)
 {
     ss_term *term;
-    sm_status st;
+    fg_status st;
     char text[64];
     if (sig->n_terms >= SS_MAX_TERMS) {
         snprintf(text, sizeof text, "%d", SS_MAX_TERMS);
@@ -289,7 +289,7 @@ static sm_status read_term(ss_reader *r, FILE *fh, ss_data *d, ss_signal *sig, c
     } else if (strcmp(kw, "ramp") == 0) {
         term->kind = K_RAMP;
         st = numbers(r, rest, 5, term->a, "ramp START END FROM TO SLOPE");
-        if (st == SM_OK && !(term->a[1] > term->a[0])) {
+        if (st == FG_OK && !(term->a[1] > term->a[0])) {
             snprintf(text, sizeof text, "%.17g", term->a[1]);
             return fail(r, "ramp END must be > START:", text);
         }
@@ -298,7 +298,7 @@ static sm_status read_term(ss_reader *r, FILE *fh, ss_data *d, ss_signal *sig, c
     } else if (strcmp(kw, "sine") == 0) {
         term->kind = K_SINE;
         st = numbers(r, rest, 5, term->a, "sine AMPLITUDE FREQUENCY PHASE OFFSET START");
-        if (st == SM_OK && term->a[1] < 0.0) {
+        if (st == FG_OK && term->a[1] < 0.0) {
             snprintf(text, sizeof text, "%.17g", term->a[1]);
             return fail(r, "sine FREQUENCY must be >= 0:", text);
         }
@@ -308,18 +308,18 @@ static sm_status read_term(ss_reader *r, FILE *fh, ss_data *d, ss_signal *sig, c
     } else {
         return fail(r, "unknown keyword (constant, step, ramp, table, sine, signal, end):", kw);
     }
-    if (st == SM_OK) ++sig->n_terms;
+    if (st == FG_OK) ++sig->n_terms;
     return st;
 }
 
-static sm_status read_profiles(sm_instance *inst, ss_data *d, FILE *fh, const char *path)
+static fg_status read_profiles(fg_instance *inst, ss_data *d, FILE *fh, const char *path)
 {
     char line[SS_LINE_MAX + 1], text[32], *p, *kw, *name;
     ss_reader r = {inst, path, 0};
     ss_signal *sig = NULL;
     int header = 0, grid = 0, ended = 0, seen[SM_N_OUTPUTS] = {0}, s, got;
     double x;
-    sm_status st;
+    fg_status st;
     while ((got = read_line(fh, line, sizeof line)) != 0) {
         ++r.line;
         if (got < 0) return bad_line(&r, got);
@@ -329,14 +329,14 @@ static sm_status read_profiles(sm_instance *inst, ss_data *d, FILE *fh, const ch
         if (!header) {
             if (strcmp(kw, "satmotor-signals") != 0) return fail(&r, "the first line must be "
                                                                  "'satmotor-signals 1', not", kw);
-            if ((st = numbers(&r, p, 1, &x, "satmotor-signals VERSION")) != SM_OK) return st;
+            if ((st = numbers(&r, p, 1, &x, "satmotor-signals VERSION")) != FG_OK) return st;
             if (x != SS_FORMAT_VERSION) {
                 snprintf(text, sizeof text, "%.17g", x);
                 return fail(&r, "unsupported format version (this FMU reads 1):", text);
             }
             header = 1;
         } else if (strcmp(kw, "grid") == 0) {
-            if ((st = numbers(&r, p, 1, &x, "grid H")) != SM_OK) return st;
+            if ((st = numbers(&r, p, 1, &x, "grid H")) != FG_OK) return st;
             snprintf(text, sizeof text, "%.17g", x);
             if (x < 0.0 || grid) return fail(&r, grid ? "a second grid line:" : "grid H must be >= 0:", text);
             d->grid = x;
@@ -355,7 +355,7 @@ static sm_status read_profiles(sm_instance *inst, ss_data *d, FILE *fh, const ch
             ended = 1;
         } else {
             if (sig == NULL) return fail(&r, "a term before any 'signal NAME' line:", kw);
-            if ((st = read_term(&r, fh, d, sig, kw, p)) != SM_OK) return st;
+            if ((st = read_term(&r, fh, d, sig, kw, p)) != FG_OK) return st;
         }
     }
     if (ferror(fh)) return fail(&r, "read error", "");
@@ -364,13 +364,13 @@ static sm_status read_profiles(sm_instance *inst, ss_data *d, FILE *fh, const ch
     for (s = 0; s < SM_N_OUTPUTS; ++s)
         if (!seen[s]) return fail(&r, "no definition of signal", SM_OUTPUT_NAMES[s]);
     if (!ended) return fail(&r, "the file does not end with", "end");
-    return SM_OK;
+    return FG_OK;
 }
 
 /* profiles_file as given if it opens, else (a relative name) in the FMU's resources */
-static FILE *open_profiles(sm_instance *inst, const char *name, char *path, size_t len)
+static FILE *open_profiles(fg_instance *inst, const char *name, char *path, size_t len)
 {
-    const char *res = sm_resource_path(inst);
+    const char *res = fg_resource_path(inst);
     FILE *fh;
     snprintf(path, len, "%s", name);
     if (name[0] == '\0') return NULL;
@@ -379,41 +379,41 @@ static FILE *open_profiles(sm_instance *inst, const char *name, char *path, size
     return fopen(path, "rb");
 }
 
-/* ---- sm_model.h ---- */
+/* ---- fg_model.h ---- */
 
-void sm_model_start(sm_instance *inst, void *data)
+void fg_model_start(fg_instance *inst, void *data)
 {
     (void)inst;
     sm_vars_start(&((ss_data *)data)->v);
 }
 
-sm_status sm_model_exit_initialization(sm_instance *inst, void *data, double start_time)
+fg_status fg_model_exit_initialization(fg_instance *inst, void *data, double start_time)
 {
     ss_data *d = (ss_data *)data;
     char path[SM_VAR_STRING_MAX + 1100];
     FILE *fh = open_profiles(inst, d->v.s[SM_SLOT_profiles_file], path, sizeof path);
-    sm_status st;
+    fg_status st;
     if (fh == NULL) {
-        sm_log(inst, SM_ERROR, "logStatusError", "ScenarioSignals: profiles_file = '%s': cannot open %s",
+        fg_log(inst, FG_ERROR, "logStatusError", "ScenarioSignals: profiles_file = '%s': cannot open %s",
                d->v.s[SM_SLOT_profiles_file], path);
-        return SM_ERROR;
+        return FG_ERROR;
     }
     st = read_profiles(inst, d, fh, path);
     fclose(fh);
-    if (st != SM_OK) return st;
+    if (st != FG_OK) return st;
     d->t0 = d->v.r[SM_VR_time] = start_time;
     d->ready = 1;
     publish(d, start_time);
-    return SM_OK;
+    return FG_OK;
 }
 
-sm_status sm_model_do_step(sm_instance *inst, void *data, double t, double h)
+fg_status fg_model_do_step(fg_instance *inst, void *data, double t, double h)
 {
     ss_data *d = (ss_data *)data;
     double te = t + h, k, tk;
     if (!d->ready) {
-        sm_log(inst, SM_ERROR, "logStatusError", "ScenarioSignals: doStep before initialization");
-        return SM_ERROR;
+        fg_log(inst, FG_ERROR, "logStatusError", "ScenarioSignals: doStep before initialization");
+        return FG_ERROR;
     }
     d->v.r[SM_VR_time] = te;
     if (d->grid > 0.0) {
@@ -422,5 +422,5 @@ sm_status sm_model_do_step(sm_instance *inst, void *data, double t, double h)
         if (fabs(te - tk) <= GRID_SNAP * d->grid) te = tk;
     }
     publish(d, te);
-    return SM_OK;
+    return FG_OK;
 }

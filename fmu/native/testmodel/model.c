@@ -15,7 +15,7 @@
 #include <math.h>
 #include <string.h>
 
-#include "sm_model.h"
+#include "fg_model.h"
 
 #define LABEL_MAX 64
 
@@ -28,21 +28,21 @@ typedef struct {
 
 enum { VR_TIME, VR_U, VR_HOLD, VR_TAU, VR_NSUB, VR_LABEL, VR_Y, VR_STEPS, VR_RISING };
 
-const sm_variable SM_MODEL_VARIABLES[] = {
-    {VR_TIME, SM_REAL, SM_INDEPENDENT, "time"},
-    {VR_U, SM_REAL, SM_INPUT, "u"},
-    {VR_HOLD, SM_BOOLEAN, SM_INPUT, "hold"},
-    {VR_TAU, SM_REAL, SM_PARAMETER, "tau"},
-    {VR_NSUB, SM_INTEGER, SM_PARAMETER, "n_sub"},
-    {VR_LABEL, SM_STRING, SM_PARAMETER, "label"},
-    {VR_Y, SM_REAL, SM_OUTPUT, "y"},
-    {VR_STEPS, SM_INTEGER, SM_OUTPUT, "steps"},
-    {VR_RISING, SM_BOOLEAN, SM_OUTPUT, "rising"},
+const fg_variable FG_MODEL_VARIABLES[] = {
+    {VR_TIME, FG_REAL, FG_INDEPENDENT, "time"},
+    {VR_U, FG_REAL, FG_INPUT, "u"},
+    {VR_HOLD, FG_BOOLEAN, FG_INPUT, "hold"},
+    {VR_TAU, FG_REAL, FG_PARAMETER, "tau"},
+    {VR_NSUB, FG_INTEGER, FG_PARAMETER, "n_sub"},
+    {VR_LABEL, FG_STRING, FG_PARAMETER, "label"},
+    {VR_Y, FG_REAL, FG_OUTPUT, "y"},
+    {VR_STEPS, FG_INTEGER, FG_OUTPUT, "steps"},
+    {VR_RISING, FG_BOOLEAN, FG_OUTPUT, "rising"},
 };
-const size_t SM_MODEL_N_VARIABLES = sizeof SM_MODEL_VARIABLES / sizeof SM_MODEL_VARIABLES[0];
-const size_t SM_MODEL_DATA_SIZE = sizeof(lag_data);
+const size_t FG_MODEL_N_VARIABLES = sizeof FG_MODEL_VARIABLES / sizeof FG_MODEL_VARIABLES[0];
+const size_t FG_MODEL_DATA_SIZE = sizeof(lag_data);
 
-void sm_model_start(sm_instance *inst, void *data)
+void fg_model_start(fg_instance *inst, void *data)
 {
     lag_data *d = (lag_data *)data;
     (void)inst;
@@ -51,7 +51,7 @@ void sm_model_start(sm_instance *inst, void *data)
     strcpy(d->label, "lag");
 }
 
-sm_status sm_model_get_real(sm_instance *inst, const void *data, uint32_t vr, double *value)
+fg_status fg_model_get_real(fg_instance *inst, const void *data, uint32_t vr, double *value)
 {
     const lag_data *d = (const lag_data *)data;
     (void)inst;
@@ -61,95 +61,95 @@ sm_status sm_model_get_real(sm_instance *inst, const void *data, uint32_t vr, do
     case VR_TAU: *value = d->tau; break;
     default: *value = d->x; break; /* VR_Y */
     }
-    return SM_OK;
+    return FG_OK;
 }
 
-sm_status sm_model_set_real(sm_instance *inst, void *data, uint32_t vr, double value)
+fg_status fg_model_set_real(fg_instance *inst, void *data, uint32_t vr, double value)
 {
     lag_data *d = (lag_data *)data;
     (void)inst;
     if (vr == VR_U) d->u = value;
     else d->tau = value;
-    return SM_OK;
+    return FG_OK;
 }
 
-sm_status sm_model_get_integer(sm_instance *inst, const void *data, uint32_t vr, int32_t *value)
+fg_status fg_model_get_integer(fg_instance *inst, const void *data, uint32_t vr, int32_t *value)
 {
     const lag_data *d = (const lag_data *)data;
     (void)inst;
     *value = vr == VR_NSUB ? d->n_sub : d->steps;
-    return SM_OK;
+    return FG_OK;
 }
 
-sm_status sm_model_set_integer(sm_instance *inst, void *data, uint32_t vr, int32_t value)
+fg_status fg_model_set_integer(fg_instance *inst, void *data, uint32_t vr, int32_t value)
 {
     (void)inst;
     (void)vr;
     ((lag_data *)data)->n_sub = value;
-    return SM_OK;
+    return FG_OK;
 }
 
-sm_status sm_model_get_boolean(sm_instance *inst, const void *data, uint32_t vr, int *value)
+fg_status fg_model_get_boolean(fg_instance *inst, const void *data, uint32_t vr, int *value)
 {
     const lag_data *d = (const lag_data *)data;
     (void)inst;
     *value = vr == VR_HOLD ? d->hold : (d->x < d->u);
-    return SM_OK;
+    return FG_OK;
 }
 
-sm_status sm_model_set_boolean(sm_instance *inst, void *data, uint32_t vr, int value)
+fg_status fg_model_set_boolean(fg_instance *inst, void *data, uint32_t vr, int value)
 {
     (void)inst;
     (void)vr;
     ((lag_data *)data)->hold = value;
-    return SM_OK;
+    return FG_OK;
 }
 
-sm_status sm_model_get_string(sm_instance *inst, const void *data, uint32_t vr, const char **value)
+fg_status fg_model_get_string(fg_instance *inst, const void *data, uint32_t vr, const char **value)
 {
     (void)inst;
     (void)vr;
     *value = ((const lag_data *)data)->label;
-    return SM_OK;
+    return FG_OK;
 }
 
-sm_status sm_model_set_string(sm_instance *inst, void *data, uint32_t vr, const char *value)
+fg_status fg_model_set_string(fg_instance *inst, void *data, uint32_t vr, const char *value)
 {
     lag_data *d = (lag_data *)data;
     (void)vr;
     if (strlen(value) >= LABEL_MAX) {
-        sm_log(inst, SM_ERROR, NULL, "label is longer than %d characters", LABEL_MAX - 1);
-        return SM_ERROR;
+        fg_log(inst, FG_ERROR, NULL, "label is longer than %d characters", LABEL_MAX - 1);
+        return FG_ERROR;
     }
     memset(d->label, 0, LABEL_MAX);
     strcpy(d->label, value);
-    return SM_OK;
+    return FG_OK;
 }
 
-sm_status sm_model_exit_initialization(sm_instance *inst, void *data, double start_time)
+fg_status fg_model_exit_initialization(fg_instance *inst, void *data, double start_time)
 {
     lag_data *d = (lag_data *)data;
     if (!(d->tau > 0.0) || !isfinite(d->tau)) {
-        sm_log(inst, SM_ERROR, NULL, "tau = %g is invalid: must be finite and > 0", d->tau);
-        return SM_ERROR;
+        fg_log(inst, FG_ERROR, NULL, "tau = %g is invalid: must be finite and > 0", d->tau);
+        return FG_ERROR;
     }
     if (d->n_sub < 1) {
-        sm_log(inst, SM_ERROR, NULL, "n_sub = %ld is invalid: must be >= 1", (long)d->n_sub);
-        return SM_ERROR;
+        fg_log(inst, FG_ERROR, NULL, "n_sub = %ld is invalid: must be >= 1", (long)d->n_sub);
+        return FG_ERROR;
     }
     d->time = start_time;
-    sm_log(inst, SM_OK, NULL, "initialized '%s' with tau = %g", d->label, d->tau);
-    return SM_OK;
+    fg_log(inst, FG_OK, NULL, "initialized '%s' with tau = %g", d->label, d->tau);
+    return FG_OK;
 }
 
-sm_status sm_model_do_step(sm_instance *inst, void *data, double t, double h)
+fg_status fg_model_do_step(fg_instance *inst, void *data, double t, double h)
 {
     lag_data *d = (lag_data *)data;
     int32_t i;
     double a;
     if (!isfinite(d->u)) {
-        sm_log(inst, SM_DISCARD, NULL, "non-finite input u = %g at t = %g", d->u, t);
-        return SM_DISCARD;
+        fg_log(inst, FG_DISCARD, NULL, "non-finite input u = %g at t = %g", d->u, t);
+        return FG_DISCARD;
     }
     if (!d->hold) {
         a = exp(-(h / d->n_sub) / d->tau);
@@ -157,5 +157,5 @@ sm_status sm_model_do_step(sm_instance *inst, void *data, double t, double h)
     }
     d->steps += 1;
     d->time = t + h;
-    return SM_OK;
+    return FG_OK;
 }
