@@ -6,8 +6,11 @@ One generator for every native model; nothing below is written by hand in C:
   parameter structs ``sm_<s>_params`` (a member per parameter whose ``c_struct`` is ``s``, named
   as the variable, in table order: ``motor`` = ``MOTOR_PARAMETERS``, ``plant`` = the plant's own,
   ``controller`` = the controller's own), their defaults ``sm_<s>_params_default`` (the start
-  values), their sizes ``sm_<s>_params_size`` (for ctypes hosts), and per unit the input and output
-  counts and names in table order (``SM_<UNIT>_N_IN``, ``SM_<UNIT>_INPUT_NAMES``, ...);
+  values), the finiteness check of their Real members ``sm_<s>_params_require_finite``
+  (``interface._number``), their sizes ``sm_<s>_params_size`` (for ctypes hosts), per unit the
+  input and output counts and names in table order (``SM_<UNIT>_N_IN``,
+  ``SM_<UNIT>_INPUT_NAMES``, ...), and the defaults of the core's structs of the Python settings
+  dataclasses (:data:`DATACLASS_STRUCTS`: ``sm_gains_default`` from ``BacksteppingGains()``, ...);
 * per model (:func:`model_files`): ``sm_vars.h`` (declarations only) and ``sm_vars.c``: the value
   reference of each variable (``SM_VR_<name>``: its position in the model's table, as the model
   descriptions number them; ``SM_VR_time`` last), the value store ``sm_values`` (one slot per value

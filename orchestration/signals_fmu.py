@@ -151,7 +151,8 @@ def model_description(scenario, profiles, fmi_version="2.0"):
                    "canGetAndSetFMUstate": "true", "canSerializeFMUstate": "true"})
     ET.SubElement(root, "CoSimulation", cs)
     units = ET.SubElement(root, "UnitDefinitions")
-    for u in dict.fromkeys([_UNITS[n][0] for n in SIGNALS] + (["s"] if fmi3 else [])):  # s: FMI 3.0's time
+    names = [v.unit for v in VARIABLES if v.unit] + (["s"] if fmi3 else [])  # s: FMI 3.0's time
+    for u in dict.fromkeys(names):
         ET.SubElement(ET.SubElement(units, "Unit", {"name": u}), "BaseUnit",
                       {k: str(e) for k, e in SI_UNITS[u].items()})
     cats = ET.SubElement(root, "LogCategories")
@@ -160,25 +161,25 @@ def model_description(scenario, profiles, fmi_version="2.0"):
     ET.SubElement(root, "DefaultExperiment", {"startTime": "0.0", "stopTime": _num(scenario.stop_time),
                                               "stepSize": _num(scenario.step)})
     mv = ET.SubElement(root, "ModelVariables")
-    for vr, name in enumerate(SIGNALS):
-        unit, what = _UNITS[name]
-        attrs = {"name": name, "valueReference": str(vr), "description": f"{what} [{unit}]",
+    *outputs, profiles_file = VARIABLES  # the table the C model's tables are generated from
+    for vr, v in enumerate(outputs):
+        attrs = {"name": v.name, "valueReference": str(vr), "description": f"{v.description} [{v.unit}]",
                  "causality": "output", "variability": "continuous", "initial": "calculated"}
         if fmi3:
-            ET.SubElement(mv, "Float64", {**attrs, "unit": unit})
+            ET.SubElement(mv, "Float64", {**attrs, "unit": v.unit})
         else:
-            ET.SubElement(ET.SubElement(mv, "ScalarVariable", attrs), "Real", {"unit": unit})
-    attrs = {"name": "profiles_file", "valueReference": str(VR_PROFILES_FILE),
-             "description": PROFILES_FILE_DESCRIPTION,
+            ET.SubElement(ET.SubElement(mv, "ScalarVariable", attrs), "Real", {"unit": v.unit})
+    attrs = {"name": profiles_file.name, "valueReference": str(VR_PROFILES_FILE),
+             "description": profiles_file.description,
              "causality": "parameter", "variability": "fixed"}
     if fmi3:
-        ET.SubElement(ET.SubElement(mv, "String", attrs), "Start", {"value": PROFILES_FILE})
+        ET.SubElement(ET.SubElement(mv, "String", attrs), "Start", {"value": profiles_file.start})
         ET.SubElement(mv, "Float64", {"name": "time", "valueReference": str(VR_TIME),
                                       "causality": "independent",
                                       "variability": "continuous", "description": "simulation time [s]",
                                       "unit": "s"})
     else:
-        ET.SubElement(ET.SubElement(mv, "ScalarVariable", attrs), "String", {"start": PROFILES_FILE})
+        ET.SubElement(ET.SubElement(mv, "ScalarVariable", attrs), "String", {"start": profiles_file.start})
     ms = ET.SubElement(root, "ModelStructure")
     if fmi3:
         for tag in ("Output", "InitialUnknown"):
