@@ -7,10 +7,10 @@
 #include "sm_vars.h"
 
 /* the glue checks every value reference against FG_MODEL_VARIABLES before a call: this is a second,
- * cheap guard against an out-of-range slot (vr of the given type, SM_N_VARS: time, a Real) */
+ * cheap guard against an out-of-range slot (the generated table lists value reference k at k) */
 static int bad_vr(fg_instance *inst, uint32_t vr, fg_type type)
 {
-    if (vr < SM_N_VARS ? FG_MODEL_VARIABLES[vr].type == type : (vr == SM_VR_time && type == FG_REAL)) {
+    if (vr < SM_N_VALUES && FG_MODEL_VARIABLES[vr].vr == vr && FG_MODEL_VARIABLES[vr].type == type) {
         return 0;
     }
     fg_log(inst, FG_ERROR, NULL, "value reference %lu is not a variable of this type", (unsigned long)vr);
