@@ -22,7 +22,12 @@ pytestmark = pytest.mark.skipif(shutil.which("gcc") is None, reason="needs gcc")
 
 @pytest.fixture(scope="module")
 def lib():
-    return load()
+    """The session's core library through a CDLL object of its own: the argument types other test
+    modules declare on theirs (their own ctypes classes) do not apply here."""
+    own = ctypes.CDLL(load()._name)
+    for struct in (MotorParams, PlantParams, ControllerParams):
+        getattr(own, struct.__name__ + "_size").restype = ctypes.c_size_t
+    return own
 
 
 def _value(struct, name, type_):
