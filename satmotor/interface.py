@@ -24,7 +24,9 @@ from satmotor.machine.plant import OMEGA_M, PSI_R_A, PSI_R_B, PSI_S_A, PSI_S_B, 
 
 class Variable(NamedTuple):
     """One exposed variable: name, causality (input/output/parameter), type (Real, Integer,
-    String), start value, unit and description."""
+    String), start value, unit, description and, for a parameter, the C parameter struct of the
+    native core whose member of the same name it fills (``c_struct``: ``motor`` is
+    ``sm_motor_params``; see ``orchestration/build/native_tables.py``)."""
 
     name: str
     causality: str
@@ -32,6 +34,12 @@ class Variable(NamedTuple):
     start: object
     unit: str
     description: str
+    c_struct: str = ""
+
+
+def _in_struct(c_struct, variables):
+    """``variables`` with ``c_struct`` set: each fills the member of its name of ``sm_<c_struct>_params``."""
+    return tuple(v._replace(c_struct=c_struct) for v in variables)
 
 
 def _v(name, causality, start, unit, description, type_="Real"):
@@ -46,7 +54,7 @@ CONTROLLER_DESCRIPTION = ("Backstepping speed and rotor-flux controller for the 
 AUTHOR = "satmotor"
 
 _M, _A, _P = MotorParams(), ArctanCurve(), PolynomialCurve()
-MOTOR_PARAMETERS = (
+MOTOR_PARAMETERS = _in_struct("motor", (
     _v("R_s", "parameter", _M.R_s, "Ohm", "stator resistance"),
     _v("R_r", "parameter", _M.R_r, "Ohm", "rotor resistance (rotor side; k = 1: referred)"),
     _v("l_s", "parameter", _M.l_s, "H", "stator leakage inductance"),
@@ -63,7 +71,7 @@ MOTOR_PARAMETERS = (
     _v("poly_n", "parameter", _P.poly_n, "1", "polynomial: odd exponent >= 3", "Integer"),
     _v("table_file", "parameter", "", "", "table: CSV file of no-load points i_mu [A], psi_m [Wb]",
        "String"),
-)
+))
 
 PLANT_INPUTS = (
     _v("v_s_alpha", "input", 0.0, "V", "stator voltage, alpha axis (amplitude-invariant Clarke)"),
@@ -82,7 +90,7 @@ PLANT_OUTPUTS = (
     _v("T_e", "output", 0.0, "N m", "electromagnetic torque 3/2 n_p (psi_s x i_s)"),
     _v("i_mu", "output", 0.0, "A", "magnitude of the magnetizing current i_s + k i_r"),
 )
-PLANT_PARAMETERS = MOTOR_PARAMETERS + (
+PLANT_PARAMETERS = MOTOR_PARAMETERS + _in_struct("plant", (
     _v("omega_m0", "parameter", 0.0, "rad/s", "initial mechanical speed"),
     _v("psi_r0", "parameter", 0.0, "Wb", "initial rotor flux (DC, on the alpha axis; 0: unmagnetized)"),
     _v("h_int", "parameter", 1e-4, "s", "largest internal RK4 step; a communication step dt uses "
@@ -90,7 +98,7 @@ PLANT_PARAMETERS = MOTOR_PARAMETERS + (
     # last: the earlier variables keep their value references
     _v("B_2", "parameter", 0.0, "N m s2/rad2", "quadratic (fan/pump) load: torque B_2 omega_m |omega_m| "
        "opposing motion, >= 0; plant only (the controller sees it as an unknown load)"),
-)
+))
 
 _G, _C, _D = BacksteppingGains(), ControllerConfig(), DriveConfig()
 CONTROLLER_MODES = ("saturated", "constant_m", "pi")
@@ -130,7 +138,7 @@ CONTROLLER_OUTPUTS = (
     _v("singular_limited", "output", False, "", "the law's singularity guard was active "
        "(flux below phi_min or det Lambda floored)", "Boolean"),
 )
-CONTROLLER_PARAMETERS = (
+CONTROLLER_PARAMETERS = _in_struct("controller", (
     _v("c1", "parameter", _G.c1, "1/s", "flux error gain"),
     _v("c2", "parameter", _G.c2, "1/s", "flux virtual-control gain"),
     _v("d1", "parameter", _G.d1, "1/s", "speed error gain"),
@@ -154,7 +162,7 @@ CONTROLLER_PARAMETERS = (
        "the sample) or 1 (applied one sample later, compensated by prediction)", "Integer"),
     _v("use_stator_flux", "parameter", _C.use_stator_flux, "", "magnetizing state from the measured "
        "stator flux too (seed H1, eqs 18-19) instead of the curve alone", "Boolean"),
-) + MOTOR_PARAMETERS
+)) + MOTOR_PARAMETERS
 
 
 def _number(values, var):

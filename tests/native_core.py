@@ -1,6 +1,9 @@
-"""Test helper: the native core (``fmu/native/core/*.c``) compiled with gcc into one shared library,
-loaded with ctypes, argument types declared.  One build per flag set per pytest session.
-Extra compiler flags (appended) from the environment variable ``SM_CORE_EXTRA_CFLAGS``."""
+"""Test helper: the native core (``fmu/native/core/*.c`` and its generated ``sm_params.h`` / ``.c``)
+compiled with gcc into one shared library, loaded with ctypes, argument types declared.  One build per
+flag set per pytest session.  Extra compiler flags (appended) from the environment variable
+``SM_CORE_EXTRA_CFLAGS``.  The parameter structs (:data:`MotorParams`, :data:`PlantParams`,
+:data:`ControllerParams`) are ctypes structures whose fields are read from the generator's table
+(:func:`orchestration.build.native_tables.struct_members`), as the C structs are generated from it."""
 
 from __future__ import annotations
 
@@ -10,6 +13,8 @@ import shutil
 import subprocess
 import tempfile
 from pathlib import Path
+
+from orchestration.build import native_tables
 
 CORE = Path(__file__).resolve().parents[1] / "fmu" / "native" / "core"
 FLAGS = ["-std=c99", "-O2", "-fPIC", "-shared", "-Wall", "-Wextra", "-Werror", "-pedantic", "-Wconversion",
@@ -29,16 +34,44 @@ class Outputs(ctypes.Structure):
                                                 "i_mu_beta", "i_mu", "psi_m", "m", "T_e")]
 
 
+_CTYPES = {"Real": ctypes.c_double, "Integer": ctypes.c_int, "Boolean": ctypes.c_int}
+
+
+def _params_struct(c_struct):
+    fields = [(n, ctypes.c_char * native_tables.STRING_MAX if t == "String" else _CTYPES[t])
+              for n, t in native_tables.struct_members(c_struct)]
+    return type(f"sm_{c_struct}_params", (ctypes.Structure,), {"_fields_": fields})
+
+
+MotorParams, PlantParams, ControllerParams = (_params_struct(s) for s in ("motor", "plant", "controller"))
+
+
+def params(lib, struct, values=None):
+    """A ``struct`` (one of the parameter structs) with the C defaults (``sm_<s>_params_default``),
+    then the members named in ``values`` set (the other names ignored; str: encoded)."""
+    p = struct()
+    getattr(lib, struct.__name__ + "_default")(ctypes.byref(p))
+    members = {n for n, _ in struct._fields_}
+    for name, value in (values or {}).items():
+        if name in members:
+            setattr(p, name, value.encode() if isinstance(value, str) else value)
+    return p
+
+
 def build(extra_flags=(), out_dir=None):
-    """Compile every ``fmu/native/core/*.c`` into one shared library; return its path."""
+    """Compile every ``fmu/native/core/*.c`` with the generated ``sm_params.c`` into one shared
+    library; return its path."""
     gcc = shutil.which("gcc")
     if gcc is None:
         raise RuntimeError("gcc not found")
     out_dir = Path(out_dir or tempfile.mkdtemp(prefix="sm_native_core_"))
     lib = out_dir / ("libsmcore_san.so" if extra_flags else "libsmcore.so")
-    sources = sorted(str(p) for p in CORE.glob("*.c"))
+    gen = out_dir / ("generated_san" if extra_flags else "generated")
+    gen.mkdir(exist_ok=True)
+    generated = native_tables.core_files(gen)
+    sources = sorted(str(p) for p in CORE.glob("*.c")) + [str(p) for p in generated if p.suffix == ".c"]
     env_flags = os.environ.get("SM_CORE_EXTRA_CFLAGS", "").split()  # e.g. "-O3 -march=native"
-    cmd = [gcc, *FLAGS, *env_flags, *extra_flags, "-o", str(lib), *sources, "-lm"]
+    cmd = [gcc, *FLAGS, *env_flags, *extra_flags, f"-I{gen}", f"-I{CORE}", "-o", str(lib), *sources, "-lm"]
     res = subprocess.run(cmd, capture_output=True, text=True)
     if res.returncode != 0:
         raise RuntimeError(f"native core build failed:\n{' '.join(cmd)}\n{res.stderr}")
@@ -62,7 +95,7 @@ def declare(lib):
         "sm_curve_size": (S, []),
         "sm_motor_size": (S, []),
         "sm_repr_double": (ctypes.c_char_p, [D, ctypes.c_char_p, S]),
-        "sm_motor_init": (I, [ctypes.c_void_p, D, D, D, D, D, I, D, D, C, D, D, D, D, I, C, D, D, D, D,
+        "sm_motor_init": (I, [ctypes.c_void_p, ctypes.POINTER(MotorParams), ctypes.POINTER(PlantParams),
                               ctypes.c_char_p, S]),
         "sm_plant_derivatives": (I, [ctypes.c_void_p, P, D, D, D, P]),
         "sm_plant_outputs_of": (I, [ctypes.c_void_p, P, ctypes.POINTER(Outputs)]),
@@ -71,6 +104,9 @@ def declare(lib):
         "sm_plant_check_step": (I, [ctypes.c_void_p, D, D, D, D, ctypes.POINTER(I), ctypes.c_char_p, S]),
         "sm_plant_nonfinite_message": (None, [D, D, P, ctypes.c_char_p, S]),
     }
+    for struct in (MotorParams, PlantParams, ControllerParams):
+        sig[struct.__name__ + "_default"] = (None, [ctypes.POINTER(struct)])
+        sig[struct.__name__ + "_size"] = (S, [])
     for name, (res, args) in sig.items():
         f = getattr(lib, name)
         f.restype, f.argtypes = res, args

@@ -18,7 +18,6 @@ from test_check import rewrite_model_description, run_check
 
 from orchestration.build import fmu_build, fmus, native_build, native_fmus
 from orchestration.build import native_model_description as nmd
-from orchestration.build.native_vars import header
 
 pytestmark = pytest.mark.slow
 PLANT = "SaturatedInductionMotor"
@@ -53,10 +52,9 @@ def build_native_copy(tmp_path, out, monkeypatch=None, model_patches=(), glue_pa
             f = glue / name_
             f.write_text(patched(f.read_text(), patches, f))
         monkeypatch.setattr(native_build, "GLUE_DIR", glue)
-    vars_h = src / "sm_vars.h"
-    vars_h.write_text(header(name))
+    generated = native_fmus.generated(name, src)
     xml = (nmd.fmi2 if version == "2.0" else nmd.fmi3)(name).decode("utf-8")
-    path, _ = native_build.build_native_fmu(name, [*sources, vars_h], xml, out, version,
+    path, _ = native_build.build_native_fmu(name, [*sources, *generated], xml, out, version,
                                             native_fmus.LINUX[version])
     return path
 
@@ -102,10 +100,10 @@ def test_a_binary_that_aborts_on_a_nan_input_fails_naming_the_input_and_the_sign
 
 # --- a state blob accepted from another FMU --------------------------------------------------------------
 
-NATIVE_NO_STATE_IDENTITY = {"sm_instance.c": (  # blob_ok without the model identifier and token comparisons
-    ("    if (memcmp(h.model_identifier, mine.model_identifier, SM_TAG_LEN) != 0) {",
+NATIVE_NO_STATE_IDENTITY = {"fg_instance.c": (  # blob_ok without the model identifier and token comparisons
+    ("    if (memcmp(h.model_identifier, mine.model_identifier, FG_TAG_LEN) != 0) {",
      "    if (0) { /* the defect */"),
-    ("    if (memcmp(h.token, mine.token, SM_TAG_LEN) != 0) {", "    if (0) { /* the defect */"))}
+    ("    if (memcmp(h.token, mine.token, FG_TAG_LEN) != 0) {", "    if (0) { /* the defect */"))}
 
 
 def assert_accepts_the_other_build(verdicts, broken, good):

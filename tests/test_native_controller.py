@@ -8,22 +8,9 @@ import math
 
 import numpy as np
 import pytest
-from native_core import build
+from native_core import ControllerParams, MotorParams, build, params
 
 from satmotor.interface import CONTROLLER_OUTPUTS, ControllerUnit, PlantUnit
-
-STR = 1024
-
-
-class Params(ctypes.Structure):
-    _fields_ = ([(n, ctypes.c_double) for n in ("c1", "c2", "d1", "d2", "c0", "d0", "Ts", "V_dc",
-                                                 "ref_bandwidth", "g_theta", "theta_max", "I_max")]
-                + [("delay_samples", ctypes.c_int), ("use_stator_flux", ctypes.c_int)]
-                + [(n, ctypes.c_char * STR) for n in ("mode", "load_mode", "flux_source")]
-                + [(n, ctypes.c_double) for n in ("R_s", "R_r", "l_s", "l_r", "k", "J", "B", "L_m0",
-                                                   "L_m_inf", "I_par", "poly_b")]
-                + [("n_p", ctypes.c_int), ("poly_n", ctypes.c_int)]
-                + [(n, ctypes.c_char * STR) for n in ("curve", "table_file")])
 
 
 @pytest.fixture(scope="module", params=["plain", "sanitized"])
@@ -31,27 +18,25 @@ def lib(request):
     extra = ("-fsanitize=undefined", "-fno-sanitize-recover=all") if request.param == "sanitized" else ()
     so = ctypes.CDLL(str(build(extra)))
     so.sm_controller_size.restype = so.sm_controller_params_size.restype = ctypes.c_size_t
-    assert so.sm_controller_params_size() == ctypes.sizeof(Params)
-    so.sm_controller_params_default.argtypes = [ctypes.POINTER(Params)]
-    so.sm_controller_init.argtypes = [ctypes.c_void_p, ctypes.POINTER(Params), ctypes.c_char_p,
-                                      ctypes.c_size_t]
+    so.sm_motor_params_size.restype = ctypes.c_size_t
+    assert so.sm_controller_params_size() == ctypes.sizeof(ControllerParams)
+    assert so.sm_motor_params_size() == ctypes.sizeof(MotorParams)
+    so.sm_controller_params_default.argtypes = [ctypes.POINTER(ControllerParams)]
+    so.sm_motor_params_default.argtypes = [ctypes.POINTER(MotorParams)]
+    so.sm_controller_init.argtypes = [ctypes.c_void_p, ctypes.POINTER(ControllerParams),
+                                      ctypes.POINTER(MotorParams), ctypes.c_char_p, ctypes.c_size_t]
     so.sm_controller_step.argtypes = [ctypes.c_void_p, ctypes.c_double, ctypes.c_double,
                                       ctypes.POINTER(ctypes.c_double), ctypes.c_char_p, ctypes.c_size_t]
     return so
 
 
-def _params(lib, values):
-    p = Params()
-    lib.sm_controller_params_default(ctypes.byref(p))
-    for name, value in values.items():
-        setattr(p, name, value.encode() if isinstance(value, str) else value)
-    return p
-
-
 def _c_controller(lib, values):
     buf = ctypes.create_string_buffer(lib.sm_controller_size())
     msg = ctypes.create_string_buffer(256)
-    status = lib.sm_controller_init(buf, ctypes.byref(_params(lib, values)), msg, 256)
+    unknown = set(values) - {n for n, _ in ControllerParams._fields_ + MotorParams._fields_}
+    assert not unknown, unknown
+    status = lib.sm_controller_init(buf, params(lib, ControllerParams, values),
+                                    params(lib, MotorParams, values), msg, 256)
     return buf, status, msg.value.decode()
 
 

@@ -21,7 +21,8 @@ import textwrap
 from pathlib import Path
 
 import pytest
-from native_core import SANITIZE, build, load, new_motor
+from native_core import SANITIZE, build, load, new_motor, params
+from native_core import MotorParams as CMotorParams
 
 from satmotor.control.backstepping import BacksteppingGains, ControllerConfig, control, error_system
 from satmotor.control.fo_model import ModelConstants, flux_rate, to_stationary, vector_fields
@@ -185,9 +186,11 @@ def motors(lib, tmp_path_factory):
             p = MotorParams(R_s, R_r, l_s, l_r, k, n_p, J, B, curve)
             buf = new_motor(lib)
             msg = ctypes.create_string_buffer(256)
-            st = lib.sm_motor_init(buf, R_s, R_r, l_s, l_r, k, n_p, J, B, name.encode(), L_m0, L_m_inf,
-                                   I_par, poly_b, poly_n, tf.encode() if name == "table" else b"",
-                                   0.0, 0.0, 1e-4, 0.0, msg, 256)
+            m = params(lib, CMotorParams, dict(
+                R_s=R_s, R_r=R_r, l_s=l_s, l_r=l_r, k=k, n_p=n_p, J=J, B=B, curve=name, L_m0=L_m0,
+                L_m_inf=L_m_inf, I_par=I_par, poly_b=poly_b, poly_n=poly_n,
+                table_file=tf if name == "table" else ""))
+            st = lib.sm_motor_init(buf, m, None, msg, 256)
             assert st == 0, msg.value
             out.append((f"{name}, k={k}", p, buf))
     return out
@@ -674,8 +677,7 @@ SANITIZED_LAW_RUN = textwrap.dedent("""
         lib.sm_shaper_set_state(ctypes.byref(s), arr((math.nan, -math.inf, 1e-300)), buf, n)
     for name in ("arctan", "exponential", "polynomial", "linear"):
         p = nc.new_motor(lib)
-        st = lib.sm_motor_init(p, 1.405, 1.395, 5.839e-3, 5.839e-3, 0.9, 2, 0.0131, 2.985e-3, name.encode(),
-                               0.2772, 0.01, 3.31, 2.46, 7, b"", 0.0, 0.0, 1e-4, 0.0, big, 4096)
+        st = lib.sm_motor_init(p, nc.params(lib, nc.MotorParams, dict(k=0.9, curve=name)), None, big, 4096)
         assert st == 0, big.value
         for k in range(3000):
             meas = [rng.uniform(-30, 30) for _ in range(7)]

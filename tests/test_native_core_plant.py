@@ -188,15 +188,14 @@ MOTOR_DEFAULTS = dict(R_s=1.405, R_r=1.395, l_s=5.839e-3, l_r=5.839e-3, k=1.0, n
                       curve="arctan", L_m0=0.2772, L_m_inf=0.01, I_par=3.31, poly_b=2.46, poly_n=7,
                       table_file="",
                       omega_m0=0.0, psi_r0=0.0, h_int=1e-4, B_2=0.0)
-ORDER = tuple(MOTOR_DEFAULTS)
 
 
 def c_motor(lib, values, msg_len=1024):
     v = dict(MOTOR_DEFAULTS)
     v.update(values)
     p, msg = nc.new_motor(lib), ctypes.create_string_buffer(msg_len)
-    args = [v[k].encode() if isinstance(v[k], str) else v[k] for k in ORDER]
-    st = lib.sm_motor_init(p, *args, msg, msg_len)
+    st = lib.sm_motor_init(p, nc.params(lib, nc.MotorParams, v), nc.params(lib, nc.PlantParams, v), msg,
+                           msg_len)
     return st, p, msg.value.decode()
 
 
@@ -504,18 +503,20 @@ SANITIZED_RUN = textwrap.dedent("""
                 lib.sm_curve_solve(c, 0.003, v, I, psi)
                 lib.sm_curve_current(c, v, I)
     p = nc.new_motor(lib)
-    args = (1.405, 1.395, 5.839e-3, 5.839e-3, 1.0, 2, 0.0131, 2.985e-3, b"table", 0.2772, 0.01, 3.31, 2.46, 7,
-            {table!r}.encode(), 0.0, 0.9, 1e-4, 0.01)
-    assert lib.sm_motor_init(p, *args, big, 4096) == 0, big.value
+    m = nc.params(lib, nc.MotorParams, dict(curve="table", table_file={table!r}))
+    pp = nc.params(lib, nc.PlantParams, dict(psi_r0=0.9, B_2=0.01))
+    assert lib.sm_motor_init(p, m, pp, big, 4096) == 0, big.value
     x = (D * 6)(0.5, 0.2, 0.4, 0.1, 10.0, 0.0)
     for k in range(200):
         lib.sm_plant_step(p, x, 300.0 * math.cos(k * 0.3), 300.0 * math.sin(k * 0.3), 5.0, 1e-3, 3)
     lib.sm_plant_step(p, x, float("nan"), 0.0, 0.0, 1e-3, 3)
     lib.sm_plant_outputs_of(p, x, ctypes.byref(nc.Outputs()))
     lib.sm_plant_nonfinite_message(0.0, 1e-3, x, msg, 8)
-    bad = list(args)
-    bad[0] = -1.0
-    assert lib.sm_motor_init(p, *bad, msg, 8) != 0
+    m.R_s = -1.0
+    assert lib.sm_motor_init(p, m, pp, msg, 8) != 0
+    assert lib.sm_motor_init(p, m, None, msg, 8) != 0
+    assert lib.sm_motor_init(p, None, pp, msg, 8) != 0
+    assert lib.sm_motor_init(None, m, pp, msg, 8) != 0
     xb = (D * 600)(*[0.1 * (k + 1) for k in range(600)])
     lib.sm_curve_init_table(nc.new_curve(lib), xb, xb, 600, msg, 8)
     for path in {bad_files!r}:

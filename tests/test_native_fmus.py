@@ -236,12 +236,11 @@ def test_a_c_host_without_python_loads_the_native_plant_and_gets_the_python_numb
 
 def test_no_global_mutable_state_in_the_core_or_the_models(tmp_path):
     """No writable data (bss/data/common symbols) in any object of the C core and of the two models
-    (with their generated variable tables): every instance independent."""
+    (with their generated tables and the shared value accessors): every instance independent."""
     import shutil
     import subprocess
 
     from orchestration.build import native_build, native_fmus
-    from orchestration.build.native_vars import header
 
     if shutil.which("gcc") is None or shutil.which("nm") is None:
         pytest.skip("needs gcc and nm")
@@ -249,8 +248,8 @@ def test_no_global_mutable_state_in_the_core_or_the_models(tmp_path):
     for name, unit in native_fmus.NAMES.items():
         gen = tmp_path / unit
         gen.mkdir()
-        (gen / "sm_vars.h").write_text(header(name))
-        srcs = [p for p in native_fmus.sources(name) if p.suffix == ".c"]
+        generated = native_fmus.generated(name, gen)
+        srcs = [p for p in [*native_fmus.sources(name), *generated] if p.suffix == ".c"]
         dirs = {p.parent for p in native_fmus.sources(name)} | {gen, native_build.GLUE_DIR}
         for src in srcs:
             obj = gen / (src.stem + ".o")

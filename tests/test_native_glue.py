@@ -24,11 +24,43 @@ from fmpy.fmi2 import FMU2Slave, defaultCallbacks, fmi2CallbackFunctions, fmi2Ca
 from fmpy.fmi3 import FMU3Slave
 from fmpy.validation import validate_fmu
 
-from orchestration.build import native_build
+from orchestration.build import native_build, native_tables
+from satmotor.interface import Variable
 
 ROOT = Path(__file__).resolve().parents[1]
 MODEL = ROOT / "fmu" / "native" / "testmodel" / "model.c"
+COMMON = native_build.GLUE_DIR.parent / "common"  # sm_values.c: the value accessors of every native model
 VR = {"time": 0, "u": 1, "hold": 2, "tau": 3, "n_sub": 4, "label": 5, "y": 6, "steps": 7, "rising": 8}
+# the test model's table: its C value references, value store and start values are generated from it
+TABLE = (Variable("time", "independent", "Real", None, "s", "simulation time"),
+         Variable("u", "input", "Real", 0.0, "1", "input"),
+         Variable("hold", "input", "Boolean", False, "", "x is frozen while true"),
+         Variable("tau", "parameter", "Real", 1.0, "s", "time constant, > 0"),
+         Variable("n_sub", "parameter", "Integer", 1, "1", "sub-steps per communication step, >= 1"),
+         Variable("label", "parameter", "String", "lag", "", "a label, at most 63 bytes"),
+         Variable("y", "output", "Real", 0.0, "1", "x"),
+         Variable("steps", "output", "Integer", 0, "1", "number of completed steps"),
+         Variable("rising", "output", "Boolean", False, "", "x < u"))
+LABEL_MAX = 64  # bytes of the label, the NUL included
+
+
+def test_the_table_numbers_the_variables_as_the_model_descriptions():
+    assert {v.name: vr for vr, v in enumerate(TABLE)} == VR
+
+
+def model_sources(out_dir):
+    """The test model's C files: model.c, the shared value accessors and its generated tables (written
+    into ``out_dir``)."""
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    return [MODEL, COMMON / "sm_values.h", COMMON / "sm_values.c",
+            *native_tables.model_files("lag", out_dir, TABLE, LABEL_MAX)]
+
+
+def model_c_files(out_dir):
+    """``(the .c files, the -I flags)`` to compile the test model outside an FMU build."""
+    files = model_sources(out_dir)
+    return [str(f) for f in files if f.suffix == ".c"], [f"-I{d}" for d in sorted({f.parent for f in files})]
 HEADER_MODEL_ID_OFFSET = 24  # magic[8], format u32, phase u32, data size u64
 
 LOG_CATEGORIES = ("logEvents", "logStatusWarning", "logStatusDiscard", "logStatusError")
@@ -97,7 +129,8 @@ def model_description(version: str, identifier: str = "lag") -> str:
 def _build(tmp: Path, version: str, identifier: str = "lag", name: str | None = None):
     out = tmp / f"{name or identifier}_fmi{version[0]}.fmu"
     path, token = native_build.build_native_fmu(
-        identifier, [MODEL], model_description(version, identifier), out, fmi_version=version,
+        identifier, model_sources(tmp / f"gen_{name or identifier}_{version[0]}"),
+        model_description(version, identifier), out, fmi_version=version,
         resources={"note.txt": "test resource\n"})
     return {"path": path, "token": token, "dir": extract(str(path), str(tmp / f"{path.stem}_x")),
             "identifier": identifier}
@@ -198,7 +231,7 @@ def test_package_layout_exports_and_reproducibility(fmus, version, tmp_path):
         assert all(i.date_time == (1980, 1, 1, 0, 0, 0) for i in z.infolist())
     assert f"binaries/{folder}/lag.so" in names
     v = version[0]
-    for n in ("sm_model.h", "sm_instance.c", f"fmi{v}_glue.c", "model.c", f"fmi{v}Functions.h"):
+    for n in ("fg_model.h", "fg_instance.c", f"fmi{v}_glue.c", "model.c", f"fmi{v}Functions.h"):
         assert f"sources/{n}" in names
     assert "resources/note.txt" in names
     assert fmu["token"].startswith("{") and len(fmu["token"]) == 38
@@ -394,12 +427,13 @@ def test_sanitizers_clean(tmp_path, version):
     """A C host with the glue and the model compiled in, under ASan+UBSan (leaks included)."""
     exe = tmp_path / "host"
     inc = native_build.fmi_headers_dir()
+    model, model_inc = model_c_files(tmp_path / "gen")
     cmd = ["gcc", "-std=c99", "-g", "-O1", "-Wall", "-Wextra", "-Werror", "-pedantic",
            "-fsanitize=address,undefined", "-fno-sanitize-recover=all", "-fno-omit-frame-pointer",
-           f"-I{inc}", f"-I{native_build.GLUE_DIR}", "-DMODEL_IDENTIFIER=lag",
+           f"-I{inc}", f"-I{native_build.GLUE_DIR}", *model_inc, "-DMODEL_IDENTIFIER=lag",
            '-DINSTANTIATION_TOKEN="{asan}"', *(["-DHOST_FMI3"] if version == "3.0" else []),
            str(HOST_C), str(native_build.GLUE_DIR / f"fmi{version[0]}_glue.c"),
-           str(native_build.GLUE_DIR / "sm_instance.c"), str(MODEL), "-o", str(exe), "-lm"]
+           str(native_build.GLUE_DIR / "fg_instance.c"), *model, "-o", str(exe), "-lm"]
     subprocess.run(cmd, check=True, capture_output=True)
     r = subprocess.run([str(exe)], capture_output=True, text=True, timeout=60,
                        env={"ASAN_OPTIONS": "detect_leaks=1:abort_on_error=0",
@@ -412,11 +446,12 @@ def test_sanitizers_clean(tmp_path, version):
 def test_valgrind_clean(tmp_path):
     """The same host, built as shipped (-O2), under valgrind memcheck."""
     exe = tmp_path / "host"
+    model, model_inc = model_c_files(tmp_path / "gen")
     subprocess.run(["gcc", "-std=c99", "-O2", f"-I{native_build.fmi_headers_dir()}",
-                    f"-I{native_build.GLUE_DIR}",
+                    f"-I{native_build.GLUE_DIR}", *model_inc,
                     "-DMODEL_IDENTIFIER=lag", '-DINSTANTIATION_TOKEN="{vg}"', str(HOST_C),
-                    str(native_build.GLUE_DIR / "fmi2_glue.c"), str(native_build.GLUE_DIR / "sm_instance.c"),
-                    str(MODEL), "-o", str(exe), "-lm"], check=True, capture_output=True)
+                    str(native_build.GLUE_DIR / "fmi2_glue.c"), str(native_build.GLUE_DIR / "fg_instance.c"),
+                    *model, "-o", str(exe), "-lm"], check=True, capture_output=True)
     r = subprocess.run(["valgrind", "--error-exitcode=99", "--leak-check=full", "--errors-for-leak-kinds=all",
                         str(exe)], capture_output=True, text=True, timeout=120)
     assert r.returncode == 0, r.stderr[-3000:]
@@ -434,7 +469,8 @@ MAGIC = {".so": b"\x7fELF", ".dll": b"MZ", ".dylib": b"\xcf\xfa\xed\xfe"}
 def test_cross_compiled_fmu(tmp_path, version):
     """zig cc builds for Windows and macOS: valid FMU, right binary formats, only FMI symbols named,
     reproducible. (The binaries cannot be run here.)"""
-    paths = [native_build.build_native_fmu("lag", [MODEL], model_description(version), tmp_path / f"{k}.fmu",
+    paths = [native_build.build_native_fmu("lag", model_sources(tmp_path / "gen"), model_description(version),
+                                           tmp_path / f"{k}.fmu",
                                            version, CROSS[version])[0] for k in range(2)]
     assert paths[0].read_bytes() == paths[1].read_bytes()
     assert validate_fmu(str(paths[0])) == []
@@ -472,13 +508,15 @@ def exported_symbols(binary: Path) -> list[str] | None:
 
 @pytest.mark.skipif(shutil.which("gcc") is None or shutil.which("nm") is None, reason="needs gcc and nm")
 def test_no_global_mutable_state(tmp_path):
-    """No writable data (bss/data/common symbols) in the objects of the glue and the test model."""
+    """No writable data (bss/data/common symbols) in the objects of the glue and the test model (with
+    its generated tables and the shared value accessors)."""
     inc = native_build.fmi_headers_dir()
-    for src in [*native_build.GLUE_DIR.glob("*.c"), MODEL]:
+    model, model_inc = model_c_files(tmp_path / "gen")
+    for src in [*native_build.GLUE_DIR.glob("*.c"), *map(Path, model)]:
         obj = tmp_path / (src.stem + ".o")
         subprocess.run(["gcc", "-std=c99", "-O2", "-fPIC", "-c", f"-I{inc}", f"-I{native_build.GLUE_DIR}",
-                        "-DMODEL_IDENTIFIER=lag", '-DINSTANTIATION_TOKEN="{x}"', str(src), "-o", str(obj)],
-                       check=True, capture_output=True)
+                        *model_inc, "-DMODEL_IDENTIFIER=lag", '-DINSTANTIATION_TOKEN="{x}"', str(src), "-o",
+                        str(obj)], check=True, capture_output=True)
         out = subprocess.run(["nm", "-f", "sysv", str(obj)], capture_output=True, text=True,
                              check=True).stdout
         rows = [[c.strip() for c in line.split("|")] for line in out.splitlines() if line.count("|") == 6]
@@ -528,7 +566,8 @@ def test_simulate_step_input_at_half_time(fmus, version):
 @pytest.mark.skipif(not native_build.zig_available(), reason="needs `pip install ziglang`")
 def test_portable_linux_binary_with_zig(tmp_path):
     """linux_glibc='2.17': zig cc links against glibc 2.17; the FMU runs here and gives the same result."""
-    path, _ = native_build.build_native_fmu("lag", [MODEL], model_description("2.0"), tmp_path / "lag.fmu",
+    path, _ = native_build.build_native_fmu("lag", model_sources(tmp_path / "gen"), model_description("2.0"),
+                                            tmp_path / "lag.fmu",
                                             "2.0", linux_glibc="2.17")
     folder = tmp_path / "x"
     extract(str(path), str(folder))

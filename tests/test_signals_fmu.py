@@ -331,17 +331,22 @@ def test_python_refuses_what_the_fmu_cannot_hold(tmp_path):
 
 @pytest.mark.skipif(shutil.which("gcc") is None or shutil.which("nm") is None, reason="needs gcc and nm")
 def test_no_global_mutable_state_in_the_model(tmp_path):
-    """No writable data (bss/data/common symbols) in the compiled model: every instance independent."""
-    from orchestration.build import native_build
+    """No writable data (bss/data/common symbols) in the compiled model (with its generated tables and the
+    shared value accessors): every instance independent."""
+    from orchestration.build import native_build, native_tables
 
-    (tmp_path / "ss_vars.h").write_text(signals_fmu.header())
-    obj = tmp_path / "m.o"
-    subprocess.run(["gcc", "-std=c99", "-O2", "-fPIC", "-c", f"-I{native_build.fmi_headers_dir()}",
-                    f"-I{tmp_path}", f"-I{native_build.GLUE_DIR}", str(signals_fmu.SOURCE), "-o", str(obj)],
-                   check=True, capture_output=True)
-    out = subprocess.run(["nm", "-f", "sysv", str(obj)], capture_output=True, text=True, check=True).stdout
-    rows = [[c.strip() for c in line.split("|")] for line in out.splitlines() if line.count("|") == 6]
-    assert rows and [r for r in rows if r[2] in "bBdDcC" and not r[6].startswith(".data.rel.ro")] == []
+    generated = native_tables.model_files(signals_fmu.MODEL_NAME, tmp_path, signals_fmu.VARIABLES)
+    sources = [p for p in [*signals_fmu.sources(), *generated] if p.suffix == ".c"]
+    for src in sources:  # the model, its generated tables and the shared value accessors
+        obj = tmp_path / (src.stem + ".o")
+        subprocess.run(["gcc", "-std=c99", "-O2", "-fPIC", "-c", f"-I{native_build.fmi_headers_dir()}",
+                        f"-I{tmp_path}", f"-I{native_build.GLUE_DIR}", f"-I{src.parent}",
+                        f"-I{signals_fmu.sources()[1].parent}", str(src), "-o", str(obj)],
+                       check=True, capture_output=True)
+        out = subprocess.run(["nm", "-f", "sysv", str(obj)], capture_output=True, text=True,
+                             check=True).stdout
+        rows = [[c.strip() for c in line.split("|")] for line in out.splitlines() if line.count("|") == 6]
+        assert rows and [r for r in rows if r[2] in "bBdDcC" and not r[6].startswith(".data.rel.ro")] == []
 
 
 # --- a C host, under valgrind ---------------------------------------------------------------------

@@ -1,12 +1,14 @@
 /* The plant as a native FMU model: PlantUnit of satmotor/interface.py on the C core
- * (fmu/native/core/sm_plant.c), behind the FMI glue of fmu/native/fmi (sm_model.h). */
+ * (fmu/native/core/sm_plant.c), behind the FMI glue of fmu/native/fmi (fg_model.h).  The value
+ * references, start values and the parameter copy into the core's structs are generated (sm_vars.h /
+ * sm_vars.c, orchestration/build/native_tables.py); the get/set accessors are fmu/native/common/sm_values.c. */
 #include <math.h>
+#include <string.h>
 
 #include "sm_common.h"
 #include "sm_plant.h"
+#include "sm_values.h"
 #include "sm_vars.h"
-
-#include "sm_values_access.h"
 
 typedef struct {
     sm_values v; /* first: the generated value store */
@@ -15,7 +17,7 @@ typedef struct {
     int ready;
 } plant_data;
 
-const size_t SM_MODEL_DATA_SIZE = sizeof(plant_data);
+const size_t FG_MODEL_DATA_SIZE = sizeof(plant_data);
 
 static void publish(plant_data *d)
 {
@@ -36,37 +38,43 @@ static void publish(plant_data *d)
     r[SM_VR_i_mu] = o.i_mu;
 }
 
-void sm_model_start(sm_instance *inst, void *data)
+void fg_model_start(fg_instance *inst, void *data)
 {
     (void)inst;
     sm_vars_start(&((plant_data *)data)->v);
 }
 
-sm_status sm_model_exit_initialization(sm_instance *inst, void *data, double start_time)
+fg_status fg_model_exit_initialization(fg_instance *inst, void *data, double start_time)
 {
     plant_data *d = (plant_data *)data;
-    const double *r = d->v.r;
+    sm_motor_params motor;
+    sm_plant_params plant;
     char msg[SM_MSG_LEN], table[SM_VAR_STRING_MAX + 512];
     int st;
     d->v.r[SM_VR_time] = start_time;
-    sm_resolve_file(inst, d->v.s[SM_SLOT_table_file], table, sizeof table);
-    st = sm_motor_init(&d->p, r[SM_VR_R_s], r[SM_VR_R_r], r[SM_VR_l_s], r[SM_VR_l_r], r[SM_VR_k],
-                       d->v.i[SM_VR_n_p], r[SM_VR_J], r[SM_VR_B], d->v.s[SM_SLOT_curve], r[SM_VR_L_m0],
-                       r[SM_VR_L_m_inf], r[SM_VR_I_par], r[SM_VR_poly_b], d->v.i[SM_VR_poly_n], table,
-                       r[SM_VR_omega_m0], r[SM_VR_psi_r0], r[SM_VR_h_int], r[SM_VR_B_2], msg, sizeof msg);
+    sm_vars_motor_params(&d->v, &motor);
+    sm_vars_plant_params(&d->v, &plant);
+    sm_resolve_file(inst, motor.table_file, table, sizeof table);
+    if (strlen(table) >= sizeof motor.table_file) {
+        fg_log(inst, FG_ERROR, "logStatusError", "table_file: the path %s is longer than %d bytes", table,
+               (int)sizeof motor.table_file - 1);
+        return FG_ERROR;
+    }
+    strcpy(motor.table_file, table);
+    st = sm_motor_init(&d->p, &motor, &plant, msg, sizeof msg);
     if (st != 0) {
-        sm_log(inst, SM_ERROR, "logStatusError", "%s", msg);
-        return SM_ERROR;
+        fg_log(inst, FG_ERROR, "logStatusError", "%s", msg);
+        return FG_ERROR;
     }
     for (st = 0; st < SM_N_STATES; ++st) {
         d->x[st] = d->p.x0[st];
     }
     d->ready = 1;
     publish(d);
-    return SM_OK;
+    return FG_OK;
 }
 
-sm_status sm_model_do_step(sm_instance *inst, void *data, double t, double h)
+fg_status fg_model_do_step(fg_instance *inst, void *data, double t, double h)
 {
     plant_data *d = (plant_data *)data;
     const double *r = d->v.r;
@@ -74,14 +82,14 @@ sm_status sm_model_do_step(sm_instance *inst, void *data, double t, double h)
     char msg[SM_MSG_LEN];
     int n_sub = 1, st, j;
     if (!d->ready) {
-        sm_log(inst, SM_ERROR, "logStatusError", "doStep before initialization");
-        return SM_ERROR;
+        fg_log(inst, FG_ERROR, "logStatusError", "doStep before initialization");
+        return FG_ERROR;
     }
     st = sm_plant_check_step(&d->p, r[SM_VR_v_s_alpha], r[SM_VR_v_s_beta], r[SM_VR_T_load], h, &n_sub, msg,
                              sizeof msg);
     if (st != 0) {
-        sm_log(inst, SM_DISCARD, "logStatusDiscard", "SaturatedInductionMotor at t = %.17g s: %s", t, msg);
-        return SM_DISCARD;
+        fg_log(inst, FG_DISCARD, "logStatusDiscard", "SaturatedInductionMotor at t = %.17g s: %s", t, msg);
+        return FG_DISCARD;
     }
     for (j = 0; j < SM_N_STATES; ++j) {
         x[j] = d->x[j];
@@ -93,13 +101,13 @@ sm_status sm_model_do_step(sm_instance *inst, void *data, double t, double h)
             y[j] = NAN;
         }
         sm_plant_nonfinite_message(t, h, y, msg, sizeof msg);
-        sm_log(inst, SM_DISCARD, "logStatusDiscard", "SaturatedInductionMotor at t = %.17g s: %s", t, msg);
-        return SM_DISCARD;
+        fg_log(inst, FG_DISCARD, "logStatusDiscard", "SaturatedInductionMotor at t = %.17g s: %s", t, msg);
+        return FG_DISCARD;
     }
     for (j = 0; j < SM_N_STATES; ++j) {
         d->x[j] = x[j];
     }
     d->v.r[SM_VR_time] = t + h;
     publish(d);
-    return SM_OK;
+    return FG_OK;
 }

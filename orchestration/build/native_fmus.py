@@ -1,10 +1,11 @@
 """Build the native (C, Python-free) FMUs of the plant and the controller, FMI 2.0 and FMI 3.0.
 
-Each FMU is the model-agnostic glue (``fmu/native/fmi``), the C core (``fmu/native/core``), the
-shared value accessors (``fmu/native/common``), the unit's model (``fmu/plant/native_model.c`` or
-``fmu/controller/native_model.c``) and its variable table ``sm_vars.h``, generated from the
-interface tables (:mod:`orchestration.build.native_vars`); the model description comes from the same
-tables (:mod:`orchestration.build.native_model_description`).  Compiled and packed by
+Each FMU is the model-agnostic glue (``fmu/native/fmi``), the C core (``fmu/native/core``) with its
+generated parameter structs (``sm_params.h`` / ``.c``), the shared value accessors
+(``fmu/native/common/sm_values.c``), the unit's model (``fmu/plant/native_model.c`` or
+``fmu/controller/native_model.c``) and its generated tables ``sm_vars.h`` / ``sm_vars.c``: all
+generated from the interface tables by :mod:`orchestration.build.native_tables`; the model description
+comes from the same tables (:mod:`orchestration.build.native_model_description`).  Compiled and packed by
 :func:`orchestration.build.native_build.build_native_fmu` (reproducible; the GUID is derived from the
 inputs).
 
@@ -20,7 +21,7 @@ from pathlib import Path
 
 from orchestration.build import native_model_description as nmd
 from orchestration.build.native_build import GLUE_DIR, build_native_fmu, zig_available
-from orchestration.build.native_vars import header
+from orchestration.build.native_tables import core_files, model_files
 
 FMU_DIR = GLUE_DIR.parents[1]  # the FMU sources (installed package or the checkout's fmu/)
 BUILD_INPUTS = "build_inputs.sha256"  # in resources/: what the FMU was built from
@@ -33,23 +34,30 @@ ALL = {"2.0": ("linux64", "win64", "darwin64"), "3.0": ("x86_64-linux", "x86_64-
 
 
 def sources(name):
-    """The C files of the native FMU ``name`` besides the glue and the generated sm_vars.h."""
+    """The C files of the native FMU ``name`` besides the glue and the generated files
+    (:func:`generated`)."""
     core = sorted((FMU_DIR / "native" / "core").glob("*.[ch]"))
-    common = sorted((FMU_DIR / "native" / "common").glob("*.h"))
+    common = sorted((FMU_DIR / "native" / "common").glob("*.[ch]"))
     return [*core, *common, FMU_DIR / NAMES[name] / "native_model.c"]
+
+
+def generated(name, out_dir):
+    """Write the generated C of the native FMU ``name`` into ``out_dir`` (the core's ``sm_params.h``
+    / ``.c``, the model's ``sm_vars.h`` / ``.c``); returns the paths."""
+    return [*core_files(out_dir), *model_files(name, out_dir)]
 
 
 def inputs_fingerprint(name):
     """SHA-256 over everything the native FMU ``name`` is built from: its C sources, the glue, the
     interface tables and the generators (a change to any makes a built FMU stale)."""
     from orchestration.build import documentation as documentation_module
-    from orchestration.build import fmu_model_description, native_build, native_vars
+    from orchestration.build import fmu_model_description, native_build, native_tables
     from orchestration.build import sources as sources_module
     from satmotor import interface
 
     h = hashlib.sha256()
     files = [*sources(name), *sorted(GLUE_DIR.glob("*.[ch]")), Path(__file__), Path(native_build.__file__),
-             Path(native_vars.__file__), Path(nmd.__file__), Path(fmu_model_description.__file__),
+             Path(native_tables.__file__), Path(nmd.__file__), Path(fmu_model_description.__file__),
              Path(interface.__file__), Path(sources_module.__file__), Path(documentation_module.__file__)]
     for f in files:
         h.update(f.name.encode() + b"\0" + Path(f).read_bytes() + b"\0")
@@ -65,10 +73,9 @@ def build(name, out_dir, fmi_version="2.0", platforms=None, resources=None):
     target = Path(out_dir) / DIRS[fmi_version] / f"{name}.fmu"
     target.parent.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory(prefix="sm_vars_") as tmp:
-        vars_h = Path(tmp) / "sm_vars.h"
-        vars_h.write_text(header(name))
         plats = platforms or LINUX[fmi_version]
-        path, _ = build_native_fmu(name, [*sources(name), vars_h], xml, target, fmi_version, plats,
+        path, _ = build_native_fmu(name, [*sources(name), *generated(name, tmp)], xml, target, fmi_version,
+                                   plats,
                                    resources={**(resources or {}),
                                               BUILD_INPUTS: (inputs_fingerprint(name) + "\n").encode()},
                                    linux_glibc=PORTABLE_GLIBC if len(plats) > 1 else None,

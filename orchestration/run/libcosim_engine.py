@@ -156,11 +156,11 @@ def signals_fmu_for(scenario, cache_dir):
     """The ScenarioSignals FMU of ``scenario``'s profiles, built once into ``cache_dir/<key>/`` and
     reused while the profiles and the C sources it is built from are unchanged (the key is a SHA-256
     over both); the build takes about a second (a C compile), the reuse nothing."""
-    from orchestration.build import native_build, signals_fmu
+    from orchestration.build import native_build, native_tables, signals_fmu
 
     h = hashlib.sha256(signals_fmu.profiles_text(scenario).encode())
-    for f in (signals_fmu.SOURCE, *sorted(native_build.GLUE_DIR.glob("*.[ch]")), Path(signals_fmu.__file__),
-              Path(native_build.__file__)):
+    for f in (*signals_fmu.sources(), *sorted(native_build.GLUE_DIR.glob("*.[ch]")),
+              Path(signals_fmu.__file__), Path(native_build.__file__), Path(native_tables.__file__)):
         h.update(Path(f).name.encode() + b"\0" + Path(f).read_bytes() + b"\0")
     d = Path(cache_dir) / h.hexdigest()[:24]
     fmu = d / f"{signals_fmu.MODEL_NAME}.fmu"

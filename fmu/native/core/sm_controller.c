@@ -7,60 +7,9 @@
 
 #include "sm_common.h"
 
-static const char *const INPUT_NAMES[SM_CTRL_N_IN] = {"i_s_alpha", "i_s_beta", "psi_r_alpha", "psi_r_beta",
-                                                      "psi_s_alpha", "psi_s_beta", "omega_m", "omega_ref",
-                                                      "psi_ref", "T_load"};
-
 size_t sm_controller_size(void)
 {
     return sizeof(sm_controller);
-}
-
-size_t sm_controller_params_size(void)
-{
-    return sizeof(sm_controller_params);
-}
-
-static void copy(char *dst, const char *src)
-{
-    (void)snprintf(dst, SM_STR_MAX, "%s", src);
-}
-
-void sm_controller_params_default(sm_controller_params *v)
-{
-    memset(v, 0, sizeof *v);
-    v->c1 = 200.0;
-    v->c2 = 1000.0;
-    v->d1 = 100.0;
-    v->d2 = 500.0;
-    v->c0 = 0.0;
-    v->d0 = 0.0;
-    v->Ts = 1e-4;
-    copy(v->mode, "saturated");
-    copy(v->load_mode, "known");
-    v->V_dc = 540.0;
-    v->ref_bandwidth = 40.0;
-    v->g_theta = 5.0;
-    v->theta_max = 1.0e4;
-    v->I_max = 30.0;
-    copy(v->flux_source, "measured");
-    v->delay_samples = 0;
-    v->use_stator_flux = 0;
-    v->R_s = 1.405;
-    v->R_r = 1.395;
-    v->l_s = 5.839e-3;
-    v->l_r = 5.839e-3;
-    v->k = 1.0;
-    v->n_p = 2;
-    v->J = 0.0131;
-    v->B = 2.985e-3;
-    copy(v->curve, "arctan");
-    v->L_m0 = 0.2772;
-    v->L_m_inf = 0.01;
-    v->I_par = 3.31;
-    v->poly_b = 2.46;
-    v->poly_n = 7;
-    copy(v->table_file, "");
 }
 
 static int str_error(char *msg, size_t len, const char *field, const char *value, const char *reason)
@@ -69,7 +18,8 @@ static int str_error(char *msg, size_t len, const char *field, const char *value
     return sm_param_error(msg, len, NULL, field, sm_repr_str(value, repr, sizeof repr), reason);
 }
 
-int sm_controller_init(sm_controller *u, const sm_controller_params *v, char *msg, size_t msg_len)
+int sm_controller_init(sm_controller *u, const sm_controller_params *v, const sm_motor_params *m, char *msg,
+                       size_t msg_len)
 {
     sm_motor p;
     sm_gains g;
@@ -78,24 +28,16 @@ int sm_controller_init(sm_controller *u, const sm_controller_params *v, char *ms
     sm_drive_config dc;
     sm_mode mode;
     int st, j;
-    const double reals[] = {v->c1, v->c2, v->d1, v->d2, v->c0, v->d0, v->Ts, v->V_dc, v->ref_bandwidth,
-                            v->g_theta, v->theta_max, v->I_max};
-    const char *const real_names[] = {"c1", "c2", "d1", "d2", "c0", "d0", "Ts", "V_dc", "ref_bandwidth",
-                                      "g_theta", "theta_max", "I_max"};
-    if (u == NULL || v == NULL) {
+    if (u == NULL || v == NULL || m == NULL) {
         return SM_ERR_ARG;
     }
     memset(u, 0, sizeof *u);
     /* motor_params(values): the motor parameters and their curve (PlantUnit-style checks) */
-    if ((st = sm_motor_init(&p, v->R_s, v->R_r, v->l_s, v->l_r, v->k, v->n_p, v->J, v->B, v->curve, v->L_m0,
-                            v->L_m_inf, v->I_par, v->poly_b, v->poly_n, v->table_file, 0.0, 0.0, 1e-4, 0.0, msg,
-                            msg_len))) {
+    if ((st = sm_motor_init(&p, m, NULL, msg, msg_len))) { /* NULL: no plant parameters, their defaults */
         return st;
     }
-    for (j = 0; j < (int)(sizeof reals / sizeof reals[0]); ++j) { /* interface._number: finite */
-        if ((st = sm_require_number(real_names[j], reals[j], 0, 0.0, 0, msg, msg_len))) {
-            return st;
-        }
+    if ((st = sm_controller_params_require_finite(v, msg, msg_len))) { /* interface._number: finite */
+        return st;
     }
     if (strcmp(v->mode, "saturated") == 0) {
         mode = SM_MODE_SATURATED;
@@ -144,21 +86,20 @@ int sm_controller_init(sm_controller *u, const sm_controller_params *v, char *ms
     cfg.g_theta = v->g_theta;
     cfg.theta_max = v->theta_max;
     cfg.use_stator_flux = v->use_stator_flux ? 1 : 0;
-    ig.w_c = 2000.0;
-    ig.w_speed = 200.0;
+    sm_ifoc_gains_default(&ig); /* as ControllerUnit: IFOCGains() with the unit's V_dc and I_max */
     ig.I_max = v->I_max;
     ig.V_dc = v->V_dc;
     if ((st = sm_drive_init(&u->drive, mode, &p, &g, &cfg, &ig, &dc, msg, msg_len))) {
         return st;
     }
     u->Ts = v->Ts;
-    for (j = 0; j < SM_CTRL_N_OUT; ++j) {
+    for (j = 0; j < SM_CONTROLLER_N_OUT; ++j) {
         u->out[j] = 0.0;
     }
     return SM_CORE_OK;
 }
 
-int sm_controller_step(sm_controller *u, double t, double dt, const double in[SM_CTRL_N_IN], char *msg,
+int sm_controller_step(sm_controller *u, double t, double dt, const double in[SM_CONTROLLER_N_IN], char *msg,
                        size_t msg_len)
 {
     double meas[7], sum = 0.0;
@@ -172,12 +113,12 @@ int sm_controller_step(sm_controller *u, double t, double dt, const double in[SM
         return sm_param_error(msg, msg_len, NULL, "communicationStepSize", sm_repr_double(dt, drepr, sizeof drepr),
                               reason);
     }
-    for (j = 0; j < SM_CTRL_N_IN; ++j) {
+    for (j = 0; j < SM_CONTROLLER_N_IN; ++j) {
         sum += in[j];
     }
     if (!isfinite(sum)) {
-        for (j = 0; j < SM_CTRL_N_IN; ++j) {
-            if ((st = sm_require_number(INPUT_NAMES[j], in[j], 0, 0.0, 0, msg, msg_len))) {
+        for (j = 0; j < SM_CONTROLLER_N_IN; ++j) {
+            if ((st = sm_require_number(SM_CONTROLLER_INPUT_NAMES[j], in[j], 0, 0.0, 0, msg, msg_len))) {
                 return st;
             }
         }

@@ -14,20 +14,6 @@ size_t sm_drive_size(void)
     return sizeof(sm_drive);
 }
 
-void sm_drive_config_default(sm_drive_config *dc)
-{
-    dc->ref_bandwidth = 40.0;
-    dc->I_max = 30.0;
-    dc->premag_fraction = 0.9;
-    dc->premag_boost = 1.5;
-    dc->premag_gain = 20.0;
-    dc->premag_time_max = 0.4;
-    dc->premag_min_fraction = 0.5;
-    dc->premag_speed_tol = 2.0;
-    dc->observer = 0;
-    dc->delay_samples = 0;
-}
-
 static const char *curve_name(const sm_curve *c)
 {
     switch (c->kind) {

@@ -24,6 +24,7 @@ typedef struct {
     int delay_samples; /* 0 or 1 */
 } sm_drive_config;
 
+/* The Python defaults, DriveConfig() (defined in the generated sm_params.c). */
 void sm_drive_config_default(sm_drive_config *dc);
 
 /* drive.DriveOutput (flags 0/1). */

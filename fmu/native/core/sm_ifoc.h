@@ -16,6 +16,9 @@ typedef struct {
     double V_dc;    /* [V] DC link; |v_s| <= V_dc / sqrt(3) */
 } sm_ifoc_gains;
 
+/* The Python defaults, IFOCGains() (defined in the generated sm_params.c). */
+void sm_ifoc_gains_default(sm_ifoc_gains *g);
+
 typedef struct {
     /* design constants (set by sm_ifoc_init) */
     double Ts, L_m, L_ra, sigL, R_eq, tau_r, Kp_i, Ki_i, T_sigma, a_so, Kp_w, Ki_w, V_max, V_max2;

@@ -176,16 +176,6 @@ int sm_from_stator_flux(double i_sa, double i_sb, double psi_ra, double psi_rb, 
 
 /* ---- backstepping.py: parameters --------------------------------------------------------------- */
 
-void sm_gains_default(sm_gains *g)
-{
-    g->c1 = 200.0;
-    g->c2 = 1000.0;
-    g->d1 = 100.0;
-    g->d2 = 500.0;
-    g->c0 = 0.0;
-    g->d0 = 0.0;
-}
-
 int sm_gains_check(const sm_gains *g, char *msg, size_t msg_len)
 {
     int st;
@@ -196,17 +186,6 @@ int sm_gains_check(const sm_gains *g, char *msg, size_t msg_len)
     if ((st = sm_require_number("d2", g->d2, 1, 0.0, 0, msg, msg_len)) != SM_CORE_OK) return st;
     if ((st = sm_require_number("c0", g->c0, 1, 0.0, 1, msg, msg_len)) != SM_CORE_OK) return st;
     return sm_require_number("d0", g->d0, 1, 0.0, 1, msg, msg_len);
-}
-
-void sm_law_config_default(sm_law_config *cfg)
-{
-    cfg->V_dc = 540.0;
-    cfg->Ts = 1e-4;
-    cfg->phi_min = 0.05;
-    cfg->load_estimated = 0;
-    cfg->g_theta = 5.0;
-    cfg->theta_max = 1.0e4;
-    cfg->use_stator_flux = 0;
 }
 
 static int require_flag(const char *field, int value, const char *reason, char *msg, size_t msg_len)

@@ -106,7 +106,7 @@ typedef struct {
     double c1, c2, d1, d2, c0, d0;
 } sm_gains;
 
-/* The Python defaults (200, 1000, 100, 500, 0, 0). */
+/* The Python defaults, BacksteppingGains() (defined in the generated sm_params.c). */
 void sm_gains_default(sm_gains *g);
 /* BacksteppingGains.__post_init__: SM_CORE_OK or SM_ERR_PARAM ("c1 = -1.0: must be a finite number
  * > 0"). */
@@ -124,7 +124,7 @@ typedef struct {
     int use_stator_flux; /* 0 or 1 */
 } sm_law_config;
 
-/* The Python defaults (540 V, 1e-4 s, 0.05 Wb, known, 5, 1e4, rotor flux). */
+/* The Python defaults, ControllerConfig() (defined in the generated sm_params.c). */
 void sm_law_config_default(sm_law_config *cfg);
 /* ControllerConfig.__post_init__ in the same order: SM_CORE_OK or SM_ERR_PARAM. */
 int sm_law_config_check(const sm_law_config *cfg, char *msg, size_t msg_len);

@@ -13,70 +13,68 @@ static int all_finite(const double *v, int n)
     return 1;
 }
 
-int sm_motor_init(sm_motor *p, double R_s, double R_r, double l_s, double l_r, double k, int n_p,
-                  double J, double B, const char *curve, double L_m0, double L_m_inf, double I_par,
-                  double poly_b, int poly_n, const char *table_file, double omega_m0, double psi_r0,
-                  double h_int, double B_2, char *msg, size_t msg_len)
+int sm_motor_init(sm_motor *p, const sm_motor_params *m, const sm_plant_params *pp, char *msg, size_t msg_len)
 {
     sm_motor q;
+    sm_plant_params dflt;
     int st, i;
     const char *names[] = {"R_s", "R_r", "l_s", "l_r", "k"};
-    const double vals[] = {R_s, R_r, l_s, l_r, k};
+    double vals[5];
     if (msg != NULL && msg_len > 0) msg[0] = '\0';
-    if (p == NULL) {
-        if (msg != NULL && msg_len > 0) snprintf(msg, msg_len, "sm_motor_init: NULL motor");
+    if (p == NULL || m == NULL) {
+        if (msg != NULL && msg_len > 0) snprintf(msg, msg_len, "sm_motor_init: NULL motor or parameters");
         return SM_ERR_ARG;
     }
+    if (pp == NULL) { /* the controller's model of the motor: the plant-only parameters' defaults */
+        sm_plant_params_default(&dflt);
+        pp = &dflt;
+    }
     /* interface._number over MOTOR_PARAMETERS (Real: finite; Integer: any int) */
-    for (i = 0; i < 5; ++i)
-        if (sm_require_number(names[i], vals[i], 0, 0.0, 0, msg, msg_len)) return SM_ERR_PARAM;
-    if (sm_require_number("J", J, 0, 0.0, 0, msg, msg_len)) return SM_ERR_PARAM;
-    if (sm_require_number("B", B, 0, 0.0, 0, msg, msg_len)) return SM_ERR_PARAM;
-    if (sm_require_number("L_m0", L_m0, 0, 0.0, 0, msg, msg_len)) return SM_ERR_PARAM;
-    if (sm_require_number("L_m_inf", L_m_inf, 0, 0.0, 0, msg, msg_len)) return SM_ERR_PARAM;
-    if (sm_require_number("I_par", I_par, 0, 0.0, 0, msg, msg_len)) return SM_ERR_PARAM;
-    if (sm_require_number("poly_b", poly_b, 0, 0.0, 0, msg, msg_len)) return SM_ERR_PARAM;
+    if (sm_motor_params_require_finite(m, msg, msg_len)) return SM_ERR_PARAM;
     /* make_curve */
     memset(&q, 0, sizeof q);
-    st = sm_curve_init(&q.curve, curve, L_m0, L_m_inf, I_par, poly_b, poly_n, table_file, msg, msg_len);
+    st = sm_curve_init(&q.curve, m->curve, m->L_m0, m->L_m_inf, m->I_par, m->poly_b, m->poly_n, m->table_file, msg,
+                       msg_len);
     if (st) return st;
     /* MotorParams.__post_init__ */
+    vals[0] = m->R_s;
+    vals[1] = m->R_r;
+    vals[2] = m->l_s;
+    vals[3] = m->l_r;
+    vals[4] = m->k;
     for (i = 0; i < 5; ++i)
         if (sm_require_number(names[i], vals[i], 1, 0.0, 0, msg, msg_len)) return SM_ERR_PARAM;
-    if (sm_require_number("J", J, 1, 0.0, 0, msg, msg_len)) return SM_ERR_PARAM;
-    if (sm_require_integer("n_p", n_p, 1, msg, msg_len)) return SM_ERR_PARAM;
-    if (sm_require_number("B", B, 1, 0.0, 1, msg, msg_len)) return SM_ERR_PARAM;
+    if (sm_require_number("J", m->J, 1, 0.0, 0, msg, msg_len)) return SM_ERR_PARAM;
+    if (sm_require_integer("n_p", m->n_p, 1, msg, msg_len)) return SM_ERR_PARAM;
+    if (sm_require_number("B", m->B, 1, 0.0, 1, msg, msg_len)) return SM_ERR_PARAM;
     /* PlantUnit: _number of omega_m0, psi_r0, h_int, B_2, then the bounds */
-    if (sm_require_number("omega_m0", omega_m0, 0, 0.0, 0, msg, msg_len)) return SM_ERR_PARAM;
-    if (sm_require_number("psi_r0", psi_r0, 0, 0.0, 0, msg, msg_len)) return SM_ERR_PARAM;
-    if (sm_require_number("h_int", h_int, 0, 0.0, 0, msg, msg_len)) return SM_ERR_PARAM;
-    if (sm_require_number("B_2", B_2, 0, 0.0, 0, msg, msg_len)) return SM_ERR_PARAM;
-    if (sm_require_number("psi_r0", psi_r0, 1, 0.0, 1, msg, msg_len)) return SM_ERR_PARAM;
-    if (sm_require_number("h_int", h_int, 1, 0.0, 0, msg, msg_len)) return SM_ERR_PARAM;
-    if (sm_require_number("B_2", B_2, 1, 0.0, 1, msg, msg_len)) return SM_ERR_PARAM;
-    q.R_s = R_s;
-    q.R_r = R_r;
-    q.l_s = l_s;
-    q.l_r = l_r;
-    q.k = k;
-    q.n_p = n_p;
-    q.J = J;
-    q.B = B;
-    q.B_2 = B_2;
+    if (sm_plant_params_require_finite(pp, msg, msg_len)) return SM_ERR_PARAM;
+    if (sm_require_number("psi_r0", pp->psi_r0, 1, 0.0, 1, msg, msg_len)) return SM_ERR_PARAM;
+    if (sm_require_number("h_int", pp->h_int, 1, 0.0, 0, msg, msg_len)) return SM_ERR_PARAM;
+    if (sm_require_number("B_2", pp->B_2, 1, 0.0, 1, msg, msg_len)) return SM_ERR_PARAM;
+    q.R_s = m->R_s;
+    q.R_r = m->R_r;
+    q.l_s = m->l_s;
+    q.l_r = m->l_r;
+    q.k = m->k;
+    q.n_p = m->n_p;
+    q.J = m->J;
+    q.B = m->B;
+    q.B_2 = pp->B_2;
     /* Plant.__init__ */
-    q.inv_ls = 1.0 / l_s;
-    q.k_lr = k / l_r;
-    q.le = 1.0 / (1.0 / l_s + k * k / l_r); /* MotorParams.l_e */
-    q.kappa = 1.5 * (double)n_p;
-    q.inv_J = 1.0 / J;
+    q.inv_ls = 1.0 / q.l_s;
+    q.k_lr = q.k / q.l_r;
+    q.le = 1.0 / (1.0 / q.l_s + q.k * q.k / q.l_r); /* MotorParams.l_e */
+    q.kappa = 1.5 * (double)q.n_p;
+    q.inv_J = 1.0 / q.J;
     q.m0 = q.curve.m0;
-    q.omega_m0 = omega_m0;
-    q.psi_r0 = psi_r0;
-    q.h_int = h_int;
-    st = sm_plant_initial_state(&q, omega_m0, 0.0, psi_r0, 0.0, q.x0);
+    q.omega_m0 = pp->omega_m0;
+    q.psi_r0 = pp->psi_r0;
+    q.h_int = pp->h_int;
+    st = sm_plant_initial_state(&q, q.omega_m0, 0.0, q.psi_r0, 0.0, q.x0);
     if (st) {
         if (msg != NULL && msg_len > 0)
-            snprintf(msg, msg_len, "the initial state (psi_r0 = %.17g Wb) could not be solved", psi_r0);
+            snprintf(msg, msg_len, "the initial state (psi_r0 = %.17g Wb) could not be solved", q.psi_r0);
         return st;
     }
     memcpy(p, &q, sizeof q);

@@ -8,6 +8,7 @@
 
 #include "sm_common.h"
 #include "sm_curves.h"
+#include "sm_params.h" /* generated: sm_motor_params, sm_plant_params (orchestration/build/native_tables.py) */
 
 /* state x = [psi_s_alpha, psi_s_beta, psi_r_alpha, psi_r_beta, omega_m, theta_m] */
 enum { SM_PSI_S_A, SM_PSI_S_B, SM_PSI_R_A, SM_PSI_R_B, SM_OMEGA_M, SM_THETA_M, SM_N_STATES };
@@ -26,12 +27,11 @@ typedef struct {
 
 /* The checks of PlantUnit(values) in its order: finiteness of every flat Real parameter
  * (interface._number, in the order of PLANT_PARAMETERS), make_curve, MotorParams, psi_r0 >= 0,
- * h_int > 0, B_2 >= 0, then the initial state.  Returns SM_CORE_OK, SM_ERR_PARAM (msg: the
- * ParameterError text), SM_ERR_NOCONV (the initial state's inverse curve did not converge). */
-int sm_motor_init(sm_motor *p, double R_s, double R_r, double l_s, double l_r, double k, int n_p,
-                  double J, double B, const char *curve, double L_m0, double L_m_inf, double I_par,
-                  double poly_b, int poly_n, const char *table_file, double omega_m0, double psi_r0,
-                  double h_int, double B_2, char *msg, size_t msg_len);
+ * h_int > 0, B_2 >= 0, then the initial state.  m: the motor parameters (MOTOR_PARAMETERS); pp: the
+ * plant's own (omega_m0, psi_r0, h_int, B_2), NULL for their defaults (the controller's model of the
+ * motor).  Returns SM_CORE_OK, SM_ERR_PARAM (msg: the ParameterError text), SM_ERR_NOCONV (the
+ * initial state's inverse curve did not converge), SM_ERR_ARG (p or m NULL). */
+int sm_motor_init(sm_motor *p, const sm_motor_params *m, const sm_plant_params *pp, char *msg, size_t msg_len);
 
 /* sizeof(sm_motor), for hosts that allocate it without the header (ctypes). */
 size_t sm_motor_size(void);

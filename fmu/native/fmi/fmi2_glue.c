@@ -1,16 +1,16 @@
-/* fmi2_glue.c - FMI 2.0 co-simulation functions over sm_instance (model agnostic) */
+/* fmi2_glue.c - FMI 2.0 co-simulation functions over fg_instance (model agnostic) */
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "fmi2Functions.h"
-#include "sm_instance.h"
+#include "fg_instance.h"
 
-#define INST ((sm_instance *)c)
+#define INST ((fg_instance *)c)
 
 /* the message of the FMI 2 logger is a printf format (importers, fmpy's proxy among them, format it
  * with the variadic arguments): pass the already formatted text with every '%' doubled */
-static void emit2(sm_instance *inst, sm_status status, const char *category, const char *message)
+static void emit2(fg_instance *inst, fg_status status, const char *category, const char *message)
 {
     fmi2CallbackLogger logger = (fmi2CallbackLogger)inst->logger;
     char buf[2048];
@@ -31,7 +31,7 @@ fmi2Status fmi2SetDebugLogging(fmi2Component c, fmi2Boolean loggingOn, size_t nC
 {
     (void)categories;
     if (c == NULL) return fmi2Error;
-    if (!sm_args_ok(INST, "fmi2SetDebugLogging", nCategories, categories, categories)) return fmi2Error;
+    if (!fg_args_ok(INST, "fmi2SetDebugLogging", nCategories, categories, categories)) return fmi2Error;
     INST->logging_on = loggingOn ? 1 : 0;
     return fmi2OK;
 }
@@ -40,37 +40,37 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2Str
                               fmi2String fmuResourceLocation, const fmi2CallbackFunctions *functions,
                               fmi2Boolean visible, fmi2Boolean loggingOn)
 {
-    sm_instance tmp;
-    sm_instance *inst;
+    fg_instance tmp;
+    fg_instance *inst;
     (void)visible;
     if (functions == NULL || functions->logger == NULL) return NULL;
     /* a temporary instance that can only log, for the refusals below */
     memset(&tmp, 0, sizeof tmp);
     tmp.name = (char *)(instanceName != NULL ? instanceName : "?");
     tmp.env = functions->componentEnvironment;
-    tmp.logger = (sm_generic_fn)functions->logger;
+    tmp.logger = (fg_generic_fn)functions->logger;
     tmp.emit = emit2;
     if (instanceName == NULL || instanceName[0] == '\0') {
-        sm_log(&tmp, SM_ERROR, NULL, "fmi2Instantiate: missing instance name");
+        fg_log(&tmp, FG_ERROR, NULL, "fmi2Instantiate: missing instance name");
         return NULL;
     }
     if (fmuType != fmi2CoSimulation) {
-        sm_log(&tmp, SM_ERROR, NULL, "fmi2Instantiate: %s supports co-simulation only",
-               SM_MODEL_IDENTIFIER_STRING);
+        fg_log(&tmp, FG_ERROR, NULL, "fmi2Instantiate: %s supports co-simulation only",
+               FG_MODEL_IDENTIFIER_STRING);
         return NULL;
     }
     if (fmuGUID == NULL || strcmp(fmuGUID, INSTANTIATION_TOKEN) != 0) {
-        sm_log(&tmp, SM_ERROR, NULL, "fmi2Instantiate: GUID %s does not match %s of this binary",
+        fg_log(&tmp, FG_ERROR, NULL, "fmi2Instantiate: GUID %s does not match %s of this binary",
                fmuGUID != NULL ? fmuGUID : "(NULL)", INSTANTIATION_TOKEN);
         return NULL;
     }
-    inst = sm_instance_new(instanceName, fmuResourceLocation, functions->componentEnvironment,
-                           (sm_generic_fn)functions->logger, emit2, loggingOn ? 1 : 0);
-    if (inst == NULL) sm_log(&tmp, SM_ERROR, NULL, "fmi2Instantiate: out of memory");
+    inst = fg_instance_new(instanceName, fmuResourceLocation, functions->componentEnvironment,
+                           (fg_generic_fn)functions->logger, emit2, loggingOn ? 1 : 0);
+    if (inst == NULL) fg_log(&tmp, FG_ERROR, NULL, "fmi2Instantiate: out of memory");
     return inst;
 }
 
-void fmi2FreeInstance(fmi2Component c) { sm_instance_free(INST); }
+void fmi2FreeInstance(fmi2Component c) { fg_instance_free(INST); }
 
 fmi2Status fmi2SetupExperiment(fmi2Component c, fmi2Boolean toleranceDefined, fmi2Real tolerance,
                                fmi2Real startTime, fmi2Boolean stopTimeDefined, fmi2Real stopTime)
@@ -79,7 +79,7 @@ fmi2Status fmi2SetupExperiment(fmi2Component c, fmi2Boolean toleranceDefined, fm
     (void)tolerance;
     (void)stopTimeDefined;
     (void)stopTime;
-    if (!sm_allowed(INST, "fmi2SetupExperiment", SM_PHASE_INSTANTIATED)) return fmi2Error;
+    if (!fg_allowed(INST, "fmi2SetupExperiment", FG_PHASE_INSTANTIATED)) return fmi2Error;
     INST->time = startTime;
     return fmi2OK;
 }
@@ -87,46 +87,46 @@ fmi2Status fmi2SetupExperiment(fmi2Component c, fmi2Boolean toleranceDefined, fm
 fmi2Status fmi2EnterInitializationMode(fmi2Component c)
 {
     if (c == NULL) return fmi2Error;
-    return (fmi2Status)sm_enter_initialization(INST, "fmi2EnterInitializationMode", INST->time);
+    return (fmi2Status)fg_enter_initialization(INST, "fmi2EnterInitializationMode", INST->time);
 }
 
 fmi2Status fmi2ExitInitializationMode(fmi2Component c)
 {
-    return (fmi2Status)sm_exit_initialization(INST, "fmi2ExitInitializationMode");
+    return (fmi2Status)fg_exit_initialization(INST, "fmi2ExitInitializationMode");
 }
 
 fmi2Status fmi2Terminate(fmi2Component c)
 {
-    if (!sm_allowed(INST, "fmi2Terminate", SM_PHASE_STEP | SM_PHASE_STEP_FAILED)) return fmi2Error;
-    INST->phase = SM_PHASE_TERMINATED;
+    if (!fg_allowed(INST, "fmi2Terminate", FG_PHASE_STEP | FG_PHASE_STEP_FAILED)) return fmi2Error;
+    INST->phase = FG_PHASE_TERMINATED;
     return fmi2OK;
 }
 
 fmi2Status fmi2Reset(fmi2Component c)
 {
     if (c == NULL) return fmi2Error;
-    sm_instance_reset(INST);
+    fg_instance_reset(INST);
     return fmi2OK;
 }
 
 fmi2Status fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nvr, fmi2Real value[])
 {
-    return (fmi2Status)sm_get_real(INST, "fmi2GetReal", vr, nvr, value);
+    return (fmi2Status)fg_get_real(INST, "fmi2GetReal", vr, nvr, value);
 }
 
 fmi2Status fmi2GetInteger(fmi2Component c, const fmi2ValueReference vr[], size_t nvr, fmi2Integer value[])
 {
-    return (fmi2Status)sm_get_integer(INST, "fmi2GetInteger", vr, nvr, (int32_t *)value);
+    return (fmi2Status)fg_get_integer(INST, "fmi2GetInteger", vr, nvr, (int32_t *)value);
 }
 
 fmi2Status fmi2GetBoolean(fmi2Component c, const fmi2ValueReference vr[], size_t nvr, fmi2Boolean value[])
 {
     size_t i;
     fmi2Status s = fmi2OK, si;
-    if (c == NULL || !sm_args_ok(INST, "fmi2GetBoolean", nvr, vr, value)) return fmi2Error;
+    if (c == NULL || !fg_args_ok(INST, "fmi2GetBoolean", nvr, vr, value)) return fmi2Error;
     for (i = 0; i < nvr; i++) {
         int b = 0;
-        si = (fmi2Status)sm_get_boolean1(INST, "fmi2GetBoolean", vr[i], &b);
+        si = (fmi2Status)fg_get_boolean1(INST, "fmi2GetBoolean", vr[i], &b);
         if (si > s) s = si;
         if (s >= fmi2Error) return s;
         value[i] = b ? fmi2True : fmi2False;
@@ -136,26 +136,26 @@ fmi2Status fmi2GetBoolean(fmi2Component c, const fmi2ValueReference vr[], size_t
 
 fmi2Status fmi2GetString(fmi2Component c, const fmi2ValueReference vr[], size_t nvr, fmi2String value[])
 {
-    return (fmi2Status)sm_get_string(INST, "fmi2GetString", vr, nvr, value);
+    return (fmi2Status)fg_get_string(INST, "fmi2GetString", vr, nvr, value);
 }
 
 fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nvr, const fmi2Real value[])
 {
-    return (fmi2Status)sm_set_real(INST, "fmi2SetReal", vr, nvr, value);
+    return (fmi2Status)fg_set_real(INST, "fmi2SetReal", vr, nvr, value);
 }
 
 fmi2Status fmi2SetInteger(fmi2Component c, const fmi2ValueReference vr[], size_t nvr, const fmi2Integer value[])
 {
-    return (fmi2Status)sm_set_integer(INST, "fmi2SetInteger", vr, nvr, (const int32_t *)value);
+    return (fmi2Status)fg_set_integer(INST, "fmi2SetInteger", vr, nvr, (const int32_t *)value);
 }
 
 fmi2Status fmi2SetBoolean(fmi2Component c, const fmi2ValueReference vr[], size_t nvr, const fmi2Boolean value[])
 {
     size_t i;
     fmi2Status s = fmi2OK, si;
-    if (c == NULL || !sm_args_ok(INST, "fmi2SetBoolean", nvr, vr, value)) return fmi2Error;
+    if (c == NULL || !fg_args_ok(INST, "fmi2SetBoolean", nvr, vr, value)) return fmi2Error;
     for (i = 0; i < nvr; i++) {
-        si = (fmi2Status)sm_set_boolean1(INST, "fmi2SetBoolean", vr[i], value[i] != fmi2False);
+        si = (fmi2Status)fg_set_boolean1(INST, "fmi2SetBoolean", vr[i], value[i] != fmi2False);
         if (si > s) s = si;
         if (s >= fmi2Error) return s;
     }
@@ -164,24 +164,24 @@ fmi2Status fmi2SetBoolean(fmi2Component c, const fmi2ValueReference vr[], size_t
 
 fmi2Status fmi2SetString(fmi2Component c, const fmi2ValueReference vr[], size_t nvr, const fmi2String value[])
 {
-    return (fmi2Status)sm_set_string(INST, "fmi2SetString", vr, nvr, value);
+    return (fmi2Status)fg_set_string(INST, "fmi2SetString", vr, nvr, value);
 }
 
 fmi2Status fmi2GetFMUstate(fmi2Component c, fmi2FMUstate *FMUstate)
 {
-    return (fmi2Status)sm_state_get(INST, "fmi2GetFMUstate", FMUstate);
+    return (fmi2Status)fg_state_get(INST, "fmi2GetFMUstate", FMUstate);
 }
 
 fmi2Status fmi2SetFMUstate(fmi2Component c, fmi2FMUstate FMUstate)
 {
-    return (fmi2Status)sm_state_set(INST, "fmi2SetFMUstate", FMUstate);
+    return (fmi2Status)fg_state_set(INST, "fmi2SetFMUstate", FMUstate);
 }
 
 fmi2Status fmi2FreeFMUstate(fmi2Component c, fmi2FMUstate *FMUstate)
 {
     if (c == NULL) return fmi2Error;
     if (FMUstate == NULL) return fmi2OK;
-    sm_state_free(*FMUstate);
+    fg_state_free(*FMUstate);
     *FMUstate = NULL;
     return fmi2OK;
 }
@@ -190,23 +190,23 @@ fmi2Status fmi2SerializedFMUstateSize(fmi2Component c, fmi2FMUstate FMUstate, si
 {
     if (c == NULL) return fmi2Error;
     if (FMUstate == NULL || size == NULL) {
-        sm_log(INST, SM_ERROR, NULL, "fmi2SerializedFMUstateSize: NULL argument");
+        fg_log(INST, FG_ERROR, NULL, "fmi2SerializedFMUstateSize: NULL argument");
         return fmi2Error;
     }
-    *size = sm_state_size();
+    *size = fg_state_size();
     return fmi2OK;
 }
 
 fmi2Status fmi2SerializeFMUstate(fmi2Component c, fmi2FMUstate FMUstate, fmi2Byte serializedState[], size_t size)
 {
-    return (fmi2Status)sm_state_serialize(INST, "fmi2SerializeFMUstate", FMUstate, (unsigned char *)serializedState,
+    return (fmi2Status)fg_state_serialize(INST, "fmi2SerializeFMUstate", FMUstate, (unsigned char *)serializedState,
                                           size);
 }
 
 fmi2Status fmi2DeSerializeFMUstate(fmi2Component c, const fmi2Byte serializedState[], size_t size,
                                    fmi2FMUstate *FMUstate)
 {
-    return (fmi2Status)sm_state_deserialize(INST, "fmi2DeSerializeFMUstate", (const unsigned char *)serializedState,
+    return (fmi2Status)fg_state_deserialize(INST, "fmi2DeSerializeFMUstate", (const unsigned char *)serializedState,
                                             size, FMUstate);
 }
 
@@ -215,36 +215,36 @@ fmi2Status fmi2GetDirectionalDerivative(fmi2Component c, const fmi2ValueReferenc
                                         const fmi2Real dvKnown[], fmi2Real dvUnknown[])
 {
     (void)vUnknown_ref; (void)nUnknown; (void)vKnown_ref; (void)nKnown; (void)dvKnown; (void)dvUnknown;
-    return (fmi2Status)sm_unsupported(INST, "fmi2GetDirectionalDerivative");
+    return (fmi2Status)fg_unsupported(INST, "fmi2GetDirectionalDerivative");
 }
 
 fmi2Status fmi2SetRealInputDerivatives(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
                                        const fmi2Integer order[], const fmi2Real value[])
 {
     (void)vr; (void)nvr; (void)order; (void)value;
-    return (fmi2Status)sm_unsupported(INST, "fmi2SetRealInputDerivatives");
+    return (fmi2Status)fg_unsupported(INST, "fmi2SetRealInputDerivatives");
 }
 
 fmi2Status fmi2GetRealOutputDerivatives(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
                                         const fmi2Integer order[], fmi2Real value[])
 {
     (void)vr; (void)nvr; (void)order; (void)value;
-    return (fmi2Status)sm_unsupported(INST, "fmi2GetRealOutputDerivatives");
+    return (fmi2Status)fg_unsupported(INST, "fmi2GetRealOutputDerivatives");
 }
 
 fmi2Status fmi2DoStep(fmi2Component c, fmi2Real currentCommunicationPoint, fmi2Real communicationStepSize,
                       fmi2Boolean noSetFMUStatePriorToCurrentPoint)
 {
     (void)noSetFMUStatePriorToCurrentPoint;
-    return (fmi2Status)sm_do_step(INST, "fmi2DoStep", currentCommunicationPoint, communicationStepSize);
+    return (fmi2Status)fg_do_step(INST, "fmi2DoStep", currentCommunicationPoint, communicationStepSize);
 }
 
-fmi2Status fmi2CancelStep(fmi2Component c) { return (fmi2Status)sm_unsupported(INST, "fmi2CancelStep"); }
+fmi2Status fmi2CancelStep(fmi2Component c) { return (fmi2Status)fg_unsupported(INST, "fmi2CancelStep"); }
 
 fmi2Status fmi2GetStatus(fmi2Component c, const fmi2StatusKind s, fmi2Status *value)
 {
     (void)s; (void)value;
-    return (fmi2Status)sm_unsupported(INST, "fmi2GetStatus");
+    return (fmi2Status)fg_unsupported(INST, "fmi2GetStatus");
 }
 
 fmi2Status fmi2GetRealStatus(fmi2Component c, const fmi2StatusKind s, fmi2Real *value)
@@ -254,13 +254,13 @@ fmi2Status fmi2GetRealStatus(fmi2Component c, const fmi2StatusKind s, fmi2Real *
         *value = INST->time;
         return fmi2OK;
     }
-    return (fmi2Status)sm_unsupported(INST, "fmi2GetRealStatus (other than fmi2LastSuccessfulTime)");
+    return (fmi2Status)fg_unsupported(INST, "fmi2GetRealStatus (other than fmi2LastSuccessfulTime)");
 }
 
 fmi2Status fmi2GetIntegerStatus(fmi2Component c, const fmi2StatusKind s, fmi2Integer *value)
 {
     (void)s; (void)value;
-    return (fmi2Status)sm_unsupported(INST, "fmi2GetIntegerStatus");
+    return (fmi2Status)fg_unsupported(INST, "fmi2GetIntegerStatus");
 }
 
 fmi2Status fmi2GetBooleanStatus(fmi2Component c, const fmi2StatusKind s, fmi2Boolean *value)
@@ -270,11 +270,11 @@ fmi2Status fmi2GetBooleanStatus(fmi2Component c, const fmi2StatusKind s, fmi2Boo
         *value = fmi2False;
         return fmi2OK;
     }
-    return (fmi2Status)sm_unsupported(INST, "fmi2GetBooleanStatus (other than fmi2Terminated)");
+    return (fmi2Status)fg_unsupported(INST, "fmi2GetBooleanStatus (other than fmi2Terminated)");
 }
 
 fmi2Status fmi2GetStringStatus(fmi2Component c, const fmi2StatusKind s, fmi2String *value)
 {
     (void)s; (void)value;
-    return (fmi2Status)sm_unsupported(INST, "fmi2GetStringStatus");
+    return (fmi2Status)fg_unsupported(INST, "fmi2GetStringStatus");
 }

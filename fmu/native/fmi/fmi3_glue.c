@@ -1,4 +1,4 @@
-/* fmi3_glue.c - FMI 3.0 co-simulation functions over sm_instance (model agnostic).
+/* fmi3_glue.c - FMI 3.0 co-simulation functions over fg_instance (model agnostic).
  * Supported: Float64, Int32, Boolean, String variables; FMU state; co-simulation without event mode.
  * All other functions of fmi3Functions.h are defined and return fmi3Error with a logged message. */
 #include <stdio.h>
@@ -6,12 +6,12 @@
 #include <string.h>
 
 #include "fmi3Functions.h"
-#include "sm_instance.h"
+#include "fg_instance.h"
 
-#define INST ((sm_instance *)instance)
-#define UNSUPPORTED(name) return (fmi3Status)sm_unsupported(INST, #name)
+#define INST ((fg_instance *)instance)
+#define UNSUPPORTED(name) return (fmi3Status)fg_unsupported(INST, #name)
 
-static void emit3(sm_instance *inst, sm_status status, const char *category, const char *message)
+static void emit3(fg_instance *inst, fg_status status, const char *category, const char *message)
 {
     fmi3LogMessageCallback logger = (fmi3LogMessageCallback)inst->logger;
     logger((fmi3InstanceEnvironment)inst->env, (fmi3Status)status, category, message);
@@ -23,7 +23,7 @@ fmi3Status fmi3SetDebugLogging(fmi3Instance instance, fmi3Boolean loggingOn, siz
                                const fmi3String categories[])
 {
     if (instance == NULL) return fmi3Error;
-    if (!sm_args_ok(INST, "fmi3SetDebugLogging", nCategories, categories, categories)) return fmi3Error;
+    if (!fg_args_ok(INST, "fmi3SetDebugLogging", nCategories, categories, categories)) return fmi3Error;
     INST->logging_on = loggingOn ? 1 : 0;
     return fmi3OK;
 }
@@ -32,14 +32,14 @@ fmi3Status fmi3SetDebugLogging(fmi3Instance instance, fmi3Boolean loggingOn, siz
 static void refuse(fmi3String name, fmi3InstanceEnvironment env, fmi3LogMessageCallback logMessage,
                    const char *message, const char *detail)
 {
-    sm_instance tmp;
+    fg_instance tmp;
     if (logMessage == NULL) return;
     memset(&tmp, 0, sizeof tmp);
     tmp.name = (char *)(name != NULL ? name : "?");
     tmp.env = env;
-    tmp.logger = (sm_generic_fn)logMessage;
+    tmp.logger = (fg_generic_fn)logMessage;
     tmp.emit = emit3;
-    sm_log(&tmp, SM_ERROR, NULL, "%s%s", message, detail);
+    fg_log(&tmp, FG_ERROR, NULL, "%s%s", message, detail);
 }
 
 fmi3Instance fmi3InstantiateCoSimulation(fmi3String instanceName, fmi3String instantiationToken,
@@ -51,7 +51,7 @@ fmi3Instance fmi3InstantiateCoSimulation(fmi3String instanceName, fmi3String ins
                                          fmi3LogMessageCallback logMessage,
                                          fmi3IntermediateUpdateCallback intermediateUpdate)
 {
-    sm_instance *inst;
+    fg_instance *inst;
     (void)visible; (void)earlyReturnAllowed; (void)requiredIntermediateVariables; (void)intermediateUpdate;
     if (instanceName == NULL || instanceName[0] == '\0') {
         refuse(instanceName, instanceEnvironment, logMessage, "fmi3InstantiateCoSimulation: missing instance name", "");
@@ -74,7 +74,7 @@ fmi3Instance fmi3InstantiateCoSimulation(fmi3String instanceName, fmi3String ins
                "variables are not supported");
         return NULL;
     }
-    inst = sm_instance_new(instanceName, resourcePath, instanceEnvironment, (sm_generic_fn)logMessage, emit3,
+    inst = fg_instance_new(instanceName, resourcePath, instanceEnvironment, (fg_generic_fn)logMessage, emit3,
                            loggingOn ? 1 : 0);
     if (inst == NULL) refuse(instanceName, instanceEnvironment, logMessage, "fmi3InstantiateCoSimulation: ",
                              "out of memory");
@@ -108,40 +108,40 @@ fmi3Instance fmi3InstantiateScheduledExecution(fmi3String instanceName, fmi3Stri
     return NULL;
 }
 
-void fmi3FreeInstance(fmi3Instance instance) { sm_instance_free(INST); }
+void fmi3FreeInstance(fmi3Instance instance) { fg_instance_free(INST); }
 
 fmi3Status fmi3EnterInitializationMode(fmi3Instance instance, fmi3Boolean toleranceDefined, fmi3Float64 tolerance,
                                        fmi3Float64 startTime, fmi3Boolean stopTimeDefined, fmi3Float64 stopTime)
 {
     (void)toleranceDefined; (void)tolerance; (void)stopTimeDefined; (void)stopTime;
-    return (fmi3Status)sm_enter_initialization(INST, "fmi3EnterInitializationMode", startTime);
+    return (fmi3Status)fg_enter_initialization(INST, "fmi3EnterInitializationMode", startTime);
 }
 
 fmi3Status fmi3ExitInitializationMode(fmi3Instance instance)
 {
-    return (fmi3Status)sm_exit_initialization(INST, "fmi3ExitInitializationMode");
+    return (fmi3Status)fg_exit_initialization(INST, "fmi3ExitInitializationMode");
 }
 
 fmi3Status fmi3EnterEventMode(fmi3Instance instance) { UNSUPPORTED(fmi3EnterEventMode); }
 
 fmi3Status fmi3Terminate(fmi3Instance instance)
 {
-    if (!sm_allowed(INST, "fmi3Terminate", SM_PHASE_STEP | SM_PHASE_STEP_FAILED)) return fmi3Error;
-    INST->phase = SM_PHASE_TERMINATED;
+    if (!fg_allowed(INST, "fmi3Terminate", FG_PHASE_STEP | FG_PHASE_STEP_FAILED)) return fmi3Error;
+    INST->phase = FG_PHASE_TERMINATED;
     return fmi3OK;
 }
 
 fmi3Status fmi3Reset(fmi3Instance instance)
 {
     if (instance == NULL) return fmi3Error;
-    sm_instance_reset(INST);
+    fg_instance_reset(INST);
     return fmi3OK;
 }
 
 static int scalar_counts(fmi3Instance instance, const char *func, size_t nvr, size_t nValues)
 {
     if (nvr != nValues) {
-        sm_log(INST, SM_ERROR, NULL, "%s: %lu value references but %lu values (arrays are not supported)", func,
+        fg_log(INST, FG_ERROR, NULL, "%s: %lu value references but %lu values (arrays are not supported)", func,
                (unsigned long)nvr, (unsigned long)nValues);
         return 0;
     }
@@ -152,28 +152,28 @@ fmi3Status fmi3GetFloat64(fmi3Instance instance, const fmi3ValueReference vr[], 
                           size_t nValues)
 {
     if (instance == NULL || !scalar_counts(instance, "fmi3GetFloat64", nvr, nValues)) return fmi3Error;
-    return (fmi3Status)sm_get_real(INST, "fmi3GetFloat64", vr, nvr, values);
+    return (fmi3Status)fg_get_real(INST, "fmi3GetFloat64", vr, nvr, values);
 }
 
 fmi3Status fmi3SetFloat64(fmi3Instance instance, const fmi3ValueReference vr[], size_t nvr,
                           const fmi3Float64 values[], size_t nValues)
 {
     if (instance == NULL || !scalar_counts(instance, "fmi3SetFloat64", nvr, nValues)) return fmi3Error;
-    return (fmi3Status)sm_set_real(INST, "fmi3SetFloat64", vr, nvr, values);
+    return (fmi3Status)fg_set_real(INST, "fmi3SetFloat64", vr, nvr, values);
 }
 
 fmi3Status fmi3GetInt32(fmi3Instance instance, const fmi3ValueReference vr[], size_t nvr, fmi3Int32 values[],
                         size_t nValues)
 {
     if (instance == NULL || !scalar_counts(instance, "fmi3GetInt32", nvr, nValues)) return fmi3Error;
-    return (fmi3Status)sm_get_integer(INST, "fmi3GetInt32", vr, nvr, values);
+    return (fmi3Status)fg_get_integer(INST, "fmi3GetInt32", vr, nvr, values);
 }
 
 fmi3Status fmi3SetInt32(fmi3Instance instance, const fmi3ValueReference vr[], size_t nvr, const fmi3Int32 values[],
                         size_t nValues)
 {
     if (instance == NULL || !scalar_counts(instance, "fmi3SetInt32", nvr, nValues)) return fmi3Error;
-    return (fmi3Status)sm_set_integer(INST, "fmi3SetInt32", vr, nvr, values);
+    return (fmi3Status)fg_set_integer(INST, "fmi3SetInt32", vr, nvr, values);
 }
 
 fmi3Status fmi3GetBoolean(fmi3Instance instance, const fmi3ValueReference vr[], size_t nvr, fmi3Boolean values[],
@@ -182,10 +182,10 @@ fmi3Status fmi3GetBoolean(fmi3Instance instance, const fmi3ValueReference vr[], 
     size_t i;
     fmi3Status s = fmi3OK, si;
     if (instance == NULL || !scalar_counts(instance, "fmi3GetBoolean", nvr, nValues)) return fmi3Error;
-    if (!sm_args_ok(INST, "fmi3GetBoolean", nvr, vr, values)) return fmi3Error;
+    if (!fg_args_ok(INST, "fmi3GetBoolean", nvr, vr, values)) return fmi3Error;
     for (i = 0; i < nvr; i++) {
         int b = 0;
-        si = (fmi3Status)sm_get_boolean1(INST, "fmi3GetBoolean", vr[i], &b);
+        si = (fmi3Status)fg_get_boolean1(INST, "fmi3GetBoolean", vr[i], &b);
         if (si > s) s = si;
         if (s >= fmi3Error) return s;
         values[i] = b ? true : false;
@@ -199,9 +199,9 @@ fmi3Status fmi3SetBoolean(fmi3Instance instance, const fmi3ValueReference vr[], 
     size_t i;
     fmi3Status s = fmi3OK, si;
     if (instance == NULL || !scalar_counts(instance, "fmi3SetBoolean", nvr, nValues)) return fmi3Error;
-    if (!sm_args_ok(INST, "fmi3SetBoolean", nvr, vr, values)) return fmi3Error;
+    if (!fg_args_ok(INST, "fmi3SetBoolean", nvr, vr, values)) return fmi3Error;
     for (i = 0; i < nvr; i++) {
-        si = (fmi3Status)sm_set_boolean1(INST, "fmi3SetBoolean", vr[i], values[i] ? 1 : 0);
+        si = (fmi3Status)fg_set_boolean1(INST, "fmi3SetBoolean", vr[i], values[i] ? 1 : 0);
         if (si > s) s = si;
         if (s >= fmi3Error) return s;
     }
@@ -212,14 +212,14 @@ fmi3Status fmi3GetString(fmi3Instance instance, const fmi3ValueReference vr[], s
                          size_t nValues)
 {
     if (instance == NULL || !scalar_counts(instance, "fmi3GetString", nvr, nValues)) return fmi3Error;
-    return (fmi3Status)sm_get_string(INST, "fmi3GetString", vr, nvr, values);
+    return (fmi3Status)fg_get_string(INST, "fmi3GetString", vr, nvr, values);
 }
 
 fmi3Status fmi3SetString(fmi3Instance instance, const fmi3ValueReference vr[], size_t nvr,
                          const fmi3String values[], size_t nValues)
 {
     if (instance == NULL || !scalar_counts(instance, "fmi3SetString", nvr, nValues)) return fmi3Error;
-    return (fmi3Status)sm_set_string(INST, "fmi3SetString", vr, nvr, values);
+    return (fmi3Status)fg_set_string(INST, "fmi3SetString", vr, nvr, values);
 }
 
 /* the types this glue does not carry */
@@ -299,19 +299,19 @@ fmi3Status fmi3GetVariableDependencies(fmi3Instance instance, fmi3ValueReference
 
 fmi3Status fmi3GetFMUState(fmi3Instance instance, fmi3FMUState *FMUState)
 {
-    return (fmi3Status)sm_state_get(INST, "fmi3GetFMUState", FMUState);
+    return (fmi3Status)fg_state_get(INST, "fmi3GetFMUState", FMUState);
 }
 
 fmi3Status fmi3SetFMUState(fmi3Instance instance, fmi3FMUState FMUState)
 {
-    return (fmi3Status)sm_state_set(INST, "fmi3SetFMUState", FMUState);
+    return (fmi3Status)fg_state_set(INST, "fmi3SetFMUState", FMUState);
 }
 
 fmi3Status fmi3FreeFMUState(fmi3Instance instance, fmi3FMUState *FMUState)
 {
     if (instance == NULL) return fmi3Error;
     if (FMUState == NULL) return fmi3OK;
-    sm_state_free(*FMUState);
+    fg_state_free(*FMUState);
     *FMUState = NULL;
     return fmi3OK;
 }
@@ -320,23 +320,23 @@ fmi3Status fmi3SerializedFMUStateSize(fmi3Instance instance, fmi3FMUState FMUSta
 {
     if (instance == NULL) return fmi3Error;
     if (FMUState == NULL || size == NULL) {
-        sm_log(INST, SM_ERROR, NULL, "fmi3SerializedFMUStateSize: NULL argument");
+        fg_log(INST, FG_ERROR, NULL, "fmi3SerializedFMUStateSize: NULL argument");
         return fmi3Error;
     }
-    *size = sm_state_size();
+    *size = fg_state_size();
     return fmi3OK;
 }
 
 fmi3Status fmi3SerializeFMUState(fmi3Instance instance, fmi3FMUState FMUState, fmi3Byte serializedState[],
                                  size_t size)
 {
-    return (fmi3Status)sm_state_serialize(INST, "fmi3SerializeFMUState", FMUState, serializedState, size);
+    return (fmi3Status)fg_state_serialize(INST, "fmi3SerializeFMUState", FMUState, serializedState, size);
 }
 
 fmi3Status fmi3DeserializeFMUState(fmi3Instance instance, const fmi3Byte serializedState[], size_t size,
                                    fmi3FMUState *FMUState)
 {
-    return (fmi3Status)sm_state_deserialize(INST, "fmi3DeserializeFMUState", serializedState, size, FMUState);
+    return (fmi3Status)fg_state_deserialize(INST, "fmi3DeserializeFMUState", serializedState, size, FMUState);
 }
 
 #define UNSUPPORTED_DERIVATIVE(NAME)                                                                          \
@@ -474,15 +474,15 @@ fmi3Status fmi3DoStep(fmi3Instance instance, fmi3Float64 currentCommunicationPoi
                       fmi3Boolean *eventHandlingNeeded, fmi3Boolean *terminateSimulation, fmi3Boolean *earlyReturn,
                       fmi3Float64 *lastSuccessfulTime)
 {
-    sm_status s;
+    fg_status s;
     (void)noSetFMUStatePriorToCurrentPoint;
     if (instance == NULL) return fmi3Error;
     if (eventHandlingNeeded == NULL || terminateSimulation == NULL || earlyReturn == NULL ||
         lastSuccessfulTime == NULL) {
-        sm_log(INST, SM_ERROR, NULL, "fmi3DoStep: NULL out-argument");
+        fg_log(INST, FG_ERROR, NULL, "fmi3DoStep: NULL out-argument");
         return fmi3Error;
     }
-    s = sm_do_step(INST, "fmi3DoStep", currentCommunicationPoint, communicationStepSize);
+    s = fg_do_step(INST, "fmi3DoStep", currentCommunicationPoint, communicationStepSize);
     *eventHandlingNeeded = false;
     *terminateSimulation = false;
     *earlyReturn = false;

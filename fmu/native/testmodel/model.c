@@ -10,152 +10,74 @@
  *   6 Real     output               y       = x
  *   7 Integer  output               steps   number of completed steps
  *   8 Boolean  output               rising  x < u
+ * The table is tests/test_native_glue.py's TABLE: the value references, the value store and its start
+ * values are generated from it (orchestration/build/native_tables.py: sm_vars.h / sm_vars.c), the get/set
+ * accessors are the shared fmu/native/common/sm_values.c, as for every native model (strings of at
+ * most 63 bytes: the store's string size, 64, refuses longer labels when set).  The outputs
+ * are computed at the end of initialization and of each step (y, rising: at those points).
  * Each (sub-)step is the exact solution for a constant u: x <- u + (x - u) exp(-h/tau).
  */
 #include <math.h>
 #include <string.h>
 
-#include "sm_model.h"
-
-#define LABEL_MAX 64
+#include "fg_model.h"
+#include "sm_vars.h"
 
 typedef struct {
-    double time, u, tau, x;
-    int32_t n_sub, steps;
-    int hold;
-    char label[LABEL_MAX];
+    sm_values v; /* first: the generated value store */
+    double x;
 } lag_data;
 
-enum { VR_TIME, VR_U, VR_HOLD, VR_TAU, VR_NSUB, VR_LABEL, VR_Y, VR_STEPS, VR_RISING };
+const size_t FG_MODEL_DATA_SIZE = sizeof(lag_data);
 
-const sm_variable SM_MODEL_VARIABLES[] = {
-    {VR_TIME, SM_REAL, SM_INDEPENDENT, "time"},
-    {VR_U, SM_REAL, SM_INPUT, "u"},
-    {VR_HOLD, SM_BOOLEAN, SM_INPUT, "hold"},
-    {VR_TAU, SM_REAL, SM_PARAMETER, "tau"},
-    {VR_NSUB, SM_INTEGER, SM_PARAMETER, "n_sub"},
-    {VR_LABEL, SM_STRING, SM_PARAMETER, "label"},
-    {VR_Y, SM_REAL, SM_OUTPUT, "y"},
-    {VR_STEPS, SM_INTEGER, SM_OUTPUT, "steps"},
-    {VR_RISING, SM_BOOLEAN, SM_OUTPUT, "rising"},
-};
-const size_t SM_MODEL_N_VARIABLES = sizeof SM_MODEL_VARIABLES / sizeof SM_MODEL_VARIABLES[0];
-const size_t SM_MODEL_DATA_SIZE = sizeof(lag_data);
-
-void sm_model_start(sm_instance *inst, void *data)
+static void publish(lag_data *d)
 {
-    lag_data *d = (lag_data *)data;
-    (void)inst;
-    d->tau = 1.0;
-    d->n_sub = 1;
-    strcpy(d->label, "lag");
+    d->v.r[SM_VR_y] = d->x;
+    d->v.b[SM_VR_rising] = d->x < d->v.r[SM_VR_u];
 }
 
-sm_status sm_model_get_real(sm_instance *inst, const void *data, uint32_t vr, double *value)
+void fg_model_start(fg_instance *inst, void *data)
 {
-    const lag_data *d = (const lag_data *)data;
     (void)inst;
-    switch (vr) {
-    case VR_TIME: *value = d->time; break;
-    case VR_U: *value = d->u; break;
-    case VR_TAU: *value = d->tau; break;
-    default: *value = d->x; break; /* VR_Y */
+    sm_vars_start(&((lag_data *)data)->v);
+}
+
+fg_status fg_model_exit_initialization(fg_instance *inst, void *data, double start_time)
+{
+    lag_data *d = (lag_data *)data;
+    const double tau = d->v.r[SM_VR_tau];
+    const int32_t n_sub = d->v.i[SM_VR_n_sub];
+    if (!(tau > 0.0) || !isfinite(tau)) {
+        fg_log(inst, FG_ERROR, NULL, "tau = %g is invalid: must be finite and > 0", tau);
+        return FG_ERROR;
     }
-    return SM_OK;
-}
-
-sm_status sm_model_set_real(sm_instance *inst, void *data, uint32_t vr, double value)
-{
-    lag_data *d = (lag_data *)data;
-    (void)inst;
-    if (vr == VR_U) d->u = value;
-    else d->tau = value;
-    return SM_OK;
-}
-
-sm_status sm_model_get_integer(sm_instance *inst, const void *data, uint32_t vr, int32_t *value)
-{
-    const lag_data *d = (const lag_data *)data;
-    (void)inst;
-    *value = vr == VR_NSUB ? d->n_sub : d->steps;
-    return SM_OK;
-}
-
-sm_status sm_model_set_integer(sm_instance *inst, void *data, uint32_t vr, int32_t value)
-{
-    (void)inst;
-    (void)vr;
-    ((lag_data *)data)->n_sub = value;
-    return SM_OK;
-}
-
-sm_status sm_model_get_boolean(sm_instance *inst, const void *data, uint32_t vr, int *value)
-{
-    const lag_data *d = (const lag_data *)data;
-    (void)inst;
-    *value = vr == VR_HOLD ? d->hold : (d->x < d->u);
-    return SM_OK;
-}
-
-sm_status sm_model_set_boolean(sm_instance *inst, void *data, uint32_t vr, int value)
-{
-    (void)inst;
-    (void)vr;
-    ((lag_data *)data)->hold = value;
-    return SM_OK;
-}
-
-sm_status sm_model_get_string(sm_instance *inst, const void *data, uint32_t vr, const char **value)
-{
-    (void)inst;
-    (void)vr;
-    *value = ((const lag_data *)data)->label;
-    return SM_OK;
-}
-
-sm_status sm_model_set_string(sm_instance *inst, void *data, uint32_t vr, const char *value)
-{
-    lag_data *d = (lag_data *)data;
-    (void)vr;
-    if (strlen(value) >= LABEL_MAX) {
-        sm_log(inst, SM_ERROR, NULL, "label is longer than %d characters", LABEL_MAX - 1);
-        return SM_ERROR;
+    if (n_sub < 1) {
+        fg_log(inst, FG_ERROR, NULL, "n_sub = %ld is invalid: must be >= 1", (long)n_sub);
+        return FG_ERROR;
     }
-    memset(d->label, 0, LABEL_MAX);
-    strcpy(d->label, value);
-    return SM_OK;
+    d->v.r[SM_VR_time] = start_time;
+    publish(d);
+    fg_log(inst, FG_OK, NULL, "initialized '%s' with tau = %g", d->v.s[SM_SLOT_label], tau);
+    return FG_OK;
 }
 
-sm_status sm_model_exit_initialization(sm_instance *inst, void *data, double start_time)
+fg_status fg_model_do_step(fg_instance *inst, void *data, double t, double h)
 {
     lag_data *d = (lag_data *)data;
-    if (!(d->tau > 0.0) || !isfinite(d->tau)) {
-        sm_log(inst, SM_ERROR, NULL, "tau = %g is invalid: must be finite and > 0", d->tau);
-        return SM_ERROR;
-    }
-    if (d->n_sub < 1) {
-        sm_log(inst, SM_ERROR, NULL, "n_sub = %ld is invalid: must be >= 1", (long)d->n_sub);
-        return SM_ERROR;
-    }
-    d->time = start_time;
-    sm_log(inst, SM_OK, NULL, "initialized '%s' with tau = %g", d->label, d->tau);
-    return SM_OK;
-}
-
-sm_status sm_model_do_step(sm_instance *inst, void *data, double t, double h)
-{
-    lag_data *d = (lag_data *)data;
+    const double u = d->v.r[SM_VR_u];
+    const int32_t n_sub = d->v.i[SM_VR_n_sub];
     int32_t i;
     double a;
-    if (!isfinite(d->u)) {
-        sm_log(inst, SM_DISCARD, NULL, "non-finite input u = %g at t = %g", d->u, t);
-        return SM_DISCARD;
+    if (!isfinite(u)) {
+        fg_log(inst, FG_DISCARD, NULL, "non-finite input u = %g at t = %g", u, t);
+        return FG_DISCARD;
     }
-    if (!d->hold) {
-        a = exp(-(h / d->n_sub) / d->tau);
-        for (i = 0; i < d->n_sub; i++) d->x = d->u + (d->x - d->u) * a;
+    if (!d->v.b[SM_VR_hold]) {
+        a = exp(-(h / n_sub) / d->v.r[SM_VR_tau]);
+        for (i = 0; i < n_sub; i++) d->x = u + (d->x - u) * a;
     }
-    d->steps += 1;
-    d->time = t + h;
-    return SM_OK;
+    d->v.i[SM_VR_steps] += 1;
+    d->v.r[SM_VR_time] = t + h;
+    publish(d);
+    return FG_OK;
 }

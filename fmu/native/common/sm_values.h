@@ -1,0 +1,18 @@
+/* The value store's accessors and small helpers shared by every native model (plant, controller,
+ * ScenarioSignals): sm_values.c.  The store itself (sm_values: one slot per value reference) and the
+ * variable table are the model's generated sm_vars.h / sm_vars.c (orchestration/build/native_tables.py);
+ * the model's data struct starts with it.  The get/set functions of fg_model.h are defined in
+ * sm_values.c once for every model (the glue has checked type, causality and phase before a call). */
+#ifndef SM_VALUES_H
+#define SM_VALUES_H
+
+#include <stddef.h>
+
+#include "fg_model.h"
+
+/* A file named by a parameter: path as given if it exists (or is empty, or there are no resources),
+ * else the FMU's resources directory + the base name of path; written into out (len bytes,
+ * truncated). */
+void sm_resolve_file(fg_instance *inst, const char *path, char *out, size_t len);
+
+#endif

@@ -1,0 +1,114 @@
+"""The generator of the native C tables (orchestration/build/native_tables.py): what it writes, compiled and
+read back through ctypes, is what the interface tables and the Python settings dataclasses say; a
+parameter added to a table reaches the C struct and its copy from the value store with no C edit."""
+
+from __future__ import annotations
+
+import ctypes
+import dataclasses
+import shutil
+
+import pytest
+from native_core import ControllerParams, MotorParams, PlantParams, load
+
+import satmotor.interface as itf
+from orchestration.build import native_tables
+from satmotor.control.backstepping import BacksteppingGains, ControllerConfig
+from satmotor.control.drive import DriveConfig
+from satmotor.control.ifoc import IFOCGains
+
+pytestmark = pytest.mark.skipif(shutil.which("gcc") is None, reason="needs gcc")
+
+
+@pytest.fixture(scope="module")
+def lib():
+    """The session's core library through a CDLL object of its own: the argument types other test
+    modules declare on theirs (their own ctypes classes) do not apply here."""
+    own = ctypes.CDLL(load()._name)
+    for struct in (MotorParams, PlantParams, ControllerParams):
+        getattr(own, struct.__name__ + "_size").restype = ctypes.c_size_t
+    return own
+
+
+def _value(struct, name, type_):
+    v = getattr(struct, name)
+    return v.decode() if type_ == "String" else v
+
+
+@pytest.mark.parametrize("struct, table", [(MotorParams, itf.MOTOR_PARAMETERS),
+                                           (PlantParams, itf.PLANT_PARAMETERS[len(itf.MOTOR_PARAMETERS):]),
+                                           (ControllerParams,
+                                            itf.CONTROLLER_PARAMETERS[:-len(itf.MOTOR_PARAMETERS)])])
+def test_the_c_parameter_defaults_are_the_start_values_of_the_table(lib, struct, table):
+    p = struct()
+    getattr(lib, struct.__name__ + "_default")(ctypes.byref(p))
+    assert getattr(lib, struct.__name__ + "_size")() == ctypes.sizeof(struct)
+    assert [n for n, _ in struct._fields_] == [v.name for v in table]
+    for v in table:
+        want = int(v.start) if v.type == "Boolean" else v.start
+        assert _value(p, v.name, v.type) == want, v.name
+
+
+class _Gains(ctypes.Structure):
+    _fields_ = [(n, ctypes.c_double) for n in ("c1", "c2", "d1", "d2", "c0", "d0")]
+
+
+class _LawConfig(ctypes.Structure):  # sm_law.h
+    _fields_ = [("V_dc", ctypes.c_double), ("Ts", ctypes.c_double), ("phi_min", ctypes.c_double),
+                ("load_estimated", ctypes.c_int), ("g_theta", ctypes.c_double),
+                ("theta_max", ctypes.c_double), ("use_stator_flux", ctypes.c_int)]
+
+
+class _DriveConfig(ctypes.Structure):  # sm_drive.h
+    _fields_ = [(n, ctypes.c_double) for n in ("ref_bandwidth", "I_max", "premag_fraction", "premag_boost",
+                                               "premag_gain", "premag_time_max", "premag_min_fraction",
+                                               "premag_speed_tol")] + [("observer", ctypes.c_int),
+                                                                       ("delay_samples", ctypes.c_int)]
+
+
+class _IFOCGains(ctypes.Structure):  # sm_ifoc.h
+    _fields_ = [(n, ctypes.c_double) for n in ("w_c", "w_speed", "I_max", "V_dc")]
+
+
+def test_the_c_defaults_of_the_settings_structs_are_the_python_dataclass_defaults(lib):
+    for fn, struct, py in (("sm_gains_default", _Gains, BacksteppingGains()),
+                           ("sm_law_config_default", _LawConfig, ControllerConfig()),
+                           ("sm_drive_config_default", _DriveConfig, DriveConfig()),
+                           ("sm_ifoc_gains_default", _IFOCGains, IFOCGains())):
+        c = struct()
+        getattr(lib, fn)(ctypes.byref(c))
+        want = dataclasses.asdict(py)
+        want.pop("true_i_mu", None)
+        if "load_mode" in want:
+            want["load_estimated"] = int(want.pop("load_mode") == "estimated")
+        if "flux_source" in want:
+            want["observer"] = int(want.pop("flux_source") == "observer")
+        got = {n: getattr(c, n) for n, _ in struct._fields_}
+        assert got == {k: (int(v) if isinstance(v, bool) else v) for k, v in want.items()}, fn
+
+
+def test_a_parameter_added_to_a_table_reaches_the_struct_and_the_copy():
+    extra = itf.Variable("R_fe", "parameter", "Real", 250.0, "Ohm", "iron-loss resistance", "motor")
+    table = (*native_tables.unit_variables("SaturatedInductionMotor"), extra)
+    src = native_tables.model_source("SaturatedInductionMotor", table)
+    head = native_tables.model_header("SaturatedInductionMotor", table)
+    assert f"#define SM_VR_R_fe {len(table) - 1}" in head
+    assert "    p->R_fe = v->r[SM_VR_R_fe];" in src.split("void sm_vars_motor_params")[1]
+    assert "    v->r[SM_VR_R_fe] = 250.0; /* R_fe [Ohm] */" in src
+    assert '{SM_VR_R_fe, FG_REAL, FG_PARAMETER, "R_fe"},' in src
+
+
+def test_the_generated_inputs_and_outputs_follow_the_tables():
+    for name, (inputs, outputs) in {"SaturatedInductionMotor": (itf.PLANT_INPUTS, itf.PLANT_OUTPUTS),
+                                    "BacksteppingController": (itf.CONTROLLER_INPUTS,
+                                                               itf.CONTROLLER_OUTPUTS)}.items():
+        table = native_tables.unit_variables(name)
+        src = native_tables.model_source(name, table)
+        vr = {v.name: i for i, v in enumerate(table)}
+        order = src.split("SM_INPUT_VR[SM_N_INPUTS] = {")[1].split("}")[0]
+        assert order == ", ".join(f"SM_VR_{v.name}" for v in inputs)
+        order = src.split("SM_OUTPUT_VR[SM_N_OUTPUTS] = {")[1].split("}")[0]
+        assert order == ", ".join(f"SM_VR_{v.name}" for v in outputs)
+        head = native_tables.model_header(name, table)
+        for v in (*inputs, *outputs):
+            assert f"#define SM_VR_{v.name} {vr[v.name]}\n" in head
