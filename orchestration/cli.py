@@ -40,7 +40,24 @@ def model_variables(fmu_dir):
 
 
 def cmd_build(args):
-    for p in fmus.build(args.out):
+    """``build [--out DIR] [--all-platforms] [--if-stale]``: 0 built (or up to date), 1 the build failed
+    or cannot cross-compile (no zig)."""
+    if args.all_platforms:
+        from .fmu_build import NO_ZIG
+        from .native_build import zig_available
+
+        if not zig_available():
+            print(NO_ZIG, file=sys.stderr)
+            return RUN_FAILED
+    if args.if_stale and fmus.up_to_date(args.out, args.all_platforms):
+        print(f"{args.out}: up to date, nothing built")
+    else:
+        try:
+            fmus.build(args.out, all_platforms=args.all_platforms)
+        except subprocess.CalledProcessError as exc:
+            print(f"building the FMUs into {args.out} failed (exit {exc.returncode})", file=sys.stderr)
+            return RUN_FAILED
+    for p in fmus.paths(args.out):
         print(p)
     return OK
 
@@ -199,14 +216,28 @@ def cmd_fit_curve(args):
     return OK
 
 
+def prog():
+    """The command as the user typed it: ``satmotor-cosim`` (the installed script), else ``python -m
+    orchestration``."""
+    return "satmotor-cosim" if Path(sys.argv[0]).name == "satmotor-cosim" else "python -m orchestration"
+
+
 def parser():
-    ap = argparse.ArgumentParser(prog="python -m orchestration",
+    ap = argparse.ArgumentParser(prog=prog(),
                                  description="Co-simulate the saturated induction motor FMU with the "
                                  "backstepping controller FMU over YAML scenarios (fmpy master).")
     sub = ap.add_subparsers(dest="command", required=True)
-    b = sub.add_parser("build", help="build both FMUs", description="Build SaturatedInductionMotor.fmu and "
-                       "BacksteppingController.fmu with build_fmus.py.")
+    b = sub.add_parser("build", help="build the FMUs", description="Build the six FMUs into OUT: "
+                       "SaturatedInductionMotor.fmu and BacksteppingController.fmu (pythonfmu, FMI 2.0), "
+                       "their native C twins in OUT/native (FMI 2.0) and OUT/native-fmi3 (FMI 3.0); for this "
+                       "machine (Linux x86_64) unless --all-platforms.")
     b.add_argument("--out", default=str(fmus.DEFAULT_DIR), help="output directory (default build/fmus)")
+    b.add_argument("--all-platforms", action="store_true",
+                   help="the native FMUs for Windows and macOS too (cross-compiled with zig, from the "
+                   "ziglang wheel; minutes on a fresh machine), the Linux binary for glibc 2.17 and later: "
+                   "the distributable FMUs (`make dist`)")
+    b.add_argument("--if-stale", action="store_true",
+                   help="build only when an FMU is missing or was built from other sources (as run does)")
     b.set_defaults(func=cmd_build)
 
     def common(p):
