@@ -34,7 +34,8 @@ def _built_from(path, member):
         return None
 
 
-def _binary_folders(path):
+def binary_folders(path):
+    """The platform folders under ``binaries/`` of the FMU ``path`` (empty if it cannot be read)."""
     try:
         with zipfile.ZipFile(path) as z:
             return {n.split("/")[1] for n in z.namelist() if n.startswith("binaries/") and n.count("/") >= 2}
@@ -59,7 +60,7 @@ def up_to_date(fmu_dir=DEFAULT_DIR, all_platforms=False):
                 ok = built == native_fmus.inputs_fingerprint(p.stem)
                 if ok and all_platforms:
                     version = next(v for v, d in native_fmus.DIRS.items() if d == VARIANTS[variant])
-                    ok = set(native_fmus.ALL[version]) <= _binary_folders(p)
+                    ok = set(native_fmus.ALL[version]) <= binary_folders(p)
             if not ok:
                 return False
     return True

@@ -1,5 +1,8 @@
 """Shared fixtures: one instance of every magnetizing-curve family; the FMUs, built once per run."""
 
+import os
+from pathlib import Path
+
 import pytest
 
 from satmotor.magnetics import ArctanCurve, ExponentialCurve, LinearCurve, PolynomialCurve
@@ -34,11 +37,40 @@ def saturating_curve(request):
     return CURVES[request.param]
 
 
+#: a directory of FMUs to test instead of building them in the session (``make test`` passes build/fmus,
+#: which ``make check`` then checks): built there when missing or stale, never written otherwise
+FMU_DIR_VARIABLE = "SATMOTOR_TEST_FMUS"
+
+
 @pytest.fixture(scope="session")
 def fmu_dir(tmp_path_factory):
-    """Directory holding both pythonfmu FMUs, built once per test run (build_fmus.py)."""
+    """The six FMUs for this machine (pythonfmu, native FMI 2.0 and 3.0; no cross-compile), built once
+    per test run: in $SATMOTOR_TEST_FMUS when set (rebuilt there only when missing or stale), else in a
+    temporary directory.  The tests must not write into it."""
     from orchestration import fmus
 
+    given = os.environ.get(FMU_DIR_VARIABLE)
+    if given:
+        d = Path(given).resolve()
+        host_only = all(fmus.binary_folders(p) == {"linux64"} for p in fmus.paths(d, "native")) and all(
+            fmus.binary_folders(p) == {"x86_64-linux"} for p in fmus.paths(d, "native-fmi3"))
+        if not (host_only and fmus.up_to_date(d)):  # e.g. an older build with the cross-compiles
+            fmus.build(d, quiet=True)
+        return d
     d = tmp_path_factory.mktemp("fmus")
     fmus.build(d, quiet=True)
+    return d
+
+
+@pytest.fixture(scope="session")
+def fmu_dir_all_platforms(tmp_path_factory):
+    """The distributable FMUs (``build --all-platforms``: the native ones for Linux, Windows and macOS,
+    cross-compiled with zig), built once per run, only for the tests that use them; skipped without zig.
+    On a fresh machine zig first compiles its MinGW and macOS C runtimes: minutes."""
+    from orchestration import fmus, native_build
+
+    if not native_build.zig_available():
+        pytest.skip("zig is not installed (pip install ziglang, in the native and dev extras)")
+    d = tmp_path_factory.mktemp("fmus_all_platforms")
+    fmus.build(d, quiet=True, all_platforms=True)
     return d

@@ -1,7 +1,8 @@
 """The Windows binaries of the native FMUs (binaries/win64 of FMI 2.0, binaries/x86_64-windows of FMI 3.0),
 really run: tests/native_c_host.c cross-compiled with zig for x86_64-windows-gnu, run under wine, against
-the Linux binary of the same FMU in the same host compiled with gcc, with the same parameters and constant
-inputs. Skipped (with the reason) without wine or zig; scripts/system_packages.sh installs wine.
+the Linux binary of the same FMU (both from the session's all-platforms build, conftest.fmu_dir_all_platforms)
+in the same host compiled with gcc, with the same parameters and constant inputs. Skipped (with the reason)
+without wine or zig; `make system-packages` (scripts/system_packages.sh, run by .ci/run) installs wine.
 
 Tolerance: both binaries come from the same C source, compiled by zig (clang) at -O2 with
 -ffp-contract=off, so the arithmetic is the same instruction for instruction; what differs is the libm:
@@ -60,11 +61,11 @@ def hosts(tmp_path_factory):
     module: a wine 8 prefix is about 700 MB)."""
     wine = _wine()
     if wine is None:
-        pytest.skip("wine is not installed (scripts/system_packages.sh installs wine and wine64)")
+        pytest.skip("wine is not installed (as root on Debian, `make system-packages` installs it)")
     if not native_build.zig_available():
         pytest.skip("zig is not installed (pip install ziglang, in the dev extra)")
     if shutil.which("gcc") is None:
-        pytest.skip("gcc is not installed (scripts/system_packages.sh installs it)")
+        pytest.skip("gcc is not installed (as root on Debian, `make system-packages` installs it)")
     d = tmp_path_factory.mktemp("hosts")
     inc = native_build.fmi_headers_dir()
     flags = ["-std=c99", "-Wall", "-Wextra", "-Werror", "-pedantic", f"-I{inc}"]
@@ -147,8 +148,9 @@ def _values(r) -> list[float]:
 
 @pytest.mark.parametrize("variant,which", CASES, ids=[f"{v}-{'plant' if i == 0 else 'controller'}"
                                                       for v, i in CASES])
-def test_the_windows_binary_under_wine_gives_the_linux_numbers(variant, which, hosts, fmu_dir, tmp_path):
-    path = fmus.paths(fmu_dir, variant)[which]
+def test_the_windows_binary_under_wine_gives_the_linux_numbers(variant, which, hosts, fmu_dir_all_platforms,
+                                                               tmp_path):
+    path = fmus.paths(fmu_dir_all_platforms, variant)[which]
     fmu = _unpack(path, tmp_path / "fmu")
     outs = _outputs(path)
     sets = INPUTS[fmu.identifier]
@@ -164,10 +166,11 @@ def test_the_windows_binary_under_wine_gives_the_linux_numbers(variant, which, h
 
 
 @pytest.mark.parametrize("variant", ("native", "native-fmi3"))
-def test_a_bad_parameter_is_refused_under_windows_with_the_linux_message(variant, hosts, fmu_dir, tmp_path):
+def test_a_bad_parameter_is_refused_under_windows_with_the_linux_message(variant, hosts,
+                                                                         fmu_dir_all_platforms, tmp_path):
     """J = 0: initialization fails (the host exits 5, not a crash), the FMU logs the reason through
     the host's logger with status error (3), the same line as on Linux."""
-    path = fmus.paths(fmu_dir, variant)[0]
+    path = fmus.paths(fmu_dir_all_platforms, variant)[0]
     fmu = _unpack(path, tmp_path / "fmu")
     runs = {w: _run(hosts, fmu, w, {"J": 0.0}, ["omega_m"]) for w in (False, True)}
     for windows, r in runs.items():
