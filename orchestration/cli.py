@@ -6,8 +6,9 @@ invalid, or ``--out`` cannot be written (found before anything runs); 3 a run co
 missed its acceptance bounds; 130 / 143 interrupted by SIGINT (Ctrl-C) / SIGTERM, after writing
 what was computed (status ``interrupted``).  ``batch`` exits with the largest code of its
 scenarios (see :mod:`orchestration.batch`).  ``check``: 1 if a check FAILs, 2 for a path that is not an
-FMU (see :mod:`orchestration.check`).  ``fit-curve``: 2 for a bad no-load file or option (see
-:mod:`orchestration.fit_curve`).
+FMU or without the ``check`` extra (see :mod:`orchestration.check`).  ``fit-curve``: 2 for a bad no-load
+file or option (see :mod:`orchestration.fit_curve`), 1 without the ``fit`` extra.  ``run --engine
+libcosim``: 1 without the ``libcosim`` extra.  A missing extra is one line naming the ``pip install``.
 """
 
 from __future__ import annotations
@@ -23,6 +24,19 @@ from . import fmus
 from .clean_exit import exit_now
 
 OK, RUN_FAILED, INVALID, NOT_ACCEPTED = 0, 1, 2, 3
+
+
+def missing_extra(module, extra, what):
+    """None when ``module`` can be imported, else the one line to print: ``what`` needs the extra ``extra``
+    (pyproject.toml; docs/dependencies.md says why each is there)."""
+    import importlib.util
+
+    try:
+        if importlib.util.find_spec(module) is not None:
+            return None
+    except (ImportError, ValueError):
+        pass
+    return f'{what}, which is not installed: pip install "satmotor[{extra}]"'
 
 
 def model_variables(fmu_dir):
@@ -143,6 +157,12 @@ def run_file(path, out, fmu_dir, algorithm=None, build=True, plot=True, stop=Non
 def cmd_run(args):
     from .interrupts import catch, die_with_parent
 
+    if args.engine == "libcosim":
+        missing = missing_extra("libcosimpy", "libcosim", "--engine libcosim needs libcosimpy "
+                                "(its only wheel: CPython 3.11, Linux x86_64)")
+        if missing:
+            print(missing, file=sys.stderr)
+            return RUN_FAILED
     die_with_parent()
     with catch() as stop:
         variant = args.variant or ("native" if args.engine == "libcosim" else fmus.DEFAULT_VARIANT)
@@ -173,6 +193,11 @@ def cmd_batch(args):
 def cmd_check(args):
     from . import check
 
+    missing = missing_extra("fmu_manipulation_toolbox", "check",
+                            "check needs fmu-manipulation-toolbox (its second FMI 2.0 compliance checker)")
+    if missing:
+        print(missing, file=sys.stderr)
+        return INVALID
     problems = [p for p in map(check.usage_problem, args.fmu) if p]
     for p in problems:
         print(p, file=sys.stderr)
@@ -206,6 +231,10 @@ def cmd_export_ssp(args):
 
 
 def cmd_fit_curve(args):
+    missing = missing_extra("scipy", "fit", "fit-curve needs scipy (its least_squares)")
+    if missing:
+        print(missing, file=sys.stderr)
+        return RUN_FAILED
     from .fit_curve import InputError, run
 
     try:
