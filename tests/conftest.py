@@ -1,5 +1,7 @@
 """Shared fixtures: one instance of every magnetizing-curve family; the FMUs, built once per run."""
 
+import contextlib
+import fcntl
 import os
 from pathlib import Path
 
@@ -42,24 +44,55 @@ def saturating_curve(request):
 FMU_DIR_VARIABLE = "SATMOTOR_TEST_FMUS"
 
 
+@contextlib.contextmanager
+def _locked(path):
+    """An exclusive lock on the file ``path`` (flock): the pytest-xdist workers of one run build a
+    directory once, the first one to get here, the others wait and use it."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with open(path, "a") as fh:
+        fcntl.flock(fh, fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(fh, fcntl.LOCK_UN)
+
+
+def _once_per_run(tmp_path_factory, name, build):
+    """``build(directory)`` once per test run, also with pytest-xdist: there in the directory the
+    workers share (the parent of their temporary directories, which is this run's own)."""
+    if os.environ.get("PYTEST_XDIST_WORKER") is None:
+        d = tmp_path_factory.mktemp(name)
+        build(d)
+        return d
+    root = tmp_path_factory.getbasetemp().parent
+    d, done = root / name, root / f"{name}.built"
+    with _locked(root / f"{name}.lock"):
+        if not done.exists():
+            build(d)
+            done.touch()
+    return d
+
+
+def _host_only(fmus, d):
+    return all(fmus.binary_folders(p) == {"linux64"} for p in fmus.paths(d, "native")) and all(
+        fmus.binary_folders(p) == {"x86_64-linux"} for p in fmus.paths(d, "native-fmi3"))
+
+
 @pytest.fixture(scope="session")
 def fmu_dir(tmp_path_factory):
     """The six FMUs for this machine (pythonfmu, native FMI 2.0 and 3.0; no cross-compile), built once
-    per test run: in $SATMOTOR_TEST_FMUS when set (rebuilt there only when missing or stale), else in a
-    temporary directory.  The tests must not write into it."""
+    per test run: in $SATMOTOR_TEST_FMUS when set (rebuilt there only when missing, stale or
+    cross-built), else in a temporary directory.  The tests must not write into it."""
     from orchestration import fmus
 
     given = os.environ.get(FMU_DIR_VARIABLE)
     if given:
         d = Path(given).resolve()
-        host_only = all(fmus.binary_folders(p) == {"linux64"} for p in fmus.paths(d, "native")) and all(
-            fmus.binary_folders(p) == {"x86_64-linux"} for p in fmus.paths(d, "native-fmi3"))
-        if not (host_only and fmus.up_to_date(d)):  # e.g. an older build with the cross-compiles
-            fmus.build(d, quiet=True)
+        with _locked(d.parent / f".{d.name}.lock"):
+            if not (_host_only(fmus, d) and fmus.up_to_date(d)):  # e.g. an older build with cross-compiles
+                fmus.build(d, quiet=True)
         return d
-    d = tmp_path_factory.mktemp("fmus")
-    fmus.build(d, quiet=True)
-    return d
+    return _once_per_run(tmp_path_factory, "fmus", lambda d: fmus.build(d, quiet=True))
 
 
 @pytest.fixture(scope="session")
@@ -71,6 +104,5 @@ def fmu_dir_all_platforms(tmp_path_factory):
 
     if not native_build.zig_available():
         pytest.skip("zig is not installed (pip install ziglang, in the native and dev extras)")
-    d = tmp_path_factory.mktemp("fmus_all_platforms")
-    fmus.build(d, quiet=True, all_platforms=True)
-    return d
+    return _once_per_run(tmp_path_factory, "fmus_all_platforms",
+                         lambda d: fmus.build(d, quiet=True, all_platforms=True))
