@@ -3,6 +3,7 @@
 import contextlib
 import fcntl
 import os
+import signal
 from pathlib import Path
 
 import pytest
@@ -27,6 +28,15 @@ CURVES = {
     "linear": LinearCurve(0.1722),
 }
 SATURATING = [k for k in CURVES if k != "linear"]
+
+
+def pytest_configure(config):
+    """The interrupt tests send SIGINT to their `run` and `batch` children as a terminal's Ctrl-C would.
+    A pytest started with SIGINT ignored (by a script with `&`, or under nohup) would pass that on to
+    them, and they keep an ignored SIGINT ignored, by design (orchestration.interrupts.catch): they
+    would run to their end.  So this process handles SIGINT: its children start with the default."""
+    if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
+        signal.signal(signal.SIGINT, signal.default_int_handler)
 
 
 @pytest.fixture(params=list(CURVES))
