@@ -70,9 +70,11 @@ def hosts(tmp_path_factory):
     inc = native_build.fmi_headers_dir()
     flags = ["-std=c99", "-Wall", "-Wextra", "-Werror", "-pedantic", f"-I{inc}"]
     subprocess.run(["gcc", *flags, str(HOST_C), "-o", str(d / "host"), "-ldl"], check=True)
-    # clang warns on the () prototypes of fmpy's fmi3FunctionTypes.h (as in native_build)
+    # clang warns on the () prototypes of fmpy's fmi3FunctionTypes.h (as in native_build).  -O2 as the
+    # FMUs' DLLs are built: zig then links the MinGW runtime it compiled for them; without -O it compiles
+    # a second one, in debug mode with the UBSan runtime (minutes on a fresh machine)
     zig = [sys.executable, "-m", "ziglang", "cc", "-target", "x86_64-windows-gnu"]
-    r = subprocess.run([*zig, *flags, "-Wno-strict-prototypes", "-ffp-contract=off", str(HOST_C), "-o",
+    r = subprocess.run([*zig, *flags, "-O2", "-Wno-strict-prototypes", "-ffp-contract=off", str(HOST_C), "-o",
                         str(d / "host.exe")], capture_output=True, text=True)
     assert r.returncode == 0, r.stderr
     prefix = tempfile.mkdtemp(prefix="wineprefix-")
