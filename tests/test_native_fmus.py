@@ -43,38 +43,6 @@ def test_every_native_fmu_validates_and_needs_no_tool(fmu_dir):
             assert report["compliant"] and report["error_count"] == 0, report
 
 
-PLATFORMS = {  # binaries/ folders: the default build (this machine) and build --all-platforms
-    "native": ({"linux64"}, {"linux64", "win64", "darwin64"}),
-    "native-fmi3": ({"x86_64-linux"}, {"x86_64-linux", "x86_64-windows", "x86_64-darwin", "aarch64-darwin"}),
-}
-
-
-def test_the_default_build_is_for_this_machine_only_and_all_platforms_adds_windows_and_macos(
-        fmu_dir, fmu_dir_all_platforms, tmp_path):
-    """The session's build (what `make demo`, `build` and `run` make) has the Linux binary only; `build
-    --all-platforms` (`make dist`) has the Windows and macOS ones too, valid FMUs, the Linux binary
-    linked against glibc 2.17 at most; `build --if-stale` sees which is which."""
-    import re
-    import shutil
-    import subprocess
-    import zipfile
-
-    for variant, (here, everywhere) in PLATFORMS.items():
-        for mine, dist in zip(fmus.paths(fmu_dir, variant), fmus.paths(fmu_dir_all_platforms, variant)):
-            assert fmus.binary_folders(mine) == here, mine
-            assert fmus.binary_folders(dist) == everywhere, dist
-            assert validate_fmu(str(dist)) == [], dist
-    assert fmus.up_to_date(fmu_dir) and not fmus.up_to_date(fmu_dir, all_platforms=True)
-    assert fmus.up_to_date(fmu_dir_all_platforms, all_platforms=True)
-    if shutil.which("objdump"):
-        with zipfile.ZipFile(fmus.paths(fmu_dir_all_platforms, "native")[0]) as z:
-            (tmp_path / "plant.so").write_bytes(z.read("binaries/linux64/SaturatedInductionMotor.so"))
-        out = subprocess.run(["objdump", "-T", str(tmp_path / "plant.so")], capture_output=True,
-                             text=True).stdout
-        versions = {tuple(map(int, v.split("."))) for v in re.findall(r"GLIBC_(\d+\.\d+)", out)}
-        assert versions and max(versions) <= (2, 17), versions
-
-
 @pytest.mark.parametrize("variant", NATIVE)
 @pytest.mark.parametrize("path", LIBRARY, ids=lambda p: p.stem)
 def test_every_library_scenario_matches_the_pythonfmu_run(path, variant, fmu_dir):

@@ -13,9 +13,13 @@ them. So the plant runs bit-identical for its first 60 steps, then drifts by a f
 motor's dynamics: after 300 steps of 100 us we saw 2.2e-14 of an output's size at most; the controller,
 with constant inputs, stayed bit-identical. The test allows 1e-12 of each output's size (floor 1):
 room for another libm, and far below what a wrong build (a struct layout, a calling convention, a
-parameter not taken) gives."""
+parameter not taken) gives.
+
+Also here, as it uses the same build: the default build is for this machine only, and `build
+--all-platforms` (`make dist`) adds the Windows and macOS binaries."""
 
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -180,3 +184,32 @@ def test_a_bad_parameter_is_refused_under_windows_with_the_linux_message(variant
         assert r.stdout.strip() == ""
     lines = {w: [line for line in r.stderr.splitlines() if "J = " in line] for w, r in runs.items()}
     assert lines[True] == lines[False] == ["[host] status 3: J = 0.0: must be a finite number > 0"], runs
+
+
+PLATFORMS = {  # binaries/ folders: the default build (this machine) and build --all-platforms
+    "native": ({"linux64"}, {"linux64", "win64", "darwin64"}),
+    "native-fmi3": ({"x86_64-linux"}, {"x86_64-linux", "x86_64-windows", "x86_64-darwin", "aarch64-darwin"}),
+}
+
+
+def test_the_default_build_is_for_this_machine_only_and_all_platforms_adds_windows_and_macos(
+        fmu_dir, fmu_dir_all_platforms, tmp_path):
+    """The session's build (what `make demo`, `build` and `run` make) has the Linux binary only; `build
+    --all-platforms` (`make dist`) has the Windows and macOS ones too, valid FMUs, the Linux binary
+    linked against glibc 2.17 at most; `build --if-stale` sees which is which."""
+    from fmpy.validation import validate_fmu
+
+    for variant, (here, everywhere) in PLATFORMS.items():
+        for mine, dist in zip(fmus.paths(fmu_dir, variant), fmus.paths(fmu_dir_all_platforms, variant)):
+            assert fmus.binary_folders(mine) == here, mine
+            assert fmus.binary_folders(dist) == everywhere, dist
+            assert validate_fmu(str(dist)) == [], dist
+    assert fmus.up_to_date(fmu_dir) and not fmus.up_to_date(fmu_dir, all_platforms=True)
+    assert fmus.up_to_date(fmu_dir_all_platforms, all_platforms=True)
+    if shutil.which("objdump"):
+        with zipfile.ZipFile(fmus.paths(fmu_dir_all_platforms, "native")[0]) as z:
+            (tmp_path / "plant.so").write_bytes(z.read("binaries/linux64/SaturatedInductionMotor.so"))
+        out = subprocess.run(["objdump", "-T", str(tmp_path / "plant.so")], capture_output=True,
+                             text=True).stdout
+        versions = {tuple(map(int, v.split("."))) for v in re.findall(r"GLIBC_(\d+\.\d+)", out)}
+        assert versions and max(versions) <= (2, 17), versions
