@@ -1,5 +1,11 @@
 """Shared fixtures: one instance of every magnetizing-curve family; the FMUs, built once per run."""
 
+import contextlib
+import fcntl
+import os
+import signal
+from pathlib import Path
+
 import pytest
 
 from satmotor.machine.magnetics import ArctanCurve, ExponentialCurve, LinearCurve, PolynomialCurve
@@ -24,6 +30,15 @@ CURVES = {
 SATURATING = [k for k in CURVES if k != "linear"]
 
 
+def pytest_configure(config):
+    """The interrupt tests send SIGINT to their `run` and `batch` children as a terminal's Ctrl-C would.
+    A pytest started with SIGINT ignored (by a script with `&`, or under nohup) would pass that on to
+    them, and they keep an ignored SIGINT ignored, by design (orchestration.process.interrupts.catch): they
+    would run to their end.  So this process handles SIGINT: its children start with the default."""
+    if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
+        signal.signal(signal.SIGINT, signal.default_int_handler)
+
+
 @pytest.fixture(params=list(CURVES))
 def curve(request):
     return CURVES[request.param]
@@ -34,11 +49,70 @@ def saturating_curve(request):
     return CURVES[request.param]
 
 
+#: a directory of FMUs to test instead of building them in the session (``make test`` passes build/fmus,
+#: which ``make check`` then checks): built there when missing or stale, never written otherwise
+FMU_DIR_VARIABLE = "SATMOTOR_TEST_FMUS"
+
+
+@contextlib.contextmanager
+def _locked(path):
+    """An exclusive lock on the file ``path`` (flock): the pytest-xdist workers of one run build a
+    directory once, the first one to get here, the others wait and use it."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with open(path, "a") as fh:
+        fcntl.flock(fh, fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(fh, fcntl.LOCK_UN)
+
+
+def _once_per_run(tmp_path_factory, name, build):
+    """``build(directory)`` once per test run, also with pytest-xdist: there in the directory the
+    workers share (the parent of their temporary directories, which is this run's own)."""
+    if os.environ.get("PYTEST_XDIST_WORKER") is None:
+        d = tmp_path_factory.mktemp(name)
+        build(d)
+        return d
+    root = tmp_path_factory.getbasetemp().parent
+    d, done = root / name, root / f"{name}.built"
+    with _locked(root / f"{name}.lock"):
+        if not done.exists():
+            build(d)
+            done.touch()
+    return d
+
+
+def _host_only(fmus, d):
+    return all(fmus.binary_folders(p) == {"linux64"} for p in fmus.paths(d, "native")) and all(
+        fmus.binary_folders(p) == {"x86_64-linux"} for p in fmus.paths(d, "native-fmi3"))
+
+
 @pytest.fixture(scope="session")
 def fmu_dir(tmp_path_factory):
-    """Directory holding both pythonfmu FMUs, built once per test run (build_fmus.py)."""
+    """The six FMUs for this machine (pythonfmu, native FMI 2.0 and 3.0; no cross-compile), built once
+    per test run: in $SATMOTOR_TEST_FMUS when set (rebuilt there only when missing, stale or
+    cross-built), else in a temporary directory.  The tests must not write into it."""
     from orchestration.build import fmus
 
-    d = tmp_path_factory.mktemp("fmus")
-    fmus.build(d, quiet=True)
-    return d
+    given = os.environ.get(FMU_DIR_VARIABLE)
+    if given:
+        d = Path(given).resolve()
+        with _locked(d.parent / f".{d.name}.lock"):
+            if not (_host_only(fmus, d) and fmus.up_to_date(d)):  # e.g. an older build with cross-compiles
+                fmus.build(d, quiet=True)
+        return d
+    return _once_per_run(tmp_path_factory, "fmus", lambda d: fmus.build(d, quiet=True))
+
+
+@pytest.fixture(scope="session")
+def fmu_dir_all_platforms(tmp_path_factory):
+    """The distributable FMUs (``build --all-platforms``: the native ones for Linux, Windows and macOS,
+    cross-compiled with zig), built once per run, only for the tests that use them; skipped without zig.
+    On a fresh machine zig first compiles its MinGW and macOS C runtimes: minutes."""
+    from orchestration.build import fmus, native_build
+
+    if not native_build.zig_available():
+        pytest.skip("zig is not installed (pip install ziglang, in the native and dev extras)")
+    return _once_per_run(tmp_path_factory, "fmus_all_platforms",
+                         lambda d: fmus.build(d, quiet=True, all_platforms=True))

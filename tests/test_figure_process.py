@@ -73,18 +73,29 @@ def _start(f, out, fmu_dir, *extra):
                             stderr=subprocess.PIPE, text=True, cwd=ROOT, start_new_session=True)
 
 
-def _helper_when_running(p, metrics, timeout=120.0):
-    """The helper process of the run ``p`` once the run is stepping."""
+def _lines(path):
+    """Lines begun in the first 64 kB of ``path``."""
+    with open(path, "rb") as fh:
+        return fh.read(65536).count(b"\n")
+
+
+def _helper_when_running(p, metrics, rows=False, timeout=300.0):
+    """The helper process of the run ``p`` once the run is on its way: its directory prepared
+    (metrics.json says ``running``) and the helper forked; with ``rows``, once the first chunk of rows
+    is in timeseries.csv too (the run is stepping and a figure can be drawn of what it has: a run
+    stopped before its second row writes none).  The states, not a time: under load, loading the FMUs
+    alone can take seconds."""
     t0 = time.monotonic()
+    csv = metrics.with_name("timeseries.csv")
     while time.monotonic() - t0 < timeout:
         assert p.poll() is None, p.communicate()
         kids = psutil.Process(p.pid).children(recursive=True)
         if kids and metrics.exists() and '"running"' in metrics.read_text():
-            time.sleep(0.3)
-            assert len(kids) == 1
-            return kids[0]
+            if not rows or (csv.exists() and _lines(csv) > 1):  # a data line below the header
+                assert len(kids) == 1
+                return kids[0]
         time.sleep(0.05)
-    raise AssertionError("the run never started, or started no helper")
+    raise AssertionError("the run never started, or started no helper" + (", or recorded no rows" * rows))
 
 
 def _gone(proc, timeout=30.0):
@@ -115,7 +126,7 @@ def test_a_run_whose_helper_dies_still_writes_its_figure(tmp_path, fmu_dir):
 def test_ctrl_c_writes_the_partial_figure_and_leaves_no_helper(tmp_path, fmu_dir):
     f, out = _scenario(tmp_path, "long", 30.0), tmp_path / "out"
     p = _start(f, out, fmu_dir)
-    helper = _helper_when_running(p, out / "long" / "metrics.json")
+    helper = _helper_when_running(p, out / "long" / "metrics.json", rows=True)
     os.killpg(p.pid, signal.SIGINT)  # Ctrl-C in a terminal: the whole process group, the helper too
     stdout, stderr = p.communicate(timeout=300)
     assert p.returncode == 130, stderr

@@ -222,9 +222,10 @@ def test_model_description_matches_the_contract(fmus, name):
     assert cs.canHandleVariableCommunicationStepSize == (name == "SaturatedInductionMotor")
 
 
+@pytest.mark.slow
 def test_two_builds_are_byte_identical(fmus, fmu_dir, tmp_path):
-    """Every FMU of a second build (pythonfmu, native FMI 2.0 and 3.0, every platform) has the same
-    bytes as the first build's."""
+    """Every FMU of a second build (pythonfmu, native FMI 2.0 and 3.0, for this machine, as the session's)
+    has the same bytes as the first build's.  (The cross-compiles: tests/test_native_glue.py.)"""
     built = build_fmus.build_all(tmp_path / "again")
     assert len(built) == 6
     for p in built:

@@ -31,7 +31,6 @@ pytestmark = pytest.mark.skipif(shutil.which("gcc") is None, reason="needs gcc")
 
 TOL = 1e-12
 FLOOR = 1e-300  # relative differences: |c - py| / max(|py|, FLOOR)
-WORST: dict = {}
 NO_LOAD = (0.5, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.5, 9.0, 11.0, 14.0, 18.0)
 
 
@@ -42,7 +41,6 @@ def _record(name, c, py, floor=FLOOR):
     rel = np.where(both_nan, 0.0, np.abs(c - py) / np.maximum(np.abs(py), floor))
     rel = np.where(np.isnan(rel), np.inf, rel)
     worst = float(np.max(rel)) if rel.size else 0.0
-    WORST[name] = max(WORST.get(name, 0.0), worst)
     print(f"worst relative difference {name}: {worst:.3g} over {rel.size} values")
     where = int(np.argmax(rel))
     assert worst <= TOL, f"{name}: C and Python differ by {worst:.3g} (relative) at index {where}"
@@ -554,11 +552,3 @@ def test_under_address_and_undefined_behaviour_sanitizers(tmp_path, table_csv):
     report = res.stdout + res.stderr
     assert res.returncode == 0 and "SANITIZED RUN OK" in res.stdout, report[:4000]
     assert "AddressSanitizer" not in report and "runtime error" not in report, report[:4000]
-
-
-def test_zz_print_worst_differences():
-    """The worst relative difference of every function over the module (run with -s to see them)."""
-    assert WORST
-    print("\nworst relative differences C vs Python:")
-    for k, v in sorted(WORST.items()):
-        print(f"  {k:55s} {v:.3g}")

@@ -1,7 +1,8 @@
 """The Windows binaries of the native FMUs (binaries/win64 of FMI 2.0, binaries/x86_64-windows of FMI 3.0),
 really run: tests/native_c_host.c cross-compiled with zig for x86_64-windows-gnu, run under wine, against
-the Linux binary of the same FMU in the same host compiled with gcc, with the same parameters and constant
-inputs. Skipped (with the reason) without wine or zig; scripts/system_packages.sh installs wine.
+the Linux binary of the same FMU (both from the session's all-platforms build, conftest.fmu_dir_all_platforms)
+in the same host compiled with gcc, with the same parameters and constant inputs. Skipped (with the reason)
+without wine or zig; `make system-packages` (scripts/system_packages.sh, run by .ci/run) installs wine.
 
 Tolerance: both binaries come from the same C source, compiled by zig (clang) at -O2 with
 -ffp-contract=off, so the arithmetic is the same instruction for instruction; what differs is the libm:
@@ -12,9 +13,13 @@ them. So the plant runs bit-identical for its first 60 steps, then drifts by a f
 motor's dynamics: after 300 steps of 100 us we saw 2.2e-14 of an output's size at most; the controller,
 with constant inputs, stayed bit-identical. The test allows 1e-12 of each output's size (floor 1):
 room for another libm, and far below what a wrong build (a struct layout, a calling convention, a
-parameter not taken) gives."""
+parameter not taken) gives.
+
+Also here, as it uses the same build: the default build is for this machine only, and `build
+--all-platforms` (`make dist`) adds the Windows and macOS binaries."""
 
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -60,18 +65,20 @@ def hosts(tmp_path_factory):
     module: a wine 8 prefix is about 700 MB)."""
     wine = _wine()
     if wine is None:
-        pytest.skip("wine is not installed (scripts/system_packages.sh installs wine and wine64)")
+        pytest.skip("wine is not installed (as root on Debian, `make system-packages` installs it)")
     if not native_build.zig_available():
         pytest.skip("zig is not installed (pip install ziglang, in the dev extra)")
     if shutil.which("gcc") is None:
-        pytest.skip("gcc is not installed (scripts/system_packages.sh installs it)")
+        pytest.skip("gcc is not installed (as root on Debian, `make system-packages` installs it)")
     d = tmp_path_factory.mktemp("hosts")
     inc = native_build.fmi_headers_dir()
     flags = ["-std=c99", "-Wall", "-Wextra", "-Werror", "-pedantic", f"-I{inc}"]
     subprocess.run(["gcc", *flags, str(HOST_C), "-o", str(d / "host"), "-ldl"], check=True)
-    # clang warns on the () prototypes of fmpy's fmi3FunctionTypes.h (as in native_build)
+    # clang warns on the () prototypes of fmpy's fmi3FunctionTypes.h (as in native_build).  -O2 as the
+    # FMUs' DLLs are built: zig then links the MinGW runtime it compiled for them; without -O it compiles
+    # a second one, in debug mode with the UBSan runtime (minutes on a fresh machine)
     zig = [sys.executable, "-m", "ziglang", "cc", "-target", "x86_64-windows-gnu"]
-    r = subprocess.run([*zig, *flags, "-Wno-strict-prototypes", "-ffp-contract=off", str(HOST_C), "-o",
+    r = subprocess.run([*zig, *flags, "-O2", "-Wno-strict-prototypes", "-ffp-contract=off", str(HOST_C), "-o",
                         str(d / "host.exe")], capture_output=True, text=True)
     assert r.returncode == 0, r.stderr
     prefix = tempfile.mkdtemp(prefix="wineprefix-")
@@ -147,8 +154,9 @@ def _values(r) -> list[float]:
 
 @pytest.mark.parametrize("variant,which", CASES, ids=[f"{v}-{'plant' if i == 0 else 'controller'}"
                                                       for v, i in CASES])
-def test_the_windows_binary_under_wine_gives_the_linux_numbers(variant, which, hosts, fmu_dir, tmp_path):
-    path = fmus.paths(fmu_dir, variant)[which]
+def test_the_windows_binary_under_wine_gives_the_linux_numbers(variant, which, hosts, fmu_dir_all_platforms,
+                                                               tmp_path):
+    path = fmus.paths(fmu_dir_all_platforms, variant)[which]
     fmu = _unpack(path, tmp_path / "fmu")
     outs = _outputs(path)
     sets = INPUTS[fmu.identifier]
@@ -164,10 +172,11 @@ def test_the_windows_binary_under_wine_gives_the_linux_numbers(variant, which, h
 
 
 @pytest.mark.parametrize("variant", ("native", "native-fmi3"))
-def test_a_bad_parameter_is_refused_under_windows_with_the_linux_message(variant, hosts, fmu_dir, tmp_path):
+def test_a_bad_parameter_is_refused_under_windows_with_the_linux_message(variant, hosts,
+                                                                         fmu_dir_all_platforms, tmp_path):
     """J = 0: initialization fails (the host exits 5, not a crash), the FMU logs the reason through
     the host's logger with status error (3), the same line as on Linux."""
-    path = fmus.paths(fmu_dir, variant)[0]
+    path = fmus.paths(fmu_dir_all_platforms, variant)[0]
     fmu = _unpack(path, tmp_path / "fmu")
     runs = {w: _run(hosts, fmu, w, {"J": 0.0}, ["omega_m"]) for w in (False, True)}
     for windows, r in runs.items():
@@ -175,3 +184,32 @@ def test_a_bad_parameter_is_refused_under_windows_with_the_linux_message(variant
         assert r.stdout.strip() == ""
     lines = {w: [line for line in r.stderr.splitlines() if "J = " in line] for w, r in runs.items()}
     assert lines[True] == lines[False] == ["[host] status 3: J = 0.0: must be a finite number > 0"], runs
+
+
+PLATFORMS = {  # binaries/ folders: the default build (this machine) and build --all-platforms
+    "native": ({"linux64"}, {"linux64", "win64", "darwin64"}),
+    "native-fmi3": ({"x86_64-linux"}, {"x86_64-linux", "x86_64-windows", "x86_64-darwin", "aarch64-darwin"}),
+}
+
+
+def test_the_default_build_is_for_this_machine_only_and_all_platforms_adds_windows_and_macos(
+        fmu_dir, fmu_dir_all_platforms, tmp_path):
+    """The session's build (what `make demo`, `build` and `run` make) has the Linux binary only; `build
+    --all-platforms` (`make dist`) has the Windows and macOS ones too, valid FMUs, the Linux binary
+    linked against glibc 2.17 at most; `build --if-stale` sees which is which."""
+    from fmpy.validation import validate_fmu
+
+    for variant, (here, everywhere) in PLATFORMS.items():
+        for mine, dist in zip(fmus.paths(fmu_dir, variant), fmus.paths(fmu_dir_all_platforms, variant)):
+            assert fmus.binary_folders(mine) == here, mine
+            assert fmus.binary_folders(dist) == everywhere, dist
+            assert validate_fmu(str(dist)) == [], dist
+    assert fmus.up_to_date(fmu_dir) and not fmus.up_to_date(fmu_dir, all_platforms=True)
+    assert fmus.up_to_date(fmu_dir_all_platforms, all_platforms=True)
+    if shutil.which("objdump"):
+        with zipfile.ZipFile(fmus.paths(fmu_dir_all_platforms, "native")[0]) as z:
+            (tmp_path / "plant.so").write_bytes(z.read("binaries/linux64/SaturatedInductionMotor.so"))
+        out = subprocess.run(["objdump", "-T", str(tmp_path / "plant.so")], capture_output=True,
+                             text=True).stdout
+        versions = {tuple(map(int, v.split("."))) for v in re.findall(r"GLIBC_(\d+\.\d+)", out)}
+        assert versions and max(versions) <= (2, 17), versions

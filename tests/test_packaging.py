@@ -17,8 +17,13 @@ ROOT = Path(__file__).resolve().parents[1]
 # import name -> distribution name, where they differ
 DISTRIBUTION = {"yaml": "pyyaml", "fmpy": "fmpy", "pythonfmu": "pythonfmu", "distributed": "dask",
                 "fmu_manipulation_toolbox": "fmu-manipulation-toolbox"}
-# import name -> extra: batch --scheduler (dask)
-OPTIONAL = {"distributed": "dask", "dask": "dask"}
+# import name -> extra: batch --scheduler (dask), check (its second checker), run --engine libcosim, fit-curve
+OPTIONAL = {"distributed": "dask", "dask": "dask", "fmu_manipulation_toolbox": "check",
+            "libcosimpy": "libcosim", "scipy": "fit"}
+
+
+def _name(requirement):
+    return re.match(r"[A-Za-z0-9_.-]+", requirement).group(0).lower()
 
 
 def _third_party_imports(package):
@@ -35,15 +40,35 @@ def _third_party_imports(package):
 
 def test_every_package_the_commands_import_is_a_dependency():
     meta = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]
-    required = {d.split(">")[0].split("=")[0].split("[")[0].strip().lower() for d in meta["dependencies"]}
-    extras = {extra: {d.split(">")[0].split("[")[0].strip().lower() for d in deps}
-              for extra, deps in meta["optional-dependencies"].items()}
+    required = {_name(d) for d in meta["dependencies"]}
+    extras = {extra: {_name(d) for d in deps} for extra, deps in meta["optional-dependencies"].items()}
     for package in ("satmotor", "orchestration"):
         for name in _third_party_imports(package):
             dist = DISTRIBUTION.get(name, name)
             wanted = extras[OPTIONAL[name]] if name in OPTIONAL else required
             assert dist in wanted, f"{package} imports {name}"
     assert _third_party_imports("satmotor") == {"numpy"}
+    # what one command needs is its extra, not a dependency of every install; `make` installs them all
+    assert not required & {"fmu-manipulation-toolbox", "libcosimpy", "scipy", "ziglang", "dask"}
+    dev = next(d for d in meta["optional-dependencies"]["dev"] if d.startswith("satmotor["))
+    assert set(dev.split("[")[1].rstrip("]").split(",")) == {"check", "libcosim", "fit", "dask", "native"}
+
+
+@pytest.mark.parametrize("args,module,extra,code", [
+    (["fit-curve", "noload.csv", "--R-s", "1", "--l-s", "0.01"], "scipy", "fit", 1),
+    (["check", "x.fmu"], "fmu_manipulation_toolbox", "check", 2),
+    (["run", "s.yaml", "--engine", "libcosim"], "libcosimpy", "libcosim", 1),
+])
+def test_a_command_whose_extra_is_missing_says_which_pip_install_in_one_line(args, module, extra, code,
+                                                                          monkeypatch, capsys, tmp_path):
+    from orchestration.cli import commands as cli
+
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setitem(sys.modules, module, None)  # not importable, as if not installed
+    assert cli.main(args) == code
+    out, err = capsys.readouterr()
+    assert out == "" and err.count("\n") == 1 and err.endswith(f'pip install "satmotor[{extra}]"\n'), err
+    assert not list(tmp_path.iterdir())  # nothing written
 
 
 @pytest.mark.slow

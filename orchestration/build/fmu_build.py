@@ -2,9 +2,12 @@
 
 Usage::
 
-    python build_fmus.py [--out DIR]        # in a checkout; default build/fmus/
-    python -m orchestration.build.fmu_build [--out DIR]
-    satmotor-cosim build [--out DIR]
+    python build_fmus.py [--out DIR] [--all-platforms]        # in a checkout; default build/fmus/
+    python -m orchestration.build.fmu_build [--out DIR] [--all-platforms]
+    satmotor-cosim build [--out DIR] [--all-platforms]
+
+For this machine (Linux x86_64) by default; ``--all-platforms`` cross-compiles the native FMUs for
+Windows and macOS too (zig, from the ``ziglang`` wheel): what ``make dist`` builds.
 
 The FMU sources (``fmu/common``, ``fmu/plant``, ``fmu/controller``) are installed with the
 package as ``satmotor_fmu_sources``, so an installed ``satmotor-cosim`` builds the FMUs outside a
@@ -115,10 +118,12 @@ def build_one(name, out_dir):
     return out
 
 
-def build_all(out_dir="build/fmus", native=True, cross=None):
+def build_all(out_dir="build/fmus", native=True, cross=False):
     """Build both pythonfmu FMUs into ``out_dir`` (each in a child process) and, with ``native``, the
-    native ones into ``out_dir/native`` (FMI 2.0) and ``out_dir/native-fmi3`` (FMI 3.0): Linux, plus
-    Windows and macOS when ``cross`` (default: when zig is installed).  Returns the paths."""
+    native ones into ``out_dir/native`` (FMI 2.0) and ``out_dir/native-fmi3`` (FMI 3.0): for this
+    machine (Linux x86_64) by default; with ``cross`` for every platform of
+    :data:`orchestration.build.native_fmus.ALL` too (Windows and macOS cross-compiled with zig, the Linux
+    binary linked against glibc 2.17: the distributable FMUs).  Returns the paths."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     paths = []
@@ -135,20 +140,37 @@ def build_all(out_dir="build/fmus", native=True, cross=None):
     return paths
 
 
+#: the one line printed when the distributable build cannot cross-compile
+NO_ZIG = ("--all-platforms cross-compiles the Windows and macOS binaries with zig, which is not installed: "
+          'pip install ziglang (or pip install "satmotor[native]")')
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description="Build SaturatedInductionMotor.fmu and "
                                  "BacksteppingController.fmu: FMI 2.0 co-simulation with pythonfmu in OUT, "
-                                 "native C ones in OUT/native (FMI 2.0) and OUT/native-fmi3 (FMI 3.0).")
+                                 "native C ones in OUT/native (FMI 2.0) and OUT/native-fmi3 (FMI 3.0), for "
+                                 "this machine (Linux x86_64); --all-platforms adds Windows and macOS.")
     ap.add_argument("--out", default="build/fmus", help="output directory (default build/fmus)")
     ap.add_argument("--no-native", action="store_true", help="only the pythonfmu FMUs")
-    ap.add_argument("--no-cross", action="store_true", help="native FMUs for Linux only (no zig cc)")
+    ap.add_argument("--all-platforms", action="store_true",
+                    help="native FMUs for Linux, Windows and macOS (cross-compiled with zig; the Linux "
+                    "binary for glibc 2.17 and later): the distributable FMUs, as `make dist` builds them")
+    ap.add_argument("--no-cross", action="store_true", help="native FMUs for Linux only (the default)")
     ap.add_argument("--one", choices=sorted(FMUS), help=argparse.SUPPRESS)  # internal: build one, in-process
     args = ap.parse_args(argv)
     if args.one:
         build_one(args.one, args.out)
-    else:
-        build_all(args.out, native=not args.no_native, cross=False if args.no_cross else None)
+        return 0
+    cross = args.all_platforms and not args.no_native
+    if cross:
+        from orchestration.build.native_build import zig_available
+
+        if not zig_available():
+            print(NO_ZIG, file=sys.stderr)
+            return 1
+    build_all(args.out, native=not args.no_native, cross=cross)
+    return 0
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())

@@ -34,10 +34,20 @@ def _built_from(path, member):
         return None
 
 
-def up_to_date(fmu_dir=DEFAULT_DIR):
+def binary_folders(path):
+    """The platform folders under ``binaries/`` of the FMU ``path`` (empty if it cannot be read)."""
+    try:
+        with zipfile.ZipFile(path) as z:
+            return {n.split("/")[1] for n in z.namelist() if n.startswith("binaries/") and n.count("/") >= 2}
+    except (OSError, zipfile.BadZipFile):
+        return set()
+
+
+def up_to_date(fmu_dir=DEFAULT_DIR, all_platforms=False):
     """True when every FMU of every variant exists and was built from the current sources
     (:func:`orchestration.build.fmu_build.inputs_fingerprint`,
-    :func:`orchestration.build.native_fmus.inputs_fingerprint`)."""
+    :func:`orchestration.build.native_fmus.inputs_fingerprint`); with ``all_platforms``, when the native
+    ones also hold the binaries of every platform (:data:`orchestration.build.native_fmus.ALL`)."""
     from orchestration.build import native_fmus
     from orchestration.build.fmu_build import BUILD_INPUTS, inputs_fingerprint
 
@@ -48,14 +58,20 @@ def up_to_date(fmu_dir=DEFAULT_DIR):
             else:
                 built = _built_from(p, "resources/" + native_fmus.BUILD_INPUTS)
                 ok = built == native_fmus.inputs_fingerprint(p.stem)
+                if ok and all_platforms:
+                    version = next(v for v, d in native_fmus.DIRS.items() if d == VARIANTS[variant])
+                    ok = set(native_fmus.ALL[version]) <= binary_folders(p)
             if not ok:
                 return False
     return True
 
 
-def build(fmu_dir=DEFAULT_DIR, quiet=False):
-    """Build both FMUs into ``fmu_dir``; raises CalledProcessError when the build fails."""
-    subprocess.run([sys.executable, "-m", "orchestration.build.fmu_build", "--out", str(fmu_dir)], check=True,
+def build(fmu_dir=DEFAULT_DIR, quiet=False, all_platforms=False):
+    """Build the FMUs of every variant into ``fmu_dir``, for this machine (with ``all_platforms``:
+    for Windows and macOS too, cross-compiled with zig); raises CalledProcessError when the build
+    fails.  Returns the pythonfmu FMUs' paths."""
+    cmd = [sys.executable, "-m", "orchestration.build.fmu_build", "--out", str(fmu_dir)]
+    subprocess.run(cmd + (["--all-platforms"] if all_platforms else []), check=True,
                    stdout=subprocess.DEVNULL if quiet else None)
     return paths(fmu_dir)
 

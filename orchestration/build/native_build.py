@@ -116,12 +116,21 @@ def zig_available() -> bool:
     return r.returncode == 0
 
 
+def host_compiler() -> str | None:
+    """The host C compiler for the Linux binaries (``gcc`` or ``cc`` on PATH), or None."""
+    for cc in ("gcc", "cc"):
+        if shutil.which(cc):
+            return cc
+    return None
+
+
 def _compiler(platform: Platform) -> list[str]:
     if platform.zig_target is None:
-        for cc in ("gcc", "cc"):
-            if shutil.which(cc):
-                return [cc]
-        raise NativeBuildError("no C compiler (gcc or cc) on PATH")
+        cc = host_compiler()
+        if cc is None:
+            raise NativeBuildError("no C compiler (gcc or cc) on PATH; or `pip install ziglang` and build "
+                                   "the Linux binary with linux_glibc")
+        return [cc]
     if not zig_available():
         raise NativeBuildError(f"cross-compiling for {platform.fmi3} needs `pip install ziglang`")
     return [sys.executable, "-m", "ziglang", "cc", "-target", platform.zig_target]

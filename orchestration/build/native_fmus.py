@@ -20,7 +20,7 @@ import tempfile
 from pathlib import Path
 
 from orchestration.build import native_model_description as nmd
-from orchestration.build.native_build import GLUE_DIR, build_native_fmu, zig_available
+from orchestration.build.native_build import GLUE_DIR, build_native_fmu, host_compiler, zig_available
 from orchestration.build.native_tables import core_files, model_files
 
 FMU_DIR = GLUE_DIR.parents[1]  # the FMU sources (installed package or the checkout's fmu/)
@@ -74,11 +74,14 @@ def build(name, out_dir, fmi_version="2.0", platforms=None, resources=None):
     target.parent.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory(prefix="sm_vars_") as tmp:
         plats = platforms or LINUX[fmi_version]
+        # the distributable build (several platforms) links the Linux binary against an old glibc with zig;
+        # so does a Linux-only build on a machine without gcc or cc
+        portable = len(plats) > 1 or (host_compiler() is None and zig_available())
         path, _ = build_native_fmu(name, [*sources(name), *generated(name, tmp)], xml, target, fmi_version,
                                    plats,
                                    resources={**(resources or {}),
                                               BUILD_INPUTS: (inputs_fingerprint(name) + "\n").encode()},
-                                   linux_glibc=PORTABLE_GLIBC if len(plats) > 1 else None,
+                                   linux_glibc=PORTABLE_GLIBC if portable else None,
                                    documentation={"index.html": doc})
     return path
 
@@ -98,9 +101,11 @@ def documentation(name, xml, fmi_version):
     return page(name, flags=flags, intro=intro).encode("utf-8")
 
 
-def build_all(out_dir, cross=None):
-    """Both native FMUs in both FMI versions; returns the paths.  ``cross``: also Windows and macOS
-    (zig cc; default: when ``ziglang`` is installed)."""
+def build_all(out_dir, cross=False):
+    """Both native FMUs in both FMI versions; returns the paths.  For this machine (Linux x86_64) by
+    default; ``cross``: also Windows and macOS (:data:`ALL`, cross-compiled with zig cc, which the
+    ``ziglang`` wheel provides; on a fresh machine zig first compiles its MinGW and macOS C runtimes:
+    minutes).  ``cross=None``: cross when zig is installed."""
     cross = zig_available() if cross is None else cross
     return [build(name, out_dir, version, (ALL if cross else LINUX)[version])
             for version in DIRS for name in NAMES]

@@ -8,8 +8,10 @@ in ``metrics.json``, ``holds_setpoints``, but exits 0 without acceptance bounds)
 interrupted by SIGINT (Ctrl-C) / SIGTERM, after writing
 what was computed (status ``interrupted``).  ``batch`` exits with the largest code of its
 scenarios (see :mod:`orchestration.cli.batch`).  ``check``: 1 if a check FAILs, 2 for a path that is not an
-FMU (see :mod:`orchestration.check.checker`).  ``fit-curve``: 2 for a bad no-load file or option (see
-:mod:`orchestration.tools.fit_curve`).
+FMU or without the ``check`` extra (see :mod:`orchestration.check.checker`).  ``fit-curve``: 2 for a bad
+no-load file or option (see :mod:`orchestration.tools.fit_curve`), 1 without the ``fit`` extra.  ``run
+--engine libcosim``: 1 without the ``libcosim`` extra.  A missing extra is one line naming the ``pip
+install``.
 """
 
 from __future__ import annotations
@@ -27,6 +29,19 @@ from orchestration.process.clean_exit import exit_now
 OK, RUN_FAILED, INVALID, NOT_ACCEPTED = 0, 1, 2, 3
 
 
+def missing_extra(module, extra, what):
+    """None when ``module`` can be imported, else the one line to print: ``what`` needs the extra ``extra``
+    (pyproject.toml; docs/dependencies.md says why each is there)."""
+    import importlib.util
+
+    try:
+        if importlib.util.find_spec(module) is not None:
+            return None
+    except (ImportError, ValueError):
+        pass
+    return f'{what}, which is not installed: pip install "satmotor[{extra}]"'
+
+
 def model_variables(fmu_dir):
     """``{"plant": {name: (causality, type)}, "controller": ...}`` from the built FMUs, or None."""
     plant, ctrl = fmus.paths(fmu_dir)
@@ -42,7 +57,24 @@ def model_variables(fmu_dir):
 
 
 def cmd_build(args):
-    for p in fmus.build(args.out):
+    """``build [--out DIR] [--all-platforms] [--if-stale]``: 0 built (or up to date), 1 the build failed
+    or cannot cross-compile (no zig)."""
+    if args.all_platforms:
+        from orchestration.build.fmu_build import NO_ZIG
+        from orchestration.build.native_build import zig_available
+
+        if not zig_available():
+            print(NO_ZIG, file=sys.stderr)
+            return RUN_FAILED
+    if args.if_stale and fmus.up_to_date(args.out, args.all_platforms):
+        print(f"{args.out}: up to date, nothing built")
+    else:
+        try:
+            fmus.build(args.out, all_platforms=args.all_platforms)
+        except subprocess.CalledProcessError as exc:
+            print(f"building the FMUs into {args.out} failed (exit {exc.returncode})", file=sys.stderr)
+            return RUN_FAILED
+    for p in fmus.paths(args.out):
         print(p)
     return OK
 
@@ -132,6 +164,12 @@ def run_file(path, out, fmu_dir, algorithm=None, build=True, plot=True, stop=Non
 def cmd_run(args):
     from orchestration.process.interrupts import catch, die_with_parent
 
+    if args.engine == "libcosim":
+        missing = missing_extra("libcosimpy", "libcosim", "--engine libcosim needs libcosimpy "
+                                "(its only wheel: CPython 3.11, Linux x86_64)")
+        if missing:
+            print(missing, file=sys.stderr)
+            return RUN_FAILED
     die_with_parent()
     with catch() as stop:
         variant = args.variant or ("native" if args.engine == "libcosim" else fmus.DEFAULT_VARIANT)
@@ -168,6 +206,11 @@ def cmd_batch(args):
 def cmd_check(args):
     from orchestration.check import checker as check
 
+    missing = missing_extra("fmu_manipulation_toolbox", "check",
+                            "check needs fmu-manipulation-toolbox (its second FMI 2.0 compliance checker)")
+    if missing:
+        print(missing, file=sys.stderr)
+        return INVALID
     problems = [p for p in map(check.usage_problem, args.fmu) if p]
     for p in problems:
         print(p, file=sys.stderr)
@@ -201,6 +244,10 @@ def cmd_export_ssp(args):
 
 
 def cmd_fit_curve(args):
+    missing = missing_extra("scipy", "fit", "fit-curve needs scipy (its least_squares)")
+    if missing:
+        print(missing, file=sys.stderr)
+        return RUN_FAILED
     from orchestration.tools.fit_curve import InputError, run
 
     try:
@@ -225,9 +272,17 @@ def parser(prog="satmotor-cosim"):
                                  description="Co-simulate the saturated induction motor FMU with the "
                                  "backstepping controller FMU over YAML scenarios (fmpy master).")
     sub = ap.add_subparsers(dest="command", required=True)
-    b = sub.add_parser("build", help="build both FMUs", description="Build SaturatedInductionMotor.fmu and "
-                       "BacksteppingController.fmu with build_fmus.py.")
+    b = sub.add_parser("build", help="build the FMUs", description="Build the six FMUs into OUT: "
+                       "SaturatedInductionMotor.fmu and BacksteppingController.fmu (pythonfmu, FMI 2.0), "
+                       "their native C twins in OUT/native (FMI 2.0) and OUT/native-fmi3 (FMI 3.0); for this "
+                       "machine (Linux x86_64) unless --all-platforms.")
     b.add_argument("--out", default=str(fmus.DEFAULT_DIR), help="output directory (default build/fmus)")
+    b.add_argument("--all-platforms", action="store_true",
+                   help="the native FMUs for Windows and macOS too (cross-compiled with zig, from the "
+                   "ziglang wheel; minutes on a fresh machine), the Linux binary for glibc 2.17 and later: "
+                   "the distributable FMUs (`make dist`)")
+    b.add_argument("--if-stale", action="store_true",
+                   help="build only when an FMU is missing or was built from other sources (as run does)")
     b.set_defaults(func=cmd_build)
 
     def common(p):
