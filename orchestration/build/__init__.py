@@ -6,7 +6,7 @@
 * :mod:`~orchestration.build.native_fmus`, :mod:`~orchestration.build.native_build` -- the native C
   FMUs (FMI 2.0 and 3.0; compiled with gcc or zig, cross builds) and their packing.
 * :mod:`~orchestration.build.fmu_model_description`, :mod:`~orchestration.build.native_model_description`,
-  :mod:`~orchestration.build.native_vars`, :mod:`~orchestration.build.documentation` -- model
+  :mod:`~orchestration.build.native_tables`, :mod:`~orchestration.build.documentation` -- model
   descriptions, the C variable tables and the FMUs' documentation pages.
 * :mod:`~orchestration.build.signals_fmu` -- ScenarioSignals.fmu, a scenario's profiles for SSP engines;
   :mod:`~orchestration.build.ssd` -- the SSP system description of a scenario.
