@@ -16,6 +16,7 @@ from typing import NamedTuple
 from satmotor.control.backstepping import BacksteppingGains, ControllerConfig
 from satmotor.control.drive import BacksteppingDrive, DriveConfig, IFOCDrive
 from satmotor.control.ifoc import IFOCGains
+from satmotor.control.measurements import MEAS_LEN
 from satmotor.errors import ParameterError, require_integer, require_number
 from satmotor.machine.magnetics import ArctanCurve, LinearCurve, PolynomialCurve
 from satmotor.machine.params import CURVE_NAMES, MotorParams, make_curve
@@ -283,8 +284,9 @@ class ControllerUnit:
                                  f"must equal the sample period Ts = {self.Ts!r} s")
         if not math.isfinite(sum(inputs)):  # per-step fast path, as in PlantUnit.step
             _finite_inputs(self.INPUTS, inputs)
-        i_a, i_b, pr_a, pr_b, ps_a, ps_b, w, w_set, psi_set, T_load = inputs
-        d = self.drive.step((i_a, i_b, pr_a, pr_b, w, ps_a, ps_b), w_set, psi_set, T_load)
+        # the first MEAS_LEN inputs are the drive's measurement tuple, in its order (MEAS_*)
+        omega_ref, psi_ref, T_load = inputs[MEAS_LEN:]
+        d = self.drive.step(inputs[:MEAS_LEN], omega_ref, psi_ref, T_load)
         self._out = (d.v_s_alpha, d.v_s_beta, d.v_sd, d.v_sq, d.e1, d.e2, d.z1, d.z2, d.W, d.T_load_est,
                      d.psi_r_hat_alpha, d.psi_r_hat_beta, d.omega_ref, d.psi_ref, d.phase,
                      d.voltage_limited, d.current_limited, d.singular_limited)

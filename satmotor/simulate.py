@@ -68,7 +68,7 @@ def closed_loop(plant_params, drive, t_end, omega_set, psi_set, T_load=0.0, n_su
         o = plant.outputs(x)
         psa, psb, pra, prb, w = x[PSI_S_A], x[PSI_S_B], x[PSI_R_A], x[PSI_R_B], x[OMEGA_M]
         # layout of satmotor.control.measurements, the plant's true i_mu last (the design comparison)
-        meas = (o.i_s_alpha, o.i_s_beta, pra, prb, w, psa, psb, o.i_mu_alpha, o.i_mu_beta)
+        meas = (o.i_s_alpha, o.i_s_beta, pra, prb, psa, psb, w, o.i_mu_alpha, o.i_mu_beta)
         ws, ps, tl = w_set(t), p_set(t), load(t)
         d = drive.step(meas, ws, ps, tl)
         if k % record_every == 0:

@@ -301,8 +301,8 @@ def control(meas, ref, load, params, gains, cfg, theta_hat=0.0, integ=(0.0, 0.0)
     ----------
     meas : tuple
         The measurement tuple of :mod:`satmotor.control.measurements`, ``(i_s_alpha, i_s_beta,
-        psi_r_alpha, psi_r_beta, omega_m[, psi_s_alpha, psi_s_beta])`` [A, A, Wb, Wb, rad/s, Wb,
-        Wb]; psi_s is needed only with ``cfg.use_stator_flux``.
+        psi_r_alpha, psi_r_beta, psi_s_alpha, psi_s_beta, omega_m)`` [A, A, Wb, Wb, Wb, Wb, rad/s]
+        (the controller unit's input order); psi_s is read only with ``cfg.use_stator_flux``.
     ref : tuple
         ``(Phi_ref, Phi_ref', Phi_ref'', omega_ref, omega_ref', omega_ref'')`` [Wb, Wb/s, Wb/s^2,
         rad/s, rad/s^2, rad/s^3] (mechanical speed).

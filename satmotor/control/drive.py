@@ -169,13 +169,14 @@ class _Drive:
 
     def step(self, meas, omega_set, psi_set, T_load):
         """One sample: ``meas`` the measurement tuple of :mod:`satmotor.control.measurements`
-        [A, A, Wb, Wb, rad/s, Wb, Wb]; set-points [rad/s], [Wb]; load torque [N m].
+        [A, A, Wb, Wb, Wb, Wb, rad/s] (the controller unit's input order); set-points [rad/s], [Wb];
+        load torque [N m].
         Returns a :class:`DriveOutput`."""
         I_set = self.magnetizing_current(psi_set)
         require_number("omega_ref", omega_set)
         if self._observer is not None:  # the psi inputs are ignored: the estimate replaces them
             pa, pb = self._observer.update(meas[MEAS_I_S_A], meas[MEAS_I_S_B], meas[MEAS_OMEGA_M])
-            meas = (meas[MEAS_I_S_A], meas[MEAS_I_S_B], pa, pb, meas[MEAS_OMEGA_M], 0.0, 0.0)
+            meas = (meas[MEAS_I_S_A], meas[MEAS_I_S_B], pa, pb, 0.0, 0.0, meas[MEAS_OMEGA_M])  # MEAS_* order
         if self._phase == PREMAG:
             phi = math.hypot(meas[MEAS_PSI_R_A], meas[MEAS_PSI_R_B])
             if not self._switch_now(phi, psi_set, meas[MEAS_OMEGA_M]):

@@ -176,15 +176,16 @@ static int switch_now(const sm_drive *d, double phi, double psi_set, double omeg
     return phi >= c->premag_min_fraction * psi_set && (d->n >= d->n_switch || fabs(omega_m) > c->premag_speed_tol);
 }
 
-static void premag(const sm_drive *d, const double meas[7], double I_set, double phi, double psi_set,
+static void premag(const sm_drive *d, const double meas[SM_MEAS_LEN], double I_set, double phi, double psi_set,
                    sm_drive_output *o)
 {
     const sm_drive_config *cfg = &d->dc;
-    double K = cfg->premag_gain, i_ref, pa = meas[2], pb = meas[3], c = 1.0, s = 0.0, ia = meas[0], ib = meas[1];
+    double K = cfg->premag_gain, i_ref, c = 1.0, s = 0.0;
+    double pa = meas[SM_MEAS_PSI_R_A], pb = meas[SM_MEAS_PSI_R_B], ia = meas[SM_MEAS_I_S_A], ib = meas[SM_MEAS_I_S_B];
     double vd, vq, vn;
     int bounded = cfg->premag_boost * I_set > cfg->I_max, lim;
     i_ref = fmin(cfg->premag_boost * I_set, cfg->I_max);
-    if (fabs(meas[4]) > cfg->premag_speed_tol) {
+    if (fabs(meas[SM_MEAS_OMEGA_M]) > cfg->premag_speed_tol) {
         i_ref = fmax(i_ref, SM_D_SHARE * cfg->I_max);
     }
     if (phi > FRAME_MIN * psi_set) {
@@ -205,7 +206,7 @@ static void premag(const sm_drive *d, const double meas[7], double I_set, double
     o->v_sd = vd;
     o->v_sq = vq;
     o->e1 = phi - psi_set;
-    o->omega_ref = meas[4];
+    o->omega_ref = meas[SM_MEAS_OMEGA_M];
     o->psi_ref = phi;
     o->phase = SM_PREMAG;
     o->voltage_limited = lim;
@@ -215,12 +216,13 @@ static void premag(const sm_drive *d, const double meas[7], double I_set, double
     o->psi_r_hat_beta = pb;
 }
 
-static int do_switch(sm_drive *d, const double meas[7])
+static int do_switch(sm_drive *d, const double meas[SM_MEAS_LEN])
 {
     sm_magnetizing ms;
     sm_model_constants mc;
     double z[3];
-    int st = sm_from_rotor_flux(meas[0], meas[1], meas[2], meas[3], &d->p, &ms);
+    int st = sm_from_rotor_flux(meas[SM_MEAS_I_S_A], meas[SM_MEAS_I_S_B], meas[SM_MEAS_PSI_R_A],
+                                meas[SM_MEAS_PSI_R_B], &d->p, &ms);
     if (st) {
         return st;
     }
@@ -228,7 +230,8 @@ static int do_switch(sm_drive *d, const double meas[7])
     z[0] = ms.Phi_rd;
     z[1] = sm_flux_rate(mc.a, mc.k, ms.Phi_rd, ms.i_mu_d, ms.m);
     z[2] = 0.0;
-    if ((st = sm_shaper_set_state(&d->flux, z, NULL, 0)) || (st = sm_shaper_reset(&d->speed, meas[4], NULL, 0))) {
+    if ((st = sm_shaper_set_state(&d->flux, z, NULL, 0)) ||
+        (st = sm_shaper_reset(&d->speed, meas[SM_MEAS_OMEGA_M], NULL, 0))) {
         return st;
     }
     d->phase = SM_RUN;
@@ -246,14 +249,15 @@ static double model_load(const sm_drive *d, double T_load)
     return d->cfg.load_estimated ? d->theta_hat * d->p.J : T_load;
 }
 
-static int run(sm_drive *d, const double meas[7], const double rf[3], const double rw[3], double T_load,
+static int run(sm_drive *d, const double meas[SM_MEAS_LEN], const double rf[3], const double rw[3], double T_load,
                sm_drive_output *o, char *msg, size_t len)
 {
     memset(o, 0, sizeof *o);
     if (d->mode == SM_MODE_PI) {
-        double w = meas[4], w_ref = rw[0], psi_ref = rf[0], va, vb;
+        double w = meas[SM_MEAS_OMEGA_M], w_ref = rw[0], psi_ref = rf[0], va, vb;
         sm_ifoc_diagnostics dg;
-        int st = sm_ifoc_step(&d->ifoc, meas[0], meas[1], w, w_ref, psi_ref, &va, &vb, &dg, msg, len);
+        int st = sm_ifoc_step(&d->ifoc, meas[SM_MEAS_I_S_A], meas[SM_MEAS_I_S_B], w, w_ref, psi_ref, &va, &vb, &dg,
+                              msg, len);
         if (st) {
             return SM_ERR_PARAM;
         }
@@ -261,7 +265,7 @@ static int run(sm_drive *d, const double meas[7], const double rf[3], const doub
         o->v_s_beta = vb;
         o->v_sd = dg.v_sd;
         o->v_sq = dg.v_sq;
-        o->e1 = sm_hypot(meas[2], meas[3]) - psi_ref; /* diagnostics only */
+        o->e1 = sm_hypot(meas[SM_MEAS_PSI_R_A], meas[SM_MEAS_PSI_R_B]) - psi_ref; /* diagnostics only */
         o->z1 = w - w_ref;
         o->omega_ref = w_ref;
         o->psi_ref = psi_ref;
@@ -313,8 +317,8 @@ static int run(sm_drive *d, const double meas[7], const double rf[3], const doub
         o->current_limited = c.current_limited;
     }
     o->phase = SM_RUN;
-    o->psi_r_hat_alpha = meas[2];
-    o->psi_r_hat_beta = meas[3];
+    o->psi_r_hat_alpha = meas[SM_MEAS_PSI_R_A];
+    o->psi_r_hat_beta = meas[SM_MEAS_PSI_R_B];
     return SM_CORE_OK;
 }
 
@@ -328,10 +332,10 @@ static void delayed(sm_drive *d, sm_drive_output *o)
     }
 }
 
-int sm_drive_step(sm_drive *d, const double meas_in[7], double omega_set, double psi_set, double T_load,
+int sm_drive_step(sm_drive *d, const double meas_in[SM_MEAS_LEN], double omega_set, double psi_set, double T_load,
                   sm_drive_output *out, char *msg, size_t msg_len)
 {
-    double I_set, meas[7], rf[3], rw[3];
+    double I_set, meas[SM_MEAS_LEN], rf[3], rw[3];
     int st, j;
     if (d == NULL || meas_in == NULL || out == NULL) {
         return SM_ERR_ARG;
@@ -340,21 +344,22 @@ int sm_drive_step(sm_drive *d, const double meas_in[7], double omega_set, double
         (st = sm_require_number("omega_ref", omega_set, 0, 0.0, 0, msg, msg_len))) {
         return st;
     }
-    for (j = 0; j < 7; ++j) {
+    for (j = 0; j < SM_MEAS_LEN; ++j) {
         meas[j] = meas_in[j];
     }
     if (d->dc.observer) { /* the psi inputs are ignored: the estimate replaces them */
         double pa, pb;
-        if ((st = sm_observer_update(&d->obs, &d->p.curve, meas[0], meas[1], meas[4], &pa, &pb))) {
+        if ((st = sm_observer_update(&d->obs, &d->p.curve, meas[SM_MEAS_I_S_A], meas[SM_MEAS_I_S_B],
+                                     meas[SM_MEAS_OMEGA_M], &pa, &pb))) {
             return st;
         }
-        meas[2] = pa;
-        meas[3] = pb;
-        meas[5] = meas[6] = 0.0;
+        meas[SM_MEAS_PSI_R_A] = pa;
+        meas[SM_MEAS_PSI_R_B] = pb;
+        meas[SM_MEAS_PSI_S_A] = meas[SM_MEAS_PSI_S_B] = 0.0;
     }
     if (d->phase == SM_PREMAG) {
-        double phi = sm_hypot(meas[2], meas[3]);
-        if (!switch_now(d, phi, psi_set, meas[4])) {
+        double phi = sm_hypot(meas[SM_MEAS_PSI_R_A], meas[SM_MEAS_PSI_R_B]);
+        if (!switch_now(d, phi, psi_set, meas[SM_MEAS_OMEGA_M])) {
             d->n += 1;
             premag(d, meas, I_set, phi, psi_set, out);
             delayed(d, out);
@@ -374,7 +379,7 @@ int sm_drive_step(sm_drive *d, const double meas_in[7], double omega_set, double
         (void)sm_shaper_step(&d->speed, omega_set, d->Ts, NULL, NULL, 0);
         return SM_CORE_OK;
     } else { /* the command takes effect at the next sample: the state and the references there */
-        double pred[7];
+        double pred[SM_MEAS_LEN];
         if ((st = sm_delay_predict(&d->delay, &d->p, meas, model_load(d, T_load), pred))) {
             return st;
         }

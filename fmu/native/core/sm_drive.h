@@ -59,10 +59,10 @@ typedef struct {
 int sm_drive_init(sm_drive *d, sm_mode mode, const sm_motor *p, const sm_gains *g, const sm_law_config *cfg,
                   const sm_ifoc_gains *ig, const sm_drive_config *dc, char *msg, size_t msg_len);
 void sm_drive_reset(sm_drive *d);
-/* One sample (drive._Drive.step): meas[7] = (i_s_alpha, i_s_beta, psi_r_alpha, psi_r_beta,
- * omega_m, psi_s_alpha, psi_s_beta); set-points [rad/s], [Wb]; load torque [N m].  SM_CORE_OK; on
- * SM_ERR_PARAM (a bad or unreachable set-point) nothing changed; other statuses: a solve failed. */
-int sm_drive_step(sm_drive *d, const double meas[7], double omega_set, double psi_set, double T_load,
+/* One sample (drive._Drive.step): meas[SM_MEAS_LEN] = (i_s_alpha, i_s_beta, psi_r_alpha, psi_r_beta,
+ * psi_s_alpha, psi_s_beta, omega_m), the controller's first inputs in their order; set-points [rad/s],
+ * [Wb]; load torque [N m].  SM_CORE_OK; on SM_ERR_PARAM (a bad or unreachable set-point) nothing changed; other statuses: a solve failed. */
+int sm_drive_step(sm_drive *d, const double meas[SM_MEAS_LEN], double omega_set, double psi_set, double T_load,
                   sm_drive_output *out, char *msg, size_t msg_len);
 
 size_t sm_drive_size(void);

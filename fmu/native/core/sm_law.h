@@ -16,6 +16,7 @@
 
 #include "sm_common.h"
 #include "sm_curves.h"
+#include "sm_params.h" /* generated: SM_MEAS_* */
 #include "sm_plant.h"
 
 /* Share of i_max the flux (d) current may take (backstepping.D_SHARE). */
@@ -65,17 +66,9 @@ void sm_vector_fields(const sm_model_constants *c, double phi, double imd, doubl
 
 /* ---- magnetizing state from measurements (measurements.py) --------------------------------- */
 
-/* Layout of the measurement vector (measurements.MEAS_*); psi_s only with use_stator_flux. */
-enum {
-    SM_MEAS_I_S_A = 0,
-    SM_MEAS_I_S_B = 1,
-    SM_MEAS_PSI_R_A = 2,
-    SM_MEAS_PSI_R_B = 3,
-    SM_MEAS_OMEGA_M = 4,
-    SM_MEAS_PSI_S_A = 5,
-    SM_MEAS_PSI_S_B = 6,
-    SM_MEAS_LEN = 7
-};
+/* Layout of the measurement vector: SM_MEAS_I_S_A ... SM_MEAS_OMEGA_M, SM_MEAS_LEN, generated into
+ * sm_params.h from measurements.MEAS_* (the controller's first inputs in their order); psi_s read
+ * only with use_stator_flux. */
 
 /* measurements.MagnetizingState. */
 typedef struct {
