@@ -120,9 +120,9 @@ CONTROLLER_OUTPUTS = (
     _v("v_s_beta", "output", 0.0, "V", "stator voltage command, beta axis"),
     _v("v_sd", "output", 0.0, "V", "stator voltage command, rotor-flux d axis"),
     _v("v_sq", "output", 0.0, "V", "stator voltage command, rotor-flux q axis"),
-    _v("e1", "output", 0.0, "Wb", "flux error Phi_rd - Phi_ref"),
+    _v("e1", "output", 0.0, "Wb", "flux error Phi_rd - psi_ref_shaped"),
     _v("e2", "output", 0.0, "Wb/s", "flux virtual-control error"),
-    _v("z1", "output", 0.0, "rad/s", "speed error omega_m - omega_ref"),
+    _v("z1", "output", 0.0, "rad/s", "speed error omega_m - omega_ref_shaped"),
     _v("z2", "output", 0.0, "rad/s2", "speed virtual-control error"),
     _v("W", "output", 0.0, "1", "det Lambda of the law (0: not running)"),
     _v("T_load_est", "output", 0.0, "N m", "load torque used by the law (estimate if estimated)"),
@@ -288,7 +288,7 @@ class ControllerUnit:
         omega_ref, psi_ref, T_load = inputs[MEAS_LEN:]
         d = self.drive.step(inputs[:MEAS_LEN], omega_ref, psi_ref, T_load)
         self._out = (d.v_s_alpha, d.v_s_beta, d.v_sd, d.v_sq, d.e1, d.e2, d.z1, d.z2, d.W, d.T_load_est,
-                     d.psi_r_hat_alpha, d.psi_r_hat_beta, d.omega_ref, d.psi_ref, d.phase,
+                     d.psi_r_hat_alpha, d.psi_r_hat_beta, d.omega_ref_shaped, d.psi_ref_shaped, d.phase,
                      d.voltage_limited, d.current_limited, d.singular_limited)
 
     def outputs(self):

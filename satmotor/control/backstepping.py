@@ -7,8 +7,8 @@ Control model: :mod:`satmotor.control.fo_model`, ``x = [Phi_rd, i_mu_d, i_mu_q, 
 Notation: ``a = R_r/l_r``, ``K = kappa k / (J l_r)``, ``kappa = 3/2 n_p``, ``b = B/J``,
 ``theta = T_L/J`` (or its estimate ``theta_hat``)::
 
-    e1 = Phi_rd - Phi_ref,   alpha1 = -c1 e1 + a Phi_rd + Phi_ref',   e2 = a k m i_mu_d - alpha1
-    z1 = omega_m - omega_ref, gamma1 = -d1 z1 + theta + b omega_m + omega_ref',
+    e1 = Phi_rd - psi_ref_shaped,   alpha1 = -c1 e1 + a Phi_rd + psi_ref_shaped',   e2 = a k m i_mu_d - alpha1
+    z1 = omega_m - omega_ref_shaped, gamma1 = -d1 z1 + theta + b omega_m + omega_ref_shaped',
     z2 = K m Phi_rd i_mu_q - gamma1
     =>  e1' = -c1 e1 + e2,    z1' = -d1 z1 + z2 (+ theta_hat - theta in the estimated mode)
 
@@ -16,15 +16,15 @@ Gradients (``M = [[M_d, M_dq], [M_dq, M_q]] = d(m i_mu)/d i_mu``)::
 
     de2/dx = (c1 - a,   a k M_d,        a k M_dq,       0     )
     dz2/dx = (K m i_mu_q, K Phi_rd M_dq, K Phi_rd M_q,  d1 - b)
-    de2/dt = -c1 Phi_ref' - Phi_ref''
-    dz2/dt = -d1 omega_ref' - omega_ref'' - theta'
+    de2/dt = -c1 psi_ref_shaped' - psi_ref_shaped''
+    dz2/dt = -d1 omega_ref_shaped' - omega_ref_shaped'' - theta'
 
 with ``theta' = (dT_L/dt)/J`` (known load) or ``theta_hat'`` of the update law (estimated).
 ``beta = (de/dx) F + de/dt`` and ``Lambda = (de/dx) G = diag(a k, K Phi_rd) M L^-1``, i.e.::
 
-    beta1 = (c1 - a) Phi_rd' + a k (M_d F_d + M_dq F_q) - c1 Phi_ref' - Phi_ref''
+    beta1 = (c1 - a) Phi_rd' + a k (M_d F_d + M_dq F_q) - c1 psi_ref_shaped' - psi_ref_shaped''
     beta2 = K m i_mu_q Phi_rd' + K Phi_rd (M_dq F_d + M_q F_q) + (d1 - b) F_w
-            - d1 omega_ref' - omega_ref'' - theta'
+            - d1 omega_ref_shaped' - omega_ref_shaped'' - theta'
     W = det Lambda = a k K Phi_rd m L_dyn / det L
 
 (F_d, F_q, F_w the drift of i_mu_d, i_mu_q, omega_m; F_w uses theta or theta_hat.)  The law
@@ -40,8 +40,8 @@ closed loop has ``z1' = -d1 z1 + z2 + theta_t`` and ``z2' = -d2 z2 - z1 + (d1 - 
 ``theta_t (theta_hat'_proj - theta_hat'_nom) / g_theta <= 0`` when ``|theta| <= theta_max``.
 
 Integral action (gains c0, d0 >= 0; 0 gives the seed's law): the states ``e0 = int e1 dt``,
-``z0 = int z1 dt`` enter the virtual controls, ``alpha1 = -c1 e1 - c0 e0 + a Phi_rd + Phi_ref'`` and
-``gamma1 = -d1 z1 - d0 z0 + theta + b omega_m + omega_ref'``.  Since ``e0' = e1`` is known, it adds
+``z0 = int z1 dt`` enter the virtual controls, ``alpha1 = -c1 e1 - c0 e0 + a Phi_rd + psi_ref_shaped'`` and
+``gamma1 = -d1 z1 - d0 z0 + theta + b omega_m + omega_ref_shaped'``.  Since ``e0' = e1`` is known, it adds
 ``c0 e1`` to de2/dt and ``d0 z1`` to dz2/dt; then ``e1' = -c1 e1 - c0 e0 + e2`` and, with
 ``V = (e1^2 + e2^2 + z1^2 + z2^2 + c0 e0^2 + d0 z0^2)/2``, V' is as above.  A constant model error
 (plant parameters differ from the controller's) is then absorbed by e0, z0 at e1 = z1 = 0.
@@ -283,9 +283,10 @@ def error_system(x, ref, params, gains, theta=0.0, theta_dot=0.0, phi_min=0.05, 
                  i_max=math.inf):
     """Error system at the flux-oriented state ``x = (Phi_rd, i_mu_d, i_mu_q, omega_m)``.
 
-    ``ref = (Phi_ref, Phi_ref', Phi_ref'', omega_ref, omega_ref', omega_ref'')``; theta [rad/s^2]
-    the (estimated) T_L/J and theta_dot its derivative; ``adapt = (g_theta, theta_max)`` switches
-    to the update law for theta'.  m and dm/dI come from ``params.curve`` at ``|i_mu|``.
+    ``ref = (psi_ref_shaped, psi_ref_shaped', psi_ref_shaped'', omega_ref_shaped, omega_ref_shaped',
+    omega_ref_shaped'')`` (the drive's shaped references); theta [rad/s^2] the (estimated) T_L/J and
+    theta_dot its derivative; ``adapt = (g_theta, theta_max)`` switches to the update law for theta'.
+    m and dm/dI come from ``params.curve`` at ``|i_mu|``.
     """
     phi, imd, imq, w = (float(v) for v in x)
     I = math.hypot(imd, imq)
@@ -304,8 +305,9 @@ def control(meas, ref, load, params, gains, cfg, theta_hat=0.0, integ=(0.0, 0.0)
         psi_r_alpha, psi_r_beta, psi_s_alpha, psi_s_beta, omega_m)`` [A, A, Wb, Wb, Wb, Wb, rad/s]
         (the controller unit's input order); psi_s is read only with ``cfg.use_stator_flux``.
     ref : tuple
-        ``(Phi_ref, Phi_ref', Phi_ref'', omega_ref, omega_ref', omega_ref'')`` [Wb, Wb/s, Wb/s^2,
-        rad/s, rad/s^2, rad/s^3] (mechanical speed).
+        ``(psi_ref_shaped, psi_ref_shaped', psi_ref_shaped'', omega_ref_shaped, omega_ref_shaped',
+        omega_ref_shaped'')`` [Wb, Wb/s, Wb/s^2, rad/s, rad/s^2, rad/s^3] (mechanical speed): the
+        drive's shaped references.
     load : tuple
         ``(T_L, dT_L/dt)`` [N m, N m/s]; used in the 'known' load mode only.
     params : MotorParams

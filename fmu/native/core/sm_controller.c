@@ -140,8 +140,8 @@ int sm_controller_step(sm_controller *u, double t, double dt, const double in[SM
     u->out[9] = d.T_load_est;
     u->out[10] = d.psi_r_hat_alpha;
     u->out[11] = d.psi_r_hat_beta;
-    u->out[12] = d.omega_ref;
-    u->out[13] = d.psi_ref;
+    u->out[12] = d.omega_ref_shaped;
+    u->out[13] = d.psi_ref_shaped;
     u->out[14] = (double)d.phase;
     u->out[15] = (double)d.voltage_limited;
     u->out[16] = (double)d.current_limited;

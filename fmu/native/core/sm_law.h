@@ -138,8 +138,8 @@ typedef struct {
 } sm_error_state;
 
 /* backstepping.error_system(x, ref, p, g, theta, theta_dot, phi_min, adapt, integ, i_max):
- * x = (Phi_rd, i_mu_d, i_mu_q, omega_m); ref = (Phi_ref, Phi_ref', Phi_ref'', omega_ref,
- * omega_ref', omega_ref''); adapt NULL (theta_dot given) or (g_theta, theta_max); integ NULL
+ * x = (Phi_rd, i_mu_d, i_mu_q, omega_m); ref = (psi_ref_shaped, psi_ref_shaped', psi_ref_shaped'',
+ * omega_ref_shaped, omega_ref_shaped', omega_ref_shaped''); adapt NULL (theta_dot given) or (g_theta, theta_max); integ NULL
  * (0, 0) or (e0, z0); i_max [A] (INFINITY: no current limit).  m, dm/dI from p's curve at |i_mu|.
  * SM_CORE_OK, SM_ERR_ARG (NULL pointer) or SM_ERR_NONFINITE (a non-finite input; es still filled). */
 int sm_error_system(const double x[4], const double ref[6], const sm_motor *p, const sm_gains *g,
