@@ -225,3 +225,16 @@ def test_the_measurement_layout_is_the_controllers_input_order():
     assert {k: getattr(m, k) for k in want} == {k: names.index(n) for k, n in want.items()}
     assert m.MEAS_LEN == len(want) and tuple(m.MEAS_NAMES) == tuple(names[:m.MEAS_LEN])
     assert (m.MEAS_I_MU_A, m.MEAS_I_MU_B) == (m.MEAS_LEN, m.MEAS_LEN + 1)  # appended by the plain loop
+
+
+def test_pre_magnetization_reports_the_shapers_at_rest_not_the_measurements():
+    """Before the law runs the shaped-reference outputs are the shapers' values (at rest: 0), whatever the
+    measured flux and speed; the first run sample starts them at the measured state (no jump for the law)."""
+    d = BacksteppingDrive(P)
+    n_timeout = round(d.dcfg.premag_time_max / d.Ts)
+    outs = _meas_run(d, n_timeout + 2, phi=0.6 * 0.95, w=1.5)  # flux and speed measured, below the switch
+    pre, first = outs[:n_timeout], outs[n_timeout]
+    assert all(o.phase == PREMAG for o in pre) and first.phase == RUN
+    assert {(o.omega_ref_shaped, o.psi_ref_shaped) for o in pre} == {(0.0, 0.0)}
+    assert first.omega_ref_shaped == 1.5 and first.psi_ref_shaped == pytest.approx(0.6 * 0.95, rel=1e-15)
+    assert first.z1 == 0.0 and first.e1 == pytest.approx(0.0, abs=1e-15)

@@ -112,8 +112,8 @@ class DriveOutput(NamedTuple):
     V: float  # Lyapunov function
     W: float  # det Lambda (0 where not defined)
     T_load_est: float  # [N m] load used by the law (estimate in the estimated mode)
-    omega_ref_shaped: float  # [rad/s] shaped speed reference (pre-magnetization: see _premag)
-    psi_ref_shaped: float  # [Wb] shaped flux reference (pre-magnetization: see _premag)
+    omega_ref_shaped: float  # [rad/s] shaped speed reference (pre-magnetization: the shaper at rest, 0)
+    psi_ref_shaped: float  # [Wb] shaped flux reference (pre-magnetization: the shaper at rest, 0)
     phase: int  # PREMAG or RUN
     voltage_limited: bool
     singular_limited: bool
@@ -214,7 +214,12 @@ class _Drive:
         """Current loop in the rotor-flux frame (on alpha until there is a flux to align with):
         i_sd -> min(boost I_set, I_max), i_sq -> 0, whatever the rotor does; when a load drives the
         rotor (|omega_m| > premag_speed_tol) i_sd -> D_SHARE I_max, the fastest flux build-up the
-        limit allows, so that the law can take over and hold the rotor sooner."""
+        limit allows, so that the law can take over and hold the rotor sooner.
+
+        The shaped-reference outputs are the reference shapers' values: the shapers do not run before
+        the law does (they are at rest where :meth:`reset` put them, 0), and the switch starts them at
+        the measured state (:meth:`_switch`); no measured value is reported as a reference.  e1 is
+        the flux against the raw set-point (``|psi_r| - psi_ref``: how far the build-up has come)."""
         p, cfg = self.params, self.dcfg
         K = cfg.premag_gain
         bounded = cfg.premag_boost * I_set > cfg.I_max
@@ -231,8 +236,8 @@ class _Drive:
         if lim:
             vd, vq = vd * self._V_max / vn, vq * self._V_max / vn
         return DriveOutput(c * vd - s * vq, s * vd + c * vq, vd, vq, phi - psi_ref, 0.0, 0.0, 0.0, 0.0,
-                           0.0, 0.0, meas[MEAS_OMEGA_M], phi, PREMAG, lim, False, bounded, pa,
-                           pb)
+                           0.0, 0.0, self._speed.value[REF_VALUE], self._flux.value[REF_VALUE], PREMAG, lim,
+                           False, bounded, pa, pb)
 
     def _switch(self, meas):
         p = self.params

@@ -183,6 +183,7 @@ static void premag(const sm_drive *d, const double meas[SM_MEAS_LEN], double I_s
     double K = cfg->premag_gain, i_ref, c = 1.0, s = 0.0;
     double pa = meas[SM_MEAS_PSI_R_A], pb = meas[SM_MEAS_PSI_R_B], ia = meas[SM_MEAS_I_S_A], ib = meas[SM_MEAS_I_S_B];
     double vd, vq, vn;
+    double z_flux[3], z_speed[3];
     int bounded = cfg->premag_boost * I_set > cfg->I_max, lim;
     i_ref = fmin(cfg->premag_boost * I_set, cfg->I_max);
     if (fabs(meas[SM_MEAS_OMEGA_M]) > cfg->premag_speed_tol) {
@@ -206,8 +207,11 @@ static void premag(const sm_drive *d, const double meas[SM_MEAS_LEN], double I_s
     o->v_sd = vd;
     o->v_sq = vq;
     o->e1 = phi - psi_ref;
-    o->omega_ref_shaped = meas[SM_MEAS_OMEGA_M];
-    o->psi_ref_shaped = phi;
+    /* the shapers' values: at rest until the law runs (drive._Drive._premag) */
+    sm_shaper_get_state(&d->speed, z_speed);
+    sm_shaper_get_state(&d->flux, z_flux);
+    o->omega_ref_shaped = z_speed[0];
+    o->psi_ref_shaped = z_flux[0];
     o->phase = SM_PREMAG;
     o->voltage_limited = lim;
     o->singular_limited = 0;

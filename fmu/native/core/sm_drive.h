@@ -30,7 +30,7 @@ void sm_drive_config_default(sm_drive_config *dc);
 /* drive.DriveOutput (flags 0/1). */
 typedef struct {
     double v_s_alpha, v_s_beta, v_sd, v_sq, e1, e2, z1, z2, V, W, T_load_est;
-    double omega_ref_shaped, psi_ref_shaped; /* the shaped references (pre-magnetization: sm_drive.c) */
+    double omega_ref_shaped, psi_ref_shaped; /* the shaped references (pre-magnetization: the shapers at rest) */
     int phase, voltage_limited, singular_limited, current_limited;
     double psi_r_hat_alpha, psi_r_hat_beta;
 } sm_drive_output;
