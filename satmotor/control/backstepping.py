@@ -217,7 +217,9 @@ def _core(p, g, phi_min, phi, imd, imq, w, m, dm, I, ref, theta, theta_dot, adap
     c0, d0); ``i_max`` [A] the stator current bound on the virtual controls (module docstring).
     Returns the fields of an :class:`ErrorSystem` as a plain tuple (the per-sample path unpacks it).
     """
-    pr, dpr, ddpr, wr, dwr, ddwr = ref
+    # the drive's shaped references and their first two time derivatives
+    (psi_ref_shaped, psi_ref_shaped_dot, psi_ref_shaped_ddot,
+     omega_ref_shaped, omega_ref_shaped_dot, omega_ref_shaped_ddot) = ref
     c1, d1, c0, d0 = g.c1, g.d1, g.c0, g.d0
     c = model_constants(p)
     a, ak, K, b = c.a, c.ak, c.K, c.b
@@ -226,11 +228,11 @@ def _core(p, g, phi_min, phi, imd, imq, w, m, dm, I, ref, theta, theta_dot, adap
     # drift F and L^-1 of the control model (Phi_rd floored in omega_s)
     (dphi, Fd, Fq, Fw, a11, a12, a22, ws, Md, Mq, Mdq, _, _, _, _, te_J,
      _) = vector_fields(c, phi, imd, imq, w, m, dm, I, theta, phe)
-    e1 = phi - pr
-    z1 = w - wr
+    e1 = phi - psi_ref_shaped
+    z1 = w - omega_ref_shaped
     # virtual controls: alpha1 for a k m i_mu_d, gamma1 for T_e/J
-    alpha1 = -c1 * e1 - c0 * e0 + a * phi + dpr
-    gamma1 = -d1 * z1 - d0 * z0 + theta + b * w + dwr
+    alpha1 = -c1 * e1 - c0 * e0 + a * phi + psi_ref_shaped_dot
+    gamma1 = -d1 * z1 - d0 * z0 + theta + b * w + omega_ref_shaped_dot
     d_lim = q_lim = 0  # +1 / -1: the virtual control was bounded from above / below
     if i_max < math.inf:  # the currents they demand, bounded (quasi-static: m held at its value)
         cc = 1.0 + c.k2_lr * m
@@ -257,12 +259,13 @@ def _core(p, g, phi_min, phi, imd, imq, w, m, dm, I, ref, theta, theta_dot, adap
     if d_lim:
         ge2, dt_e2 = (0.0, ak * Md, ak * Mdq, 0.0), 0.0
     else:
-        ge2, dt_e2 = (c1 - a, ak * Md, ak * Mdq, 0.0), -c1 * dpr - ddpr + c0 * e1
+        ge2 = (c1 - a, ak * Md, ak * Mdq, 0.0)
+        dt_e2 = -c1 * psi_ref_shaped_dot - psi_ref_shaped_ddot + c0 * e1
     if q_lim:
         gz2, dt_z2 = (K * m * imq, K * phi * Mdq, K * phi * Mq, 0.0), 0.0
     else:
         gz2 = (K * m * imq, K * phi * Mdq, K * phi * Mq, d1 - b)
-        dt_z2 = -d1 * dwr - ddwr - theta_dot + d0 * z1
+        dt_z2 = -d1 * omega_ref_shaped_dot - omega_ref_shaped_ddot - theta_dot + d0 * z1
     beta1 = ge2[0] * dphi + ge2[1] * Fd + ge2[2] * Fq + dt_e2
     beta2 = gz2[0] * dphi + gz2[1] * Fd + gz2[2] * Fq + gz2[3] * Fw + dt_z2
     # Lambda = diag(a k, K Phi_rd) M L^-1
