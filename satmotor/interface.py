@@ -129,8 +129,10 @@ CONTROLLER_OUTPUTS = (
     _v("psi_r_hat_alpha", "output", 0.0, "Wb", "rotor flux the law uses, alpha axis: the observer's "
        "estimate (flux_source = observer) or the psi_r_alpha input (measured)"),
     _v("psi_r_hat_beta", "output", 0.0, "Wb", "rotor flux the law uses, beta axis"),
-    _v("omega_ref_shaped", "output", 0.0, "rad/s", "shaped speed reference the law tracks"),
-    _v("psi_ref_shaped", "output", 0.0, "Wb", "shaped rotor flux reference the law tracks"),
+    _v("omega_ref_shaped", "output", 0.0, "rad/s", "shaped speed reference the law tracks (0 before the law "
+       "runs: the shaper starts at the measured speed at the switch)"),
+    _v("psi_ref_shaped", "output", 0.0, "Wb", "shaped rotor flux reference the law tracks (0 before the law "
+       "runs: the shaper starts at the measured flux at the switch)"),
     _v("phase", "output", 0, "", "0: pre-magnetization (current loop), 1: run (the law)", "Integer"),
     _v("voltage_limited", "output", False, "", "the voltage vector was limited to V_dc/sqrt(3)",
        "Boolean"),
