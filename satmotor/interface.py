@@ -120,7 +120,8 @@ CONTROLLER_OUTPUTS = (
     _v("v_s_beta", "output", 0.0, "V", "stator voltage command, beta axis"),
     _v("v_sd", "output", 0.0, "V", "stator voltage command, rotor-flux d axis"),
     _v("v_sq", "output", 0.0, "V", "stator voltage command, rotor-flux q axis"),
-    _v("e1", "output", 0.0, "Wb", "flux error Phi_rd - psi_ref_shaped"),
+    _v("e1", "output", 0.0, "Wb", "flux error Phi_rd - psi_ref_shaped (before the law runs: "
+       "Phi_rd - psi_ref)"),
     _v("e2", "output", 0.0, "Wb/s", "flux virtual-control error"),
     _v("z1", "output", 0.0, "rad/s", "speed error omega_m - omega_ref_shaped"),
     _v("z2", "output", 0.0, "rad/s2", "speed virtual-control error"),
