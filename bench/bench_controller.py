@@ -59,8 +59,8 @@ class Sample(NamedTuple):
     """One logged drive call: its arguments, the drive state before it and its output."""
 
     meas: tuple
-    omega_set: float
-    psi_set: float
+    omega_ref: float
+    psi_ref: float
     T_load: float
     state: tuple
     out: tuple
@@ -72,10 +72,10 @@ class Recorder:
     def __init__(self, drive):
         self.drive, self.Ts, self.log = drive, drive.Ts, []
 
-    def step(self, meas, omega_set, psi_set, T_load):
+    def step(self, meas, omega_ref, psi_ref, T_load):
         s0 = self.drive.get_state()
-        out = self.drive.step(meas, omega_set, psi_set, T_load)
-        self.log.append(Sample(meas, omega_set, psi_set, T_load, s0, out))
+        out = self.drive.step(meas, omega_ref, psi_ref, T_load)
+        self.log.append(Sample(meas, omega_ref, psi_ref, T_load, s0, out))
         return out
 
 
@@ -106,7 +106,7 @@ def control_rate(inputs, params, cfg):
 
 def drive_rate(drive, run_log):
     s0 = run_log[0].state
-    args = [(e.meas, e.omega_set, e.psi_set, e.T_load) for e in run_log]
+    args = [(e.meas, e.omega_ref, e.psi_ref, e.T_load) for e in run_log]
     step, set_state = drive.step, drive.set_state
 
     def loop():

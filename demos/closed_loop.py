@@ -26,7 +26,8 @@ from satmotor.metrics import run_metrics
 from satmotor.simulate import RECORDED, RampScenario
 
 UNITS = {"t": "s", "v_s_alpha": "V", "v_s_beta": "V", "v_sd": "V", "v_sq": "V", "T_load": "N m",
-         "omega_set": "rad/s", "psi_set": "Wb", "omega_ref": "rad/s", "psi_ref": "Wb", "i_s_alpha": "A",
+         "omega_ref": "rad/s", "psi_ref": "Wb", "omega_ref_shaped": "rad/s", "psi_ref_shaped": "Wb",
+         "i_s_alpha": "A",
          "i_s_beta": "A", "psi_s_alpha": "Wb", "psi_s_beta": "Wb", "psi_r_alpha": "Wb",
          "psi_r_beta": "Wb", "omega_m": "rad/s", "theta_m": "rad", "T_e": "N m", "i_mu": "A",
          "psi_r_mag": "Wb", "e1": "Wb", "e2": "Wb/s", "z1": "rad/s", "z2": "rad/s^2", "V": "1",
@@ -37,7 +38,7 @@ UNITS = {"t": "s", "v_s_alpha": "V", "v_s_beta": "V", "v_sd": "V", "v_sq": "V", 
 def plot(r, path, title):
     """The co-simulation figure (orchestration.results.plots) of a plain-Python record."""
     frame = pd.DataFrame({"time": r["t"], **{col: r[key] for col, key in COLUMNS.items()},
-                          "profile.omega_ref": r["omega_set"], "profile.psi_ref": r["psi_set"],
+                          "profile.omega_ref": r["omega_ref"], "profile.psi_ref": r["psi_ref"],
                           "profile.T_load": r["T_load"]})
     figure(frame, path, title)
 
@@ -52,14 +53,14 @@ def main(argv=None):
     args = ap.parse_args(argv)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    p, sc = MotorParams(), RampScenario(psi_set=args.psi)
+    p, sc = MotorParams(), RampScenario(psi_ref=args.psi)
     res = sc.run(p, BacksteppingDrive(p, cfg=ControllerConfig(load_mode=args.load_mode)))
     res.pop("x_end")
     metrics = run_metrics(res, sc.ss_window)
     stem = out / "closed_loop"
     pd.DataFrame({f"{k} [{UNITS[k]}]": res[k] for k in RECORDED}).to_csv(f"{stem}.csv", index=False)
     Path(f"{stem}.json").write_text(json.dumps(metrics, indent=2) + "\n")
-    plot(res, f"{stem}.png", f"Backstepping drive, saturated 4 kW motor: psi_set {sc.psi_set} Wb, "
+    plot(res, f"{stem}.png", f"Backstepping drive, saturated 4 kW motor: psi_ref {sc.psi_ref} Wb, "
          f"ramp to {sc.omega_final} rad/s, {sc.T_load} N m load ({args.load_mode} load)")
     for ext in ("csv", "json", "png"):
         print(f"wrote {stem}.{ext}")

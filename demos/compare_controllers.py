@@ -53,19 +53,21 @@ class FluxDip(RampScenario):
     t_end: float = 1.8
     t_steady: float = 1.7
 
-    def psi_ref(self, t):
-        return self.psi_set * (self.dip if self.t_dip <= t < self.t_back else 1.0)
+    def psi_ref_profile(self, t):
+        """The flux set-point psi_ref [Wb] at t: dipped over [t_dip, t_back)."""
+        return self.psi_ref * (self.dip if self.t_dip <= t < self.t_back else 1.0)
 
     def run(self, plant_params, drive, **kw):
-        return closed_loop(plant_params, drive, self.t_end, self.omega_set, self.psi_ref, self.load, **kw)
+        return closed_loop(plant_params, drive, self.t_end, self.omega_ref, self.psi_ref_profile, self.load,
+                           **kw)
 
 
 def dip_errors(res, sc):
     """Largest flux error against the shaped reference [Wb] and speed error [rad/s] from the dip on."""
     m = res["t"] >= sc.t_dip
     phi = np.hypot(res["psi_r_alpha"], res["psi_r_beta"])[m]
-    return (float(np.max(np.abs(phi - res["psi_ref"][m]))),
-            float(np.max(np.abs(res["omega_m"][m] - res["omega_set"][m]))))
+    return (float(np.max(np.abs(phi - res["psi_ref_shaped"][m]))),
+            float(np.max(np.abs(res["omega_m"][m] - res["omega_ref"][m]))))
 
 
 def designs(p):
@@ -89,7 +91,7 @@ def designs(p):
 def compare(psi_values=(0.95, 1.15)):
     p = MotorParams()
     rows = []
-    runs = [(f"ramp, psi_set {psi} Wb", RampScenario(psi_set=psi)) for psi in psi_values]
+    runs = [(f"ramp, psi_ref {psi} Wb", RampScenario(psi_ref=psi)) for psi in psi_values]
     runs.append(("flux dip 0.95 -> 0.57 -> 0.95 Wb", FluxDip()))
     for label, sc in runs:
         for name, make in designs(p).items():

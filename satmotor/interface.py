@@ -16,6 +16,7 @@ from typing import NamedTuple
 from satmotor.control.backstepping import BacksteppingGains, ControllerConfig
 from satmotor.control.drive import BacksteppingDrive, DriveConfig, IFOCDrive
 from satmotor.control.ifoc import IFOCGains
+from satmotor.control.measurements import MEAS_LEN
 from satmotor.errors import ParameterError, require_integer, require_number
 from satmotor.machine.magnetics import ArctanCurve, LinearCurve, PolynomialCurve
 from satmotor.machine.params import CURVE_NAMES, MotorParams, make_curve
@@ -119,17 +120,20 @@ CONTROLLER_OUTPUTS = (
     _v("v_s_beta", "output", 0.0, "V", "stator voltage command, beta axis"),
     _v("v_sd", "output", 0.0, "V", "stator voltage command, rotor-flux d axis"),
     _v("v_sq", "output", 0.0, "V", "stator voltage command, rotor-flux q axis"),
-    _v("e1", "output", 0.0, "Wb", "flux error Phi_rd - Phi_ref"),
+    _v("e1", "output", 0.0, "Wb", "flux error Phi_rd - psi_ref_shaped (before the law runs: "
+       "Phi_rd - psi_ref)"),
     _v("e2", "output", 0.0, "Wb/s", "flux virtual-control error"),
-    _v("z1", "output", 0.0, "rad/s", "speed error omega_m - omega_ref"),
+    _v("z1", "output", 0.0, "rad/s", "speed error omega_m - omega_ref_shaped"),
     _v("z2", "output", 0.0, "rad/s2", "speed virtual-control error"),
     _v("W", "output", 0.0, "1", "det Lambda of the law (0: not running)"),
     _v("T_load_est", "output", 0.0, "N m", "load torque used by the law (estimate if estimated)"),
     _v("psi_r_hat_alpha", "output", 0.0, "Wb", "rotor flux the law uses, alpha axis: the observer's "
        "estimate (flux_source = observer) or the psi_r_alpha input (measured)"),
     _v("psi_r_hat_beta", "output", 0.0, "Wb", "rotor flux the law uses, beta axis"),
-    _v("omega_ref_shaped", "output", 0.0, "rad/s", "shaped speed reference the law tracks"),
-    _v("psi_ref_shaped", "output", 0.0, "Wb", "shaped rotor flux reference the law tracks"),
+    _v("omega_ref_shaped", "output", 0.0, "rad/s", "shaped speed reference the law tracks (0 before the law "
+       "runs: the shaper starts at the measured speed at the switch)"),
+    _v("psi_ref_shaped", "output", 0.0, "Wb", "shaped rotor flux reference the law tracks (0 before the law "
+       "runs: the shaper starts at the measured flux at the switch)"),
     _v("phase", "output", 0, "", "0: pre-magnetization (current loop), 1: run (the law)", "Integer"),
     _v("voltage_limited", "output", False, "", "the voltage vector was limited to V_dc/sqrt(3)",
        "Boolean"),
@@ -283,10 +287,11 @@ class ControllerUnit:
                                  f"must equal the sample period Ts = {self.Ts!r} s")
         if not math.isfinite(sum(inputs)):  # per-step fast path, as in PlantUnit.step
             _finite_inputs(self.INPUTS, inputs)
-        i_a, i_b, pr_a, pr_b, ps_a, ps_b, w, w_set, psi_set, T_load = inputs
-        d = self.drive.step((i_a, i_b, pr_a, pr_b, w, ps_a, ps_b), w_set, psi_set, T_load)
+        # the first MEAS_LEN inputs are the drive's measurement tuple, in its order (MEAS_*)
+        omega_ref, psi_ref, T_load = inputs[MEAS_LEN:]
+        d = self.drive.step(inputs[:MEAS_LEN], omega_ref, psi_ref, T_load)
         self._out = (d.v_s_alpha, d.v_s_beta, d.v_sd, d.v_sq, d.e1, d.e2, d.z1, d.z2, d.W, d.T_load_est,
-                     d.psi_r_hat_alpha, d.psi_r_hat_beta, d.omega_ref, d.psi_ref, d.phase,
+                     d.psi_r_hat_alpha, d.psi_r_hat_beta, d.omega_ref_shaped, d.psi_ref_shaped, d.phase,
                      d.voltage_limited, d.current_limited, d.singular_limited)
 
     def outputs(self):

@@ -13,20 +13,20 @@ run phase
     Time of the first run-phase sample; nan if the law never runs.
 ``iae_speed`` [rad], ``iae_flux`` [Wb s]
     Integral of ``|z1|`` and ``|e1|`` (trapezoidal) over the run phase: the controller's tracking
-    errors ``z1 = omega_m - omega_ref``, ``e1 = |psi_r| - psi_ref`` against the *shaped*
+    errors ``z1 = omega_m - omega_ref_shaped``, ``e1 = |psi_r| - psi_ref_shaped`` against the *shaped*
     references; nan if the law never runs, 0 with a single run-phase sample.
 ``ss_speed``, ``ss_flux`` [1]
-    Largest ``|omega_m - omega_set|`` (``||psi_r| - psi_set|``) against the *raw* set-points over
+    Largest ``|omega_m - omega_ref|`` (``||psi_r| - psi_ref|``) against the *raw* set-points over
     the steady-state window, divided by ``|set-point|`` at the window's last sample, at least
     1 rad/s (1 mWb).  Window: ``[t_from, t_to]`` [s], both ends included; default the last 10 %
     of the record, ``t >= t[0] + 0.9 (t[-1] - t[0])``; nan if no sample falls in it.
 ``overshoot_speed`` [1]
-    Peak excursion of omega_m beyond the final set-point ``omega_set[-1]``, in the direction of
-    the change from ``omega_m[0]``, relative to ``|omega_set[-1] - omega_m[0]|`` (>= 0), over the
+    Peak excursion of omega_m beyond the final set-point ``omega_ref[-1]``, in the direction of
+    the change from ``omega_m[0]``, relative to ``|omega_ref[-1] - omega_m[0]|`` (>= 0), over the
     whole record; 0 when there is no change.
 ``settling_time_speed`` [s]
-    Time of the last sample outside the band ``|omega_m - omega_set[-1]| <= SETTLING_BAND
-    |omega_set[-1]|`` (``t[0]`` if none is outside, ``t[-1]`` if the last one is; nan if the
+    Time of the last sample outside the band ``|omega_m - omega_ref[-1]| <= SETTLING_BAND
+    |omega_ref[-1]|`` (``t[0]`` if none is outside, ``t[-1]`` if the last one is; nan if the
     final set-point is 0).
 ``peak_current`` [A], ``peak_voltage`` [V]
     Largest ``|i_s|`` and ``|v_s|`` over the whole record (pre-magnetization included).
@@ -67,7 +67,7 @@ SS_SPEED_MARGIN = 0.02  # [1] default margin of ss_speed for holding the set-poi
 SS_FLUX_MARGIN = 0.02  # [1] default margin of ss_flux
 _T_REL = 1e-9  # relative tolerance of the window bounds (sample times carry rounding)
 #: The series :func:`closed_loop_metrics` reads (also the keys of a closed_loop record).
-SERIES = ("t", "omega_m", "omega_set", "psi_r_alpha", "psi_r_beta", "psi_set", "z1", "e1", "i_s_alpha",
+SERIES = ("t", "omega_m", "omega_ref", "psi_r_alpha", "psi_r_beta", "psi_ref", "z1", "e1", "i_s_alpha",
           "i_s_beta", "v_s_alpha", "v_s_beta", "W")
 
 
@@ -135,12 +135,12 @@ def settling_time(t, y, final, band=SETTLING_BAND):
     return float(t[out[-1]]) if out.size else float(t[0])
 
 
-def closed_loop_metrics(*, t, omega_m, omega_set, psi_r_alpha, psi_r_beta, psi_set, z1, e1,
+def closed_loop_metrics(*, t, omega_m, omega_ref, psi_r_alpha, psi_r_beta, psi_ref, z1, e1,
                         i_s_alpha, i_s_beta, v_s_alpha, v_s_beta, W, run, ss_window=None,
                         voltage_limited=None, current_limited=None):
     """The figures of the module docstring from the recorded series (1-D arrays of one length).
 
-    ``omega_set``, ``psi_set`` the raw set-points; ``z1``, ``e1`` the controller's tracking errors;
+    ``omega_ref``, ``psi_ref`` the raw set-points; ``z1``, ``e1`` the controller's tracking errors;
     ``run`` the run-phase mask (``phase == RUN``), extended to the end of the record;
     ``ss_window = (t_from, t_to)`` [s] or None; the limiter flags optional.  ``{}`` for an empty
     record.
@@ -148,17 +148,17 @@ def closed_loop_metrics(*, t, omega_m, omega_set, psi_r_alpha, psi_r_beta, psi_s
     t = np.asarray(t, dtype=float)
     if t.size == 0:
         return {}
-    w, w_set = np.asarray(omega_m, dtype=float), np.asarray(omega_set, dtype=float)
+    w, omega_ref = np.asarray(omega_m, dtype=float), np.asarray(omega_ref, dtype=float)
     run = from_first(run)
     running = bool(run.any())
     ss = steady_state_window(t, ss_window)
-    w_final = float(w_set[-1])
+    w_final = float(omega_ref[-1])
     out = {
         "t_switch": float(t[np.argmax(run)]) if running else math.nan,
         "iae_speed": iae(t[run], np.asarray(z1)[run]) if running else math.nan,
         "iae_flux": iae(t[run], np.asarray(e1)[run]) if running else math.nan,
-        "ss_speed": steady_state_error(w, w_set, ss, SS_SPEED_FLOOR),
-        "ss_flux": steady_state_error(np.hypot(psi_r_alpha, psi_r_beta), psi_set, ss, SS_FLUX_FLOOR),
+        "ss_speed": steady_state_error(w, omega_ref, ss, SS_SPEED_FLOOR),
+        "ss_flux": steady_state_error(np.hypot(psi_r_alpha, psi_r_beta), psi_ref, ss, SS_FLUX_FLOOR),
         "overshoot_speed": overshoot(w, w_final, float(w[0])),
         "settling_time_speed": settling_time(t, w, w_final),
         "peak_current": float(np.max(np.hypot(i_s_alpha, i_s_beta))),

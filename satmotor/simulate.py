@@ -15,8 +15,8 @@ import numpy as np
 
 from satmotor.machine.plant import N_STATES, OMEGA_M, PSI_R_A, PSI_R_B, PSI_S_A, PSI_S_B, THETA_M, Plant
 
-RECORDED = ("t", "v_s_alpha", "v_s_beta", "v_sd", "v_sq", "T_load", "omega_set", "psi_set",
-            "omega_ref", "psi_ref", "i_s_alpha", "i_s_beta", "psi_s_alpha", "psi_s_beta",
+RECORDED = ("t", "v_s_alpha", "v_s_beta", "v_sd", "v_sq", "T_load", "omega_ref", "psi_ref",
+            "omega_ref_shaped", "psi_ref_shaped", "i_s_alpha", "i_s_beta", "psi_s_alpha", "psi_s_beta",
             "psi_r_alpha", "psi_r_beta", "omega_m", "theta_m", "T_e", "i_mu", "psi_r_mag",
             "e1", "e2", "z1", "z2", "V", "W", "T_load_est", "phase", "voltage_limited",
             "singular_limited", "current_limited", "psi_r_hat_alpha", "psi_r_hat_beta")
@@ -26,7 +26,7 @@ def _as_profile(v):
     return v if callable(v) else (lambda t, _c=float(v): _c)
 
 
-def closed_loop(plant_params, drive, t_end, omega_set, psi_set, T_load=0.0, n_sub=1, x0=None,
+def closed_loop(plant_params, drive, t_end, omega_ref, psi_ref, T_load=0.0, n_sub=1, x0=None,
                 t0=0.0, record_every=1, plant_steps=1):
     """Simulate the plant under a sampled drive.
 
@@ -38,7 +38,7 @@ def closed_loop(plant_params, drive, t_end, omega_set, psi_set, T_load=0.0, n_su
         Called every ``drive.Ts`` [s].
     t_end : float
         Stop time [s] (``round((t_end - t0) / Ts)`` samples).
-    omega_set, psi_set, T_load : float or callable t -> float
+    omega_ref, psi_ref, T_load : float or callable t -> float
         Raw speed set-point [rad/s], rotor flux set-point [Wb], load torque [N m].
     n_sub : int
         RK4 sub-steps of each plant step.
@@ -55,7 +55,7 @@ def closed_loop(plant_params, drive, t_end, omega_set, psi_set, T_load=0.0, n_su
     plus ``"x_end"`` (the final plant state, a tuple).
     """
     plant = Plant(plant_params)
-    w_set, p_set, load = _as_profile(omega_set), _as_profile(psi_set), _as_profile(T_load)
+    omega_ref_at, psi_ref_at, load = _as_profile(omega_ref), _as_profile(psi_ref), _as_profile(T_load)
     Ts = drive.Ts
     h = Ts / plant_steps
     n = round((t_end - t0) / Ts)
@@ -68,11 +68,12 @@ def closed_loop(plant_params, drive, t_end, omega_set, psi_set, T_load=0.0, n_su
         o = plant.outputs(x)
         psa, psb, pra, prb, w = x[PSI_S_A], x[PSI_S_B], x[PSI_R_A], x[PSI_R_B], x[OMEGA_M]
         # layout of satmotor.control.measurements, the plant's true i_mu last (the design comparison)
-        meas = (o.i_s_alpha, o.i_s_beta, pra, prb, w, psa, psb, o.i_mu_alpha, o.i_mu_beta)
-        ws, ps, tl = w_set(t), p_set(t), load(t)
-        d = drive.step(meas, ws, ps, tl)
+        meas = (o.i_s_alpha, o.i_s_beta, pra, prb, psa, psb, w, o.i_mu_alpha, o.i_mu_beta)
+        omega_ref, psi_ref, tl = omega_ref_at(t), psi_ref_at(t), load(t)
+        d = drive.step(meas, omega_ref, psi_ref, tl)
         if k % record_every == 0:
-            row = (t, d.v_s_alpha, d.v_s_beta, d.v_sd, d.v_sq, tl, ws, ps, d.omega_ref, d.psi_ref,
+            row = (t, d.v_s_alpha, d.v_s_beta, d.v_sd, d.v_sq, tl, omega_ref, psi_ref, d.omega_ref_shaped,
+                   d.psi_ref_shaped,
                    o.i_s_alpha, o.i_s_beta, psa, psb, pra, prb, w, x[THETA_M], o.T_e, o.i_mu,
                    (pra * pra + prb * prb) ** 0.5, d.e1, d.e2, d.z1, d.z2, d.V, d.W,
                    d.T_load_est, d.phase, d.voltage_limited, d.singular_limited, d.current_limited,
@@ -96,7 +97,7 @@ class RampScenario:
     """The default closed-loop scenario: pre-magnetization from rest, a flux set-point, a speed
     ramp and a load-torque step (SI units)."""
 
-    psi_set: float = 0.95  # [Wb] rotor flux set-point (in the knee of the default curve)
+    psi_ref: float = 0.95  # [Wb] rotor flux set-point (in the knee of the default curve)
     omega_final: float = 100.0  # [rad/s]
     t_ramp: float = 0.2  # [s] ramp start
     ramp_rate: float = 200.0  # [rad/s^2]
@@ -110,11 +111,11 @@ class RampScenario:
         """Steady-state window ``(t_steady, t_end)`` [s] of :func:`satmotor.metrics.run_metrics`."""
         return self.t_steady, self.t_end
 
-    def omega_set(self, t):
+    def omega_ref(self, t):
         return 0.0 if t < self.t_ramp else min(self.omega_final, (t - self.t_ramp) * self.ramp_rate)
 
     def load(self, t):
         return self.T_load if t >= self.t_load else 0.0
 
     def run(self, plant_params, drive, **kw):
-        return closed_loop(plant_params, drive, self.t_end, self.omega_set, self.psi_set, self.load, **kw)
+        return closed_loop(plant_params, drive, self.t_end, self.omega_ref, self.psi_ref, self.load, **kw)

@@ -47,7 +47,7 @@ def measure(p, x, rho):
     plant = _PLANTS.setdefault(id(p), Plant(p))
     xs = to_stationary(p, x, rho)
     o = plant.outputs(xs)
-    return (o.i_s_alpha, o.i_s_beta, xs[PSI_R_A], xs[PSI_R_B], x[3], xs[PSI_S_A], xs[PSI_S_B])
+    return (o.i_s_alpha, o.i_s_beta, xs[PSI_R_A], xs[PSI_R_B], xs[PSI_S_A], xs[PSI_S_B], x[3])
 
 
 # ----- the error functions, written out from their definitions ---------------------------------
@@ -296,7 +296,7 @@ def test_output_rotation(Ts):
 @pytest.mark.parametrize("mode", ["known", "estimated"])
 def test_near_singular_flux_is_finite_and_flagged(phi, i_s, mode):
     cfg = ControllerConfig(load_mode=mode)
-    meas = (i_s[0], i_s[1], phi, 0.0, 10.0)
+    meas = (i_s[0], i_s[1], phi, 0.0, 0.0, 0.0, 10.0)
     o = control(meas, ref(0.0), load(0.0), P, G, cfg, theta_hat=100.0)
     assert all(math.isfinite(v) for v in o[:16])
     assert o.singular_limited

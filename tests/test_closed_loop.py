@@ -69,7 +69,7 @@ def test_default_scenario_tracks_flux_and_speed(default_runs, mode):
 def test_saturation_aware_design_beats_constant_m_in_saturation():
     """The seed's claim: at a flux set-point in saturation the design with the curve tracks better
     than the same law designed with a constant (unsaturated) m."""
-    sc = RampScenario(psi_set=1.15)
+    sc = RampScenario(psi_ref=1.15)
     sat = run_metrics(sc.run(P, BacksteppingDrive(P, G)), sc.ss_window)
     p_lin = dataclasses.replace(P, curve=LinearCurve(P.curve.L_m0))
     lin = run_metrics(sc.run(P, BacksteppingDrive(p_lin, G)), sc.ss_window)
@@ -121,10 +121,10 @@ def test_drive_state_restores_bit_identically(make):
     first = sc.run(P, drv)
     assert first["phase"][0] == PREMAG and first["phase"][-1] == RUN
     saved, x_mid = drv.get_state(), first["x_end"]
-    a = closed_loop(P, drv, 0.5, sc.omega_set, sc.psi_set, sc.load, x0=x_mid, t0=0.3)
+    a = closed_loop(P, drv, 0.5, sc.omega_ref, sc.psi_ref, sc.load, x0=x_mid, t0=0.3)
     drv.reset()
     sc.run(P, drv)  # something else in between
     drv.set_state(saved)
-    b = closed_loop(P, drv, 0.5, sc.omega_set, sc.psi_set, sc.load, x0=x_mid, t0=0.3)
+    b = closed_loop(P, drv, 0.5, sc.omega_ref, sc.psi_ref, sc.load, x0=x_mid, t0=0.3)
     for key in ("v_s_alpha", "v_s_beta", "omega_m", "T_load_est"):
         assert np.array_equal(a[key], b[key])

@@ -132,7 +132,7 @@ def test_the_flux_current_is_bounded_first():
 # ----- drive: flux source, start-up, delay ------------------------------------------------------
 
 def _meas_run(drive, n, phi=0.0, w=0.0, i=(5.0, 0.0)):
-    return [drive.step((i[0], i[1], phi, 0.0, w, 0.0, 0.0), 50.0, 0.95, 0.0) for _ in range(n)]
+    return [drive.step((i[0], i[1], phi, 0.0, 0.0, 0.0, w), 50.0, 0.95, 0.0) for _ in range(n)]
 
 
 def test_no_switch_to_the_law_below_the_minimum_flux_even_after_the_time_out():
@@ -160,8 +160,8 @@ def test_observer_mode_ignores_the_flux_inputs_and_reports_its_estimate():
     rng = np.random.default_rng(3)
     for k in range(1500):
         o = plant.outputs(x)
-        meas = (o.i_s_alpha, o.i_s_beta, x[2], x[3], x[4], x[0], x[1])
-        junk = (o.i_s_alpha, o.i_s_beta, *rng.normal(size=2), x[4], *rng.normal(size=2))
+        meas = (o.i_s_alpha, o.i_s_beta, x[2], x[3], x[0], x[1], x[4])
+        junk = (o.i_s_alpha, o.i_s_beta, *rng.normal(size=4), x[4])
         a, b = drives[0].step(meas, 20.0, 0.95, 0.0), drives[1].step(junk, 20.0, 0.95, 0.0)
         assert a == b
         x = plant.step(k * 1e-4, x, a.v_s_alpha, a.v_s_beta, 0.0, 1e-4, 1)
@@ -205,11 +205,36 @@ def test_prediction_of_the_exact_model_matches_the_plant_one_sample_later():
     x = (0.8, 0.1, 0.75, 0.05, 80.0, 0.0)
     comp.swap(150.0, -60.0)  # the pending voltage, held over the next sample
     o = plant.outputs(x)
-    pred = comp.predict((o.i_s_alpha, o.i_s_beta, x[2], x[3], x[4], x[0], x[1]), 5.0)
+    pred = comp.predict((o.i_s_alpha, o.i_s_beta, x[2], x[3], x[0], x[1], x[4]), 5.0)
     x1 = plant.step(0.0, x, 150.0, -60.0, 5.0, Ts, 10)
     o1 = plant.outputs(x1)
-    truth = (o1.i_s_alpha, o1.i_s_beta, x1[2], x1[3], x1[4], x1[0], x1[1])
-    for p_, t_, scale in zip(pred, truth, (10.0, 10.0, 1.0, 1.0, 100.0, 1.0, 1.0)):
+    truth = (o1.i_s_alpha, o1.i_s_beta, x1[2], x1[3], x1[0], x1[1], x1[4])
+    for p_, t_, scale in zip(pred, truth, (10.0, 10.0, 1.0, 1.0, 1.0, 1.0, 100.0)):
         assert abs(p_ - t_) < 1e-7 * scale
     moved = max(abs(a - b) / s for a, b, s in zip((o.i_s_alpha, o.i_s_beta), truth[:2], (10.0, 10.0)))
     assert moved > 1e-3  # the prediction had somewhere to go
+
+
+def test_the_measurement_layout_is_the_controllers_input_order():
+    """The drive's measurement tuple is the controller unit's first inputs as they come (no reordering)."""
+    from satmotor.control import measurements as m
+    names = list(ControllerUnit.INPUTS)
+    want = {"MEAS_I_S_A": "i_s_alpha", "MEAS_I_S_B": "i_s_beta", "MEAS_PSI_R_A": "psi_r_alpha",
+            "MEAS_PSI_R_B": "psi_r_beta", "MEAS_PSI_S_A": "psi_s_alpha", "MEAS_PSI_S_B": "psi_s_beta",
+            "MEAS_OMEGA_M": "omega_m"}
+    assert {k: getattr(m, k) for k in want} == {k: names.index(n) for k, n in want.items()}
+    assert m.MEAS_LEN == len(want) and tuple(m.MEAS_NAMES) == tuple(names[:m.MEAS_LEN])
+    assert (m.MEAS_I_MU_A, m.MEAS_I_MU_B) == (m.MEAS_LEN, m.MEAS_LEN + 1)  # appended by the plain loop
+
+
+def test_pre_magnetization_reports_the_shapers_at_rest_not_the_measurements():
+    """Before the law runs the shaped-reference outputs are the shapers' values (at rest: 0), whatever the
+    measured flux and speed; the first run sample starts them at the measured state (no jump for the law)."""
+    d = BacksteppingDrive(P)
+    n_timeout = round(d.dcfg.premag_time_max / d.Ts)
+    outs = _meas_run(d, n_timeout + 2, phi=0.6 * 0.95, w=1.5)  # flux and speed measured, below the switch
+    pre, first = outs[:n_timeout], outs[n_timeout]
+    assert all(o.phase == PREMAG for o in pre) and first.phase == RUN
+    assert {(o.omega_ref_shaped, o.psi_ref_shaped) for o in pre} == {(0.0, 0.0)}
+    assert first.omega_ref_shaped == 1.5 and first.psi_ref_shaped == pytest.approx(0.6 * 0.95, rel=1e-15)
+    assert first.z1 == 0.0 and first.e1 == pytest.approx(0.0, abs=1e-15)

@@ -159,17 +159,14 @@ def ramp_run(params=()):
 
 def ctrl_inputs(rec, k):
     meas = {n: rec[n][k] for n in CTRL_IN[:7]}
-    return meas | {"omega_ref": rec["omega_set"][k], "psi_ref": rec["psi_set"][k], "T_load": rec["T_load"][k]}
-
-
-PLAIN_NAME = {"omega_ref_shaped": "omega_ref", "psi_ref_shaped": "psi_ref"}  # FMU output -> plain-loop key
+    return meas | {"omega_ref": rec["omega_ref"][k], "psi_ref": rec["psi_ref"][k], "T_load": rec["T_load"][k]}
 
 
 def rel_err(got, ref, names):
     """Largest |got - ref| over all samples, relative to max |ref|, over the variables ``names``
     (``ref`` keyed by the plain loop's names)."""
     def r(n):
-        want = np.asarray(ref[PLAIN_NAME.get(n, n)], dtype=float)
+        want = np.asarray(ref[n], dtype=float)
         return np.max(np.abs(np.asarray(got[n], dtype=float) - want)) / max(np.max(np.abs(want)), 1e-300)
     return max(r(n) for n in names)
 
@@ -298,7 +295,7 @@ def test_controller_fmu_under_simulate_fmu_matches_the_plain_loop(fmus):
     res = simulate_fmu(fmus["BacksteppingController"].path, start_time=0.0, stop_time=(n - 1) * H,
                        output_interval=H, input=sig, output=list(CTRL_OUT))
     got = {v: res[v][1:] for v in CTRL_OUT}
-    ref = {PLAIN_NAME.get(v, v): np.asarray(rec[PLAIN_NAME.get(v, v)][: n - 1]) for v in CTRL_OUT}
+    ref = {v: np.asarray(rec[v][: n - 1]) for v in CTRL_OUT}
     err = rel_err(got, ref, CTRL_OUT)
     print(f"controller simulate_fmu: max rel diff {err:.3g}")
     assert err <= 1e-9
@@ -391,11 +388,11 @@ def test_controller_discards_infinite_set_point_and_wrong_step(new):
     with pytest.raises(FMICallException) as exc:
         s.fmu.doStep(0.0, H)
     assert exc.value.status == 2 and "psi_ref = inf" in s.messages(min_status=2)
-    s.set({"psi_ref": rec["psi_set"][0]})
+    s.set({"psi_ref": rec["psi_ref"][0]})
     with pytest.raises(FMICallException) as exc:
         s.fmu.doStep(0.0, 2 * H)
     assert exc.value.status == 2 and "communicationStepSize = 0.0002" in s.messages(min_status=2)
-    assert run_ctrl(s, 0, 3, rec) == [[rec[PLAIN_NAME.get(n, n)][k] for n in CTRL_OUT] for k in range(3)]
+    assert run_ctrl(s, 0, 3, rec) == [[rec[n][k] for n in CTRL_OUT] for k in range(3)]
 
 
 # --- 10: two closed loops in one process, reset -------------------------------------------------------
@@ -410,7 +407,7 @@ def test_two_interleaved_closed_loops_match_their_plain_loops_and_reset_replays(
         for (ctrl, plant), g in zip(pairs, got):
             y = dict(zip(PLANT_OUT, plant.get(PLANT_OUT)))
             ctrl.step(t, H, {c: y[c] for c in CTRL_IN[:7]} | {
-                "omega_ref": scen.omega_set(t), "psi_ref": scen.psi_set, "T_load": scen.load(t)})
+                "omega_ref": scen.omega_ref(t), "psi_ref": scen.psi_ref, "T_load": scen.load(t)})
             v = ctrl.get(("v_s_alpha", "v_s_beta"))
             g["y"].append(y)
             g["v"].append(v)
@@ -506,7 +503,7 @@ def _run_checked(name, s, k0, k1):
         assert run_plant(s, k0, k1) == [[ref[n][k + 1] for n in PLANT_OUT] for k in range(k0, k1)]
     else:
         rec = ramp_run()
-        want = [[rec[PLAIN_NAME.get(n, n)][k] for n in CTRL_OUT] for k in range(k0, k1)]
+        want = [[rec[n][k] for n in CTRL_OUT] for k in range(k0, k1)]
         assert run_ctrl(s, k0, k1, rec) == want
 
 

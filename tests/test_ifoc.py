@@ -209,7 +209,7 @@ def test_bad_controller_inputs():
     for bad in (0.0, -1.0, math.nan, math.inf):
         with pytest.raises(ParameterError) as e:
             c(0.0, 0.0, 0.0, 0.0, bad)
-        assert e.value.field == "phi_ref"
+        assert e.value.field == "psi_ref_shaped"
     with pytest.raises(ParameterError) as e:
         c.set_state((0.0, 1.0))
     assert e.value.field == "state"

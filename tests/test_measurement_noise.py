@@ -150,7 +150,7 @@ def test_without_measurements_the_twin_is_satmotors_closed_loop_bit_for_bit(clea
     profiles = ["profile.T_load", "profile.omega_ref", "profile.psi_ref"]
     assert list(clean.columns) == ["time", *COLUMNS, *profiles]
     assert np.array_equal(clean["time"], rec["t"])
-    for col, key in zip(profiles, ("T_load", "omega_set", "psi_set")):
+    for col, key in zip(profiles, ("T_load", "omega_ref", "psi_ref")):
         assert np.array_equal(clean[col], rec[key]), col
     for col, key in COLUMNS.items():
         assert np.array_equal(clean[col], rec[key]), col

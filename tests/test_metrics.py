@@ -108,8 +108,8 @@ def record():
     v_a[6], v_b[6] = -6.0, 8.0  # |v_s| = 10 V, the peak
     run = T >= 1.0
     return {
-        "t": T, "omega_m": w, "omega_set": np.full(N, 100.0),
-        "psi_r_alpha": 0.909 * np.cos(ang), "psi_r_beta": 0.909 * np.sin(ang), "psi_set": np.full(N, 0.9),
+        "t": T, "omega_m": w, "omega_ref": np.full(N, 100.0),
+        "psi_r_alpha": 0.909 * np.cos(ang), "psi_r_beta": 0.909 * np.sin(ang), "psi_ref": np.full(N, 0.9),
         "z1": np.where(run, -2.0, 0.0),  # |z1| = 2 over 9 s
         "e1": np.where(run, 0.01 * (T - 1.0), -0.9),  # ramp 0 .. 0.09 Wb over 9 s
         "i_s_alpha": i_a, "i_s_beta": i_b, "v_s_alpha": v_a, "v_s_beta": v_b,
@@ -146,7 +146,7 @@ def test_closed_loop_metrics_of_the_hand_made_run(window):
 
 def test_a_window_before_the_end_is_measured_against_its_own_set_point():
     r = record()
-    r["omega_set"] = np.where(T <= 6.0, 100.0, 120.0)  # window [5, 6]: omega 100.5 against 100
+    r["omega_ref"] = np.where(T <= 6.0, 100.0, 120.0)  # window [5, 6]: omega 100.5 against 100
     m = closed_loop_metrics(**r, run=T >= 1.0, ss_window=(5.0, 6.0))
     assert m["ss_speed"] == pytest.approx(0.005, rel=1e-12)
     assert math.isnan(closed_loop_metrics(**r, run=T >= 1.0, ss_window=(20.0, 30.0))["ss_speed"])
@@ -177,8 +177,8 @@ def test_run_metrics_reads_a_plain_loop_record():
     assert m["voltage_limited_fraction"] == pytest.approx(6 / 21, rel=1e-15)
 
 
-COSIM = {"t": "time", "omega_m": "plant.omega_m", "omega_set": "profile.omega_ref",
-         "psi_r_alpha": "plant.psi_r_alpha", "psi_r_beta": "plant.psi_r_beta", "psi_set": "profile.psi_ref",
+COSIM = {"t": "time", "omega_m": "plant.omega_m", "omega_ref": "profile.omega_ref",
+         "psi_r_alpha": "plant.psi_r_alpha", "psi_r_beta": "plant.psi_r_beta", "psi_ref": "profile.psi_ref",
          "z1": "controller.z1", "e1": "controller.e1", "i_s_alpha": "plant.i_s_alpha",
          "i_s_beta": "plant.i_s_beta", "v_s_alpha": "controller.v_s_alpha",
          "v_s_beta": "controller.v_s_beta", "W": "controller.W"}

@@ -235,14 +235,15 @@ def test_model_constants_and_vector_fields(lib, motors):
 
 
 def random_meas(rng, phi_max=1.3):
-    """(i_s_a, i_s_b, psi_r_a, psi_r_b, omega_m, psi_s_a, psi_s_b)"""
+    """(i_s_a, i_s_b, psi_r_a, psi_r_b, psi_s_a, psi_s_b, omega_m)"""
     phi = rng.choice((rng.uniform(0.0, phi_max), rng.uniform(0.0, 0.06), 0.0))
     ang = rng.uniform(-math.pi, math.pi)
     isa, isb = rng.uniform(-25, 25), rng.uniform(-25, 25)
     if rng.random() < 0.03:
         isa = isb = 0.0
-    return (isa, isb, phi * math.cos(ang), phi * math.sin(ang), rng.uniform(-400, 400),
-            rng.uniform(-1.3, 1.3), rng.uniform(-1.3, 1.3))
+    w = rng.uniform(-400, 400)  # drawn in this order: the samples of the earlier layout
+    psa, psb = rng.uniform(-1.3, 1.3), rng.uniform(-1.3, 1.3)
+    return (isa, isb, phi * math.cos(ang), phi * math.sin(ang), psa, psb, w)
 
 
 def test_magnetizing_state(lib, motors):
@@ -255,8 +256,8 @@ def test_magnetizing_state(lib, motors):
             assert lib.sm_from_rotor_flux(*mm[:4], buf, ctypes.byref(c)) == 0
             for name, v in zip(MAG_NAMES, from_rotor_flux(*mm[:4], p)):
                 wr.check(name, getattr(c, name), v, (label, mm))
-            assert lib.sm_from_stator_flux(*mm[:4], *mm[5:], buf, ctypes.byref(c)) == 0
-            for name, v in zip(MAG_NAMES, from_stator_flux(*mm[:4], *mm[5:], p)):
+            assert lib.sm_from_stator_flux(*mm[:4], *mm[4:6], buf, ctypes.byref(c)) == 0
+            for name, v in zip(MAG_NAMES, from_stator_flux(*mm[:4], *mm[4:6], p)):
                 ws.check(name, getattr(c, name), v, (label, mm))
             assert lib.sm_from_magnetizing_current(*mm[:4], buf, ctypes.byref(c)) == 0
             for name, v in zip(MAG_NAMES, from_magnetizing_current(*mm[:4], p)):
@@ -402,7 +403,7 @@ def test_control_near_operating_points(lib, motors):
             x_fo = (phi, imd * rng.uniform(0.99, 1.01), rng.uniform(-8, 8), rng.uniform(-120, 120))
             x = to_stationary(p, x_fo, rng.uniform(-math.pi, math.pi))
             o = plant.outputs(x)
-            meas = (o.i_s_alpha, o.i_s_beta, x[2], x[3], x[4], x[0], x[1])
+            meas = (o.i_s_alpha, o.i_s_beta, x[2], x[3], x[0], x[1], x[4])
             ref = (phi * rng.uniform(0.98, 1.02), rng.uniform(-1, 1), rng.uniform(-50, 50),
                    x_fo[3] + rng.uniform(-2, 2), rng.uniform(-100, 100), rng.uniform(-1e3, 1e3))
             g, cg = random_gains(rng)
@@ -435,7 +436,7 @@ def test_control_nonfinite_inputs(lib, motors):
     where it returns, the C outputs are its outputs, except |i_mu| for an infinite |w| (the C solve
     gives NaN, Python's inf) and the sign of the voltage-limit fallback for a NaN voltage (the
     sign bit of a NaN is not reproduced)."""
-    base = (3.0, -1.0, 0.8, 0.1, 100.0, 0.9, 0.2)
+    base = (3.0, -1.0, 0.8, 0.1, 0.9, 0.2, 100.0)
     ref0 = (0.9, 0.0, 0.0, 100.0, 0.0, 0.0)
     g = Gains()
     lib.sm_gains_default(ctypes.byref(g))
@@ -459,7 +460,7 @@ def test_control_nonfinite_inputs(lib, motors):
                             th = bad
                         else:
                             integ[slot - 16] = bad
-                        read = not ((slot in (5, 6) and not sf) or (slot in (13, 14) and mode == "estimated")
+                        read = not ((slot in (4, 5) and not sf) or (slot in (13, 14) and mode == "estimated")
                                     or (slot == 15 and mode == "known"))
                         c = ControlOut()
                         st = lib.sm_control(arr(meas), arr(ref), arr(load), buf, ctypes.byref(g),

@@ -112,5 +112,5 @@ def test_c_ifoc_refuses_a_bad_flux_reference_and_changes_nothing(lib):
     for bad in (0.0, -0.5, math.nan, math.inf):
         assert lib.sm_ifoc_step(buf, 1.0, 0.0, 0.0, 0.0, bad, ctypes.byref(va), ctypes.byref(vb), None, msg,
                                 256) != 0
-        assert msg.value.decode().startswith("phi_ref = ")
+        assert msg.value.decode().startswith("psi_ref_shaped = ")
     assert bytes(buf) == before

@@ -7,6 +7,7 @@ from __future__ import annotations
 import ctypes
 import dataclasses
 import shutil
+import subprocess
 
 import pytest
 from native_core import ControllerParams, MotorParams, PlantParams, load
@@ -112,3 +113,36 @@ def test_the_generated_inputs_and_outputs_follow_the_tables():
         head = native_tables.model_header(name, table)
         for v in (*inputs, *outputs):
             assert f"#define SM_VR_{v.name} {vr[v.name]}\n" in head
+
+
+MEAS = {"SM_MEAS_I_S_A": "i_s_alpha", "SM_MEAS_I_S_B": "i_s_beta", "SM_MEAS_PSI_R_A": "psi_r_alpha",
+        "SM_MEAS_PSI_R_B": "psi_r_beta", "SM_MEAS_PSI_S_A": "psi_s_alpha", "SM_MEAS_PSI_S_B": "psi_s_beta",
+        "SM_MEAS_OMEGA_M": "omega_m"}
+
+
+def test_the_c_measurement_layout_is_the_controllers_input_order_and_the_pythons(tmp_path):
+    """SM_MEAS_* (compiled from the generated sm_params.h and printed) are the positions of their inputs
+    in CONTROLLER_INPUTS and equal measurements.MEAS_*: sm_controller.c passes its inputs through."""
+    from satmotor.control import measurements
+    native_tables.core_files(tmp_path)
+    (tmp_path / "m.c").write_text('#include <stdio.h>\n#include "sm_params.h"\nint main(void)\n{\n'
+                                  + "".join(f'    printf("%d\\n", (int){n});\n'
+                                            for n in (*MEAS, "SM_MEAS_LEN"))
+                                  + "    return 0;\n}\n")
+    exe = tmp_path / "m"
+    subprocess.run([shutil.which("gcc"), "-std=c99", "-Wall", "-Werror", f"-I{tmp_path}", "-o", str(exe),
+                    str(tmp_path / "m.c")], check=True)
+    run = subprocess.run([str(exe)], check=True, capture_output=True, text=True)
+    got = [int(s) for s in run.stdout.split()]
+    names = [v.name for v in itf.CONTROLLER_INPUTS]
+    assert got[:-1] == [names.index(n) for n in MEAS.values()]
+    assert got[:-1] == [getattr(measurements, n[3:]) for n in MEAS]
+    assert got[-1] == measurements.MEAS_LEN == len(MEAS)
+
+
+def test_the_generation_fails_when_the_python_layout_leaves_the_input_order(monkeypatch):
+    from satmotor.control import measurements
+    monkeypatch.setattr(measurements, "MEAS_NAMES", ("i_s_alpha", "i_s_beta", "psi_r_alpha", "psi_r_beta",
+                                                     "omega_m", "psi_s_alpha", "psi_s_beta"))
+    with pytest.raises(ValueError, match="not the controller's first inputs"):
+        native_tables.core_header()

@@ -81,9 +81,9 @@ def test_default_scenario_reproduces_ramp_scenario():
     n = round(sc.stop_time / sc.Ts)
     for k in range(n + 1):  # bit for bit at every sample time of the master (t = k h)
         t = k * sc.step
-        assert w.value(t) == ref.omega_set(t)
+        assert w.value(t) == ref.omega_ref(t)
         assert load.value(t) == ref.load(t)
-        assert psi.value(t) == ref.psi_set
+        assert psi.value(t) == ref.psi_ref
 
 
 def test_rotor_resistance_mismatch_overrides_only_the_plant():

@@ -9,7 +9,10 @@ One generator for every native model; nothing below is written by hand in C:
   values), the finiteness check of their Real members ``sm_<s>_params_require_finite``
   (``interface._number``), their sizes ``sm_<s>_params_size`` (for ctypes hosts), per unit the
   input and output counts and names in table order (``SM_<UNIT>_N_IN``,
-  ``SM_<UNIT>_INPUT_NAMES``, ...), and the defaults of the core's structs of the Python settings
+  ``SM_<UNIT>_INPUT_NAMES``, ...) and positions (``SM_<UNIT>_IN_<name>``), the measurement vector's
+  layout ``SM_MEAS_*`` (:mod:`satmotor.control.measurements`: ``MEAS_*``, the controller's first
+  inputs in their order; the generation fails if they disagree) and the defaults of the core's
+  structs of the Python settings
   dataclasses (:data:`DATACLASS_STRUCTS`: ``sm_gains_default`` from ``BacksteppingGains()``, ...);
 * per model (:func:`model_files`): ``sm_vars.h`` (declarations only) and ``sm_vars.c``: the value
   reference of each variable (``SM_VR_<name>``: its position in the model's table, as the model
@@ -33,6 +36,7 @@ import dataclasses
 from pathlib import Path
 
 import satmotor.interface as itf
+from satmotor.control import measurements
 from satmotor.control.backstepping import BacksteppingGains, ControllerConfig
 from satmotor.control.drive import DriveConfig
 from satmotor.control.ifoc import IFOCGains
@@ -97,6 +101,24 @@ def _names_array(decl, names):
 
 # ---- the core: sm_params.h / sm_params.c ---------------------------------------------------------
 
+def _meas_enum():
+    """``SM_MEAS_<X>`` = ``MEAS_<X>`` of :mod:`satmotor.control.measurements` (the drive's measurement
+    vector), checked against the controller's input order."""
+    m = measurements
+    names = [v.name for v in itf.CONTROLLER_INPUTS[:m.MEAS_LEN]]
+    if list(m.MEAS_NAMES) != names:
+        raise ValueError(f"measurements.MEAS_NAMES {m.MEAS_NAMES} are not the controller's first "
+                         f"inputs {names}")
+    other = ("MEAS_LEN", "MEAS_NAMES", "MEAS_I_MU_A", "MEAS_I_MU_B")
+    consts = sorted((getattr(m, n), n) for n in m.__all__ if n.startswith("MEAS_") and n not in other)
+    if [v for v, _ in consts] != list(range(m.MEAS_LEN)):
+        raise ValueError(f"measurements.MEAS_* {consts} are not the positions 0..{m.MEAS_LEN - 1}")
+    return ["/* the drive's measurement vector: the controller's first inputs, in their order",
+            " * (satmotor.control.measurements.MEAS_*) */", "enum {",
+            *(f"    SM_{n} = {v}, /* {m.MEAS_NAMES[v]} */" for v, n in consts),
+            f"    SM_MEAS_LEN = {m.MEAS_LEN}", "};", ""]
+
+
 def core_header():
     """``sm_params.h``: the parameter structs, their defaults and sizes, the units' input/output
     counts and names (declarations)."""
@@ -122,6 +144,8 @@ def core_header():
         lines += [f"#define SM_{u}_N_IN {len(inputs)}", f"#define SM_{u}_N_OUT {len(outputs)}",
                   f"extern const char *const SM_{u}_INPUT_NAMES[SM_{u}_N_IN];",
                   f"extern const char *const SM_{u}_OUTPUT_NAMES[SM_{u}_N_OUT];", ""]
+        lines += [f"#define SM_{u}_IN_{v.name} {j}" for j, v in enumerate(inputs)] + [""]
+    lines += _meas_enum()
     lines += ["#endif", ""]
     return "\n".join(lines)
 

@@ -58,7 +58,7 @@ def controller_inputs(scenario_path=DEFAULT_SCENARIO):
     rec = closed_loop(plant.params, ctrl.drive, N * H, prof["omega_ref"].value, prof["psi_ref"].value,
                       prof["T_load"].value, x0=plant.x0)
     cols = ("i_s_alpha", "i_s_beta", "psi_r_alpha", "psi_r_beta", "psi_s_alpha", "psi_s_beta", "omega_m",
-            "omega_set", "psi_set", "T_load")
+            "omega_ref", "psi_ref", "T_load")
     return [tuple(float(rec[c][k]) for c in cols) for k in range(N + 1)]
 
 

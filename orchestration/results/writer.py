@@ -35,9 +35,9 @@ def compute_metrics(df, scenario):
     for an empty record."""
     if len(df["time"]) == 0:
         return {}
-    columns = {"t": "time", "omega_m": "plant.omega_m", "omega_set": "profile.omega_ref",
+    columns = {"t": "time", "omega_m": "plant.omega_m", "omega_ref": "profile.omega_ref",
                "psi_r_alpha": "plant.psi_r_alpha", "psi_r_beta": "plant.psi_r_beta",
-               "psi_set": "profile.psi_ref", "z1": "controller.z1", "e1": "controller.e1",
+               "psi_ref": "profile.psi_ref", "z1": "controller.z1", "e1": "controller.e1",
                "i_s_alpha": "plant.i_s_alpha", "i_s_beta": "plant.i_s_beta",
                "v_s_alpha": "controller.v_s_alpha", "v_s_beta": "controller.v_s_beta", "W": "controller.W"}
     acc = scenario.acceptance

@@ -32,7 +32,7 @@ COLUMNS = {
     "controller.v_sq": "v_sq", "controller.e1": "e1", "controller.e2": "e2", "controller.z1": "z1",
     "controller.z2": "z2", "controller.W": "W", "controller.T_load_est": "T_load_est",
     "controller.psi_r_hat_alpha": "psi_r_hat_alpha", "controller.psi_r_hat_beta": "psi_r_hat_beta",
-    "controller.omega_ref_shaped": "omega_ref", "controller.psi_ref_shaped": "psi_ref",
+    "controller.omega_ref_shaped": "omega_ref_shaped", "controller.psi_ref_shaped": "psi_ref_shaped",
     "controller.phase": "phase", "controller.voltage_limited": "voltage_limited",
     "controller.current_limited": "current_limited", "controller.singular_limited": "singular_limited",
 }

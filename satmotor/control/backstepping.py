@@ -7,8 +7,8 @@ Control model: :mod:`satmotor.control.fo_model`, ``x = [Phi_rd, i_mu_d, i_mu_q, 
 Notation: ``a = R_r/l_r``, ``K = kappa k / (J l_r)``, ``kappa = 3/2 n_p``, ``b = B/J``,
 ``theta = T_L/J`` (or its estimate ``theta_hat``)::
 
-    e1 = Phi_rd - Phi_ref,   alpha1 = -c1 e1 + a Phi_rd + Phi_ref',   e2 = a k m i_mu_d - alpha1
-    z1 = omega_m - omega_ref, gamma1 = -d1 z1 + theta + b omega_m + omega_ref',
+    e1 = Phi_rd - psi_ref_shaped,   alpha1 = -c1 e1 + a Phi_rd + psi_ref_shaped',   e2 = a k m i_mu_d - alpha1
+    z1 = omega_m - omega_ref_shaped, gamma1 = -d1 z1 + theta + b omega_m + omega_ref_shaped',
     z2 = K m Phi_rd i_mu_q - gamma1
     =>  e1' = -c1 e1 + e2,    z1' = -d1 z1 + z2 (+ theta_hat - theta in the estimated mode)
 
@@ -16,15 +16,15 @@ Gradients (``M = [[M_d, M_dq], [M_dq, M_q]] = d(m i_mu)/d i_mu``)::
 
     de2/dx = (c1 - a,   a k M_d,        a k M_dq,       0     )
     dz2/dx = (K m i_mu_q, K Phi_rd M_dq, K Phi_rd M_q,  d1 - b)
-    de2/dt = -c1 Phi_ref' - Phi_ref''
-    dz2/dt = -d1 omega_ref' - omega_ref'' - theta'
+    de2/dt = -c1 psi_ref_shaped' - psi_ref_shaped''
+    dz2/dt = -d1 omega_ref_shaped' - omega_ref_shaped'' - theta'
 
 with ``theta' = (dT_L/dt)/J`` (known load) or ``theta_hat'`` of the update law (estimated).
 ``beta = (de/dx) F + de/dt`` and ``Lambda = (de/dx) G = diag(a k, K Phi_rd) M L^-1``, i.e.::
 
-    beta1 = (c1 - a) Phi_rd' + a k (M_d F_d + M_dq F_q) - c1 Phi_ref' - Phi_ref''
+    beta1 = (c1 - a) Phi_rd' + a k (M_d F_d + M_dq F_q) - c1 psi_ref_shaped' - psi_ref_shaped''
     beta2 = K m i_mu_q Phi_rd' + K Phi_rd (M_dq F_d + M_q F_q) + (d1 - b) F_w
-            - d1 omega_ref' - omega_ref'' - theta'
+            - d1 omega_ref_shaped' - omega_ref_shaped'' - theta'
     W = det Lambda = a k K Phi_rd m L_dyn / det L
 
 (F_d, F_q, F_w the drift of i_mu_d, i_mu_q, omega_m; F_w uses theta or theta_hat.)  The law
@@ -40,8 +40,8 @@ closed loop has ``z1' = -d1 z1 + z2 + theta_t`` and ``z2' = -d2 z2 - z1 + (d1 - 
 ``theta_t (theta_hat'_proj - theta_hat'_nom) / g_theta <= 0`` when ``|theta| <= theta_max``.
 
 Integral action (gains c0, d0 >= 0; 0 gives the seed's law): the states ``e0 = int e1 dt``,
-``z0 = int z1 dt`` enter the virtual controls, ``alpha1 = -c1 e1 - c0 e0 + a Phi_rd + Phi_ref'`` and
-``gamma1 = -d1 z1 - d0 z0 + theta + b omega_m + omega_ref'``.  Since ``e0' = e1`` is known, it adds
+``z0 = int z1 dt`` enter the virtual controls, ``alpha1 = -c1 e1 - c0 e0 + a Phi_rd + psi_ref_shaped'`` and
+``gamma1 = -d1 z1 - d0 z0 + theta + b omega_m + omega_ref_shaped'``.  Since ``e0' = e1`` is known, it adds
 ``c0 e1`` to de2/dt and ``d0 z1`` to dz2/dt; then ``e1' = -c1 e1 - c0 e0 + e2`` and, with
 ``V = (e1^2 + e2^2 + z1^2 + z2^2 + c0 e0^2 + d0 z0^2)/2``, V' is as above.  A constant model error
 (plant parameters differ from the controller's) is then absorbed by e0, z0 at e1 = z1 = 0.
@@ -217,7 +217,9 @@ def _core(p, g, phi_min, phi, imd, imq, w, m, dm, I, ref, theta, theta_dot, adap
     c0, d0); ``i_max`` [A] the stator current bound on the virtual controls (module docstring).
     Returns the fields of an :class:`ErrorSystem` as a plain tuple (the per-sample path unpacks it).
     """
-    pr, dpr, ddpr, wr, dwr, ddwr = ref
+    # the drive's shaped references and their first two time derivatives
+    (psi_ref_shaped, psi_ref_shaped_dot, psi_ref_shaped_ddot,
+     omega_ref_shaped, omega_ref_shaped_dot, omega_ref_shaped_ddot) = ref
     c1, d1, c0, d0 = g.c1, g.d1, g.c0, g.d0
     c = model_constants(p)
     a, ak, K, b = c.a, c.ak, c.K, c.b
@@ -226,11 +228,11 @@ def _core(p, g, phi_min, phi, imd, imq, w, m, dm, I, ref, theta, theta_dot, adap
     # drift F and L^-1 of the control model (Phi_rd floored in omega_s)
     (dphi, Fd, Fq, Fw, a11, a12, a22, ws, Md, Mq, Mdq, _, _, _, _, te_J,
      _) = vector_fields(c, phi, imd, imq, w, m, dm, I, theta, phe)
-    e1 = phi - pr
-    z1 = w - wr
+    e1 = phi - psi_ref_shaped
+    z1 = w - omega_ref_shaped
     # virtual controls: alpha1 for a k m i_mu_d, gamma1 for T_e/J
-    alpha1 = -c1 * e1 - c0 * e0 + a * phi + dpr
-    gamma1 = -d1 * z1 - d0 * z0 + theta + b * w + dwr
+    alpha1 = -c1 * e1 - c0 * e0 + a * phi + psi_ref_shaped_dot
+    gamma1 = -d1 * z1 - d0 * z0 + theta + b * w + omega_ref_shaped_dot
     d_lim = q_lim = 0  # +1 / -1: the virtual control was bounded from above / below
     if i_max < math.inf:  # the currents they demand, bounded (quasi-static: m held at its value)
         cc = 1.0 + c.k2_lr * m
@@ -257,12 +259,13 @@ def _core(p, g, phi_min, phi, imd, imq, w, m, dm, I, ref, theta, theta_dot, adap
     if d_lim:
         ge2, dt_e2 = (0.0, ak * Md, ak * Mdq, 0.0), 0.0
     else:
-        ge2, dt_e2 = (c1 - a, ak * Md, ak * Mdq, 0.0), -c1 * dpr - ddpr + c0 * e1
+        ge2 = (c1 - a, ak * Md, ak * Mdq, 0.0)
+        dt_e2 = -c1 * psi_ref_shaped_dot - psi_ref_shaped_ddot + c0 * e1
     if q_lim:
         gz2, dt_z2 = (K * m * imq, K * phi * Mdq, K * phi * Mq, 0.0), 0.0
     else:
         gz2 = (K * m * imq, K * phi * Mdq, K * phi * Mq, d1 - b)
-        dt_z2 = -d1 * dwr - ddwr - theta_dot + d0 * z1
+        dt_z2 = -d1 * omega_ref_shaped_dot - omega_ref_shaped_ddot - theta_dot + d0 * z1
     beta1 = ge2[0] * dphi + ge2[1] * Fd + ge2[2] * Fq + dt_e2
     beta2 = gz2[0] * dphi + gz2[1] * Fd + gz2[2] * Fq + gz2[3] * Fw + dt_z2
     # Lambda = diag(a k, K Phi_rd) M L^-1
@@ -283,9 +286,10 @@ def error_system(x, ref, params, gains, theta=0.0, theta_dot=0.0, phi_min=0.05, 
                  i_max=math.inf):
     """Error system at the flux-oriented state ``x = (Phi_rd, i_mu_d, i_mu_q, omega_m)``.
 
-    ``ref = (Phi_ref, Phi_ref', Phi_ref'', omega_ref, omega_ref', omega_ref'')``; theta [rad/s^2]
-    the (estimated) T_L/J and theta_dot its derivative; ``adapt = (g_theta, theta_max)`` switches
-    to the update law for theta'.  m and dm/dI come from ``params.curve`` at ``|i_mu|``.
+    ``ref = (psi_ref_shaped, psi_ref_shaped', psi_ref_shaped'', omega_ref_shaped, omega_ref_shaped',
+    omega_ref_shaped'')`` (the drive's shaped references); theta [rad/s^2] the (estimated) T_L/J and
+    theta_dot its derivative; ``adapt = (g_theta, theta_max)`` switches to the update law for theta'.
+    m and dm/dI come from ``params.curve`` at ``|i_mu|``.
     """
     phi, imd, imq, w = (float(v) for v in x)
     I = math.hypot(imd, imq)
@@ -301,11 +305,12 @@ def control(meas, ref, load, params, gains, cfg, theta_hat=0.0, integ=(0.0, 0.0)
     ----------
     meas : tuple
         The measurement tuple of :mod:`satmotor.control.measurements`, ``(i_s_alpha, i_s_beta,
-        psi_r_alpha, psi_r_beta, omega_m[, psi_s_alpha, psi_s_beta])`` [A, A, Wb, Wb, rad/s, Wb,
-        Wb]; psi_s is needed only with ``cfg.use_stator_flux``.
+        psi_r_alpha, psi_r_beta, psi_s_alpha, psi_s_beta, omega_m)`` [A, A, Wb, Wb, Wb, Wb, rad/s]
+        (the controller unit's input order); psi_s is read only with ``cfg.use_stator_flux``.
     ref : tuple
-        ``(Phi_ref, Phi_ref', Phi_ref'', omega_ref, omega_ref', omega_ref'')`` [Wb, Wb/s, Wb/s^2,
-        rad/s, rad/s^2, rad/s^3] (mechanical speed).
+        ``(psi_ref_shaped, psi_ref_shaped', psi_ref_shaped'', omega_ref_shaped, omega_ref_shaped',
+        omega_ref_shaped'')`` [Wb, Wb/s, Wb/s^2, rad/s, rad/s^2, rad/s^3] (mechanical speed): the
+        drive's shaped references.
     load : tuple
         ``(T_L, dT_L/dt)`` [N m, N m/s]; used in the 'known' load mode only.
     params : MotorParams

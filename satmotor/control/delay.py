@@ -30,7 +30,14 @@ from __future__ import annotations
 
 import math
 
-from satmotor.control.measurements import from_rotor_flux
+from satmotor.control.measurements import (
+    MEAS_I_S_A,
+    MEAS_I_S_B,
+    MEAS_OMEGA_M,
+    MEAS_PSI_R_A,
+    MEAS_PSI_R_B,
+    from_rotor_flux,
+)
 from satmotor.errors import require_number
 from satmotor.machine.plant import OMEGA_M, PSI_R_A, PSI_R_B, PSI_S_A, PSI_S_B, Plant
 
@@ -72,7 +79,8 @@ class DelayCompensator:
         """The measurement tuple (layout of :mod:`satmotor.control.measurements`) predicted at the next
         sample under the pending voltage, with the load torque ``T_load`` [N m] held."""
         p = self.params
-        i_a, i_b, pr_a, pr_b, w = meas[0], meas[1], meas[2], meas[3], meas[4]
+        i_a, i_b, w = meas[MEAS_I_S_A], meas[MEAS_I_S_B], meas[MEAS_OMEGA_M]
+        pr_a, pr_b = meas[MEAS_PSI_R_A], meas[MEAS_PSI_R_B]
         phi = math.hypot(pr_a, pr_b)
         c, s = (pr_a / phi, pr_b / phi) if phi > 0.0 else (1.0, 0.0)
         if self._pred is not None and self.bias_gain > 0.0:  # correction, in this sample's flux frame
@@ -91,8 +99,8 @@ class DelayCompensator:
                 x1[OMEGA_M])
         self._pred = pred
         d, q, pd, pq, wc = (v + ck for v, ck in zip(pred, self._corr))
-        return (c1 * d - s1 * q, s1 * d + c1 * q, c1 * pd - s1 * pq, s1 * pd + c1 * pq, wc,
-                x1[PSI_S_A], x1[PSI_S_B])
+        return (c1 * d - s1 * q, s1 * d + c1 * q, c1 * pd - s1 * pq, s1 * pd + c1 * pq,
+                x1[PSI_S_A], x1[PSI_S_B], wc)  # the order of satmotor.control.measurements
 
     def get_state(self):
         pred = (0.0,) * 5 + (0.0,) if self._pred is None else self._pred + (1.0,)

@@ -9,11 +9,11 @@ Start from standstill (the backstepping law is singular at Phi_rd = 0):
 
 1. *Pre-magnetization*: a proportional current loop with resistive feed-forward holds the
    stator current on the alpha axis at ``premag_boost`` times the magnetizing current of the
-   flux set-point (``i_ref = min(boost I(psi_set/k), I_max)``)::
+   flux set-point (``i_ref = min(boost I(psi_ref/k), I_max)``)::
 
        v_s_alpha = R_s i_ref + K_pm (i_ref - i_s_alpha),   v_s_beta = -K_pm i_s_beta
 
-2. *Switch* when ``|psi_r| >= premag_fraction psi_set`` (or after ``premag_time_max``): the
+2. *Switch* when ``|psi_r| >= premag_fraction psi_ref`` (or after ``premag_time_max``): the
    flux shaper is put at the measured state ``(Phi_rd, Phi_rd', 0)`` with
    ``Phi_rd' = (R_r/l_r)(k m i_mu_d - Phi_rd)`` (:func:`satmotor.control.fo_model.flux_rate`) and the
    speed shaper at ``(omega_m, 0, 0)``, so that ``e1 = e2 = z1 = 0`` at the switch: the law
@@ -112,8 +112,8 @@ class DriveOutput(NamedTuple):
     V: float  # Lyapunov function
     W: float  # det Lambda (0 where not defined)
     T_load_est: float  # [N m] load used by the law (estimate in the estimated mode)
-    omega_ref: float  # [rad/s] shaped speed reference
-    psi_ref: float  # [Wb] shaped flux reference
+    omega_ref_shaped: float  # [rad/s] shaped speed reference (pre-magnetization: the shaper at rest, 0)
+    psi_ref_shaped: float  # [Wb] shaped flux reference (pre-magnetization: the shaper at rest, 0)
     phase: int  # PREMAG or RUN
     voltage_limited: bool
     singular_limited: bool
@@ -150,47 +150,49 @@ class _Drive:
             self._delay.reset()
         self._reset_law()
 
-    def magnetizing_current(self, psi_set):
+    def magnetizing_current(self, psi_ref):
         """Steady magnetizing current [A] for a rotor flux set-point [Wb]; error beyond I_max."""
         checked_psi, checked_I = self._checked
-        if psi_set == checked_psi:
+        if psi_ref == checked_psi:
             return checked_I
-        require_number("psi_ref", psi_set, 0)
+        require_number("psi_ref", psi_ref, 0)
         p = self.params
-        I = p.curve.current(psi_set / p.k)
+        I = p.curve.current(psi_ref / p.k)
         if I > self.dcfg.I_max:
             raise ParameterError(
-                "psi_ref", psi_set,
+                "psi_ref", psi_ref,
                 f"needs a magnetizing current of {I:.4g} A on the '{p.curve.name}' curve, "
                 f"more than I_max = {self.dcfg.I_max!r} A",
             )
-        self._checked = (psi_set, I)
+        self._checked = (psi_ref, I)
         return I
 
-    def step(self, meas, omega_set, psi_set, T_load):
+    def step(self, meas, omega_ref, psi_ref, T_load):
         """One sample: ``meas`` the measurement tuple of :mod:`satmotor.control.measurements`
-        [A, A, Wb, Wb, rad/s, Wb, Wb]; set-points [rad/s], [Wb]; load torque [N m].
+        [A, A, Wb, Wb, Wb, Wb, rad/s] (the controller unit's input order); the raw set-points
+        ``omega_ref`` [rad/s], ``psi_ref`` [Wb] (shaped inside: ``omega_ref_shaped``,
+        ``psi_ref_shaped``); load torque [N m].
         Returns a :class:`DriveOutput`."""
-        I_set = self.magnetizing_current(psi_set)
-        require_number("omega_ref", omega_set)
+        I_set = self.magnetizing_current(psi_ref)
+        require_number("omega_ref", omega_ref)
         if self._observer is not None:  # the psi inputs are ignored: the estimate replaces them
             pa, pb = self._observer.update(meas[MEAS_I_S_A], meas[MEAS_I_S_B], meas[MEAS_OMEGA_M])
-            meas = (meas[MEAS_I_S_A], meas[MEAS_I_S_B], pa, pb, meas[MEAS_OMEGA_M], 0.0, 0.0)
+            meas = (meas[MEAS_I_S_A], meas[MEAS_I_S_B], pa, pb, 0.0, 0.0, meas[MEAS_OMEGA_M])  # MEAS_* order
         if self._phase == PREMAG:
             phi = math.hypot(meas[MEAS_PSI_R_A], meas[MEAS_PSI_R_B])
-            if not self._switch_now(phi, psi_set, meas[MEAS_OMEGA_M]):
+            if not self._switch_now(phi, psi_ref, meas[MEAS_OMEGA_M]):
                 self._n += 1
-                return self._delayed(self._premag(meas, I_set, phi, psi_set))
+                return self._delayed(self._premag(meas, I_set, phi, psi_ref))
             self._switch(meas)
         if self._delay is None:
             out = self._run(meas, self._flux.value, self._speed.value, T_load)
-            self._flux.step(psi_set, self.Ts)
-            self._speed.step(omega_set, self.Ts)
+            self._flux.step(psi_ref, self.Ts)
+            self._speed.step(omega_ref, self.Ts)
             return out
         # the command takes effect at the next sample: the state and the references there
         pred = self._delay.predict(meas, self._model_load(T_load))
-        self._flux.step(psi_set, self.Ts)
-        self._speed.step(omega_set, self.Ts)
+        self._flux.step(psi_ref, self.Ts)
+        self._speed.step(omega_ref, self.Ts)
         return self._delayed(self._run(pred, self._flux.value, self._speed.value, T_load))
 
     def _delayed(self, out):
@@ -199,20 +201,25 @@ class _Drive:
         va, vb = self._delay.swap(out.v_s_alpha, out.v_s_beta)
         return out._replace(v_s_alpha=va, v_s_beta=vb)
 
-    def _switch_now(self, phi, psi_set, omega_m):
+    def _switch_now(self, phi, psi_ref, omega_m):
         """The law takes over at premag_fraction of the set-point; from premag_min_fraction on when
         the rotor moves or the time is up; never below (no law at near-zero flux)."""
         c = self.dcfg
-        if phi >= c.premag_fraction * psi_set:
+        if phi >= c.premag_fraction * psi_ref:
             return True
-        return phi >= c.premag_min_fraction * psi_set and (
+        return phi >= c.premag_min_fraction * psi_ref and (
             self._n >= self._n_switch or abs(omega_m) > c.premag_speed_tol)
 
-    def _premag(self, meas, I_set, phi, psi_set):
+    def _premag(self, meas, I_set, phi, psi_ref):
         """Current loop in the rotor-flux frame (on alpha until there is a flux to align with):
         i_sd -> min(boost I_set, I_max), i_sq -> 0, whatever the rotor does; when a load drives the
         rotor (|omega_m| > premag_speed_tol) i_sd -> D_SHARE I_max, the fastest flux build-up the
-        limit allows, so that the law can take over and hold the rotor sooner."""
+        limit allows, so that the law can take over and hold the rotor sooner.
+
+        The shaped-reference outputs are the reference shapers' values: the shapers do not run before
+        the law does (they are at rest where :meth:`reset` put them, 0), and the switch starts them at
+        the measured state (:meth:`_switch`); no measured value is reported as a reference.  e1 is
+        the flux against the raw set-point (``|psi_r| - psi_ref``: how far the build-up has come)."""
         p, cfg = self.params, self.dcfg
         K = cfg.premag_gain
         bounded = cfg.premag_boost * I_set > cfg.I_max
@@ -220,7 +227,7 @@ class _Drive:
         if abs(meas[MEAS_OMEGA_M]) > cfg.premag_speed_tol:
             i_ref = max(i_ref, D_SHARE * cfg.I_max)
         pa, pb = meas[MEAS_PSI_R_A], meas[MEAS_PSI_R_B]
-        c, s = (pa / phi, pb / phi) if phi > _FRAME_MIN * psi_set else (1.0, 0.0)
+        c, s = (pa / phi, pb / phi) if phi > _FRAME_MIN * psi_ref else (1.0, 0.0)
         ia, ib = meas[MEAS_I_S_A], meas[MEAS_I_S_B]
         vd = p.R_s * i_ref + K * (i_ref - (c * ia + s * ib))
         vq = -K * (c * ib - s * ia)
@@ -228,9 +235,9 @@ class _Drive:
         lim = vn > self._V_max
         if lim:
             vd, vq = vd * self._V_max / vn, vq * self._V_max / vn
-        return DriveOutput(c * vd - s * vq, s * vd + c * vq, vd, vq, phi - psi_set, 0.0, 0.0, 0.0, 0.0,
-                           0.0, 0.0, meas[MEAS_OMEGA_M], phi, PREMAG, lim, False, bounded, pa,
-                           pb)
+        return DriveOutput(c * vd - s * vq, s * vd + c * vq, vd, vq, phi - psi_ref, 0.0, 0.0, 0.0, 0.0,
+                           0.0, 0.0, self._speed.value[REF_VALUE], self._flux.value[REF_VALUE], PREMAG, lim,
+                           False, bounded, pa, pb)
 
     def _switch(self, meas):
         p = self.params
@@ -311,10 +318,10 @@ class BacksteppingDrive(_Drive):
     def _model_load(self, T_load):
         return self._theta_hat * self.params.J if self.cfg.load_mode == "estimated" else T_load
 
-    def _run(self, meas, rf, rw, T_load):
+    def _run(self, meas, psi_ref_shaped, omega_ref_shaped, T_load):
         cfg, p = self.cfg, self.params
-        o = control(meas, rf + rw, (T_load, 0.0), p, self.gains, cfg, self._theta_hat, (self._e0, self._z0),
-                    self.dcfg.I_max)
+        o = control(meas, psi_ref_shaped + omega_ref_shaped, (T_load, 0.0), p, self.gains, cfg,
+                    self._theta_hat, (self._e0, self._z0), self.dcfg.I_max)
         if cfg.load_mode == "estimated":
             t_load = self._theta_hat * p.J
             th = self._theta_hat + cfg.Ts * o.theta_hat_dot
@@ -324,8 +331,9 @@ class BacksteppingDrive(_Drive):
         self._e0 += cfg.Ts * o.e0_dot
         self._z0 += cfg.Ts * o.z0_dot
         return DriveOutput(o.v_s_alpha, o.v_s_beta, o.v_sd, o.v_sq, o.e1, o.e2, o.z1, o.z2, o.V, o.W,
-                           t_load, rw[REF_VALUE], rf[REF_VALUE], RUN, o.voltage_limited,
-                           o.singular_limited, o.current_limited, meas[MEAS_PSI_R_A], meas[MEAS_PSI_R_B])
+                           t_load, omega_ref_shaped[REF_VALUE], psi_ref_shaped[REF_VALUE], RUN,
+                           o.voltage_limited, o.singular_limited, o.current_limited, meas[MEAS_PSI_R_A],
+                           meas[MEAS_PSI_R_B])
 
 
 class IFOCDrive(_Drive):
@@ -348,11 +356,13 @@ class IFOCDrive(_Drive):
     def _set_law_state(self, s):
         self.ifoc.set_state(s)
 
-    def _run(self, meas, rf, rw, T_load):
-        w, w_ref, psi_ref = meas[MEAS_OMEGA_M], rw[REF_VALUE], rf[REF_VALUE]
-        va, vb, d = self.ifoc(meas[MEAS_I_S_A], meas[MEAS_I_S_B], w, w_ref, psi_ref)
+    def _run(self, meas, psi_ref_shaped, omega_ref_shaped, T_load):
+        # the shaped references' values only (the PI loops use no derivatives)
+        omega_ref_shaped, psi_ref_shaped = omega_ref_shaped[REF_VALUE], psi_ref_shaped[REF_VALUE]
+        w = meas[MEAS_OMEGA_M]
+        va, vb, d = self.ifoc(meas[MEAS_I_S_A], meas[MEAS_I_S_B], w, omega_ref_shaped, psi_ref_shaped)
         # diagnostics only: the PI loops never see the flux
-        e1 = math.hypot(meas[MEAS_PSI_R_A], meas[MEAS_PSI_R_B]) - psi_ref
-        return DriveOutput(va, vb, d.v_sd, d.v_sq, e1, 0.0, w - w_ref, 0.0, 0.0, 0.0, 0.0,
-                           w_ref, psi_ref, RUN, d.voltage_limited, False, d.current_limited,
+        e1 = math.hypot(meas[MEAS_PSI_R_A], meas[MEAS_PSI_R_B]) - psi_ref_shaped
+        return DriveOutput(va, vb, d.v_sd, d.v_sq, e1, 0.0, w - omega_ref_shaped, 0.0, 0.0, 0.0, 0.0,
+                           omega_ref_shaped, psi_ref_shaped, RUN, d.voltage_limited, False, d.current_limited,
                            meas[MEAS_PSI_R_A], meas[MEAS_PSI_R_B])

@@ -118,9 +118,9 @@ class IFOCController:
         Constant magnetizing inductance [H] of the model; ``None`` gives
         ``params.curve.m(RatedData().I_mu_n)``.
 
-    Call ``ctrl(i_s_alpha, i_s_beta, omega_m, omega_ref, phi_ref)`` with measured
-    currents [A], speed [rad/s], speed reference [rad/s] and rotor-flux reference
-    [Wb] (> 0); returns ``(v_s_alpha, v_s_beta, IFOCDiagnostics)`` to hold over the
+    Call ``ctrl(i_s_alpha, i_s_beta, omega_m, omega_ref_shaped, psi_ref_shaped)`` with measured
+    currents [A], speed [rad/s], the drive's shaped speed reference [rad/s] and rotor-flux
+    reference [Wb] (> 0); returns ``(v_s_alpha, v_s_beta, IFOCDiagnostics)`` to hold over the
     next period.
     """
 
@@ -206,16 +206,16 @@ class IFOCController:
             raise ParameterError("state", state, "must be 5 finite numbers (see get_state)")
         self._x_w, self._x_d, self._x_q, self._theta, self._phi = vals
 
-    def __call__(self, i_s_alpha, i_s_beta, omega_m, omega_ref, phi_ref):
-        if not 0.0 < phi_ref < math.inf:  # per-sample fast path; require_number raises
-            require_number("phi_ref", phi_ref, 0)
+    def __call__(self, i_s_alpha, i_s_beta, omega_m, omega_ref_shaped, psi_ref_shaped):
+        if not 0.0 < psi_ref_shaped < math.inf:  # per-sample fast path; require_number raises
+            require_number("psi_ref_shaped", psi_ref_shaped, 0)
         # --- speed loop -> current references (current limit, clamping anti-windup)
-        i_d_ref = phi_ref * self._inv_kLm
+        i_d_ref = psi_ref_shaped * self._inv_kLm
         if i_d_ref > self._I_max:
             i_d_ref = self._I_max
-        kT = self._kT * phi_ref
+        kT = self._kT * psi_ref_shaped
         T_lim = kT * math.sqrt(self._I_max2 - i_d_ref * i_d_ref)
-        e_w = omega_ref - omega_m
+        e_w = omega_ref_shaped - omega_m
         x_w = self._x_w
         T_u = self.Kp_w * e_w + x_w
         current_limited = False

@@ -19,10 +19,14 @@ Both return a :class:`MagnetizingState` that also gives the rotor-flux frame:
 ``Phi_rd = |psi_r|``, ``rho = atan2(psi_r_beta, psi_r_alpha)`` and i_mu rotated by -rho.
 
 The measurement tuple a drive reads every sample is
-``meas = (i_s_alpha, i_s_beta, psi_r_alpha, psi_r_beta, omega_m[, psi_s_alpha, psi_s_beta])``
-[A, A, Wb, Wb, rad/s, Wb, Wb]; its indices are the constants ``MEAS_I_S_A`` ... ``MEAS_PSI_S_B``
-(psi_s is needed only with the stator-flux variant).  The plain-Python loop appends the plant's true
-magnetizing current ``(i_mu_alpha, i_mu_beta)`` [A] (``MEAS_I_MU_A``, ``MEAS_I_MU_B``), which
+``meas = (i_s_alpha, i_s_beta, psi_r_alpha, psi_r_beta, psi_s_alpha, psi_s_beta, omega_m)``
+[A, A, Wb, Wb, Wb, Wb, rad/s]: the controller unit's first seven inputs in their order
+(``satmotor.interface.CONTROLLER_INPUTS``, passed through as they come; a test checks the positions);
+its indices are the constants ``MEAS_I_S_A`` ... ``MEAS_OMEGA_M``, ``MEAS_NAMES`` the input names
+(psi_s is read only with the stator-flux variant).  The C core's ``SM_MEAS_*`` are generated from
+these (``orchestration/build/native_tables.py``, into ``sm_params.h``; the generation checks them against
+the interface table).  The plain-Python loop appends the plant's true magnetizing current
+``(i_mu_alpha, i_mu_beta)`` [A] (``MEAS_I_MU_A``, ``MEAS_I_MU_B``), which
 :func:`from_magnetizing_current` takes as it is: the design comparison's "true i_mu" setting (no
 drive can measure it).
 """
@@ -32,7 +36,9 @@ from __future__ import annotations
 import math
 from typing import NamedTuple
 
-MEAS_I_S_A, MEAS_I_S_B, MEAS_PSI_R_A, MEAS_PSI_R_B, MEAS_OMEGA_M, MEAS_PSI_S_A, MEAS_PSI_S_B = range(7)
+MEAS_I_S_A, MEAS_I_S_B, MEAS_PSI_R_A, MEAS_PSI_R_B, MEAS_PSI_S_A, MEAS_PSI_S_B, MEAS_OMEGA_M = range(7)
+MEAS_LEN = 7
+MEAS_NAMES = ("i_s_alpha", "i_s_beta", "psi_r_alpha", "psi_r_beta", "psi_s_alpha", "psi_s_beta", "omega_m")
 MEAS_I_MU_A, MEAS_I_MU_B = 7, 8  # the plant's true i_mu, carried by the plain loop for the comparison
 
 
@@ -94,6 +100,6 @@ def from_stator_flux(i_sa, i_sb, psi_ra, psi_rb, psi_sa, psi_sb, params):
 
 
 __all__ = ["MagnetizingState", "from_rotor_flux", "from_stator_flux", "from_magnetizing_current",
-           "MEAS_I_MU_A", "MEAS_I_MU_B",
+           "MEAS_I_MU_A", "MEAS_I_MU_B", "MEAS_LEN", "MEAS_NAMES",
            "MEAS_I_S_A", "MEAS_I_S_B", "MEAS_PSI_R_A", "MEAS_PSI_R_B", "MEAS_OMEGA_M", "MEAS_PSI_S_A",
            "MEAS_PSI_S_B"]

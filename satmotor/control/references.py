@@ -21,6 +21,10 @@ vector is ``Gamma(h) = int_0^h exp(A s) b ds = (I - Phi) e_1`` and one step is
 ``z_next = Phi z + Gamma u = (u, 0, 0) + Phi (z - (u, 0, 0))``; the latter form is
 used (it is exact and keeps full relative accuracy near the set-point).  ``Phi``
 is computed once per step size ``h`` and cached; the per-call path is plain floats.
+
+``u``, ``r`` are the filter's own names: in the drive (:mod:`satmotor.control.drive`) ``u`` is a raw
+set-point, ``omega_ref`` or ``psi_ref``, and ``(r, r', r'')`` the shaped reference the law tracks,
+``omega_ref_shaped`` or ``psi_ref_shaped`` (with its derivatives).
 """
 
 from __future__ import annotations

@@ -102,7 +102,7 @@ int sm_controller_init(sm_controller *u, const sm_controller_params *v, const sm
 int sm_controller_step(sm_controller *u, double t, double dt, const double in[SM_CONTROLLER_N_IN], char *msg,
                        size_t msg_len)
 {
-    double meas[7], sum = 0.0;
+    double sum = 0.0;
     sm_drive_output d;
     int st, j;
     (void)t;
@@ -123,14 +123,9 @@ int sm_controller_step(sm_controller *u, double t, double dt, const double in[SM
             }
         }
     }
-    meas[0] = in[0];
-    meas[1] = in[1];
-    meas[2] = in[2];
-    meas[3] = in[3];
-    meas[4] = in[6];
-    meas[5] = in[4];
-    meas[6] = in[5];
-    if ((st = sm_drive_step(&u->drive, meas, in[7], in[8], in[9], &d, msg, msg_len))) {
+    /* the first SM_MEAS_LEN inputs are the drive's measurement vector, in its order */
+    if ((st = sm_drive_step(&u->drive, in, in[SM_CONTROLLER_IN_omega_ref], in[SM_CONTROLLER_IN_psi_ref],
+                            in[SM_CONTROLLER_IN_T_load], &d, msg, msg_len))) {
         return st;
     }
     u->out[0] = d.v_s_alpha;
@@ -145,8 +140,8 @@ int sm_controller_step(sm_controller *u, double t, double dt, const double in[SM
     u->out[9] = d.T_load_est;
     u->out[10] = d.psi_r_hat_alpha;
     u->out[11] = d.psi_r_hat_beta;
-    u->out[12] = d.omega_ref;
-    u->out[13] = d.psi_ref;
+    u->out[12] = d.omega_ref_shaped;
+    u->out[13] = d.psi_ref_shaped;
     u->out[14] = (double)d.phase;
     u->out[15] = (double)d.voltage_limited;
     u->out[16] = (double)d.current_limited;

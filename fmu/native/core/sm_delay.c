@@ -42,9 +42,11 @@ void sm_delay_swap(sm_delay *d, double v_alpha, double v_beta, double *va, doubl
     d->pending[1] = v_beta;
 }
 
-int sm_delay_predict(sm_delay *d, const sm_motor *p, const double meas[7], double T_load, double out[7])
+int sm_delay_predict(sm_delay *d, const sm_motor *p, const double meas[SM_MEAS_LEN], double T_load,
+                     double out[SM_MEAS_LEN])
 {
-    double i_a = meas[0], i_b = meas[1], pr_a = meas[2], pr_b = meas[3], w = meas[4];
+    double i_a = meas[SM_MEAS_I_S_A], i_b = meas[SM_MEAS_I_S_B], pr_a = meas[SM_MEAS_PSI_R_A];
+    double pr_b = meas[SM_MEAS_PSI_R_B], w = meas[SM_MEAS_OMEGA_M];
     double phi = sm_hypot(pr_a, pr_b), c = 1.0, s = 0.0, c1, s1, qa, qb, phi1, x[6], v[5];
     sm_magnetizing ms;
     sm_plant_outputs o;
@@ -96,12 +98,12 @@ int sm_delay_predict(sm_delay *d, const sm_motor *p, const double meas[7], doubl
     for (j = 0; j < 5; ++j) {
         v[j] = d->pred[j] + d->corr[j];
     }
-    out[0] = c1 * v[0] - s1 * v[1];
-    out[1] = s1 * v[0] + c1 * v[1];
-    out[2] = c1 * v[2] - s1 * v[3];
-    out[3] = s1 * v[2] + c1 * v[3];
-    out[4] = v[4];
-    out[5] = x[SM_PSI_S_A];
-    out[6] = x[SM_PSI_S_B];
+    out[SM_MEAS_I_S_A] = c1 * v[0] - s1 * v[1];
+    out[SM_MEAS_I_S_B] = s1 * v[0] + c1 * v[1];
+    out[SM_MEAS_PSI_R_A] = c1 * v[2] - s1 * v[3];
+    out[SM_MEAS_PSI_R_B] = s1 * v[2] + c1 * v[3];
+    out[SM_MEAS_PSI_S_A] = x[SM_PSI_S_A];
+    out[SM_MEAS_PSI_S_B] = x[SM_PSI_S_B];
+    out[SM_MEAS_OMEGA_M] = v[4];
     return SM_CORE_OK;
 }

@@ -23,6 +23,7 @@ void sm_delay_reset(sm_delay *d);
 void sm_delay_swap(sm_delay *d, double v_alpha, double v_beta, double *va, double *vb);
 /* The measurement vector (SM_MEAS_LEN values) predicted at the next sample under the pending
  * voltage with T_load [N m] held, by the controller's model p.  SM_CORE_OK or a solve/step status. */
-int sm_delay_predict(sm_delay *d, const sm_motor *p, const double meas[7], double T_load, double out[7]);
+int sm_delay_predict(sm_delay *d, const sm_motor *p, const double meas[SM_MEAS_LEN], double T_load,
+                     double out[SM_MEAS_LEN]);
 
 #endif

@@ -142,52 +142,54 @@ void sm_drive_reset(sm_drive *d)
 }
 
 /* _Drive.magnetizing_current */
-static int magnetizing_current(sm_drive *d, double psi_set, double *I, char *msg, size_t len)
+static int magnetizing_current(sm_drive *d, double psi_ref, double *I, char *msg, size_t len)
 {
     int st;
     char reason[160], repr[32];
-    if (d->has_checked && psi_set == d->checked_psi) {
+    if (d->has_checked && psi_ref == d->checked_psi) {
         *I = d->checked_I;
         return SM_CORE_OK;
     }
-    if ((st = sm_require_number("psi_ref", psi_set, 1, 0.0, 0, msg, len))) {
+    if ((st = sm_require_number("psi_ref", psi_ref, 1, 0.0, 0, msg, len))) {
         return st;
     }
-    if ((st = sm_curve_current(&d->p.curve, psi_set / d->p.k, I))) {
+    if ((st = sm_curve_current(&d->p.curve, psi_ref / d->p.k, I))) {
         return st;
     }
     if (*I > d->dc.I_max) {
         (void)snprintf(reason, sizeof reason, "needs a magnetizing current of %.4g A on the '%s' curve, more than "
                        "I_max = %s A", *I, curve_name(&d->p.curve), sm_repr_double(d->dc.I_max, repr, sizeof repr));
-        return range_error(msg, len, "psi_ref", psi_set, reason);
+        return range_error(msg, len, "psi_ref", psi_ref, reason);
     }
     d->has_checked = 1;
-    d->checked_psi = psi_set;
+    d->checked_psi = psi_ref;
     d->checked_I = *I;
     return SM_CORE_OK;
 }
 
-static int switch_now(const sm_drive *d, double phi, double psi_set, double omega_m)
+static int switch_now(const sm_drive *d, double phi, double psi_ref, double omega_m)
 {
     const sm_drive_config *c = &d->dc;
-    if (phi >= c->premag_fraction * psi_set) {
+    if (phi >= c->premag_fraction * psi_ref) {
         return 1;
     }
-    return phi >= c->premag_min_fraction * psi_set && (d->n >= d->n_switch || fabs(omega_m) > c->premag_speed_tol);
+    return phi >= c->premag_min_fraction * psi_ref && (d->n >= d->n_switch || fabs(omega_m) > c->premag_speed_tol);
 }
 
-static void premag(const sm_drive *d, const double meas[7], double I_set, double phi, double psi_set,
+static void premag(const sm_drive *d, const double meas[SM_MEAS_LEN], double I_set, double phi, double psi_ref,
                    sm_drive_output *o)
 {
     const sm_drive_config *cfg = &d->dc;
-    double K = cfg->premag_gain, i_ref, pa = meas[2], pb = meas[3], c = 1.0, s = 0.0, ia = meas[0], ib = meas[1];
+    double K = cfg->premag_gain, i_ref, c = 1.0, s = 0.0;
+    double pa = meas[SM_MEAS_PSI_R_A], pb = meas[SM_MEAS_PSI_R_B], ia = meas[SM_MEAS_I_S_A], ib = meas[SM_MEAS_I_S_B];
     double vd, vq, vn;
+    double z_flux[3], z_speed[3];
     int bounded = cfg->premag_boost * I_set > cfg->I_max, lim;
     i_ref = fmin(cfg->premag_boost * I_set, cfg->I_max);
-    if (fabs(meas[4]) > cfg->premag_speed_tol) {
+    if (fabs(meas[SM_MEAS_OMEGA_M]) > cfg->premag_speed_tol) {
         i_ref = fmax(i_ref, SM_D_SHARE * cfg->I_max);
     }
-    if (phi > FRAME_MIN * psi_set) {
+    if (phi > FRAME_MIN * psi_ref) {
         c = pa / phi;
         s = pb / phi;
     }
@@ -204,9 +206,12 @@ static void premag(const sm_drive *d, const double meas[7], double I_set, double
     o->v_s_beta = s * vd + c * vq;
     o->v_sd = vd;
     o->v_sq = vq;
-    o->e1 = phi - psi_set;
-    o->omega_ref = meas[4];
-    o->psi_ref = phi;
+    o->e1 = phi - psi_ref;
+    /* the shapers' values: at rest until the law runs (drive._Drive._premag) */
+    sm_shaper_get_state(&d->speed, z_speed);
+    sm_shaper_get_state(&d->flux, z_flux);
+    o->omega_ref_shaped = z_speed[0];
+    o->psi_ref_shaped = z_flux[0];
     o->phase = SM_PREMAG;
     o->voltage_limited = lim;
     o->singular_limited = 0;
@@ -215,12 +220,13 @@ static void premag(const sm_drive *d, const double meas[7], double I_set, double
     o->psi_r_hat_beta = pb;
 }
 
-static int do_switch(sm_drive *d, const double meas[7])
+static int do_switch(sm_drive *d, const double meas[SM_MEAS_LEN])
 {
     sm_magnetizing ms;
     sm_model_constants mc;
     double z[3];
-    int st = sm_from_rotor_flux(meas[0], meas[1], meas[2], meas[3], &d->p, &ms);
+    int st = sm_from_rotor_flux(meas[SM_MEAS_I_S_A], meas[SM_MEAS_I_S_B], meas[SM_MEAS_PSI_R_A],
+                                meas[SM_MEAS_PSI_R_B], &d->p, &ms);
     if (st) {
         return st;
     }
@@ -228,7 +234,8 @@ static int do_switch(sm_drive *d, const double meas[7])
     z[0] = ms.Phi_rd;
     z[1] = sm_flux_rate(mc.a, mc.k, ms.Phi_rd, ms.i_mu_d, ms.m);
     z[2] = 0.0;
-    if ((st = sm_shaper_set_state(&d->flux, z, NULL, 0)) || (st = sm_shaper_reset(&d->speed, meas[4], NULL, 0))) {
+    if ((st = sm_shaper_set_state(&d->flux, z, NULL, 0)) ||
+        (st = sm_shaper_reset(&d->speed, meas[SM_MEAS_OMEGA_M], NULL, 0))) {
         return st;
     }
     d->phase = SM_RUN;
@@ -246,14 +253,15 @@ static double model_load(const sm_drive *d, double T_load)
     return d->cfg.load_estimated ? d->theta_hat * d->p.J : T_load;
 }
 
-static int run(sm_drive *d, const double meas[7], const double rf[3], const double rw[3], double T_load,
-               sm_drive_output *o, char *msg, size_t len)
+static int run(sm_drive *d, const double meas[SM_MEAS_LEN], const double psi_ref_shaped[3],
+               const double omega_ref_shaped[3], double T_load, sm_drive_output *o, char *msg, size_t len)
 {
     memset(o, 0, sizeof *o);
     if (d->mode == SM_MODE_PI) {
-        double w = meas[4], w_ref = rw[0], psi_ref = rf[0], va, vb;
+        double w = meas[SM_MEAS_OMEGA_M], va, vb;
         sm_ifoc_diagnostics dg;
-        int st = sm_ifoc_step(&d->ifoc, meas[0], meas[1], w, w_ref, psi_ref, &va, &vb, &dg, msg, len);
+        int st = sm_ifoc_step(&d->ifoc, meas[SM_MEAS_I_S_A], meas[SM_MEAS_I_S_B], w, omega_ref_shaped[0],
+                              psi_ref_shaped[0], &va, &vb, &dg, msg, len);
         if (st) {
             return SM_ERR_PARAM;
         }
@@ -261,22 +269,22 @@ static int run(sm_drive *d, const double meas[7], const double rf[3], const doub
         o->v_s_beta = vb;
         o->v_sd = dg.v_sd;
         o->v_sq = dg.v_sq;
-        o->e1 = sm_hypot(meas[2], meas[3]) - psi_ref; /* diagnostics only */
-        o->z1 = w - w_ref;
-        o->omega_ref = w_ref;
-        o->psi_ref = psi_ref;
+        o->e1 = sm_hypot(meas[SM_MEAS_PSI_R_A], meas[SM_MEAS_PSI_R_B]) - psi_ref_shaped[0]; /* diagnostics only */
+        o->z1 = w - omega_ref_shaped[0];
+        o->omega_ref_shaped = omega_ref_shaped[0];
+        o->psi_ref_shaped = psi_ref_shaped[0];
         o->voltage_limited = dg.voltage_limited;
         o->current_limited = dg.current_limited;
     } else {
         double ref[6], load[2], integ[2], t_load;
         sm_control_output c;
         int st;
-        ref[0] = rf[0];
-        ref[1] = rf[1];
-        ref[2] = rf[2];
-        ref[3] = rw[0];
-        ref[4] = rw[1];
-        ref[5] = rw[2];
+        ref[0] = psi_ref_shaped[0];
+        ref[1] = psi_ref_shaped[1];
+        ref[2] = psi_ref_shaped[2];
+        ref[3] = omega_ref_shaped[0];
+        ref[4] = omega_ref_shaped[1];
+        ref[5] = omega_ref_shaped[2];
         load[0] = T_load;
         load[1] = 0.0;
         integ[0] = d->e0;
@@ -306,15 +314,15 @@ static int run(sm_drive *d, const double meas[7], const double rf[3], const doub
         o->V = c.V;
         o->W = c.W;
         o->T_load_est = t_load;
-        o->omega_ref = rw[0];
-        o->psi_ref = rf[0];
+        o->omega_ref_shaped = omega_ref_shaped[0];
+        o->psi_ref_shaped = psi_ref_shaped[0];
         o->voltage_limited = c.voltage_limited;
         o->singular_limited = c.singular_limited;
         o->current_limited = c.current_limited;
     }
     o->phase = SM_RUN;
-    o->psi_r_hat_alpha = meas[2];
-    o->psi_r_hat_beta = meas[3];
+    o->psi_r_hat_alpha = meas[SM_MEAS_PSI_R_A];
+    o->psi_r_hat_beta = meas[SM_MEAS_PSI_R_B];
     return SM_CORE_OK;
 }
 
@@ -328,35 +336,36 @@ static void delayed(sm_drive *d, sm_drive_output *o)
     }
 }
 
-int sm_drive_step(sm_drive *d, const double meas_in[7], double omega_set, double psi_set, double T_load,
+int sm_drive_step(sm_drive *d, const double meas_in[SM_MEAS_LEN], double omega_ref, double psi_ref, double T_load,
                   sm_drive_output *out, char *msg, size_t msg_len)
 {
-    double I_set, meas[7], rf[3], rw[3];
+    double I_set, meas[SM_MEAS_LEN], psi_ref_shaped[3], omega_ref_shaped[3];
     int st, j;
     if (d == NULL || meas_in == NULL || out == NULL) {
         return SM_ERR_ARG;
     }
-    if ((st = magnetizing_current(d, psi_set, &I_set, msg, msg_len)) ||
-        (st = sm_require_number("omega_ref", omega_set, 0, 0.0, 0, msg, msg_len))) {
+    if ((st = magnetizing_current(d, psi_ref, &I_set, msg, msg_len)) ||
+        (st = sm_require_number("omega_ref", omega_ref, 0, 0.0, 0, msg, msg_len))) {
         return st;
     }
-    for (j = 0; j < 7; ++j) {
+    for (j = 0; j < SM_MEAS_LEN; ++j) {
         meas[j] = meas_in[j];
     }
     if (d->dc.observer) { /* the psi inputs are ignored: the estimate replaces them */
         double pa, pb;
-        if ((st = sm_observer_update(&d->obs, &d->p.curve, meas[0], meas[1], meas[4], &pa, &pb))) {
+        if ((st = sm_observer_update(&d->obs, &d->p.curve, meas[SM_MEAS_I_S_A], meas[SM_MEAS_I_S_B],
+                                     meas[SM_MEAS_OMEGA_M], &pa, &pb))) {
             return st;
         }
-        meas[2] = pa;
-        meas[3] = pb;
-        meas[5] = meas[6] = 0.0;
+        meas[SM_MEAS_PSI_R_A] = pa;
+        meas[SM_MEAS_PSI_R_B] = pb;
+        meas[SM_MEAS_PSI_S_A] = meas[SM_MEAS_PSI_S_B] = 0.0;
     }
     if (d->phase == SM_PREMAG) {
-        double phi = sm_hypot(meas[2], meas[3]);
-        if (!switch_now(d, phi, psi_set, meas[4])) {
+        double phi = sm_hypot(meas[SM_MEAS_PSI_R_A], meas[SM_MEAS_PSI_R_B]);
+        if (!switch_now(d, phi, psi_ref, meas[SM_MEAS_OMEGA_M])) {
             d->n += 1;
-            premag(d, meas, I_set, phi, psi_set, out);
+            premag(d, meas, I_set, phi, psi_ref, out);
             delayed(d, out);
             return SM_CORE_OK;
         }
@@ -365,24 +374,24 @@ int sm_drive_step(sm_drive *d, const double meas_in[7], double omega_set, double
         }
     }
     if (!d->dc.delay_samples) {
-        sm_shaper_get_state(&d->flux, rf);
-        sm_shaper_get_state(&d->speed, rw);
-        if ((st = run(d, meas, rf, rw, T_load, out, msg, msg_len))) {
+        sm_shaper_get_state(&d->flux, psi_ref_shaped);
+        sm_shaper_get_state(&d->speed, omega_ref_shaped);
+        if ((st = run(d, meas, psi_ref_shaped, omega_ref_shaped, T_load, out, msg, msg_len))) {
             return st;
         }
-        (void)sm_shaper_step(&d->flux, psi_set, d->Ts, NULL, NULL, 0);
-        (void)sm_shaper_step(&d->speed, omega_set, d->Ts, NULL, NULL, 0);
+        (void)sm_shaper_step(&d->flux, psi_ref, d->Ts, NULL, NULL, 0);
+        (void)sm_shaper_step(&d->speed, omega_ref, d->Ts, NULL, NULL, 0);
         return SM_CORE_OK;
     } else { /* the command takes effect at the next sample: the state and the references there */
-        double pred[7];
+        double pred[SM_MEAS_LEN];
         if ((st = sm_delay_predict(&d->delay, &d->p, meas, model_load(d, T_load), pred))) {
             return st;
         }
-        (void)sm_shaper_step(&d->flux, psi_set, d->Ts, NULL, NULL, 0);
-        (void)sm_shaper_step(&d->speed, omega_set, d->Ts, NULL, NULL, 0);
-        sm_shaper_get_state(&d->flux, rf);
-        sm_shaper_get_state(&d->speed, rw);
-        if ((st = run(d, pred, rf, rw, T_load, out, msg, msg_len))) {
+        (void)sm_shaper_step(&d->flux, psi_ref, d->Ts, NULL, NULL, 0);
+        (void)sm_shaper_step(&d->speed, omega_ref, d->Ts, NULL, NULL, 0);
+        sm_shaper_get_state(&d->flux, psi_ref_shaped);
+        sm_shaper_get_state(&d->speed, omega_ref_shaped);
+        if ((st = run(d, pred, psi_ref_shaped, omega_ref_shaped, T_load, out, msg, msg_len))) {
             return st;
         }
         delayed(d, out);

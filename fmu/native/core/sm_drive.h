@@ -29,7 +29,8 @@ void sm_drive_config_default(sm_drive_config *dc);
 
 /* drive.DriveOutput (flags 0/1). */
 typedef struct {
-    double v_s_alpha, v_s_beta, v_sd, v_sq, e1, e2, z1, z2, V, W, T_load_est, omega_ref, psi_ref;
+    double v_s_alpha, v_s_beta, v_sd, v_sq, e1, e2, z1, z2, V, W, T_load_est;
+    double omega_ref_shaped, psi_ref_shaped; /* the shaped references (pre-magnetization: the shapers at rest) */
     int phase, voltage_limited, singular_limited, current_limited;
     double psi_r_hat_alpha, psi_r_hat_beta;
 } sm_drive_output;
@@ -59,10 +60,12 @@ typedef struct {
 int sm_drive_init(sm_drive *d, sm_mode mode, const sm_motor *p, const sm_gains *g, const sm_law_config *cfg,
                   const sm_ifoc_gains *ig, const sm_drive_config *dc, char *msg, size_t msg_len);
 void sm_drive_reset(sm_drive *d);
-/* One sample (drive._Drive.step): meas[7] = (i_s_alpha, i_s_beta, psi_r_alpha, psi_r_beta,
- * omega_m, psi_s_alpha, psi_s_beta); set-points [rad/s], [Wb]; load torque [N m].  SM_CORE_OK; on
- * SM_ERR_PARAM (a bad or unreachable set-point) nothing changed; other statuses: a solve failed. */
-int sm_drive_step(sm_drive *d, const double meas[7], double omega_set, double psi_set, double T_load,
+/* One sample (drive._Drive.step): meas[SM_MEAS_LEN] = (i_s_alpha, i_s_beta, psi_r_alpha, psi_r_beta,
+ * psi_s_alpha, psi_s_beta, omega_m), the controller's first inputs in their order; the raw set-points
+ * omega_ref [rad/s], psi_ref [Wb] (shaped inside: omega_ref_shaped, psi_ref_shaped); load torque [N m].
+ * SM_CORE_OK; on SM_ERR_PARAM (a bad or unreachable set-point) nothing changed; other statuses: a solve
+ * failed. */
+int sm_drive_step(sm_drive *d, const double meas[SM_MEAS_LEN], double omega_ref, double psi_ref, double T_load,
                   sm_drive_output *out, char *msg, size_t msg_len);
 
 size_t sm_drive_size(void);

@@ -98,24 +98,24 @@ int sm_ifoc_reset(sm_ifoc *c, double theta_f, double phi_r, char *msg, size_t ms
     return 0;
 }
 
-int sm_ifoc_step(sm_ifoc *c, double i_s_alpha, double i_s_beta, double omega_m, double omega_ref,
-                 double phi_ref, double *v_alpha, double *v_beta, sm_ifoc_diagnostics *d,
+int sm_ifoc_step(sm_ifoc *c, double i_s_alpha, double i_s_beta, double omega_m, double omega_ref_shaped,
+                 double psi_ref_shaped, double *v_alpha, double *v_beta, sm_ifoc_diagnostics *d,
                  char *msg, size_t msg_len)
 {
     double i_d_ref, kT, T_lim, e_w, x_w, T_u, T_ref, i_q_ref, w_slip, w_f, th, cth, sth, i_d, i_q;
     double e_d, e_q, phi, wsig, Kp, v_du, v_qu, mag2, v_d, v_q, k_aw, th_next, tho, co, so;
     int current_limited = 0, voltage_limited;
-    if (!(phi_ref > 0.0 && phi_ref < INFINITY)) {
-        return bad(msg, msg_len, "phi_ref", phi_ref, "must be a finite number > 0");
+    if (!(psi_ref_shaped > 0.0 && psi_ref_shaped < INFINITY)) {
+        return bad(msg, msg_len, "psi_ref_shaped", psi_ref_shaped, "must be a finite number > 0");
     }
     /* speed loop -> current references (current limit, clamping anti-windup) */
-    i_d_ref = phi_ref * c->inv_kLm;
+    i_d_ref = psi_ref_shaped * c->inv_kLm;
     if (i_d_ref > c->I_max) {
         i_d_ref = c->I_max;
     }
-    kT = c->kT * phi_ref;
+    kT = c->kT * psi_ref_shaped;
     T_lim = kT * sqrt(c->I_max2 - i_d_ref * i_d_ref);
-    e_w = omega_ref - omega_m;
+    e_w = omega_ref_shaped - omega_m;
     x_w = c->x_w;
     T_u = c->Kp_w * e_w + x_w;
     if (T_u > T_lim) {

@@ -42,8 +42,8 @@ int sm_ifoc_reset(sm_ifoc *c, double theta_f, double phi_r, char *msg, size_t ms
 /* One sample: measured currents [A], speed [rad/s], speed reference [rad/s], flux reference
  * [Wb] > 0; the voltages [V] to hold over the next period and the diagnostics.  Nonzero (nothing
  * changed) for a flux reference that is not finite and > 0. */
-int sm_ifoc_step(sm_ifoc *c, double i_s_alpha, double i_s_beta, double omega_m, double omega_ref,
-                 double phi_ref, double *v_alpha, double *v_beta, sm_ifoc_diagnostics *d,
+int sm_ifoc_step(sm_ifoc *c, double i_s_alpha, double i_s_beta, double omega_m, double omega_ref_shaped,
+                 double psi_ref_shaped, double *v_alpha, double *v_beta, sm_ifoc_diagnostics *d,
                  char *msg, size_t msg_len);
 
 #endif

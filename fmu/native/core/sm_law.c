@@ -227,7 +227,9 @@ static void core(const sm_model_constants *c, const sm_gains *g, double phi_min,
                  double theta, double theta_dot, const double *adapt, double e0, double z0,
                  double i_max, sm_error_state *es)
 {
-    const double pr = ref[0], dpr = ref[1], ddpr = ref[2], wr = ref[3], dwr = ref[4], ddwr = ref[5];
+    /* the drive's shaped references and their first two time derivatives */
+    const double psi_ref_shaped = ref[0], psi_ref_shaped_dot = ref[1], psi_ref_shaped_ddot = ref[2];
+    const double omega_ref_shaped = ref[3], omega_ref_shaped_dot = ref[4], omega_ref_shaped_ddot = ref[5];
     const double c1 = g->c1, d1 = g->d1, c0 = g->c0, d0 = g->d0;
     const double a = c->a, ak = c->ak, K = c->K, b = c->b;
     int limited = phi < phi_min;
@@ -237,11 +239,11 @@ static void core(const sm_model_constants *c, const sm_gains *g, double phi_min,
     sm_fields f;
     /* drift F and L^-1 of the control model (Phi_rd floored in omega_s) */
     sm_vector_fields(c, phi, imd, imq, w, m, dm, I, theta, phe, &f);
-    e1 = phi - pr;
-    z1 = w - wr;
+    e1 = phi - psi_ref_shaped;
+    z1 = w - omega_ref_shaped;
     /* virtual controls: alpha1 for a k m i_mu_d, gamma1 for T_e/J */
-    alpha1 = -c1 * e1 - c0 * e0 + a * phi + dpr;
-    gamma1 = -d1 * z1 - d0 * z0 + theta + b * w + dwr;
+    alpha1 = -c1 * e1 - c0 * e0 + a * phi + psi_ref_shaped_dot;
+    gamma1 = -d1 * z1 - d0 * z0 + theta + b * w + omega_ref_shaped_dot;
     if (i_max < (double)INFINITY) { /* the currents they demand, bounded (m held at its value) */
         double cc = 1.0 + c->k2_lr * m;
         double ak_m = ak * m;
@@ -276,7 +278,7 @@ static void core(const sm_model_constants *c, const sm_gains *g, double phi_min,
         es->dt_e2 = 0.0;
     } else {
         es->grad_e2[0] = c1 - a;
-        es->dt_e2 = -c1 * dpr - ddpr + c0 * e1;
+        es->dt_e2 = -c1 * psi_ref_shaped_dot - psi_ref_shaped_ddot + c0 * e1;
     }
     es->grad_z2[0] = K * m * imq;
     es->grad_z2[1] = K * phi * f.M_dq;
@@ -286,7 +288,7 @@ static void core(const sm_model_constants *c, const sm_gains *g, double phi_min,
         es->dt_z2 = 0.0;
     } else {
         es->grad_z2[3] = d1 - b;
-        es->dt_z2 = -d1 * dwr - ddwr - theta_dot + d0 * z1;
+        es->dt_z2 = -d1 * omega_ref_shaped_dot - omega_ref_shaped_ddot - theta_dot + d0 * z1;
     }
     es->beta1 = es->grad_e2[0] * f.F_phi + es->grad_e2[1] * f.F_d + es->grad_e2[2] * f.F_q + es->dt_e2;
     es->beta2 = es->grad_z2[0] * f.F_phi + es->grad_z2[1] * f.F_d + es->grad_z2[2] * f.F_q

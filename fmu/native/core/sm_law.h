@@ -16,6 +16,7 @@
 
 #include "sm_common.h"
 #include "sm_curves.h"
+#include "sm_params.h" /* generated: SM_MEAS_* */
 #include "sm_plant.h"
 
 /* Share of i_max the flux (d) current may take (backstepping.D_SHARE). */
@@ -65,17 +66,9 @@ void sm_vector_fields(const sm_model_constants *c, double phi, double imd, doubl
 
 /* ---- magnetizing state from measurements (measurements.py) --------------------------------- */
 
-/* Layout of the measurement vector (measurements.MEAS_*); psi_s only with use_stator_flux. */
-enum {
-    SM_MEAS_I_S_A = 0,
-    SM_MEAS_I_S_B = 1,
-    SM_MEAS_PSI_R_A = 2,
-    SM_MEAS_PSI_R_B = 3,
-    SM_MEAS_OMEGA_M = 4,
-    SM_MEAS_PSI_S_A = 5,
-    SM_MEAS_PSI_S_B = 6,
-    SM_MEAS_LEN = 7
-};
+/* Layout of the measurement vector: SM_MEAS_I_S_A ... SM_MEAS_OMEGA_M, SM_MEAS_LEN, generated into
+ * sm_params.h from measurements.MEAS_* (the controller's first inputs in their order); psi_s read
+ * only with use_stator_flux. */
 
 /* measurements.MagnetizingState. */
 typedef struct {
@@ -145,8 +138,8 @@ typedef struct {
 } sm_error_state;
 
 /* backstepping.error_system(x, ref, p, g, theta, theta_dot, phi_min, adapt, integ, i_max):
- * x = (Phi_rd, i_mu_d, i_mu_q, omega_m); ref = (Phi_ref, Phi_ref', Phi_ref'', omega_ref,
- * omega_ref', omega_ref''); adapt NULL (theta_dot given) or (g_theta, theta_max); integ NULL
+ * x = (Phi_rd, i_mu_d, i_mu_q, omega_m); ref = (psi_ref_shaped, psi_ref_shaped', psi_ref_shaped'',
+ * omega_ref_shaped, omega_ref_shaped', omega_ref_shaped''); adapt NULL (theta_dot given) or (g_theta, theta_max); integ NULL
  * (0, 0) or (e0, z0); i_max [A] (INFINITY: no current limit).  m, dm/dI from p's curve at |i_mu|.
  * SM_CORE_OK, SM_ERR_ARG (NULL pointer) or SM_ERR_NONFINITE (a non-finite input; es still filled). */
 int sm_error_system(const double x[4], const double ref[6], const sm_motor *p, const sm_gains *g,
