@@ -25,18 +25,19 @@ demo: $(STAMP)
 compare: $(STAMP)
 	$(PY) demos/compare_controllers.py --out results
 
-# the tests build the FMUs into $(FMUS) when missing or stale (tests/conftest.py), once per run
+# the tests build the FMUs into $(FMUS) when missing or stale (tests/conftest.py), once per run (once for
+# all pytest-xdist workers: a file lock); -n auto: a worker per core
 test: $(STAMP)
 	@./scripts/system_packages.sh --check
 	$(PY) -m ruff check .
-	SATMOTOR_TEST_FMUS=$(FMUS) $(PY) -m pytest
+	SATMOTOR_TEST_FMUS=$(FMUS) $(PY) -m pytest -n auto
 
 check: $(STAMP)
 	$(PY) -m orchestration build --out $(FMUS) --if-stale
 	$(PY) -m orchestration check $(FMUS)/*.fmu $(FMUS)/native/*.fmu $(FMUS)/native-fmi3/*.fmu --junit build/check.xml
 
 test-fast: $(STAMP)
-	SATMOTOR_TEST_FMUS=$(FMUS) $(PY) -m pytest -m "not slow"
+	SATMOTOR_TEST_FMUS=$(FMUS) $(PY) -m pytest -n auto -m "not slow"
 
 # the distributable FMUs: the native ones for Linux (glibc >= 2.17), Windows and macOS (zig cc; on a
 # fresh machine zig first compiles its C runtimes for them: minutes)

@@ -45,15 +45,18 @@ def _processes(marker):
 
 
 def _wait_running(metrics, proc, timeout=120.0):
-    """Until ``metrics`` says the run has started (and a little more, so the loop is stepping)."""
+    """Until ``metrics`` says the run has started and its first chunk of rows is in timeseries.csv
+    beside it (a state, not a time: a loaded machine only makes the wait longer)."""
+    csv = metrics.parent / "timeseries.csv"
     t0 = time.monotonic()
     while time.monotonic() - t0 < timeout:
         assert proc.poll() is None, proc.communicate()
-        if metrics.exists() and '"running"' in metrics.read_text():
-            time.sleep(1.5)
-            return
+        if metrics.exists() and '"running"' in metrics.read_text() and csv.exists():
+            with open(csv) as f:
+                if len(f.readlines(1 << 16)) >= 2:  # the header and at least one row
+                    return
         time.sleep(0.05)
-    raise AssertionError("the run never started")
+    raise AssertionError("the run never wrote its first rows")
 
 
 # --- bad input stopped before any FMU runs ----------------------------------------------------------------

@@ -215,7 +215,10 @@ def test_a_table_file_is_refused_with_the_pythonfmu_fmus(capsys, fmu_dir, tmp_pa
     code = cli.main(["export-ssp", str(path), str(out), "--fmus", str(fmu_dir), "--variant", "python"])
     err = capsys.readouterr().err
     assert code == 2 and not out.exists()
-    assert err.startswith(f"{path}: plant.table_file = '{tmp_path / 'curve.csv'}': "), err
+    # the value names the file (a Problem shortens a value beyond 80 characters: the tmp path's length varies)
+    value = repr(str(tmp_path / "curve.csv"))
+    shown = value if len(value) <= 80 else value[:77] + "..."
+    assert err.startswith(f"{path}: plant.table_file = {shown}: a file outside the package"), err
 
 
 @pytest.mark.slow
