@@ -293,3 +293,22 @@ def test_a_table_curve_reads_its_file_from_the_fmus_resources(version, tmp_path)
     want = dict(zip(PlantUnit.OUTPUTS, unit.outputs()))
     assert get(inst.vr(outs)) == [want[n] for n in outs]
     inst.close()
+
+
+@pytest.mark.parametrize("unit", [0, 1], ids=["plant", "controller"])
+@pytest.mark.parametrize("variant", NATIVE)
+def test_a_table_file_whose_resolved_path_does_not_fit_is_an_error_naming_it(variant, unit, fmu_dir):
+    """table_file that does not exist as given is looked up in the FMU's resources by its base name;
+    a base name that makes that path longer than the parameter's buffer is refused with an error
+    naming table_file (the string itself fits: under 1024 bytes), and the instance is not fatal."""
+    inst = _open(fmus.paths(fmu_dir, variant)[unit], "long")
+    name = "x" * 1000 + ".csv"  # no such file, and longer than a file name may be
+    inst.set_parameters({"curve": "table", "table_file": name})
+    with pytest.raises(Exception) as exc:
+        inst.initialize(0.0)
+    assert exc.value.status == 3
+    first = inst.first_error()
+    assert first.startswith("table_file: the path in the FMU's resources is "), first
+    assert "bytes long, more than 1023: /" in first, first
+    assert not inst.fatal
+    inst.close()

@@ -32,17 +32,13 @@ fg_status fg_model_exit_initialization(fg_instance *inst, void *data, double sta
     controller_data *d = (controller_data *)data;
     sm_controller_params params;
     sm_motor_params motor;
-    char msg[SM_MSG_LEN], table[SM_VAR_STRING_MAX + 512];
+    char msg[SM_MSG_LEN];
     d->v.r[SM_VR_time] = start_time;
     sm_vars_controller_params(&d->v, &params);
     sm_vars_motor_params(&d->v, &motor);
-    sm_resolve_file(inst, motor.table_file, table, sizeof table);
-    if (strlen(table) >= sizeof motor.table_file) {
-        fg_log(inst, FG_ERROR, "logStatusError", "table_file: the path %s is longer than %d bytes", table,
-               (int)sizeof motor.table_file - 1);
+    if (sm_resolve_file(inst, "table_file", motor.table_file, sizeof motor.table_file) != FG_OK) {
         return FG_ERROR;
     }
-    strcpy(motor.table_file, table);
     if (sm_controller_init(&d->u, &params, &motor, msg, sizeof msg) != 0) {
         fg_log(inst, FG_ERROR, "logStatusError", "%s", msg);
         return FG_ERROR;

@@ -49,18 +49,14 @@ fg_status fg_model_exit_initialization(fg_instance *inst, void *data, double sta
     plant_data *d = (plant_data *)data;
     sm_motor_params motor;
     sm_plant_params plant;
-    char msg[SM_MSG_LEN], table[SM_VAR_STRING_MAX + 512];
+    char msg[SM_MSG_LEN];
     int st;
     d->v.r[SM_VR_time] = start_time;
     sm_vars_motor_params(&d->v, &motor);
     sm_vars_plant_params(&d->v, &plant);
-    sm_resolve_file(inst, motor.table_file, table, sizeof table);
-    if (strlen(table) >= sizeof motor.table_file) {
-        fg_log(inst, FG_ERROR, "logStatusError", "table_file: the path %s is longer than %d bytes", table,
-               (int)sizeof motor.table_file - 1);
+    if (sm_resolve_file(inst, "table_file", motor.table_file, sizeof motor.table_file) != FG_OK) {
         return FG_ERROR;
     }
-    strcpy(motor.table_file, table);
     st = sm_motor_init(&d->p, &motor, &plant, msg, sizeof msg);
     if (st != 0) {
         fg_log(inst, FG_ERROR, "logStatusError", "%s", msg);

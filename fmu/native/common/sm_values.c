@@ -100,18 +100,25 @@ fg_status fg_model_set_string(fg_instance *inst, void *data, uint32_t vr, const 
     return FG_OK;
 }
 
-void sm_resolve_file(fg_instance *inst, const char *path, char *out, size_t len)
+fg_status sm_resolve_file(fg_instance *inst, const char *name, char *path, size_t cap)
 {
     const char *res = fg_resource_path(inst), *base = strrchr(path, '/');
+    char out[SM_VAR_STRING_MAX + 512];
     FILE *f;
-    (void)snprintf(out, len, "%s", path);
     if (path[0] == '\0' || res == NULL) {
-        return;
+        return FG_OK;
     }
     f = fopen(path, "rb");
     if (f != NULL) {
         fclose(f);
-        return;
+        return FG_OK;
     }
-    (void)snprintf(out, len, "%s%s", res, base ? base + 1 : path);
+    (void)snprintf(out, sizeof out, "%s%s", res, base ? base + 1 : path);
+    if (strlen(out) >= cap) {
+        fg_log(inst, FG_ERROR, "logStatusError", "%s: the path in the FMU's resources is %u bytes long, "
+               "more than %d: %.200s", name, (unsigned)strlen(out), (int)cap - 1, out);
+        return FG_ERROR;
+    }
+    strcpy(path, out);
+    return FG_OK;
 }

@@ -10,9 +10,9 @@
 
 #include "fg_model.h"
 
-/* A file named by a parameter: path as given if it exists (or is empty, or there are no resources),
- * else the FMU's resources directory + the base name of path; written into out (len bytes,
- * truncated). */
-void sm_resolve_file(fg_instance *inst, const char *path, char *out, size_t len);
+/* The file named by the parameter name, resolved in place in path (a buffer of cap bytes): as given
+ * if it exists (or is empty, or there are no resources), else the FMU's resources directory + its
+ * base name.  FG_ERROR, with a message naming the parameter, when the resolved path does not fit. */
+fg_status sm_resolve_file(fg_instance *inst, const char *name, char *path, size_t cap);
 
 #endif
