@@ -39,7 +39,7 @@ from orchestration.build import documentation as documentation_module
 from orchestration.build import sources as sources_module
 from orchestration.build.documentation import documentation
 from orchestration.build.fmu_model_description import complete as complete_model_description
-from orchestration.build.sources import COMMON_OPTIONS, FMUS, GLUE, SATMOTOR, SOURCES  # noqa: F401 - SOURCES: API
+from orchestration.build.sources import COMMON_OPTIONS, FMUS, GLUE, SATMOTOR
 
 FIXED_DATE = "2026-01-01T00:00:00Z"
 
