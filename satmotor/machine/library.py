@@ -56,6 +56,11 @@ class Nameplate:
         return self.V_n * math.sqrt(2.0 / 3.0)
 
     @property
+    def omega_e(self):
+        """Supply angular frequency [rad/s]."""
+        return 2.0 * math.pi * self.f_n
+
+    @property
     def I_peak(self):
         """Rated current amplitude [A] = sqrt(2) I_n."""
         return math.sqrt(2.0) * self.I_n
