@@ -251,7 +251,8 @@ def cmd_fit_curve(args):
     from orchestration.tools.fit_curve import InputError, run
 
     try:
-        run(args.noload, args.R_s, args.l_s, args.out)
+        run(args.noload, args.R_s, args.l_s, args.out, copper_tol=args.copper_tol, motor_yaml=args.motor_yaml,
+            motor={k: getattr(args, k) for k in ("l_r", "R_r", "n_p", "J", "B")})
     except InputError as exc:
         print(exc, file=sys.stderr)
         return INVALID
@@ -349,6 +350,17 @@ def parser(prog="satmotor-cosim"):
     fc.add_argument("--R-s", dest="R_s", required=True, metavar="OHM", help="stator resistance [Ohm]")
     fc.add_argument("--l-s", dest="l_s", required=True, metavar="H", help="stator leakage inductance [H]")
     fc.add_argument("--out", default="results/fit_curve", help="output directory (default results/fit_curve)")
+    fc.add_argument("--copper-tol", dest="copper_tol", default=None, metavar="REL",
+                    help="P_in this far (relative) below the stator copper loss is taken as lossless, with a "
+                    "warning; further below, the row is refused (default 0.05)")
+    fc.add_argument("--motor-yaml", dest="motor_yaml", default=None, metavar="FILE",
+                    help="also write a ready motor: section (and plant: {R_fe: ...}) for a scenario")
+    for opt, dest, unit, what in (("--l-r", "l_r", "H", "rotor leakage inductance (default: l_s)"),
+                                  ("--R-r", "R_r", "OHM", "rotor resistance"),
+                                  ("--n-p", "n_p", "N", "pole pairs"), ("--J", "J", "KG_M2", "inertia"),
+                                  ("--B", "B", "N_M_S", "viscous friction")):
+        fc.add_argument(opt, dest=dest, default=None, metavar=unit,
+                        help=f"{what} [{unit.replace('_', ' ')}], written into --motor-yaml")
     fc.set_defaults(func=cmd_fit_curve)
     return ap
 

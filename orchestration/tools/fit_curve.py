@@ -15,7 +15,16 @@ into ``--out`` (default ``results/fit_curve``):
   scenario, plus ``chosen``, ``fits`` (every family's parameters and residuals) and ``input``;
 * ``curve_table.csv``: the points ``i_mu, psi_m`` for ``curve: table`` (made strictly increasing,
   see :func:`satmotor.identify.curve_fit.monotone_table`);
-* ``fit.png``: the points, every fit, and the residuals.
+* ``fit.png``: the points, every fit, and the residuals;
+* with ``--motor-yaml FILE``: a ready ``motor:`` section (the chosen curve, ``R_s``, ``l_s``, and
+  ``l_r``, ``R_r``, ``n_p``, ``J``, ``B`` when given as options; the others keep the default motor's
+  values, which a comment lists) and the core-loss resistance ``R_fe`` (a plant parameter:
+  ``plant: {R_fe: ...}``), to paste into a scenario.
+
+With ``P_in``: a row whose ``P_in`` is below the stator copper loss by less than ``--copper-tol``
+(relative, default 5 %) is taken as lossless, with a warning naming its line; further below it is
+refused.  The no-load loss ``P_in - 3 R_s I_rms^2`` is split into core loss (``R_fe``) and friction
+(:func:`satmotor.identify.noload.separate_losses`), in ``fit.yaml`` under ``core_loss``.
 
 Exit codes: 0 written; 2 an input problem (the message names the file, the line and the value) or
 ``--out`` cannot be written.
@@ -118,14 +127,37 @@ def _float_option(name, raw):
     return v
 
 
-def points_from_file(path, R_s, l_s):
-    """``(MagnetizingPoints, lines, has_P_in)`` of a no-load file; :class:`InputError` on bad input."""
+def _motor_option(name, raw):
+    if name == "n_p":
+        try:
+            v = int(raw)
+        except (TypeError, ValueError):
+            v = 0
+        if v < 1 or str(raw).strip() != str(v):
+            raise InputError(f"--n-p = {raw!r}: must be an integer >= 1")
+        return v
+    v = _float_option(f"--{name.replace('_', '-')}", raw)
+    if v == 0.0 and name in ("l_r", "R_r", "J"):
+        raise InputError(f"--{name.replace('_', '-')} = {raw!r}: must be > 0")
+    return v
+
+
+def points_from_file(path, R_s, l_s, copper_tol=None, l_r=None):
+    """``(MagnetizingPoints, lines, has_P_in, losses)`` of a no-load file (``losses``: the
+    :class:`~satmotor.identify.noload.LossSeparation`, None without P_in); :class:`InputError` on bad
+    input."""
     from satmotor.errors import ParameterError
-    from satmotor.identify.noload import magnetizing_points
+    from satmotor.identify.noload import COPPER_TOL, magnetizing_points, separate_losses
 
     cols, lines = read_noload(path)
+    tol = COPPER_TOL if copper_tol is None else copper_tol
+    args = (cols["V_ll_rms"], cols["I_rms"], cols["f"], R_s, l_s, cols.get("P_in"), l_r, tol)
+    losses = None
     try:
-        pts = magnetizing_points(cols["V_ll_rms"], cols["I_rms"], cols["f"], R_s, l_s, cols.get("P_in"))
+        pts = magnetizing_points(*args)
+        if "P_in" in cols:  # the core-loss current is not rotor current: out of the leakage correction
+            losses = separate_losses(pts.E_m, pts.P_loss, cols["P_in"])
+            pts = magnetizing_points(*args, R_fe=losses.R_fe)
     except ParameterError as exc:
         field = exc.field
         if "[" in field:
@@ -133,7 +165,8 @@ def points_from_file(path, R_s, l_s):
             raise InputError(f"{path}: line {lines[k]}: {field.split('[')[0]} = {exc.value!r}: "
                              f"{exc.reason}") from None
         raise InputError(f"{path}: {exc}") from None
-    return pts, lines, "P_in" in cols
+    pts = pts._replace(warnings=tuple((lines[k], text) for k, text in pts.warnings))
+    return pts, lines, "P_in" in cols, losses
 
 
 def _overrides(fit):
@@ -141,7 +174,7 @@ def _overrides(fit):
             **{k: (int(v) if k == "poly_n" else float(v)) for k, v in fit.params.items()}}
 
 
-def write_outputs(out, source, pts, has_p, fits, failures, best, table, R_s, l_s):
+def write_outputs(out, source, pts, has_p, fits, failures, best, table, R_s, l_s, losses=None):
     import yaml
 
     out = Path(out)
@@ -161,6 +194,9 @@ def write_outputs(out, source, pts, has_p, fits, failures, best, table, R_s, l_s
                  for name, f in sorted(fits.items(), key=lambda kv: kv[1].rms)},
         "input": {"file": str(source), "rows": int(pts.i_mu.size), "P_in": has_p, "R_s": R_s, "l_s": l_s},
     }
+    if losses is not None:
+        doc["core_loss"] = {"R_fe_Ohm": losses.R_fe, "P_fw_W": losses.P_fw, "rms_W": losses.rms,
+                            "lossless_rows": [line for line, _ in pts.warnings]}
     if failures:
         doc["failed"] = dict(failures)
     head = (f"# satmotor-cosim fit-curve {source} --R-s {R_s!r} --l-s {l_s!r}\n"
@@ -209,8 +245,40 @@ def _figure(path, source, pts, fits, best):
     plt.close(fig)
 
 
-def run(path, R_s, l_s, out=DEFAULT_OUT, stream=None):
+MOTOR_OPTIONS = ("l_r", "R_r", "n_p", "J", "B")  # the motor parameters a no-load test does not give
+
+
+def write_motor_yaml(path, source, best, R_s, l_s, losses, motor=None):
+    """The ``motor:`` section (and ``plant: {R_fe: ...}``) of the fitted motor, to paste into a scenario."""
+    import yaml
+
+    from satmotor.interface import PLANT_PARAMETERS
+
+    motor = {k: v for k, v in (motor or {}).items() if v is not None}
+    if "l_r" not in motor and l_s > 0.0:
+        motor["l_r"] = l_s  # as the rotor-leakage correction assumed
+    section = {"R_s": R_s, "l_s": l_s, **motor, **_overrides(best)}
+    rest = [name for name in ("R_r", "l_r", "k", "n_p", "J", "B") if name not in section]
+    doc = {"motor": section}
+    plant_has_r_fe = any(v.name == "R_fe" for v in PLANT_PARAMETERS)
+    if losses is not None and plant_has_r_fe:
+        doc["plant"] = {"R_fe": losses.R_fe}
+    head = (f"# satmotor-cosim fit-curve {source}: the motor identified from a no-load test, to paste\n"
+            "# into a scenario (motor: sets the plant and the controller's model alike).\n"
+            + (f"# Not given, so the default motor's: {', '.join(rest)}.\n" if rest else ""))
+    if losses is not None:
+        head += (f"# Core loss: R_fe = {losses.R_fe!r} Ohm (0: none found); friction and windage at no load "
+                 f"P_fw = {losses.P_fw:.6g} W.\n")
+        if not plant_has_r_fe:
+            head += "# (this plant has no core-loss parameter: R_fe is reported here only)\n"
+    Path(path).write_text(head + yaml.safe_dump(doc, sort_keys=False, default_flow_style=False),
+                          encoding="utf-8")
+
+
+def run(path, R_s, l_s, out=DEFAULT_OUT, stream=None, copper_tol=None, motor_yaml=None, motor=None):
     """Fit the no-load file ``path`` and write the outputs; returns the chosen :class:`Fit`.
+    ``copper_tol`` [1] (default ``COPPER_TOL``); ``motor_yaml``: also write the motor section there;
+    ``motor``: ``{name: value}`` of :data:`MOTOR_OPTIONS` (None: not given).
     Raises :class:`InputError` for bad input or an unwritable ``out``."""
     from scipy.optimize import least_squares
 
@@ -220,7 +288,9 @@ def run(path, R_s, l_s, out=DEFAULT_OUT, stream=None):
     stream = sys.stdout if stream is None else stream
     R_s = _float_option("--R-s", R_s)
     l_s = _float_option("--l-s", l_s)
-    pts, lines, has_p = points_from_file(path, R_s, l_s)
+    tol = None if copper_tol is None else _float_option("--copper-tol", copper_tol)
+    motor = {k: (None if v is None else _motor_option(k, v)) for k, v in (motor or {}).items()}
+    pts, lines, has_p, losses = points_from_file(path, R_s, l_s, tol, motor.get("l_r"))
     try:
         fits, failures = fit_all(pts.i_mu, pts.psi_m, least_squares)
         table = monotone_table(pts.i_mu, pts.psi_m)
@@ -231,9 +301,16 @@ def run(path, R_s, l_s, out=DEFAULT_OUT, stream=None):
     best = choose(fits)
     try:
         Path(out).mkdir(parents=True, exist_ok=True)
-        write_outputs(out, path, pts, has_p, fits, failures, best, table, R_s, l_s)
+        write_outputs(out, path, pts, has_p, fits, failures, best, table, R_s, l_s, losses)
     except OSError as exc:
         raise InputError(f"--out {out}: cannot write the results: {exc}") from None
+    if motor_yaml is not None:
+        try:
+            write_motor_yaml(motor_yaml, path, best, R_s, l_s, losses, motor)
+        except OSError as exc:
+            raise InputError(f"--motor-yaml {motor_yaml}: cannot write: {exc}") from None
+    for line, text in pts.warnings:
+        print(f"warning: {path}: line {line}: {text}", file=sys.stderr)
     print(f"{path}: {pts.i_mu.size} points, i_mu {pts.i_mu.min():.4g}-{pts.i_mu.max():.4g} A, psi_m "
           f"{pts.psi_m.min():.4g}-{pts.psi_m.max():.4g} Wb"
           + ("" if has_p else "; no P_in column: the line current is taken as purely magnetizing (too high "
@@ -252,5 +329,9 @@ def run(path, R_s, l_s, out=DEFAULT_OUT, stream=None):
               "measure 6-10 voltage levels", file=stream)
     if table[2]:
         print(f"  curve_table.csv: {table[2]} point(s) pooled so that psi_m increases with i_mu", file=stream)
-    print(f"  written: {Path(out) / 'fit.yaml'}, curve_table.csv, fit.png", file=stream)
+    if losses is not None:
+        print(f"  core loss: R_fe = {losses.R_fe:.6g} Ohm" + (" (none found)" if losses.R_fe == 0.0 else "")
+              + f", friction and windage {losses.P_fw:.4g} W (fit RMS {losses.rms:.3g} W)", file=stream)
+    print(f"  written: {Path(out) / 'fit.yaml'}, curve_table.csv, fit.png"
+          + (f", {motor_yaml}" if motor_yaml is not None else ""), file=stream)
     return best
