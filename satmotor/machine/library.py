@@ -31,7 +31,7 @@ from types import MappingProxyType
 
 from satmotor.errors import ParameterError
 from satmotor.machine.forms import GammaForm, polynomial_from_inductance
-from satmotor.machine.magnetics import ArctanCurve
+from satmotor.machine.magnetics import ArctanCurve, PolynomialCurve
 from satmotor.machine.params import MotorParams, make_curve
 
 __all__ = ["Nameplate", "NamedMotor", "MOTORS", "preset", "preset_names"]
@@ -85,9 +85,9 @@ class NamedMotor:
     def params(self):
         """The :class:`MotorParams` of this motor."""
         v = self.values
-        _A = ArctanCurve()
-        curve = make_curve(v["curve"], v.get("L_m0", _A.L_m0), v.get("L_m_inf", _A.L_m_inf),
-                           v.get("I_par", _A.I_par), v.get("poly_b", 2.46), v.get("poly_n", 7),
+        a, p = ArctanCurve(), PolynomialCurve()  # the defaults of the flat parameters not given
+        curve = make_curve(v["curve"], v.get("L_m0", a.L_m0), v.get("L_m_inf", a.L_m_inf),
+                           v.get("I_par", a.I_par), v.get("poly_b", p.poly_b), v.get("poly_n", p.poly_n),
                            v.get("table_file", ""))
         return MotorParams(v["R_s"], v["R_r"], v["l_s"], v["l_r"], v["k"], v["n_p"], v["J"], v["B"], curve)
 
