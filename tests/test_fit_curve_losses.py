@@ -13,7 +13,8 @@ the curve within 6.7e-16 and R_fe = 0 (none), one row's P_in below the copper lo
 as lossless with a warning; with R_fe = 800 Ohm and P_fw = 70 W: R_fe within 1e-15, the curve within
 1.2e-6; 1 % Gaussian noise on V_ll_rms, I_rms, f and P_in, the 10 seeds of the test: curve median
 1.4 %, worst 5.7 %, R_fe median 0.85 %, worst 2.6 % (30 seeds: curve median 1.6 %, worst 5.7 %; R_fe
-median 1.6 %, worst 4.7 %).
+median 1.6 %, worst 4.7 %).  ``--locked-rotor`` with a 100-V locked-rotor test computed from the same
+circuit at slip 1: l_s and l_r within 5.3e-9, R_r within 5.1e-8.
 """
 
 from __future__ import annotations
@@ -159,3 +160,51 @@ def test_motor_yaml_is_a_ready_section(tmp_path, capsys):
     assert sc.plant["R_s"] == R_S and sc.controller["curve"] == doc["chosen"]
     assert main(["fit-curve", str(tmp_path / "noload.csv"), "--R-s", "1", "--l-s", "0", "--n-p", "1.5"]) == 2
     assert "--n-p" in capsys.readouterr().err
+
+
+def _locked_rotor(V_ll, f=F, R_fe=800.0):
+    """The locked-rotor test of the same machine (slip 1), its main field on the saturating curve."""
+    w = 2.0 * math.pi * f
+
+    def phasors(x):
+        E = 1j * w * TRUE.psi(x)
+        I = complex(x) + E / R_fe + E / (R_R + 1j * w * L_R)
+        return E + (R_S + 1j * w * L_S) * I, I
+
+    lo, hi = 1e-9, 50.0
+    for _ in range(200):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if abs(phasors(mid)[0]) < V_ll * math.sqrt(2.0 / 3.0) else (lo, mid)
+    V, I = phasors(0.5 * (lo + hi))
+    return abs(V) * math.sqrt(1.5), abs(I) / math.sqrt(2.0), 1.5 * (V * I.conjugate()).real, f
+
+
+def test_locked_rotor_test_gives_the_leakages_and_the_rotor_resistance(tmp_path):
+    """No-load sweep and a locked-rotor test at 25 % voltage of a saturating machine with core loss: l_s,
+    l_r and R_r come back (no l_s given), and the motor section carries them."""
+    rows, xs = no_load(R_fe=800.0, P_fw=70.0)
+    lr = ",".join(repr(v) for v in _locked_rotor(100.0))
+    f = _write(tmp_path / "noload.csv", rows)
+    my = tmp_path / "motor.yaml"
+    code = main(["fit-curve", str(f), "--R-s", repr(R_S), "--locked-rotor", lr, "--out", str(tmp_path / "o"),
+                 "--motor-yaml", str(my)])
+    assert code == 0
+    doc = yaml.safe_load((tmp_path / "o" / "fit.yaml").read_text())
+    got = doc["locked_rotor"]
+    errs = {"l_s": got["l_s_H"] / L_S - 1, "l_r": got["l_r_H"] / L_R - 1, "R_r": got["R_r_Ohm"] / R_R - 1}
+    print("locked rotor: " + ", ".join(f"{k} {v:.2e}" for k, v in errs.items()))
+    assert max(abs(v) for v in errs.values()) < 1e-6
+    assert doc["core_loss"]["R_fe_Ohm"] == pytest.approx(800.0, rel=1e-6)
+    motor = yaml.safe_load(my.read_text())["motor"]
+    assert motor["l_s"] == got["l_s_H"] and motor["l_r"] == got["l_r_H"] and motor["R_r"] == got["R_r_Ohm"]
+    assert _curve_error(doc, xs) < 1e-5
+
+
+def test_locked_rotor_options_are_checked(tmp_path, capsys):
+    rows, _ = no_load()
+    f = _write(tmp_path / "noload.csv", rows)
+    for extra in (["--locked-rotor", "100,10,500"], ["--locked-rotor", "100,10,500,50", "--l-s", "0.005"],
+                  [], ["--locked-rotor", "100,10,500,50", "--leakage-ratio", "0"]):
+        assert main(["fit-curve", str(f), "--R-s", repr(R_S), "--out", str(tmp_path / "o"), *extra]) == 2
+        err = capsys.readouterr().err
+        assert ("--locked-rotor" in err or "--l-s" in err or "--leakage-ratio" in err), err
