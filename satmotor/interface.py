@@ -69,7 +69,7 @@ MOTOR_PARAMETERS = _in_struct("motor", (
     _v("L_m_inf", "parameter", _A.L_m_inf, "H", "saturated slope (arctan, exponential)"),
     _v("I_par", "parameter", _A.I_par, "A", "knee current scale (arctan, exponential)"),
     _v("poly_b", "parameter", _P.poly_b, "A/Wb^n", "polynomial: i = psi/L_m0 + poly_b psi^poly_n"),
-    _v("poly_n", "parameter", _P.poly_n, "1", "polynomial: odd exponent >= 3", "Integer"),
+    _v("poly_n", "parameter", _P.poly_n, "1", "polynomial: integer exponent >= 2 (of |psi|)", "Integer"),
     _v("table_file", "parameter", "", "", "table: CSV file of no-load points i_mu [A], psi_m [Wb]",
        "String"),
 ))

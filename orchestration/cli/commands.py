@@ -251,7 +251,9 @@ def cmd_fit_curve(args):
     from orchestration.tools.fit_curve import InputError, run
 
     try:
-        run(args.noload, args.R_s, args.l_s, args.out)
+        run(args.noload, args.R_s, args.l_s, args.out, copper_tol=args.copper_tol, motor_yaml=args.motor_yaml,
+            motor={k: getattr(args, k) for k in ("l_r", "R_r", "n_p", "J", "B")},
+            locked_rotor=args.locked_rotor, leakage_ratio=args.leakage_ratio)
     except InputError as exc:
         print(exc, file=sys.stderr)
         return INVALID
@@ -347,8 +349,25 @@ def parser(prog="satmotor-cosim"):
                         "fit.yaml (scenario overrides), curve_table.csv (for curve: table) and fit.png.")
     fc.add_argument("noload", help="no-load test CSV file")
     fc.add_argument("--R-s", dest="R_s", required=True, metavar="OHM", help="stator resistance [Ohm]")
-    fc.add_argument("--l-s", dest="l_s", required=True, metavar="H", help="stator leakage inductance [H]")
+    fc.add_argument("--l-s", dest="l_s", default=None, metavar="H",
+                    help="stator leakage inductance [H] (or --locked-rotor)")
+    fc.add_argument("--locked-rotor", dest="locked_rotor", default=None, metavar="V,I,P,F",
+                    help="locked-rotor test: V_ll_rms [V], I_rms [A], P_in [W], f [Hz]; gives l_s, l_r and "
+                    "R_r (with --leakage-ratio l_r/l_s, default 1), written into --motor-yaml")
+    fc.add_argument("--leakage-ratio", dest="leakage_ratio", default=None, metavar="RATIO",
+                    help="l_r / l_s for --locked-rotor (IEEE 112: 1 design A and D, 1.5 B, 7/3 C; default 1)")
     fc.add_argument("--out", default="results/fit_curve", help="output directory (default results/fit_curve)")
+    fc.add_argument("--copper-tol", dest="copper_tol", default=None, metavar="REL",
+                    help="P_in this far (relative) below the stator copper loss is taken as lossless, with a "
+                    "warning; further below, the row is refused (default 0.05)")
+    fc.add_argument("--motor-yaml", dest="motor_yaml", default=None, metavar="FILE",
+                    help="also write a ready motor: section (and plant: {R_fe: ...}) for a scenario")
+    for opt, dest, unit, what in (("--l-r", "l_r", "H", "rotor leakage inductance (default: l_s)"),
+                                  ("--R-r", "R_r", "OHM", "rotor resistance"),
+                                  ("--n-p", "n_p", "N", "pole pairs"), ("--J", "J", "KG_M2", "inertia"),
+                                  ("--B", "B", "N_M_S", "viscous friction")):
+        fc.add_argument(opt, dest=dest, default=None, metavar=unit,
+                        help=f"{what} [{unit.replace('_', ' ')}], written into --motor-yaml")
     fc.set_defaults(func=cmd_fit_curve)
     return ap
 
