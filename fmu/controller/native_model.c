@@ -43,6 +43,7 @@ fg_status fg_model_exit_initialization(fg_instance *inst, void *data, double sta
         fg_log(inst, FG_ERROR, "logStatusError", "%s", msg);
         return FG_ERROR;
     }
+    d->u.stop_time = fg_stop_time(inst); /* a step's remainder that ends there is zero samples */
     d->ready = 1;
     return FG_OK;
 }

@@ -43,6 +43,10 @@ CFLAGS = ("-std=c99", "-O2", "-shared", "-Wall", "-Wextra", "-Werror", "-pedanti
           "-ffp-contract=off")
 
 
+MACOS_MIN = "11.0"  # the declared minimum macOS (LC_BUILD_VERSION minos) of both Mach-O binaries: Big Sur,
+# the first macOS on Apple silicon (zig 0.17 would declare 15.0, its default deployment target)
+
+
 @dataclass(frozen=True)
 class Platform:
     fmi2: str | None  # the binaries/ folder of FMI 2.0 (None: FMI 2.0 has no name for it)
@@ -54,8 +58,8 @@ class Platform:
 PLATFORMS = {
     "linux64": Platform("linux64", "x86_64-linux", ".so", None),
     "win64": Platform("win64", "x86_64-windows", ".dll", "x86_64-windows-gnu"),
-    "darwin64": Platform("darwin64", "x86_64-darwin", ".dylib", "x86_64-macos"),
-    "aarch64-darwin": Platform(None, "aarch64-darwin", ".dylib", "aarch64-macos"),
+    "darwin64": Platform("darwin64", "x86_64-darwin", ".dylib", f"x86_64-macos.{MACOS_MIN}"),
+    "aarch64-darwin": Platform(None, "aarch64-darwin", ".dylib", f"aarch64-macos.{MACOS_MIN}"),
 }
 # the FMI 3.0 names are accepted too
 ALIASES = {p.fmi3: name for name, p in PLATFORMS.items()}

@@ -37,6 +37,7 @@ struct fg_instance {
     int logging_on;
     fg_phase phase;
     double time;
+    double stop_time;           /* the host's stop time, +inf when it gave none */
     void *data;                 /* FG_MODEL_DATA_SIZE bytes */
 };
 
