@@ -270,3 +270,14 @@ def test_a_host_with_accumulated_time_and_a_clipped_last_step(fmu_dir, variant):
     assert "must be a whole multiple of the sample period Ts = 0.0001 s" in "\n".join(free.log)
     for h in (exact, drifting, free):
         h.fmu.freeInstance()
+
+
+def test_the_fmi3_controller_declares_its_sample_period(fmu_dir):
+    """FMI 3.0: CoSimulation/@fixedInternalStepSize is the start value of Ts (docs/fmus.md); fmpy takes it
+    as the communication step when none is given."""
+    from fmpy import read_model_description
+    md = read_model_description(str(fmu_dir / VARIANTS["native-fmi3"]))
+    ts = next(v for v in md.modelVariables if v.name == "Ts")
+    assert float(md.coSimulation.fixedInternalStepSize) == float(ts.start) == TS
+    res = simulate_fmu(str(fmu_dir / VARIANTS["native-fmi3"]), stop_time=0.01, start_values=INPUTS)
+    assert np.allclose(np.diff(res["time"]), TS, rtol=1e-9, atol=0)
