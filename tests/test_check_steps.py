@@ -46,3 +46,48 @@ def test_our_fmus_pass_the_step_patterns(fmu_dir, variant):
         assert "must be a whole multiple of the sample period Ts = 0.0001 s" in detail, detail
     else:
         assert "(accepted)" in detail, detail
+
+
+# --- source-build -------------------------------------------------------------------------------------
+
+BUILT = {"built": "gcc", "shipped": True, "steps": 20}
+
+@pytest.mark.parametrize("result, verdict, says", [
+    ({"unlisted": True, "detail": "sources/ holds C files but no file list"}, "KNOWN", "no file list"),
+    ({**BUILT, "identical": True, "worst": 0.0}, "PASS", "bit-identical"),
+    ({**BUILT, "identical": False, "worst": 1e-12}, "PASS", "within 1e-12"),
+    ({**BUILT, "identical": False, "worst": 1e-3}, "FAIL", "within 0.001"),
+    ({"built": "gcc", "shipped": False, "steps": 20}, "PASS", "no shipped binary"),
+    ({"ok": False, "detail": "gcc ... failed: x.c:1: error"}, "FAIL", "failed"),
+    ({"skip": "no sources (a binary-only FMU)"}, "SKIP", "binary-only"),
+])
+def test_judge_source_build(result, verdict, says):
+    got, detail = checker.judge("source-build", result)
+    assert (got, says in detail) == (verdict, True), detail
+
+
+def test_source_build_fails_a_source_that_does_not_compile_and_knows_an_unlisted_one(fmu_dir, tmp_path):
+    """Two broken copies of the native controller: a C file cut in half (FAIL, naming the compiler's
+    error), and the FMI 2.0 file list removed (KNOWN)."""
+    import re
+    import zipfile
+
+    src = fmu_dir / "native" / "BacksteppingController.fmu"
+    with zipfile.ZipFile(src) as z:
+        files = {n: z.read(n) for n in z.namelist()}
+    cut = dict(files)
+    cut["sources/sm_law.c"] = files["sources/sm_law.c"][: len(files["sources/sm_law.c"]) // 2]
+    unlisted = dict(files)
+    unlisted["modelDescription.xml"] = re.sub(rb"\s*<SourceFiles>.*?</SourceFiles>", b"",
+                                              files["modelDescription.xml"], flags=re.S)
+    for label, content, verdict, says in (("cut", cut, "FAIL", "sm_law.c"),
+                                          ("unlisted", unlisted, "KNOWN", "no file list")):
+        path = tmp_path / label / "BacksteppingController.fmu"
+        path.parent.mkdir()
+        with zipfile.ZipFile(path, "w") as z:
+            for n, b in content.items():
+                z.writestr(n, b)
+        code, result, tail = checker.run_probe("source-build", path)
+        assert code == 0 and result is not None, tail
+        got, detail = checker.judge("source-build", result)
+        assert (got, says in detail) == (verdict, True), (label, detail)

@@ -12,7 +12,9 @@ description's must be refused (KNOWN for pythonfmu FMUs: pythonfmu does not pass
 ``foreign-state``: the serialized state of every other FMU of the same command (another GUID), and
 the FMU's own blob truncated and with every byte inverted, must be refused (error or discard), not
 crash, and leave the instance usable.  ``steps``: the communication steps hosts make (2 h, h + 4 ulps,
-1.5 h; h the default experiment's step size), see :func:`judge_steps`.  ``reference`` runs the FMU against
+1.5 h; h the default experiment's step size), see :func:`judge_steps`.  ``source-build``: the FMU's
+``sources/`` built alone with gcc and run next to the shipped binary (:func:`judge_source_build`).
+``reference`` runs the FMU against
 ``reference/<modelName>/`` (cross-check layout) when that directory exists (ours), else SKIP.
 ``fmutool`` is FMI 2.0 only (SKIP for FMI 3.0); the other checks run on both versions.  Another
 FMI version (1.0) gets ``validate`` only.  KNOWN: a known limitation, reported, not failing.
@@ -33,7 +35,7 @@ from xml.etree import ElementTree as ET
 from orchestration.process.interrupts import signal_name
 
 CHECKS = ("validate", "fmutool", "instantiate", "wrong-guid", "cycles", "state", "foreign-state", "reset",
-          "bad-parameter", "non-finite-input", "steps", "reference")
+          "bad-parameter", "non-finite-input", "steps", "source-build", "reference")
 PROBED = CHECKS[2:]
 ITEMIZED = ("non-finite-input", "foreign-state")  # probes that try one item at a time
 
@@ -223,6 +225,8 @@ def judge(check, result):
         return judge_foreign_state(result)
     if check == "steps":
         return judge_steps(result)
+    if check == "source-build":
+        return judge_source_build(result)
     if check == "reference":
         dev, worst = result.get("dev"), result.get("worst")
         if dev is None:
@@ -273,6 +277,24 @@ def judge_steps(result):
         parts.append("a fresh instance then FAILS")
     verdict = "FAIL" if "FAIL" in verdicts else "KNOWN" if "KNOWN" in verdicts else "PASS"
     return verdict, f"h = {h:g} s; " + "; ".join(parts)
+
+
+def judge_source_build(result):
+    """KNOWN: C files in sources/ but no list of them; PASS: the binary built from the sources runs, and
+    gives the shipped binary's outputs (bit for bit, or within BUILD_BAND); else FAIL."""
+    from orchestration.check.user_probes import BUILD_BAND
+
+    if result.get("unlisted"):
+        return "KNOWN", result["detail"]
+    head = f"built with `{result['built']}` in sources/"
+    if not result["shipped"]:
+        return "PASS", head + (f"; it ran {result['steps']} steps (no shipped binary for this platform to "
+                               "compare)")
+    if result["identical"]:
+        return "PASS", head + f"; {result['steps']} steps bit-identical to the shipped binary"
+    verdict = "PASS" if result["worst"] <= BUILD_BAND else "FAIL"
+    return verdict, head + (f"; {result['steps']} steps, outputs within {result['worst']:.3g} of the shipped "
+                            f"binary's (relative; band {BUILD_BAND:g})")
 
 
 def judge_foreign_state(result):

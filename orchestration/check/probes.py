@@ -285,48 +285,6 @@ def probe_bad_parameter(p):
     return out
 
 
-def _after(p, steps):
-    """A fresh instance after ``steps`` (``(t, h)`` pairs) with the input values held: the status of the
-    last step, the outputs (bit patterns) and the log of the instance."""
-    s = p.instance()
-    vrs, values = [v.valueReference for v in p.inputs], p.input_values()
-    if vrs:
-        s.set_reals(vrs, values)
-    p.log.clear()
-    status = "ok"
-    for t, h in steps:
-        status, _ = status_of(s.do_step, t, h)
-        if status != "ok":
-            break
-    out = [x.hex() for x in s.get_reals(p.outputs)] if status in ("ok", "warning") and p.outputs else []
-    log = p.errors()
-    if status != "fatal":
-        s.free()
-    return status, out, log
-
-
-def probe_steps(p):
-    """The communication steps hosts make, each on a fresh instance with the inputs held, against the
-    same time span in steps of the default experiment's step size h: a step of 2 h (the FMU Compliance
-    Checker's default is 2e-4 s, twice our controller's sample period), a step 4 ulps longer than h (a
-    host whose time is a float sum, or who passes the difference of two grid times), a step of 1.5 h
-    (not a whole multiple: an FMU that cannot handle variable steps may refuse it, with a message)."""
-    h = p.h
-    ulp_off = h
-    for _ in range(4):
-        ulp_off = math.nextafter(ulp_off, math.inf)
-    _, ref2, _ = _after(p, [(0.0, h), (h, h)])
-    _, ref1, _ = _after(p, [(0.0, h)])
-    out = {"h": h, "variable": bool(p.md.coSimulation.canHandleVariableCommunicationStepSize)}
-    for key, steps, ref in (("multiple", [(0.0, 2 * h)], ref2), ("ulp-off", [(0.0, ulp_off)], ref1),
-                            ("refused", [(0.0, 1.5 * h)], None)):
-        status, got, log = _after(p, steps)
-        out[key] = {"step": steps[-1][1], "status": status, "log": log[:300],
-                    "same": None if ref is None or status != "ok" else got == ref}
-    out["alive"] = alive(p)
-    return out
-
-
 def emit(obj):
     print(json.dumps(obj), flush=True)
 
@@ -473,7 +431,7 @@ def probe_reference(p, path, ref_dir):
 PROBES = {"instantiate": probe_instantiate, "wrong-guid": probe_wrong_guid, "cycles": probe_cycles,
           "state": probe_state, "reset": probe_reset, "bad-parameter": probe_bad_parameter,
           "non-finite-input": probe_non_finite_input, "serialize": probe_serialize,
-          "foreign-state": probe_foreign_state, "steps": probe_steps}
+          "foreign-state": probe_foreign_state}
 
 
 def main(argv):
@@ -486,7 +444,8 @@ def main(argv):
             elif mode in ("non-finite-input", "foreign-state"):
                 out = PROBES[mode](p, int(argv[2]) if len(argv) > 2 else 0, *argv[3:])
             else:
-                out = PROBES[mode](p, *argv[2:])
+                from orchestration.check import user_probes  # what hosts do: steps, source build
+                out = {**PROBES, **user_probes.PROBES}[mode](p, *argv[2:])
         except Exception as exc:  # an FMI call failed: the probe reports it, the exit code stays 0
             out = {"ok": False, "detail": f"{exc}" + (f" (log: {p.errors()})" if p.errors() else "")}
     finally:
