@@ -43,7 +43,6 @@ fg_status fg_model_exit_initialization(fg_instance *inst, void *data, double sta
         fg_log(inst, FG_ERROR, "logStatusError", "%s", msg);
         return FG_ERROR;
     }
-    d->u.stop_time = fg_stop_time(inst); /* a step's remainder that ends there is zero samples */
     d->ready = 1;
     return FG_OK;
 }
@@ -58,6 +57,8 @@ fg_status fg_model_do_step(fg_instance *inst, void *data, double t, double h)
         return FG_ERROR;
     }
     sm_vars_get_inputs(&d->v, in);
+    /* this instance's stop time, also after a state set from another (a remainder ending there: no sample) */
+    d->u.stop_time = fg_stop_time(inst);
     if (sm_controller_step(&d->u, t, h, in, msg, sizeof msg) != 0) {
         fg_log(inst, FG_DISCARD, "logStatusDiscard", "BacksteppingController at t = %.17g s: %s", t, msg);
         return FG_DISCARD;
