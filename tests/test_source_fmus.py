@@ -13,6 +13,7 @@ import shutil
 import subprocess
 import zipfile
 from pathlib import Path
+from xml.etree import ElementTree as ET
 
 import numpy as np
 import pytest
@@ -141,3 +142,29 @@ def test_fmpy_build_platform_binary_builds_it_too(fmu_dir, where, name, tmp_path
     a, outs = _run(shipped, name)
     b, _ = _run(built, name)
     _same(a, b, outs)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", ["SaturatedInductionMotor", "BacksteppingController"])
+def test_the_sources_alone_build_for_a_platform_we_do_not_ship(fmu_dir, name, tmp_path):
+    """An ARM Linux box: zig cc for aarch64-linux-gnu builds the FMI 3.0 FMU's listed sources with the
+    build description's options into an aarch64 ELF (compiled only: no aarch64 machine or emulator here)."""
+    import sys
+
+    from orchestration.build import native_build
+
+    if not native_build.zig_available():
+        pytest.skip("zig is not installed (pip install ziglang, in the dev extra)")
+    unzip = _unpack(fmu_dir / "native-fmi3" / f"{name}.fmu", tmp_path / "fmu")
+    _, files = _listed(unzip)
+    fileset = ET.parse(unzip / "sources" / "buildDescription.xml").find(".//SourceFileSet")
+    options = fileset.get("compilerOptions")
+    assert options == "-ffp-contract=off"
+    out = tmp_path / f"{name}.so"
+    zig = [sys.executable, "-m", "ziglang", "cc", "-target", "aarch64-linux-gnu.2.17"]
+    r = subprocess.run([*zig, "-std=c99", "-O2", "-shared", "-fPIC", *options.split(), *files, "-o", str(out),
+                        "-lm"],
+                       cwd=unzip / "sources", capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    head = out.read_bytes()[:20]
+    assert head[:4] == b"\x7fELF" and int.from_bytes(head[18:20], "little") == 183  # EM_AARCH64
