@@ -298,6 +298,8 @@ class ControllerUnit:
         floating point, clipping its last step to its stop time: the sample at the stop time would hold
         its output beyond it, so none is taken, as a master on the exact grid takes none); -1 for any
         other step (refused)."""
+        if dt == self.Ts:  # the common step: the rule below gives 1 too
+            return 1
         x = dt / self.Ts + 0.5
         if not 0.0 <= x < MAX_SAMPLES + 1.0:  # also NaN
             return -1

@@ -105,6 +105,9 @@ long sm_controller_samples(const sm_controller *u, double t, double dt)
 {
     const double x = dt / u->Ts + 0.5;
     double n, tol;
+    if (dt == u->Ts) { /* the common step: the rule below gives 1 too */
+        return 1;
+    }
     if (!(x >= 0.0 && x < SM_MAX_SAMPLES + 1.0)) { /* also NaN */
         return -1;
     }
