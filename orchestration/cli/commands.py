@@ -151,7 +151,8 @@ def run_file(path, out, fmu_dir, algorithm=None, build=True, plot=True, stop=Non
     make = streaming_recorder(sc, directory, on_parquet=helper and helper.parquet_done)
     try:
         result = run(sc, str(plant), str(ctrl), algorithm=algorithm, stop=stop, recorder=make)
-        summary = write_results(result, out, plot=plot, draw=helper and helper.draw, write_error=make.error)
+        summary = write_results(result, out, plot=plot, draw=helper and helper.draw, write_error=make.error,
+                                discard_figure=helper and helper.discard)
     except OSError as exc:  # a file of the run could not be written: said, never a traceback
         return RUN_FAILED, {"scenario": sc.name, "file": str(path), "status": "failed", "rows": 0,
                             "wall_time": 0.0, "message": f"{describe(exc)}: the results are not complete",

@@ -120,11 +120,13 @@ def figure_target(scenario, out_dir):
     return Path(out_dir) / scenario.name / "figure.png", f"{scenario.name}: {scenario.description}"[:110]
 
 
-def write_results(result, out_dir, plot=True, draw=None, write_error=None):
+def write_results(result, out_dir, plot=True, draw=None, write_error=None, discard_figure=None):
     """Write the files of one run under ``out_dir/<name>/``; returns the summary dict (also in
     metrics.json).  A streamed run has its time series on disk already; a run recorded in memory
     gets them written here.  Partial results of a failed or interrupted run are written too.
-    ``draw(data, path, title)`` draws the figure (default :func:`orchestration.results.plots.figure`).
+    ``draw(data, path, title)`` draws the figure (default :func:`orchestration.results.plots.figure`);
+    ``discard_figure()``, when the time series cannot be kept, stops whatever draws one elsewhere
+    (:meth:`orchestration.results.figure_process.FigureProcess.discard`).
 
     Every file is written under a temporary name and renamed when complete
     (:mod:`orchestration.results.atomic`), ``metrics.json`` last: once it no longer says
@@ -155,6 +157,10 @@ def write_results(result, out_dir, plot=True, draw=None, write_error=None):
     holds, setpoints = setpoint_status(metrics, df["time"] if rows else (), sc)
     status, message = result.status, result.message
     if error is not None:
+        for name in FILES:  # e.g. the empty record a run that failed at its start falls back to
+            atomic.discard(d / name)
+        if discard_figure is not None:  # a helper drawing from a Parquet file not kept
+            discard_figure()
         status, message = "failed", (f"{atomic.describe(error)}: the time series were not kept (the run "
                                      f"reached t = {result.t_end:.6g} s)")
     elif plot and rows > 1:
