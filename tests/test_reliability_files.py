@@ -33,7 +33,8 @@ from orchestration.results import atomic
 pytestmark = pytest.mark.slow
 ROOT = Path(__file__).resolve().parents[1]
 PNG_END = b"IEND\xaeB`\x82"  # the last chunk of a whole PNG
-PROFILES = "profiles:\n  psi_ref: {type: constant, value: 0.9}\n  omega_ref: {type: step, time: 0.1, value: 40.0}\n"
+PROFILES = ("profiles:\n  psi_ref: {type: constant, value: 0.9}\n"
+            "  omega_ref: {type: step, time: 0.1, value: 40.0}\n")
 
 
 def _scenario(d, name, stop_time):
@@ -310,7 +311,7 @@ def test_the_batch_summary_on_stderr_when_it_cannot_be_written(tmp_path, fmu_dir
     assert list(first["status"]) == ["running"] and first["pid"].iloc[0] == os.getpid()
 
 
-# --- SIGKILL: of a run child, of the batch --------------------------------------------------------------------
+# --- SIGKILL: of a run child, of the batch ------------------------------------------------
 
 def _wait(predicate, proc, timeout=240.0, what="state"):
     t0 = time.monotonic()
@@ -347,7 +348,8 @@ def test_a_child_killed_by_sigkill_is_marked_failed_with_nothing_half_written(tm
     _scenario(src, "victim", 200.0)
     _scenario(src, "tiny", 0.05)
     out = tmp_path / "out"
-    p = subprocess.Popen([sys.executable, "-m", "orchestration", "batch", str(src), "--out", str(out), "--fmus",
+    p = subprocess.Popen([sys.executable, "-m", "orchestration", "batch", str(src), "--out", str(out),
+                          "--fmus",
                           str(fmu_dir), "--variant", variant], cwd=ROOT, stdout=subprocess.PIPE,
                          stderr=subprocess.PIPE, text=True)
     try:
@@ -373,11 +375,13 @@ def test_a_batch_killed_by_sigkill_leaves_a_whole_summary_and_interrupted_runs(t
     _scenario(src, "long_a", 200.0)
     _scenario(src, "long_b", 200.0)
     out = tmp_path / "out"
-    p = subprocess.Popen([sys.executable, "-m", "orchestration", "batch", str(src), "--out", str(out), "--fmus",
+    p = subprocess.Popen([sys.executable, "-m", "orchestration", "batch", str(src), "--out", str(out),
+                          "--fmus",
                           str(fmu_dir), "--variant", "native", "--jobs", "2"], cwd=ROOT,
                          stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
-        pids = [_wait(lambda n=n: _running_pid(out / n), p, what=f"first rows of {n}") for n in ("long_a", "long_b")]
+        pids = [_wait(lambda n=n: _running_pid(out / n), p, what=f"first rows of {n}")
+                for n in ("long_a", "long_b")]
         os.kill(p.pid, signal.SIGKILL)
         p.communicate(timeout=60)
     finally:
