@@ -399,3 +399,108 @@ def test_a_batch_killed_by_sigkill_leaves_a_whole_summary_and_interrupted_runs(t
     for name in ("long_a", "long_b"):
         s = check_scenario_dir(out / name)
         assert s["status"] == "interrupted" and "SIGTERM" in s["message"] and 0 < s["t_end"] < 200.0, s
+
+
+# --- the smaller items: export-ssp onto a directory, an unreachable scheduler, absurd inputs ----------------
+
+def test_export_ssp_onto_an_existing_directory_is_refused_naming_it(tmp_path, fmu_dir):
+    target = tmp_path / "pkg.ssp"
+    target.mkdir()
+    r = _cli("export-ssp", ROOT / "scenarios" / "fan_load.yaml", target, "--fmus", fmu_dir)
+    assert r.returncode == 2 and "Traceback" not in r.stderr, r.stderr
+    assert f"{target}: is a directory" in r.stderr and str(target / "fan_load.ssp") in r.stderr
+    assert list(tmp_path.iterdir()) == [target] and not list(target.iterdir())  # nothing left behind
+
+
+def test_export_ssp_on_a_full_disk_leaves_nothing_and_says_why(tmp_path, small_disk, fmu_dir):
+    r = _cli("export-ssp", ROOT / "scenarios" / "fan_load.yaml", small_disk / "pkg.ssp", "--fmus", fmu_dir)
+    assert r.returncode == 2 and "Traceback" not in r.stderr, r.stderr
+    assert "cannot write the SSP package: no space left on device" in r.stderr
+    assert list(small_disk.iterdir()) == []
+
+
+def _free_port():
+    import socket
+
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def test_batch_with_no_scheduler_listening_fails_within_seconds(tmp_path, fmu_dir):
+    src = tmp_path / "scenarios"
+    src.mkdir()
+    _scenario(src, "tiny", 0.05)
+    address = f"tcp://127.0.0.1:{_free_port()}"
+    t0 = time.monotonic()
+    r = _cli("batch", src, "--scheduler", address, "--out", tmp_path / "out", "--fmus", fmu_dir, timeout=60)
+    wall = time.monotonic() - t0
+    assert r.returncode == 1 and "Traceback" not in r.stderr, r.stderr
+    assert f"--scheduler {address}: nothing listens there (connection refused)" in r.stderr
+    assert wall < 15.0, wall  # was 30 s of Dask's connect retries (plus the interpreter's start)
+    row = pd.read_csv(tmp_path / "out" / "summary.csv").iloc[0]
+    assert row["status"] == "failed" and "nothing listens there" in row["message"]
+
+
+def test_a_peer_that_is_no_scheduler_fails_within_the_client_timeout():
+    import socket
+    import threading
+
+    from orchestration.cli import scheduler
+
+    server = socket.socket()
+    server.bind(("127.0.0.1", 0))
+    server.listen(4)
+    held = []
+    threading.Thread(target=lambda: held.append(server.accept()), daemon=True).start()
+    address = f"tcp://127.0.0.1:{server.getsockname()[1]}"
+    t0 = time.monotonic()
+    try:
+        with pytest.raises(scheduler.SchedulerUnreachable, match="no Dask scheduler answered within 2 s"):
+            scheduler.connect(address, timeout=2.0)
+    finally:
+        server.close()
+    assert time.monotonic() - t0 < 8.0
+
+
+def _notes(tmp_path, body):
+    from orchestration.scenario.load import load_scenario
+
+    f = tmp_path / "s.yaml"
+    f.write_text("name: s\nstop_time: 0.3\n" + body)
+    return [n for n in load_scenario(f).notes]
+
+
+def test_absurd_inputs_are_noted_and_ordinary_ones_are_not(tmp_path):
+    psi = "  psi_ref: {type: constant, value: 0.9}\n"
+    notes = _notes(tmp_path, "controller: {V_dc: 1.0e+12, I_max: 1.0e+4}\nprofiles:\n" + psi
+                   + "  omega_ref: {type: step, time: 0.1, value: 1.0e+5}\n"
+                   + "  T_load: {type: step, time: 0.2, value: 400.0}\n")
+    by_field = {n.field: str(n) for n in notes}
+    link = 400.0 * 2 ** 0.5  # [V] the line-to-line peak of the 400 V name plate
+    assert f"{1e12 / link:.3g} x the {link:.4g} V DC link" in by_field["controller.V_dc"]
+    rated_speed = 1430 * 3.141592653589793 / 30  # [rad/s]
+    assert f"{1e5 / rated_speed:.3g} x the motor's rated speed" in by_field["profiles.omega_ref"]
+    rated_torque = 4000.0 / rated_speed  # [N m]
+    assert f"{400 / rated_torque:.3g} x the motor's rated torque" in by_field["profiles.T_load"]
+    # the speed beyond what the voltage allows at the flux set-point: V_dc/sqrt(3) = n_p omega psi, n_p = 2
+    omega_v = 540.0 / 3 ** 0.5 / (2 * 0.9)
+    below, above = (_notes(tmp_path, "profiles:\n" + psi + f"  omega_ref: {{type: step, time: 0.1, value: "
+                           f"{k * omega_v!r}}}\n") for k in (1.9, 2.1))
+    assert below == [] and [n.field for n in above] == ["profiles.omega_ref"]
+    assert f"{omega_v:.4g} rad/s, the speed at which" in str(above[0])
+    for f in sorted((ROOT / "scenarios").glob("*.yaml")):  # the library's scenarios: nothing absurd
+        from orchestration.scenario.load import load_scenario
+
+        said = [str(n) for n in load_scenario(f).notes]
+        assert not [n for n in said if "far outside" in n or "cannot follow" in n], f
+
+
+def test_an_absurd_input_is_said_by_validate_and_run(tmp_path, fmu_dir):
+    f = tmp_path / "absurd.yaml"
+    f.write_text("name: absurd\nstop_time: 0.05\ncontroller: {V_dc: 1.0e+12}\n" + PROFILES)
+    r = _cli("validate", f, "--fmus", fmu_dir)
+    assert r.returncode == 0 and "valid (1 note(s))" in r.stdout and "note: controller.V_dc" in r.stderr
+    r = _cli("run", f, "--out", tmp_path / "out", "--fmus", fmu_dir, "--no-build", "--variant", "native")
+    assert r.returncode == 0 and "note: controller.V_dc" in r.stderr, r.stderr
+    assert "far outside" in json.loads((tmp_path / "out" / "absurd" / "metrics.json").read_text())["notes"][0]

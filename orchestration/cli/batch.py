@@ -41,6 +41,7 @@ from concurrent.futures import ThreadPoolExecutor, as_completed
 from pathlib import Path
 
 from orchestration.build import fmus
+from orchestration.cli.scheduler import SchedulerUnreachable
 from orchestration.process.interrupts import PARENT_ENV, StopRequest, signal_name
 from orchestration.results.atomic import describe, owner, settle_abandoned
 from orchestration.results.batch_summary import SummaryFile, running_row
@@ -224,9 +225,11 @@ def _run_local(runnable, out, fmu_dir, jobs, algorithm, stop, done, variant, com
 def _run_dask(runnable, out, fmu_dir, scheduler, algorithm, stop, done, variant):
     import uuid
 
-    from distributed import Client, Event
+    from distributed import Event
 
-    with Client(scheduler) as client:
+    from orchestration.cli.scheduler import connect
+
+    with connect(scheduler) as client:  # within seconds, or SchedulerUnreachable saying why
         event_name = f"satmotor-batch-stop-{uuid.uuid4().hex}"
         event = Event(event_name, client=client)
         remaining = {client.submit(_dask_task, str(f), str(out), str(fmu_dir), algorithm, name, event_name,
@@ -306,7 +309,8 @@ def run_batch(items, out, fmu_dir, jobs=2, scheduler=None, algorithm=None, stop=
             else:
                 _run_local(runnable, out, fmu_dir, jobs, algorithm, stop, done, variant, command)
     except Exception as exc:  # noqa: BLE001 - the summary is written whatever happened
-        error = f"the batch failed before running it: {exc!r}"
+        said = exc if isinstance(exc, SchedulerUnreachable) else repr(exc)
+        error = f"the batch failed before running it: {said}"
         print(error, file=sys.stderr)
     finally:
         bar and bar.close()
