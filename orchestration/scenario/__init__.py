@@ -11,4 +11,5 @@
 * :mod:`~orchestration.scenario.recording` -- the columns a run records and which ones it keeps.
 * :mod:`~orchestration.scenario.feasibility` -- physics checks (reachable flux, the torque the
   current limit allows, recording size).
+* :mod:`~orchestration.scenario.plausibility` -- notes for inputs far outside the motor's range.
 """
