@@ -269,6 +269,26 @@ def test_run_out_of_space_at_every_stage_leaves_a_whole_state(tmp_path, fmu_dir,
         assert on_disk is None or on_disk["status"] == "failed"
 
 
+def test_a_figure_that_cannot_be_written_leaves_whole_time_series_and_says_so(tmp_path, fmu_dir, monkeypatch):
+    from matplotlib.figure import Figure
+
+    from orchestration.cli.commands import run_file
+
+    def savefig(self, f, **kw):  # half a PNG, then the disk is full
+        f.write(b"\x89PNG\r\n\x1a\n" + b"\0" * 5000)
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+
+    monkeypatch.setattr(Figure, "savefig", savefig)
+    src = _scenario(tmp_path, "fig", 0.3)
+    code, s = run_file(src, tmp_path / "out", fmu_dir, build=False, variant="native")
+    d = tmp_path / "out" / "fig"
+    on_disk = check_scenario_dir(d)
+    assert code == 1 and on_disk["status"] == "failed" and on_disk["rows"] > 1000
+    assert on_disk["message"].startswith(f"no space left on device writing {d / 'figure.png'}: ")
+    assert "no figure (the time series are complete)" in on_disk["message"]
+    assert sorted(p.name for p in d.iterdir()) == ["metrics.json", "timeseries.csv", "timeseries.parquet"]
+
+
 def test_a_failed_write_leaves_the_previous_file_and_no_temporary(tmp_path, monkeypatch):
     target = tmp_path / "metrics.json"
     atomic.write_text(target, "old\n")

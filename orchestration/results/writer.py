@@ -169,9 +169,9 @@ def write_results(result, out_dir, plot=True, draw=None, write_error=None, disca
         try:
             draw(df, *figure_target(sc, out_dir))
         except OSError as exc:
-            status, message = "failed", (f"{atomic.describe(exc)}: no figure (the time series are complete"
-                                         + (f"; the run: {result.status}, {result.message}" if not result.ok
-                                            else "") + ")")
+            run = f"; the run: {result.status}, {result.message}" if not result.ok else ""
+            status, message = "failed", (f"{atomic.describe(exc, d / 'figure.png')}: no figure (the time "
+                                         f"series are complete{run})")
     summary = {
         "scenario": sc.name, "file": str(sc.path), "status": status, "message": message,
         "failed_unit": result.failed_unit if error is None else "", "t_end": result.t_end,
@@ -184,6 +184,7 @@ def write_results(result, out_dir, plot=True, draw=None, write_error=None, disca
     try:
         atomic.write_json(d / "metrics.json", summary)
     except OSError as exc:  # the status on disk stays "running" with the pid: a later reader sees it died
-        summary.update(status="failed", message=f"{atomic.describe(exc)}: the results are not complete"
+        summary.update(status="failed", message=f"{atomic.describe(exc, d / 'metrics.json')}: the results "
+                       "are not complete"
                        + (f" ({message})" if message else ""), metrics_written=False)
     return summary
