@@ -75,21 +75,6 @@ def discard(path):
 
 
 @contextmanager
-def atomic_path(path):
-    """Yields a temporary path beside ``path`` for a writer that takes a path (e.g. a Parquet
-    writer); renamed onto ``path`` when the block ends without an exception, removed otherwise.
-    The writer must have closed its file at the end of the block."""
-    fd, tmp = _temporary(path)
-    os.close(fd)
-    try:
-        yield tmp
-        os.replace(tmp, path)
-    except BaseException:
-        _unlink(tmp)
-        raise
-
-
-@contextmanager
 def atomic_file(path, mode="w", **open_args):
     """An open file object (``mode``: ``"w"`` or ``"wb"``) of a temporary name beside ``path``;
     closed and renamed onto ``path`` when the block ends without an exception, closed and removed
