@@ -200,6 +200,11 @@ def judge(check, result):
             return "FAIL", head + tail
         if st in ("error", "discard"):
             return "PASS", head + tail
+        if st == "logged" and "pythonfmu" in result["generationTool"].lower():
+            return "KNOWN", head + tail + (" (pythonfmu cannot return fmi2Error from Python: the error is "
+                                           "logged, the call returns fmi2OK, and every doStep discards)")
+        if st == "logged":
+            return "FAIL", head + tail + " (an error logged, but the call returned OK: expected an error)"
         if st == "fatal" and "pythonfmu" in result["generationTool"].lower():
             return "KNOWN", head + tail + " (pythonfmu reports fmi2Fatal, never fmi2Error: known limitation)"
         if st == "fatal":

@@ -274,7 +274,11 @@ def probe_bad_parameter(p):
     if status == "ok":
         where = "initialization"
         status, _ = status_of(p.initialize, s)
-    if status in ("error", "discard"):
+        if status == "ok" and p.errors():  # refused in words only (pythonfmu: no fmi2Error from Python)
+            step, _ = status_of(s.do_step, 0.0, p.h)
+            if step in ("error", "discard"):
+                status, where = "logged", f"initialization (fmi2OK with an error logged; doStep: {step})"
+    if status in ("error", "discard", "logged"):
         s.free()
     # after fmi2Fatal/fmi3Fatal no further call on that instance (FMI 2.0 section 2.1.3)
     out = {"status": status, "where": where, "param": f"{name} = {value!r}", "log": p.errors(),

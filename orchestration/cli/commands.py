@@ -106,6 +106,7 @@ def run_file(path, out, fmu_dir, algorithm=None, build=True, plot=True, stop=Non
     :class:`orchestration.process.interrupts.StopRequest`) ends the run early with what it has.
     ``figure_process``: draw the figure with a helper process that imports matplotlib while the
     run steps (:mod:`orchestration.results.figure_process`; used where it gains something)."""
+    from orchestration.results.atomic import describe
     from orchestration.results.writer import figure_target, prepare_dir, streaming_recorder, write_results
     from orchestration.run.master import run
     from orchestration.run.recorder import FILES
@@ -137,7 +138,7 @@ def run_file(path, out, fmu_dir, algorithm=None, build=True, plot=True, stop=Non
     try:
         directory = prepare_dir(out, sc)
     except OSError as exc:
-        return refused(f"--out {out}: cannot write the results: {exc}", sc.name)
+        return refused(f"--out {out}: cannot write the results: {describe(exc)}", sc.name)
     plant, ctrl = fmus.paths(fmu_dir, variant)
     helper = None
     if plot and figure_process:
@@ -147,16 +148,21 @@ def run_file(path, out, fmu_dir, algorithm=None, build=True, plot=True, stop=Non
             helper = fp.FigureProcess(directory / FILES[1], *figure_target(sc, out)) if fp.wanted() else None
         except OSError:  # no fork today: the figure is drawn here
             helper = None
+    make = streaming_recorder(sc, directory, on_parquet=helper and helper.parquet_done)
     try:
-        result = run(sc, str(plant), str(ctrl), algorithm=algorithm, stop=stop,
-                     recorder=streaming_recorder(sc, directory, on_parquet=helper and helper.parquet_done))
-        summary = write_results(result, out, plot=plot, draw=helper and helper.draw)
+        result = run(sc, str(plant), str(ctrl), algorithm=algorithm, stop=stop, recorder=make)
+        summary = write_results(result, out, plot=plot, draw=helper and helper.draw, write_error=make.error,
+                                discard_figure=helper and helper.discard)
+    except OSError as exc:  # a file of the run could not be written: said, never a traceback
+        return RUN_FAILED, {"scenario": sc.name, "file": str(path), "status": "failed", "rows": 0,
+                            "wall_time": 0.0, "message": f"{describe(exc)}: the results are not complete",
+                            "metrics_written": False}
     finally:
         if helper is not None:
             helper.close()
-    if result.status == "interrupted":
+    if summary["status"] == "interrupted":
         return stop.exit_code, summary
-    if not result.ok:
+    if summary["status"] != "ok":
         return RUN_FAILED, summary
     return (NOT_ACCEPTED if summary["accepted"] is False else OK), summary
 
@@ -181,8 +187,10 @@ def cmd_run(args):
         return code
     for note in s.get("notes") or ():
         print(note, file=sys.stderr)
+    if s.get("metrics_written") is False:  # the one place left to say it (a batch shows this line)
+        print(f"{s['scenario']}: failed: {s['message']}", file=sys.stderr)
     held = f", {s['setpoints']}" if s.get("holds_setpoints") is False else ""
-    print(f"{s['scenario']}: {s['status']}" + (f" ({s['message']})" if s["message"] else "") + held
+    print(f"{s['scenario']}: {s['status']}" + (f" ({s['message']})" if s.get("message") else "") + held
           + f", {s['rows']} rows, {s['wall_time']:.2f} s wall, results in {Path(args.out) / s['scenario']}")
     if s.get("setpoints") and not held:
         print(f"  {s['setpoints']}")
