@@ -170,6 +170,46 @@ CONTROLLER_PARAMETERS = _in_struct("controller", (
 )) + MOTOR_PARAMETERS
 
 
+
+class Terminal(NamedTuple):
+    """An FMI 3.0 terminal (``terminalsAndIcons.xml``): a named group of variables a tool connects
+    in one gesture.  ``members``: ``(member name, variable name)`` pairs; two terminals of the same
+    ``name`` on the plant and the controller have the same member names, each an output on one side
+    and an input on the other.  ``rule``: FMI's ``matchingRule`` (``plug``: every member matched;
+    ``bus``: the members present on both sides)."""
+
+    name: str
+    kind: str
+    rule: str
+    description: str
+    members: tuple[tuple[str, str], ...]
+
+
+def _pair(prefix):
+    return (("alpha", f"{prefix}_alpha"), ("beta", f"{prefix}_beta"))
+
+
+_DRIVE = ("org.satmotor.DriveInterface", "plug")
+_STATOR_VOLTAGE = Terminal("statorVoltage", *_DRIVE, "stator voltage command, alpha/beta [V]", _pair("v_s"))
+_STATOR_CURRENT = Terminal("statorCurrent", *_DRIVE, "stator current, alpha/beta [A]", _pair("i_s"))
+_ROTOR_FLUX = Terminal("rotorFlux", *_DRIVE, "rotor flux linkage, alpha/beta [Wb]", _pair("psi_r"))
+_STATOR_FLUX = Terminal("statorFlux", *_DRIVE, "stator flux linkage, alpha/beta [Wb]", _pair("psi_s"))
+_SPEED = Terminal("speed", *_DRIVE, "mechanical speed [rad/s]", (("omega", "omega_m"),))
+# the plant-controller interface, each signal pair its own terminal; the shaft and the set-points for
+# the tool's load and reference sources
+PLANT_TERMINALS = (
+    _STATOR_VOLTAGE, _STATOR_CURRENT, _ROTOR_FLUX, _STATOR_FLUX, _SPEED,
+    Terminal("shaft", "org.satmotor.MechanicalShaft", "bus",
+             "mechanical port: speed [rad/s], angle [rad], air-gap torque [N m], load torque [N m]",
+             (("omega", "omega_m"), ("angle", "theta_m"), ("torque", "T_e"), ("loadTorque", "T_load"))),
+)
+CONTROLLER_TERMINALS = (
+    _STATOR_VOLTAGE, _STATOR_CURRENT, _ROTOR_FLUX, _STATOR_FLUX, _SPEED,
+    Terminal("setPoints", "org.satmotor.SetPoints", "bus",
+             "speed [rad/s] and rotor-flux [Wb] set-points, load torque [N m]",
+             (("speed", "omega_ref"), ("flux", "psi_ref"), ("loadTorque", "T_load"))),
+)
+
 def _number(values, var):
     v = values.get(var.name, var.start)
     if var.type == "Integer":

@@ -203,8 +203,8 @@ def _resource_files(resources) -> dict[str, bytes]:
 
 def build_native_fmu(model_identifier: str, sources: Iterable[str | Path], model_description_xml: str,
                      out_path: str | Path, fmi_version: str = "2.0", platforms: Sequence[str] = ("linux64",),
-                     resources=None, extra_cflags: Sequence[str] = (),
-                     linux_glibc: str | None = None, documentation=None) -> tuple[Path, str]:
+                     resources=None, extra_cflags: Sequence[str] = (), linux_glibc: str | None = None,
+                     documentation=None, extra_files=None) -> tuple[Path, str]:
     """Build a native co-simulation FMU; returns ``(path of the .fmu, GUID/instantiationToken)``.
 
     ``sources``: the model's files (``.c`` compiled, ``.h`` and others only copied), placed flat
@@ -218,7 +218,8 @@ def build_native_fmu(model_identifier: str, sources: Iterable[str | Path], model
     name -> content for ``resources/``. ``linux_glibc`` (e.g. ``"2.17"``): build the Linux binary
     with zig against that glibc (the host gcc links against the host's glibc, 2.29+ for ``exp``
     on Debian 12). ``documentation``: like ``resources``, for ``documentation/`` (e.g.
-    ``{"index.html": ...}``). Raises :class:`NativeBuildError` on any failure.
+    ``{"index.html": ...}``). ``extra_files``: ``{path in the FMU: bytes}`` (e.g. FMI 3.0's
+    ``terminalsAndIcons/terminalsAndIcons.xml``). Raises :class:`NativeBuildError` on any failure.
     """
     major = _major(fmi_version)
     if not re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", model_identifier):
@@ -268,6 +269,7 @@ def build_native_fmu(model_identifier: str, sources: Iterable[str | Path], model
     files["sources/BUILD.txt"] = source_fmu.build_text(model_identifier, c_files, major).encode()
     files.update({f"resources/{n}": b for n, b in _resource_files(resources).items()})
     files.update({f"documentation/{n}": b for n, b in _resource_files(documentation).items()})
+    files.update(extra_files or {})
 
     with tempfile.TemporaryDirectory(prefix="sm_native_") as tmp:
         staging = Path(tmp) / "src"

@@ -83,7 +83,9 @@ def build(name, out_dir, fmi_version="2.0", platforms=None, resources=None):
                                    resources={**(resources or {}),
                                               BUILD_INPUTS: (inputs_fingerprint(name) + "\n").encode()},
                                    linux_glibc=PORTABLE_GLIBC if portable else None,
-                                   documentation={"index.html": doc})
+                                   documentation={"index.html": doc},
+                                   extra_files={nmd.TERMINALS_FILE: nmd.terminals_and_icons(name)}
+                                   if fmi_version != "2.0" else None)
     return path
 
 

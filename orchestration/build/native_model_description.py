@@ -140,3 +140,22 @@ def fmi3(name, token="{GUID}"):
             deps = " ".join(vr_of_index[d] for d in (u.get("dependencies") or "").split())
             ET.SubElement(ms, tag, {"valueReference": vr_of_index[u.get("index")], "dependencies": deps})
     return _xml(root)
+
+
+TERMINALS = {"SaturatedInductionMotor": itf.PLANT_TERMINALS,
+             "BacksteppingController": itf.CONTROLLER_TERMINALS}
+TERMINALS_FILE = "terminalsAndIcons/terminalsAndIcons.xml"
+
+
+def terminals_and_icons(name):
+    """FMI 3.0 ``terminalsAndIcons/terminalsAndIcons.xml`` (bytes) of the native FMU ``name``, from the
+    terminal tables of :mod:`satmotor.interface`; every member a ``signal``."""
+    root = ET.Element("fmiTerminalsAndIcons", {"fmiVersion": "3.0"})
+    terminals = ET.SubElement(root, "Terminals")
+    for t in TERMINALS[name]:
+        el = ET.SubElement(terminals, "Terminal", {"name": t.name, "matchingRule": t.rule,
+                                                   "terminalKind": t.kind, "description": t.description})
+        for member, variable in t.members:
+            ET.SubElement(el, "TerminalMemberVariable", {"variableName": variable, "memberName": member,
+                                                         "variableKind": "signal"})
+    return _xml(root)
