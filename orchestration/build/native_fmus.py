@@ -85,7 +85,7 @@ def build(name, out_dir, fmi_version="2.0", platforms=None, resources=None):
                                    linux_glibc=PORTABLE_GLIBC if portable else None,
                                    documentation={"index.html": doc},
                                    extra_files={nmd.TERMINALS_FILE: nmd.terminals_and_icons(name)}
-                                   if fmi_version != "2.0" else None)
+                                   if fmi_version != "2.0" and name in nmd.TERMINALS else None)
     return path
 
 
