@@ -36,6 +36,7 @@ struct fg_instance {
     fg_emit_fn emit;
     int logging_on;
     fg_phase phase;
+    int me_continuous;          /* model exchange in FG_PHASE_STEP: 1 continuous-time mode, 0 event mode */
     double time;
     void *data;                 /* FG_MODEL_DATA_SIZE bytes */
 };
