@@ -403,3 +403,74 @@ def test_closed_loop_with_the_controller_fmu_against_the_co_simulation_loop(fmu_
     assert dev[worst] < 1e-5
     psi_r = math.hypot(cs[-1, OUTPUTS.index("psi_r_alpha")], cs[-1, OUTPUTS.index("psi_r_beta")])
     assert psi_r > 0.9  # magnetized: the loop ran the law
+
+
+# ---- orchestration check learns model exchange ------------------------------------------------------
+
+def _check(capsys, *argv):
+    import re
+
+    from orchestration.cli import commands as cli
+
+    line = re.compile(r"^(PASS|FAIL|SKIP|KNOWN) +(\S+)  ([a-z-]+): (.*)$")
+    code = cli.main(["check", *map(str, argv)])
+    verdicts = {}
+    for text in capsys.readouterr().out.splitlines():
+        m = line.match(text)
+        assert m, text
+        verdicts[(m.group(2), m.group(3))] = (m.group(1), m.group(4))
+    return code, verdicts
+
+
+def test_check_passes_both_me_fmus_with_the_model_exchange_checks(fmu_dir, capsys):
+    from orchestration.check import model_exchange
+
+    paths = [me_path(fmu_dir, v) for v in VERSIONS]
+    code, verdicts = _check(capsys, *paths)
+    assert code == 0, verdicts
+    for p in paths:
+        for c in model_exchange.CHECKS:
+            assert verdicts[(str(p), c)][0] == "PASS", (c, verdicts[(str(p), c)])
+        assert "a model without events" in verdicts[(str(p), "me-events")][1]
+        assert "worst" in verdicts[(str(p), "me-reference")][1]
+        assert verdicts[(str(p), "instantiate")] == ("SKIP", "no CoSimulation element (model exchange only)")
+
+
+def test_check_fails_an_me_fmu_whose_description_declares_an_event_indicator(fmu_dir, tmp_path, capsys):
+    import zipfile
+
+    src, broken = me_path(fmu_dir, "2.0"), tmp_path / native_me.FILE
+    with zipfile.ZipFile(src) as z:
+        files = {n: z.read(n) for n in z.namelist()}
+    md = files["modelDescription.xml"].decode()
+    files["modelDescription.xml"] = md.replace('numberOfEventIndicators="0"',
+                                               'numberOfEventIndicators="1"').encode()
+    with zipfile.ZipFile(broken, "w", zipfile.ZIP_DEFLATED) as z:
+        for n, data in files.items():
+            z.writestr(n, data)
+    code, verdicts = _check(capsys, broken)
+    assert code == 1
+    verdict, detail = verdicts[(str(broken), "me-events")]
+    assert verdict == "FAIL" and "1 values, the model has 0" in detail, detail
+    assert verdicts[(str(broken), "me-states")][0] == "PASS"
+
+
+def test_check_fails_an_me_reference_one_percent_off(fmu_dir, tmp_path, capsys):
+    import shutil
+
+    ref = tmp_path / "reference" / native_me.NAME
+    shutil.copytree(REFERENCE, ref)
+    csv = ref / f"{native_me.NAME}_ref.csv"
+    head, *rows = csv.read_text().splitlines()
+    col = head.split(",").index("omega_m")
+    out = []
+    for row in rows:
+        cells = row.split(",")
+        cells[col] = repr(float(cells[col]) * 1.01)
+        out.append(",".join(cells))
+    csv.write_text("\n".join([head, *out]) + "\n")
+    path = me_path(fmu_dir, "3.0")
+    code, verdicts = _check(capsys, path, "--reference", ref.parent)
+    assert code == 1
+    verdict, detail = verdicts[(str(path), "me-reference")]
+    assert verdict == "FAIL" and "omega_m" in detail and "band 1e-06" in detail, detail

@@ -324,7 +324,8 @@ def parser(prog="satmotor-cosim"):
     c = sub.add_parser("check", help="check FMUs (any FMI 2.0 or 3.0 co-simulation FMU)", description="Check "
                        "any FMI 2.0 or FMI 3.0 co-simulation FMU: fmpy validate, fmu-manipulation-toolbox "
                        "(FMI 2.0 only), and run-time checks in child processes (instantiate, wrong-guid, "
-                       "cycles, state, foreign-state, reset, bad-parameter, non-finite-input, reference); "
+                       "cycles, state, foreign-state, reset, bad-parameter, non-finite-input, reference; "
+                       "a model-exchange FMU: me-instantiate, me-states, me-events, me-reference); "
                        "one line per check; exit 1 if any FAILs, 2 for a path that is not an FMU.")
     c.add_argument("fmu", nargs="+", help="FMU file(s)")
     c.add_argument("--junit", metavar="FILE", help="write the results as JUnit XML")
