@@ -474,3 +474,60 @@ def test_check_fails_an_me_reference_one_percent_off(fmu_dir, tmp_path, capsys):
     assert code == 1
     verdict, detail = verdicts[(str(path), "me-reference")]
     assert verdict == "FAIL" and "omega_m" in detail and "band 1e-06" in detail, detail
+
+
+# ---- C hygiene --------------------------------------------------------------------------------------
+
+def test_no_global_mutable_state_in_the_me_glue_or_model(tmp_path):
+    """No writable data (bss/data/common symbols) in any object of the ME plant's build, the glue built
+    with -DFG_MODEL_EXCHANGE among them: every instance independent."""
+    import shutil
+    import subprocess
+
+    from orchestration.build import native_build
+
+    if shutil.which("gcc") is None or shutil.which("nm") is None:
+        pytest.skip("needs gcc and nm")
+    inc = native_build.fmi_headers_dir()
+    generated = native_me.generated(tmp_path)
+    glue = [*native_build.glue_files("2.0"), *native_build.glue_files("3.0"),
+            native_build.GLUE_DIR / "fmi2_me_glue.c", native_build.GLUE_DIR / "fmi3_me_glue.c"]
+    srcs = sorted({p for p in [*native_me.sources(), *glue, *generated] if p.suffix == ".c"})
+    dirs = sorted({p.parent for p in native_me.sources()} | {tmp_path})
+    for src in srcs:
+        obj = tmp_path / (src.stem + ".o")
+        subprocess.run(["gcc", "-std=c99", "-O2", "-fPIC", "-c", "-Wall", "-Wextra", "-Werror", "-pedantic",
+                        f"-I{inc}", *(f"-I{d}" for d in dirs), *native_me.EXTRA_CFLAGS,
+                        f"-DMODEL_IDENTIFIER={native_me.NAME}", '-DINSTANTIATION_TOKEN="{x}"', str(src), "-o",
+                        str(obj)], check=True, capture_output=True)
+        out = subprocess.run(["nm", "-f", "sysv", str(obj)], capture_output=True, text=True,
+                             check=True).stdout
+        rows = [[c.strip() for c in line.split("|")] for line in out.splitlines() if line.count("|") == 6]
+        writable = [r for r in rows if r[2] in "bBdDcC" and not r[6].startswith(".data.rel.ro")]
+        assert writable == [], (src.name, writable)
+
+
+@pytest.mark.parametrize("version", VERSIONS)
+def test_the_me_fmu_under_valgrind_touches_no_bad_memory(fmu_dir, version, tmp_path):
+    """fmpy's CVode over the ME plant (0.02 s of the reference) and the refusals of the event-mode test
+    under valgrind: no error in the FMU binary, a clean exit."""
+    import sys
+
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    from test_process_exit import VALGRIND, python_child, run_under_valgrind
+
+    if VALGRIND is None:
+        pytest.skip("valgrind is not installed (scripts/system_packages.sh installs it)")
+    child = python_child(f"""
+        from fmpy import simulate_fmu
+        from fmpy.util import read_csv
+        inputs = read_csv({str(REFERENCE / f"{native_me.NAME}_in.csv")!r})
+        r = simulate_fmu({str(me_path(fmu_dir, version))!r}, stop_time=0.02, output_interval=1e-4,
+                         solver="CVode", relative_tolerance=1e-8, input=inputs[:401], record_events=False)
+        print("ok", len(r))
+    """)
+    runs = run_under_valgrind({version: (child, {})}, tmp_path)
+    r = runs[version]
+    assert r.returncode == 0 and r.stdout.split()[0] == "ok", r.describe()
+    in_fmu = [e for e in r.errors if e["stack"] and "/binaries/" in e["stack"][0]["obj"]]
+    assert not in_fmu and not r.exit_errors, r.describe()
