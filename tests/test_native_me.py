@@ -245,6 +245,33 @@ def test_event_mode_calls_of_a_model_without_events(fmu_dir, version):
         slave.instantiate()
 
 
+@pytest.mark.parametrize("version", VERSIONS)
+def test_fmu_state_of_the_me_plant_restores_its_states_bit_for_bit(fmu_dir, version):
+    me = MEPlant(me_path(fmu_dir, version))
+    me.initialize({"psi_r0": 0.7})
+    me.fmu.enterContinuousTimeMode()
+    if me.fmi3:
+        assert (me.fmu.getNumberOfContinuousStates(), me.fmu.getNumberOfEventIndicators()) == (6, 0)
+    me.set({"v_s_alpha": 300.0, "v_s_beta": -20.0, "T_load": 3.0})
+    x0 = me.states()
+    dx0 = me.derivatives()
+    get, put = ((me.fmu.getFMUState, me.fmu.setFMUState) if me.fmi3
+                else (me.fmu.getFMUstate, me.fmu.setFMUstate))
+    serialize = me.fmu.serializeFMUState if me.fmi3 else me.fmu.serializeFMUstate
+    deserialize = me.fmu.deserializeFMUState if me.fmi3 else me.fmu.deSerializeFMUstate
+    state = get()
+    blob = bytes(serialize(state))
+    me.set_states([v + 0.25 for v in x0])
+    me.set({"v_s_alpha": 0.0})
+    assert me.states() != x0
+    put(state)
+    assert me.states() == x0 and me.derivatives() == dx0  # the inputs are part of the state
+    me.set_states([v - 0.5 for v in x0])
+    put(deserialize(blob))
+    assert me.states() == x0 and me.derivatives() == dx0
+    me.close()
+
+
 def _deviation(res, ref, names):
     dev = {n: float(np.max(np.abs(res[n] - ref[n])) / max(np.max(np.abs(ref[n])), 1e-300)) for n in names}
     worst = max(dev, key=dev.get)
