@@ -201,8 +201,7 @@ def test_event_mode_calls_of_a_model_without_events(fmu_dir, version):
     with pytest.raises(FMICallException):  # event mode: no new states
         me.set_states(x0)
     assert "only allowed in continuous-time mode" in me.log[-1][1]
-    with pytest.raises(FMICallException):
-        me.fmu.enterEventMode()  # already in event mode
+    me.fmu.enterEventMode()  # already in event mode: nothing changes (tools call it so)
     assert not any(me.update()[:5])  # nothing to update, no time event: a model without events
     me.fmu.enterContinuousTimeMode()
     with pytest.raises(FMICallException):
@@ -235,6 +234,11 @@ def test_event_mode_calls_of_a_model_without_events(fmu_dir, version):
     with pytest.raises(FMICallException):
         me.derivatives()
     assert "v_s_beta = inf: must be a finite number" in me.log[-1][1]
+    # reset: back to instantiated; initialized again it is in event mode, not continuous-time mode
+    me.fmu.reset()
+    me.initialize()
+    with pytest.raises(FMICallException):
+        me.set_states(x0)
     me.close()
     # co-simulation is refused by the ME binary: it is the other FMU's job
     md = read_model_description(str(me_path(fmu_dir, version)))

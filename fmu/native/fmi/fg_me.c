@@ -25,9 +25,10 @@ static int n_ok(fg_instance *inst, const char *func, size_t n, size_t expected, 
     return fg_args_ok(inst, func, n, a, a);
 }
 
+/* from continuous-time mode; in event mode already it changes nothing (as the Reference-FMUs allow it) */
 fg_status fg_me_enter_event_mode(fg_instance *inst, const char *func)
 {
-    if (!in_mode(inst, func, 1)) return FG_ERROR;
+    if (!fg_allowed(inst, func, FG_PHASE_STEP)) return FG_ERROR;
     inst->me_continuous = 0;
     return FG_OK;
 }
