@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import sys
 from ctypes import c_double
 from pathlib import Path
 
@@ -562,3 +563,115 @@ def test_the_me_fmu_under_valgrind_touches_no_bad_memory(fmu_dir, version, tmp_p
     assert r.returncode == 0 and r.stdout.split()[0] == "ok", r.describe()
     in_fmu = [e for e in r.errors if e["stack"] and "/binaries/" in e["stack"][0]["obj"]]
     assert not in_fmu and not r.exit_errors, r.describe()
+
+
+# ---- a C host without Python; the Windows binary under wine -------------------------------------------
+
+ME_HOST_C = ROOT / "tests" / "native_me_host.c"
+HOST_STEPS, HOST_H = 300, 1e-4
+HOST_INPUTS = {"v_s_alpha": 150.0, "v_s_beta": -40.0, "T_load": 5.0}  # as tests/test_native_windows.py
+
+
+def _host_args(unpacked, windows, md):
+    """The C host's arguments for the unpacked ME FMU (``windows``: paths as wine sees them)."""
+    fmi3 = md.fmiVersion.startswith("3")
+    folder = (("x86_64-windows" if windows else "x86_64-linux") if fmi3
+              else ("win64" if windows else "linux64"))
+    lib = unpacked / "binaries" / folder / (native_me.NAME + (".dll" if windows else ".so"))
+    res = unpacked / "resources"
+    if windows:
+        win = "Z:" + str(lib).replace("/", "\\")
+        res_arg = ("Z:" + str(res).replace("/", "\\") + "\\") if fmi3 else "file:///Z:" + str(res)
+        lib_arg = win
+    else:
+        lib_arg, res_arg = str(lib), (str(res) + "/" if fmi3 else res.as_uri())
+    vr = {v.name: v.valueReference for v in md.modelVariables}
+    return [lib_arg, md.guid, res_arg, str(HOST_STEPS), repr(HOST_H),
+            *(f"{vr[n]}={v!r}" for n, v in HOST_INPUTS.items()), "--", *(str(vr[o]) for o in OUTPUTS)]
+
+
+def _unzip(path, into):
+    import zipfile
+
+    with zipfile.ZipFile(path) as z:
+        z.extractall(into)
+    return into
+
+
+@pytest.mark.parametrize("version", VERSIONS)
+def test_a_c_host_integrating_the_me_plant_with_rk4_gets_the_python_plant_bit_for_bit(fmu_dir, version,
+                                                                                        tmp_path):
+    """tests/native_me_host.c (no Python): the ME plant's derivatives integrated by the host's RK4 at
+    1e-4 s for 300 steps with constant inputs = PlantUnit stepped with h_int = 1e-4, to the last bit."""
+    import shutil
+    import subprocess
+
+    from orchestration.build import native_build
+
+    if shutil.which("gcc") is None:
+        pytest.skip("needs gcc")
+    host = tmp_path / "me_host"
+    subprocess.run(["gcc", "-std=c99", "-Wall", "-Wextra", "-Werror", "-pedantic",
+                    f"-I{native_build.fmi_headers_dir()}", str(ME_HOST_C), "-o", str(host), "-ldl"],
+                   check=True)
+    path = me_path(fmu_dir, version)
+    md = read_model_description(str(path))
+    r = subprocess.run([str(host), *_host_args(_unzip(path, tmp_path / "fmu"), False, md)],
+                       capture_output=True, text=True, timeout=120, env={})
+    assert r.returncode == 0, (r.returncode, r.stderr)
+    got = [float(v) for v in r.stdout.split()]
+    unit = PlantUnit({"h_int": HOST_H})
+    for k in range(HOST_STEPS):
+        unit.step(k * HOST_H, HOST_H, tuple(HOST_INPUTS.values()))
+    assert got == list(unit.outputs())
+    assert abs(got[OUTPUTS.index("i_s_alpha")]) > 10.0 and got[OUTPUTS.index("omega_m")] > 0.1  # it moved
+
+
+def test_the_windows_binaries_of_the_me_plant_under_wine_give_the_linux_numbers(fmu_dir_all_platforms,
+                                                                                 tmp_path):
+    """The ME plant of the distributable build (Windows binaries by zig) run by the C host cross-compiled
+    for Windows under wine, against the Linux binary in the Linux host: within 1e-12 of each output's size
+    (floor 1): the libm differs (see tests/test_native_windows.py), nothing else may."""
+    import os
+    import shutil
+    import subprocess
+    import tempfile
+
+    from orchestration.build import native_build
+
+    wine = shutil.which("wine64") or shutil.which("wine")
+    if wine is None or not native_build.zig_available() or shutil.which("gcc") is None:
+        pytest.skip("needs wine, zig (pip install ziglang) and gcc")
+    inc = native_build.fmi_headers_dir()
+    flags = ["-std=c99", "-Wall", "-Wextra", "-Werror", "-pedantic", f"-I{inc}"]
+    subprocess.run(["gcc", *flags, str(ME_HOST_C), "-o", str(tmp_path / "host"), "-ldl"], check=True)
+    zig = [sys.executable, "-m", "ziglang", "cc", "-target", "x86_64-windows-gnu"]
+    r = subprocess.run([*zig, *flags, "-O2", "-Wno-strict-prototypes", "-ffp-contract=off", str(ME_HOST_C),
+                        "-o", str(tmp_path / "host.exe")], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    prefix = tempfile.mkdtemp(prefix="wineprefix-")
+    env = {"PATH": os.environ.get("PATH", "/usr/bin:/bin"), "HOME": os.environ.get("HOME", prefix),
+           "WINEPREFIX": prefix, "WINEDEBUG": "-all", "WINEDLLOVERRIDES": "mscoree,mshtml="}
+    try:
+        subprocess.run([wine, "wineboot", "-i"], env=env, capture_output=True, timeout=180)
+        for version in VERSIONS:
+            path = native_me.path(fmu_dir_all_platforms, version)
+            md = read_model_description(str(path))
+            unpacked = _unzip(path, tmp_path / f"fmu{version}")
+            lin = subprocess.run([str(tmp_path / "host"), *_host_args(unpacked, False, md)],
+                                 capture_output=True, text=True, timeout=120)
+            win = subprocess.run([wine, str(tmp_path / "host.exe"), *_host_args(unpacked, True, md)],
+                                 capture_output=True, text=True, timeout=300, env=env)
+            assert lin.returncode == 0 and win.returncode == 0, (lin.stderr, win.returncode,
+                                                                  win.stderr[-500:])
+            a, b = [float(v) for v in win.stdout.split()], [float(v) for v in lin.stdout.split()]
+            assert len(a) == len(b) == len(OUTPUTS)
+            worst = max(abs(x - y) / max(abs(y), 1.0) for x, y in zip(a, b))
+            print(f"FMI {version} ME plant, Windows binary under wine vs Linux after {HOST_STEPS} RK4 steps: "
+                  f"{worst:.3g}; bit-identical outputs {sum(x == y for x, y in zip(a, b))}/{len(a)}")
+            assert worst <= 1e-12
+    finally:
+        server = shutil.which("wineserver")
+        if server is not None:
+            subprocess.run([server, "-k"], env=env, capture_output=True, timeout=60)
+        shutil.rmtree(prefix, ignore_errors=True)
