@@ -14,7 +14,8 @@ FMI 3.0 description is a translation of it:
 * the independent variable ``time`` [s] FMI 3.0 requires, with the first value reference after
   the table's (the others keep theirs);
 * ``<CoSimulation>``: ``canGetAndSetFMUState`` (capital S in 3.0), ``needsExecutionTool="false"``,
-  no intermediate update, no event mode.
+  no intermediate update, no event mode; the controller's sample period ``Ts`` (its start value) as
+  ``fixedInternalStepSize``.
 
 Both say ``needsExecutionTool="false"``: the binaries need nothing but the C library.
 """
@@ -83,6 +84,11 @@ def fmi2(name, guid="{GUID}"):
     return complete(name, _xml(root))
 
 
+def sample_period_start():
+    """The start value of the controller's sample period ``Ts`` [s]."""
+    return next(v.start for v in itf.CONTROLLER_PARAMETERS if v.name == "Ts")
+
+
 def fmi3(name, token="{GUID}"):
     """FMI 3.0 modelDescription.xml (bytes) of the native FMU ``name``: the FMI 2.0 one translated."""
     src = ET.fromstring(fmi2(name))
@@ -99,6 +105,8 @@ def fmi3(name, token="{GUID}"):
         "canHandleVariableCommunicationStepSize": cs.get("canHandleVariableCommunicationStepSize"),
         "providesIntermediateUpdate": "false", "canReturnEarlyAfterIntermediateUpdate": "false",
         "hasEventMode": "false"})
+    if name == "BacksteppingController":  # the sample period as FMI 3.0 lets a tool read it (docs/fmus.md)
+        root.find("CoSimulation").set("fixedInternalStepSize", repr(float(sample_period_start())))
     root.append(src.find("UnitDefinitions"))
     cats = ET.SubElement(root, "LogCategories")
     for cat in src.find("LogCategories"):
