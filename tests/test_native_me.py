@@ -675,3 +675,43 @@ def test_the_windows_binaries_of_the_me_plant_under_wine_give_the_linux_numbers(
         if server is not None:
             subprocess.run([server, "-k"], env=env, capture_output=True, timeout=60)
         shutil.rmtree(prefix, ignore_errors=True)
+
+
+@pytest.mark.parametrize("version", VERSIONS)
+def test_the_me_fmu_builds_from_its_own_sources_and_runs_bit_for_bit(fmu_dir, version, tmp_path):
+    """A source-code FMU like the co-simulation ones: the C files its description lists (FMI 2.0:
+    <SourceFiles> in <ModelExchange>; FMI 3.0: sources/buildDescription.xml) compiled alone, no -D
+    (fg_identity.h carries the identity and FG_MODEL_EXCHANGE), run by the C host: the shipped
+    binary's outputs to the last bit."""
+    import shutil
+    import subprocess
+    import xml.etree.ElementTree as ET
+
+    from orchestration.build import native_build
+
+    if shutil.which("gcc") is None:
+        pytest.skip("needs gcc")
+    path = me_path(fmu_dir, version)
+    md = read_model_description(str(path))
+    unpacked = _unzip(path, tmp_path / "fmu")
+    src = unpacked / "sources"
+    if version == "2.0":
+        root = ET.parse(unpacked / "modelDescription.xml").getroot()
+        c_files = [f.get("name") for f in root.findall("./ModelExchange/SourceFiles/File")]
+    else:
+        root = ET.parse(src / "buildDescription.xml").getroot()
+        c_files = [f.get("name") for f in root.iter("SourceFile")]
+    assert "native_me.c" in c_files and "fg_me.c" in c_files and len(c_files) == len(list(src.glob("*.c")))
+    built = tmp_path / "built.so"
+    r = subprocess.run(["gcc", "-std=c99", "-O2", "-shared", "-fPIC", "-ffp-contract=off", "-Wall", "-Wextra",
+                        "-Werror", "-pedantic", *c_files, "-o", str(built), "-lm"], cwd=src,
+                       capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    host = tmp_path / "me_host"
+    subprocess.run(["gcc", "-std=c99", f"-I{native_build.fmi_headers_dir()}", str(ME_HOST_C), "-o", str(host),
+                    "-ldl"], check=True)
+    args = _host_args(unpacked, False, md)
+    shipped = subprocess.run([str(host), *args], capture_output=True, text=True, timeout=120)
+    mine = subprocess.run([str(host), str(built), *args[1:]], capture_output=True, text=True, timeout=120)
+    assert shipped.returncode == mine.returncode == 0, (shipped.stderr, mine.stderr)
+    assert mine.stdout == shipped.stdout and len(mine.stdout.split()) == len(OUTPUTS)
