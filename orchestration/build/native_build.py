@@ -261,7 +261,8 @@ def build_native_fmu(model_identifier: str, sources: Iterable[str | Path], model
 
     files: dict[str, bytes] = {"modelDescription.xml": xml.encode("utf-8")}
     files.update({f"sources/{n}": b for n, b in src_files.items()})
-    identity = source_fmu.identity_header(model_identifier, token)
+    identity = source_fmu.identity_header(model_identifier, token,
+                                          [f[2:] for f in extra_cflags if f.startswith("-D")])
     files[f"sources/{source_fmu.IDENTITY_HEADER}"] = identity.encode()
     if major == 3:
         description = source_fmu.build_description(model_identifier, c_files)

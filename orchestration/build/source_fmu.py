@@ -28,16 +28,17 @@ COMPILER_OPTIONS = "-ffp-contract=off"
 
 def with_source_files(model_description_xml: str, c_files: Sequence[str]) -> str:
     """The FMI 2.0 model description with ``<SourceFiles>`` (one ``<File>`` per C file, names relative to
-    ``sources/``) as the first child of ``<CoSimulation>``."""
+    ``sources/``) as the first child of ``<CoSimulation>`` (a model-exchange FMU: ``<ModelExchange>``)."""
     files = "".join(f"\n\t\t\t<File name={quoteattr(n)} />" for n in c_files)
     block = f"\n\t\t<SourceFiles>{files}\n\t\t</SourceFiles>\n\t"
-    m = re.search(r"<CoSimulation\b([^>]*?)\s*/>", model_description_xml)
+    kind = "CoSimulation" if "<CoSimulation" in model_description_xml else "ModelExchange"
+    m = re.search(rf"<{kind}\b([^>]*?)\s*/>", model_description_xml)
     if m:  # <CoSimulation ... />: open it
-        return (model_description_xml[:m.start()] + f"<CoSimulation{m.group(1)}>{block}</CoSimulation>"
+        return (model_description_xml[:m.start()] + f"<{kind}{m.group(1)}>{block}</{kind}>"
                 + model_description_xml[m.end():])
-    m = re.search(r"<CoSimulation\b[^>]*>", model_description_xml)
+    m = re.search(rf"<{kind}\b[^>]*>", model_description_xml)
     if m is None:
-        raise ValueError("the model description has no <CoSimulation> element")
+        raise ValueError("the model description has no <CoSimulation> or <ModelExchange> element")
     return model_description_xml[:m.end()] + block + model_description_xml[m.end():]
 
 
@@ -58,13 +59,15 @@ def build_description(model_identifier: str, c_files: Sequence[str]) -> str:
         '</fmiBuildDescription>\n')
 
 
-def identity_header(model_identifier: str, token: str) -> str:
-    """``sources/fg_identity.h``: the two macros the glue needs, for a build without ``-D``."""
+def identity_header(model_identifier: str, token: str, defines: Sequence[str] = ()) -> str:
+    """``sources/fg_identity.h``: the two macros the glue needs, for a build without ``-D``; ``defines``:
+    the build's other ``-D`` flags (``NAME`` or ``NAME=VALUE``, e.g. ``FG_MODEL_EXCHANGE``), the same way."""
+    extra = "".join(f"#define {d.replace('=', ' ', 1)}\n" for d in defines)
     return (f"/* {IDENTITY_HEADER} - generated: the identity of this FMU's binary (see fg_instance.h) */\n"
             f"#ifndef FG_IDENTITY_H\n#define FG_IDENTITY_H\n"
             f"#define MODEL_IDENTIFIER {model_identifier}\n"
             f'#define INSTANTIATION_TOKEN "{token}"\n'
-            f"#endif\n")
+            f"{extra}#endif\n")
 
 
 def build_text(model_identifier: str, c_files: Sequence[str], fmi_major: int) -> str:

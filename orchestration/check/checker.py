@@ -17,7 +17,10 @@ crash, and leave the instance usable.  ``steps``: the communication steps hosts 
 ``reference`` runs the FMU against
 ``reference/<modelName>/`` (cross-check layout) when that directory exists (ours), else SKIP.
 ``fmutool`` is FMI 2.0 only (SKIP for FMI 3.0); the other checks run on both versions.  Another
-FMI version (1.0) gets ``validate`` only.  KNOWN: a known limitation, reported, not failing.
+FMI version (1.0) gets ``validate`` only.  An FMU with ``<ModelExchange>`` also gets the
+model-exchange checks ``me-instantiate``, ``me-states``, ``me-events``, ``me-reference``
+(:mod:`orchestration.check.model_exchange`); a model-exchange-only FMU SKIPs the co-simulation ones.
+KNOWN: a known limitation, reported, not failing.
 Exit: 1 if any check FAILs, else 0 (usage errors, 2, are found by the caller before any check).
 """
 
@@ -120,9 +123,9 @@ def check_fmutool(path):
     return "FAIL", f"fmu-manipulation-toolbox check_fmu: {report}"[:500]
 
 
-def run_probe_lines(mode, path, *extra):
+def run_probe_lines(mode, path, *extra, module="orchestration.check.probes"):
     """``(returncode, [JSON objects printed, in order], stderr tail)`` of one child probe."""
-    cmd = [sys.executable, "-m", "orchestration.check.probes", mode, str(path), *map(str, extra)]
+    cmd = [sys.executable, "-m", module, mode, str(path), *map(str, extra)]
     try:
         proc = subprocess.run(cmd, capture_output=True, text=True, timeout=TIMEOUT)
     except subprocess.TimeoutExpired as exc:
@@ -387,6 +390,10 @@ def check_fmu(path, references=(REFERENCE_DIR,), foreign=()):
     else:
         out.append(("fmutool", "SKIP", f"FMI {version}: fmu-manipulation-toolbox check_fmu is FMI 2.0 only",
                     0.0))
+    if root.find("ModelExchange") is not None:  # its own checks (orchestration/check/model_exchange.py)
+        from orchestration.check.model_exchange import check_model_exchange
+
+        out += check_model_exchange(path, root, references)
     if root.find("CoSimulation") is None:
         return out + [(c, "SKIP", "no CoSimulation element (model exchange only)", 0.0) for c in PROBED]
     offers = [x for label, f in foreign for x in (label, f)]

@@ -282,10 +282,12 @@ def parser(prog="satmotor-cosim"):
                                  description="Co-simulate the saturated induction motor FMU with the "
                                  "backstepping controller FMU over YAML scenarios (fmpy master).")
     sub = ap.add_subparsers(dest="command", required=True)
-    b = sub.add_parser("build", help="build the FMUs", description="Build the six FMUs into OUT: "
+    b = sub.add_parser("build", help="build the FMUs", description="Build the eight FMUs into OUT: "
                        "SaturatedInductionMotor.fmu and BacksteppingController.fmu (pythonfmu, FMI 2.0), "
-                       "their native C twins in OUT/native (FMI 2.0) and OUT/native-fmi3 (FMI 3.0); for this "
-                       "machine (Linux x86_64) unless --all-platforms.")
+                       "their native C twins in OUT/native (FMI 2.0) and OUT/native-fmi3 (FMI 3.0), and the "
+                       "plant as model exchange in OUT/native-me and OUT/native-me-fmi3 "
+                       "(SaturatedInductionMotorME.fmu); for this machine (Linux x86_64) unless "
+                       "--all-platforms.")
     b.add_argument("--out", default=str(fmus.DEFAULT_DIR), help="output directory (default build/fmus)")
     b.add_argument("--all-platforms", action="store_true",
                    help="the native FMUs for Windows and macOS too (cross-compiled with zig, from the "
@@ -335,7 +337,8 @@ def parser(prog="satmotor-cosim"):
                        "any FMI 2.0 or FMI 3.0 co-simulation FMU: fmpy validate, fmu-manipulation-toolbox "
                        "(FMI 2.0 only), and run-time checks in child processes (instantiate, wrong-guid, "
                        "cycles, state, foreign-state, reset, bad-parameter, non-finite-input, steps, "
-                       "source-build, reference); "
+                       "source-build, reference; a model-exchange FMU: me-instantiate, me-states, "
+                       "me-events, me-reference); "
                        "one line per check; exit 1 if any FAILs, 2 for a path that is not an FMU.")
     c.add_argument("fmu", nargs="+", help="FMU file(s)")
     c.add_argument("--junit", metavar="FILE", help="write the results as JUnit XML")

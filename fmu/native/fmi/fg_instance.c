@@ -101,6 +101,7 @@ void fg_instance_reset(fg_instance *inst)
 {
     memset(inst->data, 0, FG_MODEL_DATA_SIZE);
     inst->phase = FG_PHASE_INSTANTIATED;
+    inst->me_continuous = 0;
     inst->time = 0.0;
     inst->stop_time = INFINITY;
     fg_model_start(inst, inst->data);

@@ -41,6 +41,7 @@ struct fg_instance {
     fg_emit_fn emit;
     int logging_on;
     fg_phase phase;
+    int me_continuous;          /* model exchange in FG_PHASE_STEP: 1 continuous-time mode, 0 event mode */
     double time;
     double stop_time;           /* the host's stop time, +inf when it gave none */
     void *data;                 /* FG_MODEL_DATA_SIZE bytes */
