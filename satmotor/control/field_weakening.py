@@ -1,0 +1,158 @@
+"""Automatic field weakening on the magnetizing curve: the largest rotor-flux set-point whose steady
+state at the present torque and speed needs at most ``ratio V_max`` of stator voltage (SI units).
+
+Steady state of the control model (:mod:`satmotor.control.fo_model`) in the rotor-flux frame
+(``Phi_rq = 0``, ``Phi_rd' = 0``, ``i_mu' = 0``) at the rotor flux ``Phi`` [Wb], the electromagnetic
+torque ``T`` [N m] and the speed ``omega_m`` [rad/s].  The main flux ``psi_m = m(I) i_mu`` has the
+components ``psi_md = Phi / k`` (from ``k m i_mu_d = Phi``) and ``psi_mq = T l_r / (kappa k Phi)``
+(from ``T = kappa k m Phi i_mu_q / l_r``, ``kappa = 3/2 n_p``), so ``psi_md psi_mq = c`` with
+``c = T l_r / (kappa k^2)``.  Parametrized by the magnetizing current ``I = |i_mu|`` on the curve
+(no inversion): ``psi_m = curve.psi(I)``, ``m = psi_m / I`` and::
+
+    psi_md^2 = (psi_m^2 + sqrt(psi_m^4 - 4 c^2)) / 2        (the flux-axis root, psi_md >= |psi_mq|)
+    Phi = k psi_md,   i_mu = (psi_md, c / psi_md) / m
+    i_s   = (1 + k^2 m / l_r) i_mu - (k / l_r) Phi e_d
+    psi_s = (l_s + sigma m) i_mu - (k l_s / l_r) Phi e_d
+    omega_s = n_p omega_m + R_r k m i_mu_q / (l_r Phi)
+    v_s = R_s i_s + omega_s J2 psi_s
+
+(no ``I`` gives a steady state with ``psi_m^2 < 2 |c|``: too little flux for the torque).  The
+flux-to-magnetizing-current relation is the curve's at every point, not a constant inductance:
+the saturated knee is where the default motor runs at its rated flux.
+
+Along this branch ``Phi`` rises with ``I`` and ``|v_s|`` has one minimum (the breakdown point:
+the most torque per volt at this speed, where ``psi_mq / psi_md`` is about
+``l_r / (sigma (l_r + k^2 m))``).  :meth:`FieldWeakening.flux_reference`:
+
+1. ``T`` from the measured (or observed) state (:func:`satmotor.control.measurements.from_rotor_flux`,
+   ``T = kappa k m Phi_rd i_mu_q / l_r``), the speed ``omega_m + (3 / w_n) omega_ref_shaped'``: where
+   the speed will be after the flux shaper's delay ``3 / w_n`` (its DC group delay), so that the
+   shaped flux is down in time on a ramp.
+2. If the steady state at the nominal flux ``psi_ref`` (one curve inversion,
+   ``I = curve.current(hypot(psi_ref / k, c k / psi_ref))``) needs at most ``ratio V_max``, the
+   set-point is ``psi_ref`` itself: below the voltage limit nothing changes, bit for bit.
+3. Otherwise a bisection over ``I`` in ``(0, I(psi_ref)]`` for the largest ``I`` that fits, moving up
+   where ``|v_s| <= ratio V_max`` or where ``|v_s|`` still falls with ``I`` (or no steady state
+   exists), down otherwise.  When the torque is beyond the breakdown torque at this speed no ``I``
+   fits and the bisection ends at the breakdown point, the most torque the voltage gives.  The
+   set-point is ``Phi(I)``, at least ``FLOOR psi_ref`` and at most ``psi_ref``.
+
+The current limit is the law's: it bounds the currents it demands by ``I_max``
+(:mod:`satmotor.control.backstepping`); the torque used here is the one the motor produces, so a
+flux is never chosen for a torque the currents cannot give.
+"""
+
+from __future__ import annotations
+
+import math
+
+from satmotor.control.measurements import (
+    MEAS_I_S_A,
+    MEAS_I_S_B,
+    MEAS_OMEGA_M,
+    MEAS_PSI_R_A,
+    MEAS_PSI_R_B,
+    from_rotor_flux,
+)
+from satmotor.errors import require_number
+
+N_BISECT = 32  # bisection steps over I: I(psi_ref) / 2^32, far below any flux resolution that matters
+FLOOR = 0.1  # [1] the flux set-point never goes below this fraction of psi_ref
+_SLOPE = 1e-7  # [1] relative step in I of the slope test
+
+
+def steady_point(params, I, T, omega_m):
+    """The steady state at the magnetizing current ``I`` [A] (> 0), torque ``T`` [N m] and speed
+    ``omega_m`` [rad/s] on the flux-axis root (module docstring): ``(Phi, |v_s|, |i_s|)``
+    [Wb, V, A], or None where no steady state has this ``I`` (``psi_m^2 < 2 |c|``)."""
+    k = params.k
+    psi = params.curve.psi(I)
+    c = T * params.l_r / (1.5 * params.n_p * k * k)
+    disc = psi * psi * psi * psi - 4.0 * c * c
+    if not disc >= 0.0:
+        return None
+    pmd = math.sqrt(0.5 * (psi * psi + math.sqrt(disc)))
+    return _point(params, psi / I, k * pmd, pmd, c / pmd, omega_m)
+
+
+def _point(params, m, Phi, pmd, pmq, omega_m):
+    k, l_r, l_s = params.k, params.l_r, params.l_s
+    imd, imq = pmd / m, pmq / m
+    cc = 1.0 + k * k * m / l_r
+    k_lr = k / l_r
+    i_sd, i_sq = cc * imd - k_lr * Phi, cc * imq
+    L = l_s + params.sigma * m
+    psd, psq = L * imd - l_s * k_lr * Phi, L * imq
+    ws = params.n_p * omega_m + params.R_r * k * m * imq / (l_r * Phi)
+    vd, vq = params.R_s * i_sd - ws * psq, params.R_s * i_sq + ws * psd
+    return Phi, math.hypot(vd, vq), math.hypot(i_sd, i_sq)
+
+
+def steady_point_at_flux(params, Phi, T, omega_m):
+    """:func:`steady_point` at the rotor flux ``Phi`` [Wb] (> 0) instead of ``I``: one curve inversion.
+    Returns ``(I, (Phi, |v_s|, |i_s|))``."""
+    k = params.k
+    pmd = Phi / k
+    pmq = T * params.l_r / (1.5 * params.n_p * k * k) / pmd
+    psi = math.hypot(pmd, pmq)
+    I = params.curve.current(psi)
+    return I, _point(params, psi / I, Phi, pmd, pmq, omega_m)
+
+
+class FieldWeakening:
+    """The flux set-point of the drive above base speed (module docstring).
+
+    Parameters
+    ----------
+    params : MotorParams
+        The controller's model (its curve gives the flux-to-current relation).
+    V_max : float
+        [V] the voltage the inverter gives, ``V_dc / sqrt(3)``.
+    ratio : float
+        [1] the share of ``V_max`` a steady state may use, in (0, 1]: the rest is the law's margin.
+    ref_bandwidth : float
+        [rad/s] the reference shapers' ``w_n`` (the speed lead ``3 / w_n``).
+    """
+
+    def __init__(self, params, V_max, ratio, ref_bandwidth):
+        self.params = params
+        self.V_lim = require_number("V_max", V_max, 0) * require_number("fw_voltage_ratio", ratio, 0, upper=1)
+        self.lead = 3.0 / require_number("ref_bandwidth", ref_bandwidth, 0)
+        self._kt = 1.5 * params.n_p * params.k / params.l_r  # T = _kt m Phi_rd i_mu_q
+
+    def torque(self, meas):
+        """The electromagnetic torque [N m] of the control model at the measured state."""
+        ms = from_rotor_flux(meas[MEAS_I_S_A], meas[MEAS_I_S_B], meas[MEAS_PSI_R_A], meas[MEAS_PSI_R_B],
+                             self.params)
+        return self._kt * ms.m * ms.Phi_rd * ms.i_mu_q
+
+    def flux_reference(self, meas, omega_ref_rate, psi_ref):
+        """The rotor-flux set-point [Wb] for the nominal ``psi_ref`` [Wb] at the measurement tuple
+        ``meas`` (:mod:`satmotor.control.measurements`) and the shaped speed reference's slope
+        ``omega_ref_rate`` [rad/s^2]; ``psi_ref`` itself while the voltage suffices."""
+        return self.flux_at(self.torque(meas), meas[MEAS_OMEGA_M] + self.lead * omega_ref_rate, psi_ref)
+
+    def flux_at(self, T, omega, psi_ref):
+        """The set-point [Wb] for the torque ``T`` [N m] at the speed ``omega`` [rad/s] (step 2, 3)."""
+        p, V_lim = self.params, self.V_lim
+        I_hi, pt = steady_point_at_flux(p, psi_ref, T, omega)
+        if pt[1] <= V_lim:
+            return psi_ref
+        lo, hi = 0.0, I_hi
+        for _ in range(N_BISECT):
+            mid = 0.5 * (lo + hi)
+            pt = steady_point(p, mid, T, omega)
+            if pt is None or pt[1] <= V_lim:
+                lo = mid
+                continue
+            up = steady_point(p, mid * (1.0 + _SLOPE), T, omega)
+            if up is not None and up[1] < pt[1]:  # still falling: the breakdown point is above
+                lo = mid
+            else:
+                hi = mid
+        pt = steady_point(p, lo, T, omega) if lo > 0.0 else None
+        phi = pt[0] if pt is not None else 0.0
+        return min(max(phi, FLOOR * psi_ref), psi_ref)
+
+
+__all__ = ["FLOOR", "N_BISECT", "FieldWeakening", "steady_point", "steady_point_at_flux"]
