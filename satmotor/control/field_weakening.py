@@ -63,8 +63,8 @@ _SLOPE = 1e-7  # [1] relative step in I of the slope test
 
 def steady_point(params, I, T, omega_m):
     """The steady state at the magnetizing current ``I`` [A] (> 0), torque ``T`` [N m] and speed
-    ``omega_m`` [rad/s] on the flux-axis root (module docstring): ``(Phi, |v_s|, |i_s|)``
-    [Wb, V, A], or None where no steady state has this ``I`` (``psi_m^2 < 2 |c|``)."""
+    ``omega_m`` [rad/s] on the flux-axis root (module docstring): ``(Phi, |v_s|, |i_s|, omega_s)``
+    [Wb, V, A, rad/s], or None where no steady state has this ``I`` (``psi_m^2 < 2 |c|``)."""
     k = params.k
     psi = params.curve.psi(I)
     c = T * params.l_r / (1.5 * params.n_p * k * k)
@@ -85,12 +85,12 @@ def _point(params, m, Phi, pmd, pmq, omega_m):
     psd, psq = L * imd - l_s * k_lr * Phi, L * imq
     ws = params.n_p * omega_m + params.R_r * k * m * imq / (l_r * Phi)
     vd, vq = params.R_s * i_sd - ws * psq, params.R_s * i_sq + ws * psd
-    return Phi, math.hypot(vd, vq), math.hypot(i_sd, i_sq)
+    return Phi, math.hypot(vd, vq), math.hypot(i_sd, i_sq), ws
 
 
 def steady_point_at_flux(params, Phi, T, omega_m):
     """:func:`steady_point` at the rotor flux ``Phi`` [Wb] (> 0) instead of ``I``: one curve inversion.
-    Returns ``(I, (Phi, |v_s|, |i_s|))``."""
+    Returns ``(I, (Phi, |v_s|, |i_s|, omega_s))``."""
     k = params.k
     pmd = Phi / k
     pmq = T * params.l_r / (1.5 * params.n_p * k * k) / pmd

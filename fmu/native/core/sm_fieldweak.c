@@ -15,7 +15,7 @@ void sm_fw_init(sm_fieldweak *fw, const sm_motor *p, double V_max, double ratio,
 }
 
 /* field_weakening._point */
-static void point(const sm_motor *p, double m, double Phi, double pmd, double pmq, double omega_m, double out[3])
+static void point(const sm_motor *p, double m, double Phi, double pmd, double pmq, double omega_m, double out[4])
 {
     double k = p->k, l_r = p->l_r, l_s = p->l_s;
     double imd = pmd / m, imq = pmq / m;
@@ -30,9 +30,10 @@ static void point(const sm_motor *p, double m, double Phi, double pmd, double pm
     out[0] = Phi;
     out[1] = sm_hypot(vd, vq);
     out[2] = sm_hypot(i_sd, i_sq);
+    out[3] = ws;
 }
 
-int sm_fw_steady_point(const sm_motor *p, double I, double T, double omega_m, double out[3])
+int sm_fw_steady_point(const sm_motor *p, double I, double T, double omega_m, double out[4])
 {
     double k = p->k;
     double psi = sm_curve_psi(&p->curve, I);
@@ -47,7 +48,7 @@ int sm_fw_steady_point(const sm_motor *p, double I, double T, double omega_m, do
     return 1;
 }
 
-int sm_fw_steady_point_at_flux(const sm_motor *p, double Phi, double T, double omega_m, double *I, double out[3])
+int sm_fw_steady_point_at_flux(const sm_motor *p, double Phi, double T, double omega_m, double *I, double out[4])
 {
     double k = p->k;
     double pmd = Phi / k;
@@ -63,7 +64,7 @@ int sm_fw_steady_point_at_flux(const sm_motor *p, double Phi, double T, double o
 
 int sm_fw_flux_at(const sm_fieldweak *fw, const sm_motor *p, double T, double omega, double psi_ref, double *psi)
 {
-    double V_lim = fw->V_lim, I_hi, lo, hi, mid, pt[3], up[3], phi;
+    double V_lim = fw->V_lim, I_hi, lo, hi, mid, pt[4], up[4], phi;
     int st, j;
     if ((st = sm_fw_steady_point_at_flux(p, psi_ref, T, omega, &I_hi, pt))) {
         return st;

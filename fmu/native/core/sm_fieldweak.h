@@ -22,12 +22,12 @@ typedef struct {
  * ref_bandwidth [rad/s] > 0 (checked by the drive's configuration). */
 void sm_fw_init(sm_fieldweak *fw, const sm_motor *p, double V_max, double ratio, double ref_bandwidth);
 
-/* steady_point: out = (Phi [Wb], |v_s| [V], |i_s| [A]) at I [A] > 0, T [N m], omega_m [rad/s]; returns
+/* steady_point: out = (Phi [Wb], |v_s| [V], |i_s| [A], omega_s [rad/s]) at I [A] > 0, T [N m], omega_m [rad/s]; returns
  * 1, or 0 where no steady state has this I (Python: None; out untouched). */
-int sm_fw_steady_point(const sm_motor *p, double I, double T, double omega_m, double out[3]);
+int sm_fw_steady_point(const sm_motor *p, double I, double T, double omega_m, double out[4]);
 
 /* steady_point_at_flux: *I and out at the rotor flux Phi [Wb] > 0; the curve inversion's status. */
-int sm_fw_steady_point_at_flux(const sm_motor *p, double Phi, double T, double omega_m, double *I, double out[3]);
+int sm_fw_steady_point_at_flux(const sm_motor *p, double Phi, double T, double omega_m, double *I, double out[4]);
 
 /* FieldWeakening.flux_at: *psi [Wb] the set-point for T [N m] at omega [rad/s] and the nominal psi_ref. */
 int sm_fw_flux_at(const sm_fieldweak *fw, const sm_motor *p, double T, double omega, double psi_ref, double *psi);
