@@ -95,14 +95,32 @@ def test_the_set_point_is_the_largest_flux_that_fits(T, w):
         assert steady_point_at_flux(P, larger, T, w)[1][1] > 0.95 * V_MAX
 
 
-def test_beyond_the_breakdown_torque_the_set_point_is_the_least_voltage():
+def test_beyond_the_breakdown_torque_the_torque_is_limited_at_the_breakdown_point():
     fw = FieldWeakening(P, V_MAX, 0.95, 40.0)
     T, w = 25.0, 375.0  # about twice what the voltage gives at 2.5 times base speed
-    phi = fw.flux_at(T, w, 0.95)
-    v = steady_point_at_flux(P, phi, T, w)[1][1]
-    assert v > 0.95 * V_MAX
-    for f in (0.99, 1.01, 0.95, 1.05):
-        assert steady_point_at_flux(P, phi * f, T, w)[1][1] > v
+    phi, i_max = fw.set_points(T, w, 0.95, 30.0)
+    V_bd = 0.975 * V_MAX  # halfway between the steady-state share and the inverter's limit
+    # the breakdown torque: the most torque any flux gives within V_bd, found here on a grid of fluxes
+    # by bisection over the torque, independently of FieldWeakening.breakdown
+    fluxes = [0.1 + 0.002 * j for j in range(300)]
+
+    def least(T_):
+        return min(steady_point_at_flux(P, f, T_, w)[1][1] for f in fluxes)
+
+    lo, hi = 0.0, T
+    for _ in range(40):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if least(mid) <= V_bd else (lo, mid)
+    T_bd = lo
+    assert 0.3 * T < T_bd < T
+    # the set-point is the breakdown flux and the law's current bound the current there
+    I, pt = steady_point_at_flux(P, phi, T_bd, w)
+    assert pt[1] == pytest.approx(V_bd, rel=1e-4)
+    assert i_max == pytest.approx(pt[2], rel=1e-4) and i_max < 30.0
+    for f in (0.97, 1.03):  # the least voltage for T_bd
+        assert steady_point_at_flux(P, phi * f, T_bd, w)[1][1] > pt[1]
+    # below the breakdown torque of the steady-state share the limit lets go
+    assert fw.set_points(0.8 * T_bd, w, 0.95, 30.0)[1] == 30.0
 
 
 def test_a_lower_voltage_ratio_weakens_earlier():
@@ -124,7 +142,8 @@ def lib():
     L.sm_fw_steady_point_at_flux.argtypes = [M, D, D, D, DP, DP]
     L.sm_fw_flux_at.argtypes = [M, M, D, D, D, DP]
     L.sm_fw_torque.argtypes = [M, M, DP, DP]
-    L.sm_fw_flux_reference.argtypes = [M, M, DP, D, D, DP]
+    L.sm_fw_flux_reference.argtypes = [M, M, DP, D, D, D, DP, DP]
+    L.sm_fw_set_points.argtypes = [M, M, D, D, D, D, DP, DP]
     return L
 
 
@@ -151,7 +170,7 @@ def _motors(lib, tmp_path):
 
 def test_c_field_weakening_equals_the_python(lib, tmp_path):
     rng = random.Random(17)
-    n_active = n = 0
+    n_active = n = n_limited = 0
     for label, p, buf in _motors(lib, tmp_path):
         V_max, ratio, bw = rng.uniform(150.0, 350.0), rng.uniform(0.7, 1.0), rng.uniform(10.0, 400.0)
         fw = FieldWeakening(p, V_max, ratio, bw)
@@ -170,11 +189,17 @@ def test_c_field_weakening_equals_the_python(lib, tmp_path):
                 assert lib.sm_fw_steady_point_at_flux(buf, psi_ref, T, w, ctypes.byref(I), out) == 0
                 assert (I.value, tuple(out)) == (I_p, pt), (label, psi_ref, T, w)
             want = fw.flux_at(T, w, psi_ref)
-            got = D()
+            got, i_got = D(), D()
             assert lib.sm_fw_flux_at(cfw, buf, T, w, psi_ref, ctypes.byref(got)) == 0
             assert got.value == want, (label, T, w, psi_ref)
             n_active += want != psi_ref
             n += 1
+            I_max = rng.uniform(5.0, 40.0)
+            want = fw.set_points(T, w, psi_ref, I_max)
+            assert lib.sm_fw_set_points(cfw, buf, T, w, psi_ref, I_max, ctypes.byref(got),
+                                        ctypes.byref(i_got)) == 0
+            assert (got.value, i_got.value) == want, (label, T, w, psi_ref, I_max)
+            n_limited += want[1] != I_max
             # from a measurement: the torque of the magnetizing state, the speed lead
             meas = (rng.uniform(-20, 20), rng.uniform(-20, 20), rng.uniform(-1, 1), rng.uniform(-1, 1),
                     0.0, 0.0, w)
@@ -182,10 +207,12 @@ def test_c_field_weakening_equals_the_python(lib, tmp_path):
             m = (D * MEAS_LEN)(*meas)
             assert lib.sm_fw_torque(cfw, buf, m, ctypes.byref(got)) == 0
             assert got.value == fw.torque(meas)
-            assert lib.sm_fw_flux_reference(cfw, buf, m, rate, psi_ref, ctypes.byref(got)) == 0
-            assert got.value == fw.flux_reference(meas, rate, psi_ref)
-    print(f"\n[field weakening] {n} set-points equal in C and Python, {n_active} of them weakened")
-    assert n_active > n // 4
+            assert lib.sm_fw_flux_reference(cfw, buf, m, rate, psi_ref, I_max, ctypes.byref(got),
+                                            ctypes.byref(i_got)) == 0
+            assert (got.value, i_got.value) == fw.flux_reference(meas, rate, psi_ref, I_max)
+    print(f"\n[field weakening] {n} set-points equal in C and Python, {n_active} of them weakened, "
+          f"{n_limited} beyond the breakdown torque")
+    assert n_active > n // 4 and n_limited > n // 20
 
 
 # ------------------------------------------------------------------------------ the drive

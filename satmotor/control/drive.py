@@ -150,6 +150,7 @@ class _Drive:
         self._delay = DelayCompensator(params, Ts) if drive_cfg.delay_samples else None
         self._fw = (FieldWeakening(params, self._V_max, drive_cfg.fw_voltage_ratio, drive_cfg.ref_bandwidth)
                     if drive_cfg.field_weakening else None)
+        self._i_lim = drive_cfg.I_max  # [A] the law's current bound this sample (lower beyond breakdown)
         self.reset()
 
     def reset(self):
@@ -197,8 +198,10 @@ class _Drive:
                 self._n += 1
                 return self._delayed(self._premag(meas, I_set, phi, psi_ref))
             self._switch(meas)
+        self._i_lim = self.dcfg.I_max
         if self._fw is not None:  # the nominal flux, or lower where the voltage does not suffice
-            psi_ref = self._fw.flux_reference(meas, self._speed.value[REF_RATE], psi_ref)
+            psi_ref, self._i_lim = self._fw.flux_reference(meas, self._speed.value[REF_RATE], psi_ref,
+                                                           self._i_lim)
         if self._delay is None:
             out = self._run(meas, self._flux.value, self._speed.value, T_load)
             self._flux.step(psi_ref, self.Ts)
@@ -336,7 +339,7 @@ class BacksteppingDrive(_Drive):
     def _run(self, meas, psi_ref_shaped, omega_ref_shaped, T_load):
         cfg, p = self.cfg, self.params
         o = control(meas, psi_ref_shaped + omega_ref_shaped, (T_load, 0.0), p, self.gains, cfg,
-                    self._theta_hat, (self._e0, self._z0), self.dcfg.I_max)
+                    self._theta_hat, (self._e0, self._z0), self._i_lim)
         if cfg.load_mode == "estimated":
             t_load = self._theta_hat * p.J
             th = self._theta_hat + cfg.Ts * o.theta_hat_dot

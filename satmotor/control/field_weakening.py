@@ -33,9 +33,18 @@ the most torque per volt at this speed, where ``psi_mq / psi_md`` is about
    set-point is ``psi_ref`` itself: below the voltage limit nothing changes, bit for bit.
 3. Otherwise a bisection over ``I`` in ``(0, I(psi_ref)]`` for the largest ``I`` that fits, moving up
    where ``|v_s| <= ratio V_max`` or where ``|v_s|`` still falls with ``I`` (or no steady state
-   exists), down otherwise.  When the torque is beyond the breakdown torque at this speed no ``I``
-   fits and the bisection ends at the breakdown point, the most torque the voltage gives.  The
-   set-point is ``Phi(I)``, at least ``FLOOR psi_ref`` and at most ``psi_ref``.
+   exists), down otherwise (when no ``I`` fits it ends where ``|v_s|`` is least).  The set-point is
+   ``Phi(I)``, at least ``FLOOR psi_ref`` and at most ``psi_ref``.
+4. Beyond the breakdown torque (no ``I`` fits) the torque is limited: a bisection over ``s`` in [0, 2]
+   finds the largest ``T_bd = s T`` whose least voltage is at most ``V_bd = (ratio + 1) V_max / 2``
+   (:meth:`FieldWeakening.breakdown`); the set-point is the flux of that breakdown point and the law's
+   current bound (its ``i_max``) becomes ``min(I_max, |i_s|)`` there, so that the law asks for no
+   more torque than ``T_bd``: its torque demand is bounded, its integral and adaptation states stop
+   (the law's anti-windup), and the voltage stays within what the inverter gives.  ``V_bd`` above
+   ``ratio V_max`` is the hysteresis: held at ``T_bd`` the drive stays beyond what ``ratio V_max``
+   allows, so the bound does not switch on and off from one sample to the next; it lets go when the
+   load falls below the breakdown torque of ``ratio V_max``.  (The IFOC baseline keeps its own
+   current limit.)
 
 The current limit is the law's: it bounds the currents it demands by ``I_max``
 (:mod:`satmotor.control.backstepping`); the torque used here is the one the motor produces, so a
@@ -56,7 +65,7 @@ from satmotor.control.measurements import (
 )
 from satmotor.errors import require_number
 
-N_BISECT = 32  # bisection steps over I: I(psi_ref) / 2^32, far below any flux resolution that matters
+N_BISECT = 24  # bisection steps: I(psi_ref) / 2^24 [A], T / 2^23 [N m], far below what matters
 FLOOR = 0.1  # [1] the flux set-point never goes below this fraction of psi_ref
 _SLOPE = 1e-7  # [1] relative step in I of the slope test
 
@@ -116,7 +125,9 @@ class FieldWeakening:
 
     def __init__(self, params, V_max, ratio, ref_bandwidth):
         self.params = params
-        self.V_lim = require_number("V_max", V_max, 0) * require_number("fw_voltage_ratio", ratio, 0, upper=1)
+        V_max = require_number("V_max", V_max, 0)
+        self.V_lim = V_max * require_number("fw_voltage_ratio", ratio, 0, upper=1)
+        self.V_bd = 0.5 * (self.V_lim + V_max)  # [V] the breakdown point's voltage (step 4)
         self.lead = 3.0 / require_number("ref_bandwidth", ref_bandwidth, 0)
         self._kt = 1.5 * params.n_p * params.k / params.l_r  # T = _kt m Phi_rd i_mu_q
 
@@ -126,18 +137,39 @@ class FieldWeakening:
                              self.params)
         return self._kt * ms.m * ms.Phi_rd * ms.i_mu_q
 
-    def flux_reference(self, meas, omega_ref_rate, psi_ref):
-        """The rotor-flux set-point [Wb] for the nominal ``psi_ref`` [Wb] at the measurement tuple
-        ``meas`` (:mod:`satmotor.control.measurements`) and the shaped speed reference's slope
-        ``omega_ref_rate`` [rad/s^2]; ``psi_ref`` itself while the voltage suffices."""
-        return self.flux_at(self.torque(meas), meas[MEAS_OMEGA_M] + self.lead * omega_ref_rate, psi_ref)
+    def flux_reference(self, meas, omega_ref_rate, psi_ref, I_max=math.inf):
+        """``(psi, i_max)``: the rotor-flux set-point [Wb] for the nominal ``psi_ref`` [Wb] and the
+        current bound [A] for the law (``I_max`` [A], or less beyond the breakdown torque) at the
+        measurement tuple ``meas`` (:mod:`satmotor.control.measurements`) and the shaped speed
+        reference's slope ``omega_ref_rate`` [rad/s^2]; ``(psi_ref, I_max)`` themselves while the
+        voltage suffices."""
+        return self.set_points(self.torque(meas), meas[MEAS_OMEGA_M] + self.lead * omega_ref_rate, psi_ref,
+                               I_max)
 
     def flux_at(self, T, omega, psi_ref):
-        """The set-point [Wb] for the torque ``T`` [N m] at the speed ``omega`` [rad/s] (step 2, 3)."""
+        """The flux set-point [Wb] for the torque ``T`` [N m] at the speed ``omega`` [rad/s]."""
+        return self.set_points(T, omega, psi_ref, math.inf)[0]
+
+    def set_points(self, T, omega, psi_ref, I_max):
+        """``(psi, i_max)`` for the torque ``T`` [N m] at the speed ``omega`` [rad/s] (steps 2 to 4 of
+        the module docstring)."""
         p, V_lim = self.params, self.V_lim
         I_hi, pt = steady_point_at_flux(p, psi_ref, T, omega)
         if pt[1] <= V_lim:
-            return psi_ref
+            return psi_ref, I_max
+        pt = steady_point(p, self.search(T, omega, I_hi, V_lim), T, omega)
+        if pt is None or pt[1] > V_lim:  # beyond the breakdown torque: the breakdown point
+            _, _, pt = self.breakdown(T, omega, I_hi, self.V_bd)
+            if pt is None:
+                return FLOOR * psi_ref, I_max
+            I_max = min(I_max, pt[2])
+        return min(max(pt[0], FLOOR * psi_ref), psi_ref), I_max
+
+    def search(self, T, omega, I_hi, V_lim):
+        """The bisection over ``I`` in ``(0, I_hi]`` [A] (module docstring, step 3): the largest ``I``
+        whose steady voltage at ``T`` [N m], ``omega`` [rad/s] is at most ``V_lim`` [V], or that of the
+        least voltage when none is (0.0 where no steady state is found)."""
+        p = self.params
         lo, hi = 0.0, I_hi
         for _ in range(N_BISECT):
             mid = 0.5 * (lo + hi)
@@ -150,9 +182,25 @@ class FieldWeakening:
                 lo = mid
             else:
                 hi = mid
-        pt = steady_point(p, lo, T, omega) if lo > 0.0 else None
-        phi = pt[0] if pt is not None else 0.0
-        return min(max(phi, FLOOR * psi_ref), psi_ref)
+        return lo
+
+    def breakdown(self, T, omega, I_hi, V):
+        """The breakdown point for the voltage ``V`` [V] at ``omega`` [rad/s] in the direction of ``T``
+        [N m]: the largest ``T_bd = s T`` (``s`` in [0, 2], bisection) whose least steady voltage
+        (:meth:`search` with no voltage allowed) is at most ``V``; returns ``(T_bd, I, steady_point)``
+        (the point None if none is found)."""
+        p, lo, hi = self.params, 0.0, 2.0
+        for _ in range(N_BISECT):
+            mid = 0.5 * (lo + hi)
+            T_mid = mid * T
+            pt = steady_point(p, self.search(T_mid, omega, I_hi, -1.0), T_mid, omega)
+            if pt is not None and pt[1] <= V:
+                lo = mid
+            else:
+                hi = mid
+        T_bd = lo * T
+        I = self.search(T_bd, omega, I_hi, -1.0)
+        return T_bd, I, (steady_point(p, I, T_bd, omega) if I > 0.0 else None)
 
 
 __all__ = ["FLOOR", "N_BISECT", "FieldWeakening", "steady_point", "steady_point_at_flux"]

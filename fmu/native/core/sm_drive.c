@@ -298,7 +298,7 @@ static int run(sm_drive *d, const double meas[SM_MEAS_LEN], const double psi_ref
         load[1] = 0.0;
         integ[0] = d->e0;
         integ[1] = d->z0;
-        st = sm_control(meas, ref, load, &d->p, &d->g, &d->cfg, d->theta_hat, integ, d->dc.I_max, &c);
+        st = sm_control(meas, ref, load, &d->p, &d->g, &d->cfg, d->theta_hat, integ, d->i_lim, &c);
         if (st != SM_CORE_OK && st != SM_ERR_NONFINITE) {
             return st;
         }
@@ -382,10 +382,11 @@ int sm_drive_step(sm_drive *d, const double meas_in[SM_MEAS_LEN], double omega_r
             return st;
         }
     }
+    d->i_lim = d->dc.I_max;
     if (d->dc.field_weakening) { /* the nominal flux, or lower where the voltage does not suffice */
         double z[3];
         sm_shaper_get_state(&d->speed, z);
-        if ((st = sm_fw_flux_reference(&d->fw, &d->p, meas, z[1], psi_ref, &psi_ref))) {
+        if ((st = sm_fw_flux_reference(&d->fw, &d->p, meas, z[1], psi_ref, d->i_lim, &psi_ref, &d->i_lim))) {
             return st;
         }
     }

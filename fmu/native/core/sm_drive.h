@@ -53,6 +53,7 @@ typedef struct {
     sm_observer obs;
     sm_delay delay;
     sm_fieldweak fw;
+    double i_lim; /* [A] the law's current bound this sample (below I_max beyond the breakdown torque) */
     /* state */
     int phase;
     long n;

@@ -10,6 +10,7 @@ static const double SLOPE = 1e-7; /* field_weakening._SLOPE */
 void sm_fw_init(sm_fieldweak *fw, const sm_motor *p, double V_max, double ratio, double ref_bandwidth)
 {
     fw->V_lim = V_max * ratio;
+    fw->V_bd = 0.5 * (fw->V_lim + V_max);
     fw->lead = 3.0 / ref_bandwidth;
     fw->kt = 1.5 * (double)p->n_p * p->k / p->l_r;
 }
@@ -62,19 +63,11 @@ int sm_fw_steady_point_at_flux(const sm_motor *p, double Phi, double T, double o
     return SM_CORE_OK;
 }
 
-int sm_fw_flux_at(const sm_fieldweak *fw, const sm_motor *p, double T, double omega, double psi_ref, double *psi)
+double sm_fw_search(const sm_fieldweak *fw, const sm_motor *p, double T, double omega, double I_hi, double V_lim)
 {
-    double V_lim = fw->V_lim, I_hi, lo, hi, mid, pt[4], up[4], phi;
-    int st, j;
-    if ((st = sm_fw_steady_point_at_flux(p, psi_ref, T, omega, &I_hi, pt))) {
-        return st;
-    }
-    if (pt[1] <= V_lim) {
-        *psi = psi_ref;
-        return SM_CORE_OK;
-    }
-    lo = 0.0;
-    hi = I_hi;
+    double lo = 0.0, hi = I_hi, mid, pt[4], up[4];
+    int j;
+    (void)fw;
     for (j = 0; j < SM_FW_N_BISECT; ++j) {
         mid = 0.5 * (lo + hi);
         if (!sm_fw_steady_point(p, mid, T, omega, pt) || pt[1] <= V_lim) {
@@ -87,9 +80,57 @@ int sm_fw_flux_at(const sm_fieldweak *fw, const sm_motor *p, double T, double om
             hi = mid;
         }
     }
-    phi = (lo > 0.0 && sm_fw_steady_point(p, lo, T, omega, pt)) ? pt[0] : 0.0;
-    *psi = fmin(fmax(phi, SM_FW_FLOOR * psi_ref), psi_ref);
+    return lo;
+}
+
+int sm_fw_breakdown(const sm_fieldweak *fw, const sm_motor *p, double T, double omega, double I_hi, double V,
+                    double *T_bd, double *I, double out[4])
+{
+    double lo = 0.0, hi = 2.0, mid, T_mid, pt[4];
+    int j;
+    for (j = 0; j < SM_FW_N_BISECT; ++j) {
+        mid = 0.5 * (lo + hi);
+        T_mid = mid * T;
+        if (sm_fw_steady_point(p, sm_fw_search(fw, p, T_mid, omega, I_hi, -1.0), T_mid, omega, pt) && pt[1] <= V) {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    *T_bd = lo * T;
+    *I = sm_fw_search(fw, p, *T_bd, omega, I_hi, -1.0);
+    return *I > 0.0 && sm_fw_steady_point(p, *I, *T_bd, omega, out);
+}
+
+int sm_fw_set_points(const sm_fieldweak *fw, const sm_motor *p, double T, double omega, double psi_ref,
+                     double I_max, double *psi, double *i_max)
+{
+    double V_lim = fw->V_lim, I_hi, pt[4], T_bd, I_bd;
+    int st;
+    if ((st = sm_fw_steady_point_at_flux(p, psi_ref, T, omega, &I_hi, pt))) {
+        return st;
+    }
+    *i_max = I_max;
+    if (pt[1] <= V_lim) {
+        *psi = psi_ref;
+        return SM_CORE_OK;
+    }
+    if (!sm_fw_steady_point(p, sm_fw_search(fw, p, T, omega, I_hi, V_lim), T, omega, pt) || pt[1] > V_lim) {
+        /* beyond the breakdown torque: the breakdown point */
+        if (!sm_fw_breakdown(fw, p, T, omega, I_hi, fw->V_bd, &T_bd, &I_bd, pt)) {
+            *psi = SM_FW_FLOOR * psi_ref;
+            return SM_CORE_OK;
+        }
+        *i_max = fmin(I_max, pt[2]);
+    }
+    *psi = fmin(fmax(pt[0], SM_FW_FLOOR * psi_ref), psi_ref);
     return SM_CORE_OK;
+}
+
+int sm_fw_flux_at(const sm_fieldweak *fw, const sm_motor *p, double T, double omega, double psi_ref, double *psi)
+{
+    double i_max;
+    return sm_fw_set_points(fw, p, T, omega, psi_ref, INFINITY, psi, &i_max);
 }
 
 int sm_fw_torque(const sm_fieldweak *fw, const sm_motor *p, const double meas[SM_MEAS_LEN], double *T)
@@ -102,12 +143,13 @@ int sm_fw_torque(const sm_fieldweak *fw, const sm_motor *p, const double meas[SM
 }
 
 int sm_fw_flux_reference(const sm_fieldweak *fw, const sm_motor *p, const double meas[SM_MEAS_LEN],
-                         double omega_ref_rate, double psi_ref, double *psi)
+                         double omega_ref_rate, double psi_ref, double I_max, double *psi, double *i_max)
 {
     double T;
     int st = sm_fw_torque(fw, p, meas, &T);
     if (st) {
         return st;
     }
-    return sm_fw_flux_at(fw, p, T, meas[SM_MEAS_OMEGA_M] + fw->lead * omega_ref_rate, psi_ref, psi);
+    return sm_fw_set_points(fw, p, T, meas[SM_MEAS_OMEGA_M] + fw->lead * omega_ref_rate, psi_ref, I_max, psi,
+                            i_max);
 }
