@@ -251,3 +251,19 @@ def test_rated_point_held_with_field_weakening_not_without():
     assert max(abs(w - 150.0) for w in w_on) < 0.005 * 150.0
     assert not any(r[VLIM] for r in on[tail])
     assert sum(w_off) / len(w_off) < 0.97 * 150.0 and all(r[VLIM] for r in off[tail])
+
+
+def test_the_demo_writes_its_figure(tmp_path):
+    import sys
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "demos"))
+    import field_weakening as demo
+
+    ss = demo.steady_curves([100.0, 300.0])
+    assert ss[0, 0] == 0.95 and ss[1, 0] < 0.5  # no weakening at 100 rad/s, deep at 300 rad/s
+    assert ss[1, 1] == pytest.approx(0.95 * V_MAX, rel=1e-6) and ss[1, 2] > 4000.0 / 300.0
+    run = demo.run(True, t_end=0.3, every=100)
+    assert len(run) == 31 and run["omega_m [rad/s]"].iloc[-1] > 2.0  # on the ramp (9.4 rad/s at 0.3 s)
+    demo.plot(run, run, tmp_path / "fw.png")
+    assert (tmp_path / "fw.png").stat().st_size > 10_000
