@@ -65,7 +65,8 @@ from satmotor.control.measurements import (
 )
 from satmotor.errors import require_number
 
-N_BISECT = 24  # bisection steps: I(psi_ref) / 2^24 [A], T / 2^23 [N m], far below what matters
+N_BISECT = 24  # bisection steps of the set-point: I(psi_ref) / 2^24 [A], far below what matters
+N_BREAKDOWN = 16  # bisection steps of the breakdown point, both loops: T / 2^15 [N m], I(psi_ref) / 2^16 [A]
 FLOOR = 0.1  # [1] the flux set-point never goes below this fraction of psi_ref
 _SLOPE = 1e-7  # [1] relative step in I of the slope test
 
@@ -165,13 +166,13 @@ class FieldWeakening:
             I_max = min(I_max, pt[2])
         return min(max(pt[0], FLOOR * psi_ref), psi_ref), I_max
 
-    def search(self, T, omega, I_hi, V_lim):
+    def search(self, T, omega, I_hi, V_lim, n=N_BISECT):
         """The bisection over ``I`` in ``(0, I_hi]`` [A] (module docstring, step 3): the largest ``I``
         whose steady voltage at ``T`` [N m], ``omega`` [rad/s] is at most ``V_lim`` [V], or that of the
         least voltage when none is (0.0 where no steady state is found)."""
         p = self.params
         lo, hi = 0.0, I_hi
-        for _ in range(N_BISECT):
+        for _ in range(n):
             mid = 0.5 * (lo + hi)
             pt = steady_point(p, mid, T, omega)
             if pt is None or pt[1] <= V_lim:
@@ -187,20 +188,20 @@ class FieldWeakening:
     def breakdown(self, T, omega, I_hi, V):
         """The breakdown point for the voltage ``V`` [V] at ``omega`` [rad/s] in the direction of ``T``
         [N m]: the largest ``T_bd = s T`` (``s`` in [0, 2], bisection) whose least steady voltage
-        (:meth:`search` with no voltage allowed) is at most ``V``; returns ``(T_bd, I, steady_point)``
-        (the point None if none is found)."""
+        (:meth:`search` with no voltage allowed) is at most ``V``, ``N_BREAKDOWN`` steps in both;
+        returns ``(T_bd, I, steady_point)`` (the point None if none is found)."""
         p, lo, hi = self.params, 0.0, 2.0
-        for _ in range(N_BISECT):
+        for _ in range(N_BREAKDOWN):
             mid = 0.5 * (lo + hi)
             T_mid = mid * T
-            pt = steady_point(p, self.search(T_mid, omega, I_hi, -1.0), T_mid, omega)
+            pt = steady_point(p, self.search(T_mid, omega, I_hi, -1.0, N_BREAKDOWN), T_mid, omega)
             if pt is not None and pt[1] <= V:
                 lo = mid
             else:
                 hi = mid
         T_bd = lo * T
-        I = self.search(T_bd, omega, I_hi, -1.0)
+        I = self.search(T_bd, omega, I_hi, -1.0, N_BREAKDOWN)
         return T_bd, I, (steady_point(p, I, T_bd, omega) if I > 0.0 else None)
 
 
-__all__ = ["FLOOR", "N_BISECT", "FieldWeakening", "steady_point", "steady_point_at_flux"]
+__all__ = ["FLOOR", "N_BISECT", "N_BREAKDOWN", "FieldWeakening", "steady_point", "steady_point_at_flux"]

@@ -63,12 +63,13 @@ int sm_fw_steady_point_at_flux(const sm_motor *p, double Phi, double T, double o
     return SM_CORE_OK;
 }
 
-double sm_fw_search(const sm_fieldweak *fw, const sm_motor *p, double T, double omega, double I_hi, double V_lim)
+double sm_fw_search(const sm_fieldweak *fw, const sm_motor *p, double T, double omega, double I_hi, double V_lim,
+                    int n)
 {
     double lo = 0.0, hi = I_hi, mid, pt[4], up[4];
     int j;
     (void)fw;
-    for (j = 0; j < SM_FW_N_BISECT; ++j) {
+    for (j = 0; j < n; ++j) {
         mid = 0.5 * (lo + hi);
         if (!sm_fw_steady_point(p, mid, T, omega, pt) || pt[1] <= V_lim) {
             lo = mid;
@@ -88,17 +89,19 @@ int sm_fw_breakdown(const sm_fieldweak *fw, const sm_motor *p, double T, double 
 {
     double lo = 0.0, hi = 2.0, mid, T_mid, pt[4];
     int j;
-    for (j = 0; j < SM_FW_N_BISECT; ++j) {
+    for (j = 0; j < SM_FW_N_BREAKDOWN; ++j) {
         mid = 0.5 * (lo + hi);
         T_mid = mid * T;
-        if (sm_fw_steady_point(p, sm_fw_search(fw, p, T_mid, omega, I_hi, -1.0), T_mid, omega, pt) && pt[1] <= V) {
+        if (sm_fw_steady_point(p, sm_fw_search(fw, p, T_mid, omega, I_hi, -1.0, SM_FW_N_BREAKDOWN), T_mid, omega,
+                               pt) &&
+            pt[1] <= V) {
             lo = mid;
         } else {
             hi = mid;
         }
     }
     *T_bd = lo * T;
-    *I = sm_fw_search(fw, p, *T_bd, omega, I_hi, -1.0);
+    *I = sm_fw_search(fw, p, *T_bd, omega, I_hi, -1.0, SM_FW_N_BREAKDOWN);
     return *I > 0.0 && sm_fw_steady_point(p, *I, *T_bd, omega, out);
 }
 
@@ -115,7 +118,8 @@ int sm_fw_set_points(const sm_fieldweak *fw, const sm_motor *p, double T, double
         *psi = psi_ref;
         return SM_CORE_OK;
     }
-    if (!sm_fw_steady_point(p, sm_fw_search(fw, p, T, omega, I_hi, V_lim), T, omega, pt) || pt[1] > V_lim) {
+    if (!sm_fw_steady_point(p, sm_fw_search(fw, p, T, omega, I_hi, V_lim, SM_FW_N_BISECT), T, omega, pt) ||
+        pt[1] > V_lim) {
         /* beyond the breakdown torque: the breakdown point */
         if (!sm_fw_breakdown(fw, p, T, omega, I_hi, fw->V_bd, &T_bd, &I_bd, pt)) {
             *psi = SM_FW_FLOOR * psi_ref;

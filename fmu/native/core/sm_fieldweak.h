@@ -8,8 +8,9 @@
 
 #include "sm_law.h"
 
-/* field_weakening.N_BISECT, FLOOR */
+/* field_weakening.N_BISECT, N_BREAKDOWN, FLOOR */
 #define SM_FW_N_BISECT 24
+#define SM_FW_N_BREAKDOWN 16
 #define SM_FW_FLOOR 0.1
 
 typedef struct {
@@ -30,8 +31,9 @@ int sm_fw_steady_point(const sm_motor *p, double I, double T, double omega_m, do
 /* steady_point_at_flux: *I and out at the rotor flux Phi [Wb] > 0; the curve inversion's status. */
 int sm_fw_steady_point_at_flux(const sm_motor *p, double Phi, double T, double omega_m, double *I, double out[4]);
 
-/* FieldWeakening.search: the bisection over I in (0, I_hi] [A]; returns I [A]. */
-double sm_fw_search(const sm_fieldweak *fw, const sm_motor *p, double T, double omega, double I_hi, double V_lim);
+/* FieldWeakening.search: the bisection over I in (0, I_hi] [A], n steps; returns I [A]. */
+double sm_fw_search(const sm_fieldweak *fw, const sm_motor *p, double T, double omega, double I_hi, double V_lim,
+                    int n);
 
 /* FieldWeakening.breakdown at the voltage V [V]: *T_bd [N m], *I [A] and out (steady_point); returns 1, or 0
  * where no point is found (Python: None). */
