@@ -268,3 +268,19 @@ def test_the_demo_writes_its_figure(tmp_path):
     assert len(run) == 31 and run["omega_m [rad/s]"].iloc[-1] > 2.0  # on the ramp (9.4 rad/s at 0.3 s)
     demo.plot(run, run, tmp_path / "fw.png")
     assert (tmp_path / "fw.png").stat().st_size > 10_000
+
+
+def test_ss_flux_is_against_the_set_point_the_drive_works_to():
+    import numpy as np
+
+    from satmotor.metrics import closed_loop_metrics
+
+    t = np.linspace(0.0, 1.0, 11)
+    one, zero = np.ones_like(t), np.zeros_like(t)
+    series = dict(t=t, omega_m=100.0 * one, omega_ref=100.0 * one, psi_r_alpha=0.5 * one, psi_r_beta=zero,
+                  psi_ref=0.95 * one, z1=zero, e1=zero, i_s_alpha=one, i_s_beta=zero, v_s_alpha=one,
+                  v_s_beta=zero, W=one, run=t >= 0.0)
+    # against the nominal 0.95 Wb: (0.95 - 0.5) / 0.95; against the drive's 0.505 Wb: 0.005 / 0.505
+    assert closed_loop_metrics(**series)["ss_flux"] == pytest.approx(0.45 / 0.95, rel=1e-12)
+    assert closed_loop_metrics(**series, psi_set=0.505 * one)["ss_flux"] == pytest.approx(0.005 / 0.505,
+                                                                                         rel=1e-9)
