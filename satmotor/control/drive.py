@@ -153,6 +153,11 @@ class _Drive:
         self._i_lim = drive_cfg.I_max  # [A] the law's current bound this sample (lower beyond breakdown)
         self.reset()
 
+    @property
+    def V_max(self):
+        """Largest stator voltage magnitude [V] the law may apply: V_dc / sqrt(3)."""
+        return self._V_max
+
     def reset(self):
         self._phase = PREMAG
         self._n = 0

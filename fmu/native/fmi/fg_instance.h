@@ -6,6 +6,11 @@
 
 #include "fg_model.h"
 
+/* a source-code FMU carries its identity in fg_identity.h beside the sources (written by the build),
+ * so that `cc -shared *.c` needs no -D; the build itself passes both with -D */
+#if !defined(MODEL_IDENTIFIER) && !defined(INSTANTIATION_TOKEN)
+#include "fg_identity.h"
+#endif
 #if !defined(MODEL_IDENTIFIER) || !defined(INSTANTIATION_TOKEN)
 #error "compile with -DMODEL_IDENTIFIER=<id> -DINSTANTIATION_TOKEN=\"{guid}\""
 #endif
@@ -37,6 +42,7 @@ struct fg_instance {
     int logging_on;
     fg_phase phase;
     double time;
+    double stop_time;           /* the host's stop time, +inf when it gave none */
     void *data;                 /* FG_MODEL_DATA_SIZE bytes */
 };
 

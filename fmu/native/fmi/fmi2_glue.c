@@ -1,4 +1,5 @@
 /* fmi2_glue.c - FMI 2.0 co-simulation functions over fg_instance (model agnostic) */
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -77,10 +78,9 @@ fmi2Status fmi2SetupExperiment(fmi2Component c, fmi2Boolean toleranceDefined, fm
 {
     (void)toleranceDefined;
     (void)tolerance;
-    (void)stopTimeDefined;
-    (void)stopTime;
     if (!fg_allowed(INST, "fmi2SetupExperiment", FG_PHASE_INSTANTIATED)) return fmi2Error;
     INST->time = startTime;
+    INST->stop_time = stopTimeDefined ? stopTime : INFINITY;
     return fmi2OK;
 }
 

@@ -1,6 +1,7 @@
 /* fmi3_glue.c - FMI 3.0 co-simulation functions over fg_instance (model agnostic).
  * Supported: Float64, Int32, Boolean, String variables; FMU state; co-simulation without event mode.
  * All other functions of fmi3Functions.h are defined and return fmi3Error with a logged message. */
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -113,7 +114,10 @@ void fmi3FreeInstance(fmi3Instance instance) { fg_instance_free(INST); }
 fmi3Status fmi3EnterInitializationMode(fmi3Instance instance, fmi3Boolean toleranceDefined, fmi3Float64 tolerance,
                                        fmi3Float64 startTime, fmi3Boolean stopTimeDefined, fmi3Float64 stopTime)
 {
-    (void)toleranceDefined; (void)tolerance; (void)stopTimeDefined; (void)stopTime;
+    (void)toleranceDefined; (void)tolerance;
+    if (instance != NULL && INST->phase == FG_PHASE_INSTANTIATED) {
+        INST->stop_time = stopTimeDefined ? stopTime : INFINITY;
+    }
     return (fmi3Status)fg_enter_initialization(INST, "fmi3EnterInitializationMode", startTime);
 }
 
