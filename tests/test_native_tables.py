@@ -64,7 +64,9 @@ class _DriveConfig(ctypes.Structure):  # sm_drive.h
     _fields_ = [(n, ctypes.c_double) for n in ("ref_bandwidth", "I_max", "premag_fraction", "premag_boost",
                                                "premag_gain", "premag_time_max", "premag_min_fraction",
                                                "premag_speed_tol")] + [("observer", ctypes.c_int),
-                                                                       ("delay_samples", ctypes.c_int)]
+                                                                       ("delay_samples", ctypes.c_int),
+                                                                       ("field_weakening", ctypes.c_int),
+                                                                       ("fw_voltage_ratio", ctypes.c_double)]
 
 
 class _IFOCGains(ctypes.Structure):  # sm_ifoc.h
