@@ -47,6 +47,10 @@ def _v(name, causality, start, unit, description, type_="Real"):
     return Variable(name, causality, type_, start, unit, description)
 
 
+# max_substeps' default: one doStep(0, 5 s) at the limit (h_int = 1e-4 s) took 1.35-1.40 s on the
+# pythonfmu plant (27-28 us per sub-step; PlantUnit alone 11-12 us) and 0.03-0.13 s on the native one
+# (0.5-2.5 us, by curve), on the project's 2-core machine shared by other jobs (load average 3.5)
+MAX_SUBSTEPS = 50_000
 PLANT_DESCRIPTION = ("Induction motor with main-flux saturation and cross-saturation, stationary alpha-beta "
                      "frame, flux states, RK4 (Ouadi, Giri, Ikhouane model, corrected)")
 CONTROLLER_DESCRIPTION = ("Backstepping speed and rotor-flux controller for the saturated induction motor "
@@ -99,7 +103,12 @@ PLANT_PARAMETERS = MOTOR_PARAMETERS + _in_struct("plant", (
     # last: the earlier variables keep their value references
     _v("B_2", "parameter", 0.0, "N m s2/rad2", "quadratic (fan/pump) load: torque B_2 omega_m |omega_m| "
        "opposing motion, >= 0; plant only (the controller sees it as an unknown load)"),
-))
+)) + (
+    # no C struct: the native plant's step (fmu/plant/native_model.c) reads it from its value store
+    _v("max_substeps", "parameter", MAX_SUBSTEPS, "1", "most internal RK4 sub-steps one doStep may take, "
+       ">= 1: a longer step is discarded naming the step size and this limit (bounds the work per call; "
+       "the default is about 1 s of the pythonfmu plant, under 0.1 s of the native one)", "Integer"),
+)
 
 _G, _C, _D = BacksteppingGains(), ControllerConfig(), DriveConfig()
 CONTROLLER_MODES = ("saturated", "constant_m", "pi")
@@ -202,6 +211,12 @@ def _finite_inputs(names, values):
             require_number(name, v)
 
 
+def substeps_reason(n_sub, h_int, max_substeps):
+    """Why a communication step of ``n_sub`` sub-steps of ``h_int`` [s] is refused (as the native plant)."""
+    return (f"needs {n_sub} RK4 sub-steps of h_int = {h_int!r} s, more than max_substeps = {max_substeps}: "
+            "take shorter communication steps or raise max_substeps")
+
+
 class PlantUnit:
     """The plant as a co-simulation unit: inputs held over each communication step."""
 
@@ -214,6 +229,7 @@ class PlantUnit:
         w0, psi0 = f["omega_m0"], f["psi_r0"]
         require_number("psi_r0", psi0, 0, inclusive=True)
         self.h_int = require_number("h_int", f["h_int"], 0)
+        self.max_substeps = require_integer("max_substeps", f["max_substeps"], 1)
         # B_2 is the plant's alone: not in MotorParams, which is also the controller's model
         self.plant = Plant(self.params, f["B_2"])
         self.x0 = initial_state(self.params, omega_m=w0, psi_r_alpha=psi0)
@@ -228,7 +244,11 @@ class PlantUnit:
         v_a, v_b, T_load = inputs
         if dt != self._dt:  # checked, and its sub-step count found, once per step size
             require_number("communicationStepSize", dt, 0)
-            self._n_sub = max(1, math.ceil(dt / self.h_int - 1e-9))
+            n_sub = max(1, math.ceil(dt / self.h_int - 1e-9))
+            if n_sub > self.max_substeps:
+                raise ParameterError("communicationStepSize", dt, substeps_reason(n_sub, self.h_int,
+                                                                                  self.max_substeps))
+            self._n_sub = n_sub
             self._dt = dt
         x = self.plant.step(t, self.x, v_a, v_b, T_load, dt, self._n_sub)
         if not math.isfinite(sum(x)) and not all(math.isfinite(v) for v in x):

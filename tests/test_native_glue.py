@@ -452,7 +452,8 @@ def test_valgrind_clean(tmp_path):
                     f"-I{native_build.GLUE_DIR}", *model_inc,
                     "-DMODEL_IDENTIFIER=lag", '-DINSTANTIATION_TOKEN="{vg}"', str(HOST_C),
                     str(native_build.GLUE_DIR / "fmi2_glue.c"), str(native_build.GLUE_DIR / "fg_instance.c"),
-                    str(native_build.GLUE_DIR / "fg_state.c"), *model, "-o", str(exe), "-lm"], check=True, capture_output=True)
+                    str(native_build.GLUE_DIR / "fg_state.c"), *model, "-o", str(exe), "-lm"],
+                   check=True, capture_output=True)
     r = subprocess.run(["valgrind", "--error-exitcode=99", "--leak-check=full", "--errors-for-leak-kinds=all",
                         str(exe)], capture_output=True, text=True, timeout=120)
     assert r.returncode == 0, r.stderr[-3000:]
@@ -527,7 +528,7 @@ def test_no_global_mutable_state(tmp_path):
         # of pointers, with -fPIC)
         writable = [r for r in rows if r[2] in "bBdDcC" and not r[6].startswith(".data.rel.ro")]
         if src.name == "fg_instance.c":
-            assert [(r[0], r[2]) for r in writable] == [("fg_live", "b")], writable  # local (zero-initialized)
+            assert [(r[0], r[2]) for r in writable] == [("fg_live", "b")], writable  # local, zero-initialized
             continue
         assert writable == [], (src.name, writable)
 

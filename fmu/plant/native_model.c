@@ -3,6 +3,7 @@
  * references, start values and the parameter copy into the core's structs are generated (sm_vars.h /
  * sm_vars.c, orchestration/build/native_tables.py); the get/set accessors are fmu/native/common/sm_values.c. */
 #include <math.h>
+#include <stdio.h>
 #include <string.h>
 
 #include "sm_common.h"
@@ -57,6 +58,10 @@ fg_status fg_model_exit_initialization(fg_instance *inst, void *data, double sta
     if (sm_resolve_file(inst, "table_file", motor.table_file, sizeof motor.table_file) != FG_OK) {
         return FG_ERROR;
     }
+    if (sm_require_integer("max_substeps", d->v.i[SM_VR_max_substeps], 1, msg, sizeof msg) != 0) {
+        fg_log(inst, FG_ERROR, "logStatusError", "%s", msg);
+        return FG_ERROR;
+    }
     st = sm_motor_init(&d->p, &motor, &plant, msg, sizeof msg);
     if (st != 0) {
         fg_log(inst, FG_ERROR, "logStatusError", "%s", msg);
@@ -83,6 +88,14 @@ fg_status fg_model_do_step(fg_instance *inst, void *data, double t, double h)
     }
     st = sm_plant_check_step(&d->p, r[SM_VR_v_s_alpha], r[SM_VR_v_s_beta], r[SM_VR_T_load], h, &n_sub, msg,
                              sizeof msg);
+    if (st == 0 && n_sub > d->v.i[SM_VR_max_substeps]) { /* bounded work per call: as PlantUnit.step */
+        char v[40], hi[40];
+        snprintf(msg, sizeof msg, "communicationStepSize = %s: needs %d RK4 sub-steps of h_int = %s s, more than "
+                 "max_substeps = %ld: take shorter communication steps or raise max_substeps",
+                 sm_repr_double(h, v, sizeof v), n_sub, sm_repr_double(d->p.h_int, hi, sizeof hi),
+                 (long)d->v.i[SM_VR_max_substeps]);
+        st = 1;
+    }
     if (st != 0) {
         fg_log(inst, FG_DISCARD, "logStatusDiscard", "SaturatedInductionMotor at t = %.17g s: %s", t, msg);
         return FG_DISCARD;
