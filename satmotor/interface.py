@@ -59,6 +59,8 @@ CONTROLLER_DESCRIPTION = ("Backstepping speed and rotor-flux controller for the 
 AUTHOR = "satmotor"
 
 _M, _A, _P = MotorParams(), ArctanCurve(), PolynomialCurve()
+_G, _C, _D = BacksteppingGains(), ControllerConfig(), DriveConfig()
+OMEGA_WARN = 1500.0  # [rad/s] omega_warn's default: about 10 x the default motor's synchronous speed
 MOTOR_PARAMETERS = _in_struct("motor", (
     _v("R_s", "parameter", _M.R_s, "Ohm", "stator resistance"),
     _v("R_r", "parameter", _M.R_r, "Ohm", "rotor resistance (rotor side; k = 1: referred)"),
@@ -108,9 +110,16 @@ PLANT_PARAMETERS = MOTOR_PARAMETERS + _in_struct("plant", (
     _v("max_substeps", "parameter", MAX_SUBSTEPS, "1", "most internal RK4 sub-steps one doStep may take, "
        ">= 1: a longer step is discarded naming the step size and this limit (bounds the work per call; "
        "the default is about 1 s of the pythonfmu plant, under 0.1 s of the native one)", "Integer"),
+    # plausibility: a warning, logged once per run and quantity, never a change of the result
+    _v("v_warn", "parameter", 4.0 * _C.V_dc, "V", "stator voltage magnitude |v_s| (input) above which a "
+       "warning is logged, once per run (default 4 V_dc of the controller's default); 0: no check"),
+    _v("i_warn", "parameter", 10.0 * _D.I_max, "A", "stator current magnitude |i_s| (after a step) above "
+       "which a warning is logged, once per run (default 10 I_max of the drive's default); 0: no check"),
+    _v("omega_warn", "parameter", OMEGA_WARN, "rad/s", "mechanical speed |omega_m| (after a step) above "
+       "which a warning is logged, once per run (default about 10 x the default motor's synchronous speed, "
+       "157 rad/s); 0: no check"),
 )
 
-_G, _C, _D = BacksteppingGains(), ControllerConfig(), DriveConfig()
 CONTROLLER_MODES = ("saturated", "constant_m", "pi")
 CONTROLLER_INPUTS = (
     _v("i_s_alpha", "input", 0.0, "A", "measured stator current, alpha axis"),
@@ -211,6 +220,17 @@ def _finite_inputs(names, values):
             require_number(name, v)
 
 
+WARN_NAMES = ("v_warn", "i_warn", "omega_warn")
+_WARN_WHAT = (("|v_s|", "V", "input"), ("|i_s|", "A", "output"), ("|omega_m|", "rad/s", "output"))
+
+
+def plausibility_message(k, t, value, bound):
+    """The warning for quantity ``k`` (0: |v_s|, 1: |i_s|, 2: |omega_m|) at ``t`` [s], as the native plant."""
+    what, unit, kind = _WARN_WHAT[k]
+    return (f"SaturatedInductionMotor: implausible {kind} at t = {t!r} s: {what} = {value!r} {unit} exceeds "
+            f"{WARN_NAMES[k]} = {bound!r} {unit}; the step is computed as given (logged once per run)")
+
+
 def substeps_reason(n_sub, h_int, max_substeps):
     """Why a communication step of ``n_sub`` sub-steps of ``h_int`` [s] is refused (as the native plant)."""
     return (f"needs {n_sub} RK4 sub-steps of h_int = {h_int!r} s, more than max_substeps = {max_substeps}: "
@@ -230,6 +250,9 @@ class PlantUnit:
         require_number("psi_r0", psi0, 0, inclusive=True)
         self.h_int = require_number("h_int", f["h_int"], 0)
         self.max_substeps = require_integer("max_substeps", f["max_substeps"], 1)
+        self._warn = tuple(require_number(n, f[n], 0, inclusive=True) for n in WARN_NAMES)
+        self._warned = [False, False, False]
+        self.warnings = []  # plausibility warnings not yet logged (the FMU glue takes them)
         # B_2 is the plant's alone: not in MotorParams, which is also the controller's model
         self.plant = Plant(self.params, f["B_2"])
         self.x0 = initial_state(self.params, omega_m=w0, psi_r_alpha=psi0)
@@ -250,10 +273,22 @@ class PlantUnit:
                                                                                   self.max_substeps))
             self._n_sub = n_sub
             self._dt = dt
+        if self._warn[0] > 0.0 and not self._warned[0]:
+            self._plausible(0, t, math.hypot(v_a, v_b))
         x = self.plant.step(t, self.x, v_a, v_b, T_load, dt, self._n_sub)
         if not math.isfinite(sum(x)) and not all(math.isfinite(v) for v in x):
             raise ArithmeticError(f"the plant state became non-finite over [{t}, {t + dt}] s: {x}")
         self.x = x
+        if self._warn[1] > 0.0 and not self._warned[1]:
+            o = self.plant.outputs(x)
+            self._plausible(1, t + dt, math.hypot(o.i_s_alpha, o.i_s_beta))
+        if self._warn[2] > 0.0 and not self._warned[2]:
+            self._plausible(2, t + dt, abs(x[OMEGA_M]))
+
+    def _plausible(self, k, t, value):
+        if value > self._warn[k]:
+            self._warned[k] = True
+            self.warnings.append(plausibility_message(k, t, value, self._warn[k]))
 
     def outputs(self):
         """Output values in the order of :attr:`OUTPUTS`."""

@@ -16,9 +16,33 @@ typedef struct {
     sm_motor p;
     double x[SM_N_STATES];
     int ready;
+    int warned[3]; /* a plausibility warning of |v_s|, |i_s|, |omega_m| was logged in this run */
 } plant_data;
 
 const size_t FG_MODEL_DATA_SIZE = sizeof(plant_data);
+
+/* the plausibility warnings (as PlantUnit.step, satmotor/interface.py): quantity k above its bound
+ * v_warn / i_warn / omega_warn (> 0) is logged once per run at warning level; nothing else changes */
+static const char *const WARN_NAME[3] = {"v_warn", "i_warn", "omega_warn"};
+static const char *const WARN_WHAT[3][3] = {
+    {"|v_s|", "V", "input"}, {"|i_s|", "A", "output"}, {"|omega_m|", "rad/s", "output"}};
+
+static double warn_bound(const plant_data *d, int k)
+{
+    return d->v.r[k == 0 ? SM_VR_v_warn : k == 1 ? SM_VR_i_warn : SM_VR_omega_warn];
+}
+
+static void plausible(fg_instance *inst, plant_data *d, int k, double t, double value)
+{
+    char a[40], b[40], c[40];
+    double bound = warn_bound(d, k);
+    if (d->warned[k] || !(bound > 0.0) || !(value > bound)) return;
+    d->warned[k] = 1;
+    fg_log(inst, FG_WARNING, "logStatusWarning", "SaturatedInductionMotor: implausible %s at t = %s s: %s = %s %s "
+           "exceeds %s = %s %s; the step is computed as given (logged once per run)", WARN_WHAT[k][2],
+           sm_repr_double(t, a, sizeof a), WARN_WHAT[k][0], sm_repr_double(value, b, sizeof b), WARN_WHAT[k][1],
+           WARN_NAME[k], sm_repr_double(bound, c, sizeof c), WARN_WHAT[k][1]);
+}
 
 static void publish(plant_data *d)
 {
@@ -62,6 +86,12 @@ fg_status fg_model_exit_initialization(fg_instance *inst, void *data, double sta
         fg_log(inst, FG_ERROR, "logStatusError", "%s", msg);
         return FG_ERROR;
     }
+    for (st = 0; st < 3; ++st) {
+        if (sm_require_number(WARN_NAME[st], warn_bound(d, st), 1, 0.0, 1, msg, sizeof msg) != 0) {
+            fg_log(inst, FG_ERROR, "logStatusError", "%s", msg);
+            return FG_ERROR;
+        }
+    }
     st = sm_motor_init(&d->p, &motor, &plant, msg, sizeof msg);
     if (st != 0) {
         fg_log(inst, FG_ERROR, "logStatusError", "%s", msg);
@@ -100,6 +130,7 @@ fg_status fg_model_do_step(fg_instance *inst, void *data, double t, double h)
         fg_log(inst, FG_DISCARD, "logStatusDiscard", "SaturatedInductionMotor at t = %.17g s: %s", t, msg);
         return FG_DISCARD;
     }
+    plausible(inst, d, 0, t, sm_hypot(r[SM_VR_v_s_alpha], r[SM_VR_v_s_beta]));
     for (j = 0; j < SM_N_STATES; ++j) {
         x[j] = d->x[j];
     }
@@ -118,5 +149,7 @@ fg_status fg_model_do_step(fg_instance *inst, void *data, double t, double h)
     }
     d->v.r[SM_VR_time] = t + h;
     publish(d);
+    plausible(inst, d, 1, t + h, sm_hypot(r[SM_VR_i_s_alpha], r[SM_VR_i_s_beta]));
+    plausible(inst, d, 2, t + h, fabs(r[SM_VR_omega_m]));
     return FG_OK;
 }
