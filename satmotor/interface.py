@@ -253,6 +253,7 @@ class PlantUnit:
         self._warn = tuple(require_number(n, f[n], 0, inclusive=True) for n in WARN_NAMES)
         self._warned = [False, False, False]
         self.warnings = []  # plausibility warnings not yet logged (the FMU glue takes them)
+        self._o = None  # the plant's outputs at self.x, once computed (by the |i_s| check)
         # B_2 is the plant's alone: not in MotorParams, which is also the controller's model
         self.plant = Plant(self.params, f["B_2"])
         self.x0 = initial_state(self.params, omega_m=w0, psi_r_alpha=psi0)
@@ -274,25 +275,29 @@ class PlantUnit:
             self._n_sub = n_sub
             self._dt = dt
         if self._warn[0] > 0.0 and not self._warned[0]:
-            self._plausible(0, t, math.hypot(v_a, v_b))
+            self._plausible(0, t, v_a, v_b)
         x = self.plant.step(t, self.x, v_a, v_b, T_load, dt, self._n_sub)
         if not math.isfinite(sum(x)) and not all(math.isfinite(v) for v in x):
             raise ArithmeticError(f"the plant state became non-finite over [{t}, {t + dt}] s: {x}")
         self.x = x
+        self._o = None
         if self._warn[1] > 0.0 and not self._warned[1]:
-            o = self.plant.outputs(x)
-            self._plausible(1, t + dt, math.hypot(o.i_s_alpha, o.i_s_beta))
-        if self._warn[2] > 0.0 and not self._warned[2]:
-            self._plausible(2, t + dt, abs(x[OMEGA_M]))
+            o = self._o = self.plant.outputs(x)  # kept for outputs(): no second computation
+            self._plausible(1, t + dt, o.i_s_alpha, o.i_s_beta)
+        if self._warn[2] > 0.0 and not self._warned[2] and abs(x[OMEGA_M]) > self._warn[2]:
+            self._warned[2] = True
+            self.warnings.append(plausibility_message(2, t + dt, abs(x[OMEGA_M]), self._warn[2]))
 
-    def _plausible(self, k, t, value):
-        if value > self._warn[k]:
+    def _plausible(self, k, t, a, b):
+        """|(a, b)| above bound k: the squares compared first, as the native plant does."""
+        bound = self._warn[k]
+        if a * a + b * b > bound * bound:
             self._warned[k] = True
-            self.warnings.append(plausibility_message(k, t, value, self._warn[k]))
+            self.warnings.append(plausibility_message(k, t, math.hypot(a, b), bound))
 
     def outputs(self):
         """Output values in the order of :attr:`OUTPUTS`."""
-        x, o = self.x, self.plant.outputs(self.x)
+        x, o = self.x, self._o if self._o is not None else self.plant.outputs(self.x)
         return (o.i_s_alpha, o.i_s_beta, x[PSI_S_A], x[PSI_S_B], x[PSI_R_A], x[PSI_R_B], x[OMEGA_M],
                 x[THETA_M], o.T_e, o.i_mu)
 
@@ -301,6 +306,7 @@ class PlantUnit:
 
     def set_state(self, state):
         self.x = tuple(float(v) for v in state)
+        self._o = None
 
 
 class ControllerUnit:

@@ -7,6 +7,8 @@
  *   leak                  FMU states left to freeInstance; foreign, freed and made-up state handles
  *   leakcontrol           leaks one block on purpose (LeakSanitizer must report it)
  *   doublefree            freeInstance twice on the same pointer
+ *   misuse                wrong-phase calls, NULL and non-finite arguments, discard and recovery
+ *   bench N               ns per doStep with the plant's plausibility checks on and off (build it -O2)
  *   fuzz SEQS SEED        random FMI call sequences
  *   file PARAM NAME=VALUE|- PATH...   each file as the String parameter PARAM (NAME=VALUE set first):
  *                         instantiate, initialize, a few steps, free */
@@ -95,8 +97,8 @@ static int h_set_string(inst_t c, unsigned vr, const char *v) { return fmi3SetSt
 static int h_get_string(inst_t c, unsigned vr, const char **v) { return fmi3GetString(c, &vr, 1, v, 1); }
 static int h_null_calls(inst_t c)
 {
-    return fmi3GetFloat64(c, NULL, 1, NULL, 1) + fmi3SetFloat64(NULL, NULL, 0, NULL, 0) + fmi3DoStep(NULL, 0, 1, 0, NULL,
-                                                                                                     NULL, NULL, NULL);
+    return fmi3GetFloat64(c, NULL, 1, NULL, 1) + fmi3SetFloat64(NULL, NULL, 0, NULL, 0) +
+           fmi3DoStep(NULL, 0, 1, 0, NULL, NULL, NULL, NULL);
 }
 static int h_get_state(inst_t c, void **s) { return fmi3GetFMUState(c, s); }
 static int h_set_state(inst_t c, void *s) { return fmi3SetFMUState(c, s); }
@@ -322,6 +324,106 @@ static int mode_doublefree(void)
     h_free(b);
     h_free(a);
     printf("doublefree: ok\n");
+    return 0;
+}
+
+/* ---- misuse: calls a host gets wrong, each refused with a status and the instance still usable ---- */
+static int mode_misuse(void)
+{
+    inst_t c = h_new("misuse", INSTANTIATION_TOKEN);
+    const fg_variable *in = NULL, *par = NULL, *out = NULL;
+    double v = 1.0, h, t = 0.0;
+    void *s = NULL;
+    long before;
+    size_t i;
+    for (i = 0; i < FG_MODEL_N_VARIABLES; i++) {
+        const fg_variable *x = &FG_MODEL_VARIABLES[i];
+        if (x->type != FG_REAL) continue;
+        if (x->kind == FG_INPUT && in == NULL && strcmp(x->name, "psi_ref") != 0) in = x;
+        if (x->kind == FG_PARAMETER && par == NULL) par = x;
+        if (x->kind == FG_OUTPUT && out == NULL) out = x;
+    }
+    CHECK(c != NULL && in != NULL && par != NULL && out != NULL);
+    CHECK(h_new("bad token", "{not this build}") == NULL);
+    CHECK(h_new(NULL, INSTANTIATION_TOKEN) == NULL);
+    CHECK(h_step(c, 0.0, 1e-4) == ST_ERROR);            /* before initialization */
+    CHECK(h_get_real(c, out->vr, &v) == ST_ERROR);      /* FMI 2: no getter before initialization */
+    CHECK(h_exit(c) == ST_ERROR);                       /* exit before enter */
+    CHECK(h_terminate(c) == ST_ERROR);
+    CHECK(h_null_calls(c) == 3 * ST_ERROR);
+    CHECK(h_set_real(c, out->vr, 1.0) == ST_ERROR);     /* an output is not settable */
+    CHECK(h_set_real(c, 999999u, 1.0) == ST_ERROR);     /* unknown value reference */
+    CHECK(h_enter(c, NAN) == ST_ERROR);                 /* non-finite start time */
+    CHECK(h_enter(c, 0.0) == 0 && h_exit(c) == 0);
+    h = step_size(c);
+    CHECK(h_set_real(c, par->vr, 2.0) == ST_ERROR);     /* a fixed parameter after initialization */
+    CHECK(h_step(c, 0.0, -h) == ST_ERROR && h_step(c, 0.0, NAN) == ST_ERROR && h_step(c, INFINITY, h) == ST_ERROR);
+    CHECK(h_step(c, 1.0, h) == ST_ERROR);               /* not the FMU's time */
+    CHECK(h_get_state(c, NULL) == ST_ERROR);
+    CHECK(h_get_state(c, &s) == 0);
+    before = n_messages;
+    CHECK(h_set_real(c, in->vr, NAN) == 0 && h_step(c, t, h) == 2 && n_messages > before); /* NaN input: discard */
+    CHECK(h_step(c, t, h) == ST_ERROR);                 /* no step after a discard ... */
+    CHECK(h_get_real(c, out->vr, &v) == 0);             /* ... but getters */
+    CHECK(h_set_state(c, s) == 0);                      /* ... and back to a good state */
+    CHECK(h_set_real(c, in->vr, INFINITY) == 0 && h_step(c, t, h) == 2);
+    CHECK(h_set_state(c, s) == 0 && h_set_real(c, in->vr, 1.0) == 0 && h_step(c, t, h) <= 1);
+    CHECK(h_terminate(c) == 0 && h_terminate(c) == ST_ERROR && h_step(c, t + h, h) == ST_ERROR);
+    CHECK(h_reset(c) == 0 && h_enter(c, 0.0) == 0 && h_exit(c) == 0 && h_step(c, 0.0, h) <= 1);
+    CHECK(h_set_state(c, s) == 0 && h_free_state(c, &s) == 0 && s == NULL);
+    h_free(c);
+    printf("misuse: ok\n");
+    return 0;
+}
+
+/* ---- bench: ns per doStep of the default run with the model's plausibility checks on and off ---- */
+static int mode_bench(long n)
+{
+    static const char *const off[] = {"v_warn", "i_warn", "omega_warn"};
+    double ns[2], t, h, w;
+    int pass, k;
+    long j;
+    for (pass = 0; pass < 2; pass++) {
+        inst_t c = h_new("bench", INSTANTIATION_TOKEN);
+        const fg_variable *va = var_named("v_s_alpha"), *vb = var_named("v_s_beta");
+        clock_t t0;
+        CHECK(c != NULL && va != NULL && vb != NULL);
+        CHECK(h_enter(c, 0.0) == 0);
+        for (k = 0; k < 3 && pass == 1; k++)
+            if (var_named(off[k]) != NULL) CHECK(h_set_real(c, var_named(off[k])->vr, 0.0) == 0);
+        CHECK(h_exit(c) == 0);
+        h = step_size(c);
+        t0 = clock();
+        for (j = 0, t = 0.0; j < n; j++, t += h) {
+            w = 314.159 * t;
+            CHECK(h_set_real(c, va->vr, 300.0 * cos(w)) == 0 && h_set_real(c, vb->vr, 300.0 * sin(w)) == 0);
+            CHECK(h_step(c, t, h) == 0);
+        }
+        ns[pass] = (double)(clock() - t0) / CLOCKS_PER_SEC / (double)n * 1e9;
+        h_free(c);
+    }
+    {
+        inst_t c = h_new("bench", INSTANTIATION_TOKEN);
+        void *s = NULL;
+        clock_t t0;
+        CHECK(c != NULL && h_enter(c, 0.0) == 0 && h_exit(c) == 0 && h_get_state(c, &s) == 0);
+        t0 = clock();
+        for (j = 0; j < n / 10; j++) CHECK(h_get_state(c, &s) == 0 && h_set_state(c, s) == 0);
+        w = (double)(clock() - t0) / CLOCKS_PER_SEC / (double)(n / 10) * 1e9;
+        {
+            size_t size;
+            unsigned char *buf;
+            CHECK(h_state_size(c, s, &size) == 0 && (buf = (unsigned char *)malloc(size)) != NULL);
+            t0 = clock();
+            for (j = 0; j < n / 10; j++)
+                CHECK(h_serialize(c, s, buf, size) == 0 && h_deserialize(c, buf, size, &s) == 0);
+            t = (double)(clock() - t0) / CLOCKS_PER_SEC / (double)(n / 10) * 1e9;
+            free(buf);
+        }
+        h_free(c);
+    }
+    printf("bench: steps=%ld ns_per_step_checks_on=%.1f ns_per_step_checks_off=%.1f "
+           "ns_per_get_and_set_state=%.1f ns_per_serialize_and_deserialize=%.1f\n", n, ns[0], ns[1], w, t);
     return 0;
 }
 
@@ -578,6 +680,8 @@ int main(int argc, char **argv)
         return 0;
     }
     if (argc >= 2 && strcmp(argv[1], "doublefree") == 0) return mode_doublefree();
+    if (argc >= 2 && strcmp(argv[1], "misuse") == 0) return mode_misuse();
+    if (argc >= 3 && strcmp(argv[1], "bench") == 0) return mode_bench(atol(argv[2]));
     if (argc >= 4 && strcmp(argv[1], "fuzz") == 0) {
         rng ^= strtoull(argv[3], NULL, 10) * 0x9E3779B97F4A7C15ULL;
         return mode_fuzz(atol(argv[2]));

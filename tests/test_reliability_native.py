@@ -121,6 +121,16 @@ def test_a_second_free_instance_is_harmless(host, model, version):
     run(host(model, version), "doublefree")
 
 
+@pytest.mark.parametrize("version", VERSIONS)
+@pytest.mark.parametrize("model", (PLANT, CONTROLLER))
+def test_fmi_misuse_is_refused_and_the_instance_recovers(host, model, version):
+    """Bad token, NULL name, calls before initialization or after terminate, a fixed parameter or an
+    output set, an unknown value reference, NULL arrays and instances, non-finite start time, step size
+    and communication point: errors; a NaN or infinite input: a discard, after which getters and
+    setting a saved state work, and the instance steps on."""
+    run(host(model, version), "misuse")
+
+
 # --- random FMI call sequences ---------------------------------------------------------------------------
 
 def fuzz(host, model, version, sequences, seed):

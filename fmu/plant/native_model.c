@@ -32,11 +32,22 @@ static double warn_bound(const plant_data *d, int k)
     return d->v.r[k == 0 ? SM_VR_v_warn : k == 1 ? SM_VR_i_warn : SM_VR_omega_warn];
 }
 
-static void plausible(fg_instance *inst, plant_data *d, int k, double t, double value)
+/* quantity k: |v_s| of the inputs, |i_s| or |omega_m| of the outputs */
+static void plausible(fg_instance *inst, plant_data *d, int k, double t)
 {
     char a[40], b[40], c[40];
-    double bound = warn_bound(d, k);
-    if (d->warned[k] || !(bound > 0.0) || !(value > bound)) return;
+    const double *r = d->v.r;
+    double bound = warn_bound(d, k), x, y, value;
+    if (d->warned[k] || !(bound > 0.0)) return;
+    if (k == 2) {
+        value = fabs(r[SM_VR_omega_m]);
+        if (!(value > bound)) return;
+    } else { /* the squares first (cheap, as PlantUnit), the magnitude only for the message */
+        x = r[k == 0 ? SM_VR_v_s_alpha : SM_VR_i_s_alpha];
+        y = r[k == 0 ? SM_VR_v_s_beta : SM_VR_i_s_beta];
+        if (!(x * x + y * y > bound * bound)) return;
+        value = sm_hypot(x, y);
+    }
     d->warned[k] = 1;
     fg_log(inst, FG_WARNING, "logStatusWarning", "SaturatedInductionMotor: implausible %s at t = %s s: %s = %s %s "
            "exceeds %s = %s %s; the step is computed as given (logged once per run)", WARN_WHAT[k][2],
@@ -130,7 +141,7 @@ fg_status fg_model_do_step(fg_instance *inst, void *data, double t, double h)
         fg_log(inst, FG_DISCARD, "logStatusDiscard", "SaturatedInductionMotor at t = %.17g s: %s", t, msg);
         return FG_DISCARD;
     }
-    plausible(inst, d, 0, t, sm_hypot(r[SM_VR_v_s_alpha], r[SM_VR_v_s_beta]));
+    plausible(inst, d, 0, t);
     for (j = 0; j < SM_N_STATES; ++j) {
         x[j] = d->x[j];
     }
@@ -149,7 +160,7 @@ fg_status fg_model_do_step(fg_instance *inst, void *data, double t, double h)
     }
     d->v.r[SM_VR_time] = t + h;
     publish(d);
-    plausible(inst, d, 1, t + h, sm_hypot(r[SM_VR_i_s_alpha], r[SM_VR_i_s_beta]));
-    plausible(inst, d, 2, t + h, fabs(r[SM_VR_omega_m]));
+    plausible(inst, d, 1, t + h);
+    plausible(inst, d, 2, t + h);
     return FG_OK;
 }
