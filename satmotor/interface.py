@@ -48,6 +48,10 @@ def _v(name, causality, start, unit, description, type_="Real"):
     return Variable(name, causality, type_, start, unit, description)
 
 
+# max_substeps' default: one doStep(0, 5 s) at the limit (h_int = 1e-4 s) took 1.35-1.40 s on the
+# pythonfmu plant (27-28 us per sub-step; PlantUnit alone 11-12 us) and 0.03-0.13 s on the native one
+# (0.5-2.5 us, by curve), on the project's 2-core machine shared by other jobs (load average 3.5)
+MAX_SUBSTEPS = 50_000
 PLANT_DESCRIPTION = ("Induction motor with main-flux saturation and cross-saturation, stationary alpha-beta "
                      "frame, flux states, RK4 (Ouadi, Giri, Ikhouane model, corrected)")
 CONTROLLER_DESCRIPTION = ("Backstepping speed and rotor-flux controller for the saturated induction motor "
@@ -56,6 +60,8 @@ CONTROLLER_DESCRIPTION = ("Backstepping speed and rotor-flux controller for the 
 AUTHOR = "satmotor"
 
 _M, _A, _P = MotorParams(), ArctanCurve(), PolynomialCurve()
+_G, _C, _D = BacksteppingGains(), ControllerConfig(), DriveConfig()
+OMEGA_WARN = 1500.0  # [rad/s] omega_warn's default: about 10 x the default motor's synchronous speed
 MOTOR_PARAMETERS = _in_struct("motor", (
     _v("R_s", "parameter", _M.R_s, "Ohm", "stator resistance"),
     _v("R_r", "parameter", _M.R_r, "Ohm", "rotor resistance (rotor side; k = 1: referred)"),
@@ -100,9 +106,21 @@ PLANT_PARAMETERS = MOTOR_PARAMETERS + _in_struct("plant", (
     # last: the earlier variables keep their value references
     _v("B_2", "parameter", 0.0, "N m s2/rad2", "quadratic (fan/pump) load: torque B_2 omega_m |omega_m| "
        "opposing motion, >= 0; plant only (the controller sees it as an unknown load)"),
-))
+)) + (
+    # no C struct: the native plant's step (fmu/plant/native_model.c) reads it from its value store
+    _v("max_substeps", "parameter", MAX_SUBSTEPS, "1", "most internal RK4 sub-steps one doStep may take, "
+       ">= 1: a longer step is discarded naming the step size and this limit (bounds the work per call; "
+       "the default is about 1 s of the pythonfmu plant, under 0.1 s of the native one)", "Integer"),
+    # plausibility: a warning, logged once per run and quantity, never a change of the result
+    _v("v_warn", "parameter", 4.0 * _C.V_dc, "V", "stator voltage magnitude |v_s| (input) above which a "
+       "warning is logged, once per run (default 4 V_dc of the controller's default); 0: no check"),
+    _v("i_warn", "parameter", 10.0 * _D.I_max, "A", "stator current magnitude |i_s| (after a step) above "
+       "which a warning is logged, once per run (default 10 I_max of the drive's default); 0: no check"),
+    _v("omega_warn", "parameter", OMEGA_WARN, "rad/s", "mechanical speed |omega_m| (after a step) above "
+       "which a warning is logged, once per run (default about 10 x the default motor's synchronous speed, "
+       "157 rad/s); 0: no check"),
+)
 
-_G, _C, _D = BacksteppingGains(), ControllerConfig(), DriveConfig()
 # the controller's Real parameters that go into DriveConfig as they are (the start-up tolerances)
 _DRIVE_REALS = ("fw_voltage_ratio", "premag_fraction", "premag_min_fraction", "premag_speed_tol",
                 "premag_time_max", "premag_boost", "premag_gain")
@@ -264,6 +282,23 @@ def _finite_inputs(names, values):
             require_number(name, v)
 
 
+WARN_NAMES = ("v_warn", "i_warn", "omega_warn")
+_WARN_WHAT = (("|v_s|", "V", "input"), ("|i_s|", "A", "output"), ("|omega_m|", "rad/s", "output"))
+
+
+def plausibility_message(k, t, value, bound):
+    """The warning for quantity ``k`` (0: |v_s|, 1: |i_s|, 2: |omega_m|) at ``t`` [s], as the native plant."""
+    what, unit, kind = _WARN_WHAT[k]
+    return (f"SaturatedInductionMotor: implausible {kind} at t = {t!r} s: {what} = {value!r} {unit} exceeds "
+            f"{WARN_NAMES[k]} = {bound!r} {unit}; the step is computed as given (logged once per run)")
+
+
+def substeps_reason(n_sub, h_int, max_substeps):
+    """Why a communication step of ``n_sub`` sub-steps of ``h_int`` [s] is refused (as the native plant)."""
+    return (f"needs {n_sub} RK4 sub-steps of h_int = {h_int!r} s, more than max_substeps = {max_substeps}: "
+            "take shorter communication steps or raise max_substeps")
+
+
 class PlantUnit:
     """The plant as a co-simulation unit: inputs held over each communication step."""
 
@@ -276,6 +311,11 @@ class PlantUnit:
         w0, psi0 = f["omega_m0"], f["psi_r0"]
         require_number("psi_r0", psi0, 0, inclusive=True)
         self.h_int = require_number("h_int", f["h_int"], 0)
+        self.max_substeps = require_integer("max_substeps", f["max_substeps"], 1)
+        self._warn = tuple(require_number(n, f[n], 0, inclusive=True) for n in WARN_NAMES)
+        self._warned = [False, False, False]
+        self.warnings = []  # plausibility warnings not yet logged (the FMU glue takes them)
+        self._o = None  # the plant's outputs at self.x, once computed (by the |i_s| check)
         # B_2 is the plant's alone: not in MotorParams, which is also the controller's model
         self.plant = Plant(self.params, f["B_2"])
         self.x0 = initial_state(self.params, omega_m=w0, psi_r_alpha=psi0)
@@ -290,16 +330,36 @@ class PlantUnit:
         v_a, v_b, T_load = inputs
         if dt != self._dt:  # checked, and its sub-step count found, once per step size
             require_number("communicationStepSize", dt, 0)
-            self._n_sub = max(1, math.ceil(dt / self.h_int - 1e-9))
+            n_sub = max(1, math.ceil(dt / self.h_int - 1e-9))
+            if n_sub > self.max_substeps:
+                raise ParameterError("communicationStepSize", dt, substeps_reason(n_sub, self.h_int,
+                                                                                  self.max_substeps))
+            self._n_sub = n_sub
             self._dt = dt
+        if self._warn[0] > 0.0 and not self._warned[0]:
+            self._plausible(0, t, v_a, v_b)
         x = self.plant.step(t, self.x, v_a, v_b, T_load, dt, self._n_sub)
         if not math.isfinite(sum(x)) and not all(math.isfinite(v) for v in x):
             raise ArithmeticError(f"the plant state became non-finite over [{t}, {t + dt}] s: {x}")
         self.x = x
+        self._o = None
+        if self._warn[1] > 0.0 and not self._warned[1]:
+            o = self._o = self.plant.outputs(x)  # kept for outputs(): no second computation
+            self._plausible(1, t + dt, o.i_s_alpha, o.i_s_beta)
+        if self._warn[2] > 0.0 and not self._warned[2] and abs(x[OMEGA_M]) > self._warn[2]:
+            self._warned[2] = True
+            self.warnings.append(plausibility_message(2, t + dt, abs(x[OMEGA_M]), self._warn[2]))
+
+    def _plausible(self, k, t, a, b):
+        """|(a, b)| above bound k: the squares compared first, as the native plant does."""
+        bound = self._warn[k]
+        if a * a + b * b > bound * bound:
+            self._warned[k] = True
+            self.warnings.append(plausibility_message(k, t, math.hypot(a, b), bound))
 
     def outputs(self):
         """Output values in the order of :attr:`OUTPUTS`."""
-        x, o = self.x, self.plant.outputs(self.x)
+        x, o = self.x, self._o if self._o is not None else self.plant.outputs(self.x)
         return (o.i_s_alpha, o.i_s_beta, x[PSI_S_A], x[PSI_S_B], x[PSI_R_A], x[PSI_R_B], x[OMEGA_M],
                 x[THETA_M], o.T_e, o.i_mu)
 
@@ -308,6 +368,7 @@ class PlantUnit:
 
     def set_state(self, state):
         self.x = tuple(float(v) for v in state)
+        self._o = None
 
 
 # the controller's communication step rule (ControllerUnit.samples; the same in sm_controller.h)

@@ -55,17 +55,18 @@ PREMAG_PARAMS = ("premag_fraction", "premag_min_fraction", "premag_speed_tol", "
                  "premag_boost", "premag_gain")
 CONTRACT = {
     "SaturatedInductionMotor": {"input": PLANT_IN, "output": PLANT_OUT,
-                                "parameter": MOTOR + ("B_2", "omega_m0", "psi_r0", "h_int")},
+                                "parameter": MOTOR + ("B_2", "omega_m0", "psi_r0", "h_int", "max_substeps",
+                                                      "v_warn", "i_warn", "omega_warn")},
     "BacksteppingController": {"input": CTRL_IN, "output": CTRL_OUT, "parameter": (
         "c1", "c2", "d1", "d2", "Ts", "mode", "load_mode", "V_dc", "ref_bandwidth", "g_theta", "theta_max",
         "I_max", "use_stator_flux", "c0", "d0", "flux_source", "delay_samples", "field_weakening",
         "fw_voltage_ratio") + PREMAG_PARAMS + MOTOR},
 }
-UNITS = {"V": "v_s_alpha v_s_beta v_sd v_sq V_dc", "A": "i_s_alpha i_s_beta i_mu I_par I_max",
+UNITS = {"V": "v_s_alpha v_s_beta v_sd v_sq V_dc v_warn", "A": "i_s_alpha i_s_beta i_mu I_par I_max i_warn",
          "Wb": "psi_s_alpha psi_s_beta psi_r_alpha psi_r_beta psi_ref psi_r0 e1 psi_r_hat_alpha "
                "psi_r_hat_beta "
                "psi_ref_shaped", "Wb/s": "e2",
-         "rad/s": "omega_m omega_ref omega_m0 z1 ref_bandwidth omega_ref_shaped premag_speed_tol",
+         "rad/s": "omega_m omega_ref omega_m0 z1 ref_bandwidth omega_ref_shaped premag_speed_tol omega_warn",
          "rad": "theta_m",
          "rad/s2": "z2 theta_max",
          "N m": "T_load T_e T_load_est", "Ohm": "R_s R_r premag_gain", "H": "l_s l_r L_m0 L_m_inf",
@@ -90,6 +91,8 @@ def _defaults():
         n: getattr(d, n) for n in ("fw_voltage_ratio",) + PREMAG_PARAMS}
     # at rest, unmagnetized (closed_loop's x0); one RK4 step per sample (closed_loop's n_sub = 1)
     plant = motor | {"B_2": 0.0, "omega_m0": 0.0, "psi_r0": 0.0, "h_int": c.Ts}
+    # bounded work per doStep and the plausibility bounds: 4 V_dc, 10 I_max, about 10 x 157 rad/s
+    plant |= {"max_substeps": 50000, "v_warn": 4 * c.V_dc, "i_warn": 10 * d.I_max, "omega_warn": 1500.0}
     return {"SaturatedInductionMotor": plant, "BacksteppingController": ctrl}
 
 
@@ -216,7 +219,8 @@ def test_model_description_matches_the_contract(fmus, name):
             assert v.description.endswith(f"[{UNIT_OF[v.name]}]"), (v.name, v.description)
         if v.causality == "parameter":
             assert _typed(v, v.start) == DEFAULTS[name][v.name], v.name
-    integers = {"n_p", "poly_n"} | ({"delay_samples", "phase"} if name == "BacksteppingController" else set())
+    integers = {"n_p", "poly_n"} | ({"delay_samples", "phase"} if name == "BacksteppingController"
+                                    else {"max_substeps"})
     assert {v.name for v in md.modelVariables if v.type == "Integer"} == integers
     booleans = {"use_stator_flux", "voltage_limited", "current_limited", "singular_limited",
                 "field_weakening"}

@@ -1,8 +1,8 @@
 """Compile and package native (Python-free) C co-simulation FMUs, FMI 2.0 or FMI 3.0.
 
-An FMU is the model-agnostic glue of ``fmu/native/fmi/`` (``fg_instance.c`` and ``fmi2_glue.c`` or
-``fmi3_glue.c``) linked with the C files of one model implementing ``fg_model.h``. The model
-description XML is made in Python by the caller and passed in; its GUID (FMI 2) or
+An FMU is the model-agnostic glue of ``fmu/native/fmi/`` (``fg_instance.c``, ``fg_state.c`` and
+``fmi2_glue.c`` or ``fmi3_glue.c``) linked with the C files of one model implementing ``fg_model.h``.
+The model description XML is made in Python by the caller and passed in; its GUID (FMI 2) or
 instantiationToken (FMI 3) is compiled into the binary (``-DINSTANTIATION_TOKEN``), which refuses
 to instantiate with another one. A placeholder ``{GUID}`` in the XML is replaced by a UUID5 of
 everything the FMU is built from, so two builds of the same inputs give the same token.
@@ -96,7 +96,8 @@ def _major(fmi_version: str) -> int:
 
 def glue_files(fmi_version: str) -> list[Path]:
     major = _major(fmi_version)
-    return [GLUE_DIR / n for n in ("fg_model.h", "fg_instance.h", "fg_instance.c", f"fmi{major}_glue.c")]
+    return [GLUE_DIR / n for n in ("fg_model.h", "fg_instance.h", "fg_instance.c", "fg_state.c",
+                                   f"fmi{major}_glue.c")]
 
 
 def _token_attribute(major: int) -> str:

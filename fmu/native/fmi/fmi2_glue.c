@@ -185,21 +185,13 @@ fmi2Status fmi2SetFMUstate(fmi2Component c, fmi2FMUstate FMUstate)
 fmi2Status fmi2FreeFMUstate(fmi2Component c, fmi2FMUstate *FMUstate)
 {
     if (c == NULL) return fmi2Error;
-    if (FMUstate == NULL) return fmi2OK;
-    fg_state_free(*FMUstate);
-    *FMUstate = NULL;
-    return fmi2OK;
+    return (fmi2Status)fg_state_free(INST, "fmi2FreeFMUstate", (void **)FMUstate);
 }
 
 fmi2Status fmi2SerializedFMUstateSize(fmi2Component c, fmi2FMUstate FMUstate, size_t *size)
 {
     if (c == NULL) return fmi2Error;
-    if (FMUstate == NULL || size == NULL) {
-        fg_log(INST, FG_ERROR, NULL, "fmi2SerializedFMUstateSize: NULL argument");
-        return fmi2Error;
-    }
-    *size = fg_state_size();
-    return fmi2OK;
+    return (fmi2Status)fg_state_serialized_size(INST, "fmi2SerializedFMUstateSize", FMUstate, size);
 }
 
 fmi2Status fmi2SerializeFMUstate(fmi2Component c, fmi2FMUstate FMUstate, fmi2Byte serializedState[], size_t size)

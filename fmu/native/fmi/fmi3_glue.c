@@ -318,21 +318,13 @@ fmi3Status fmi3SetFMUState(fmi3Instance instance, fmi3FMUState FMUState)
 fmi3Status fmi3FreeFMUState(fmi3Instance instance, fmi3FMUState *FMUState)
 {
     if (instance == NULL) return fmi3Error;
-    if (FMUState == NULL) return fmi3OK;
-    fg_state_free(*FMUState);
-    *FMUState = NULL;
-    return fmi3OK;
+    return (fmi3Status)fg_state_free(INST, "fmi3FreeFMUState", (void **)FMUState);
 }
 
 fmi3Status fmi3SerializedFMUStateSize(fmi3Instance instance, fmi3FMUState FMUState, size_t *size)
 {
     if (instance == NULL) return fmi3Error;
-    if (FMUState == NULL || size == NULL) {
-        fg_log(INST, FG_ERROR, NULL, "fmi3SerializedFMUStateSize: NULL argument");
-        return fmi3Error;
-    }
-    *size = fg_state_size();
-    return fmi3OK;
+    return (fmi3Status)fg_state_serialized_size(INST, "fmi3SerializedFMUStateSize", FMUState, size);
 }
 
 fmi3Status fmi3SerializeFMUState(fmi3Instance instance, fmi3FMUState FMUState, fmi3Byte serializedState[],
