@@ -86,7 +86,7 @@ def test_validate_and_run_refuse_what_the_fmus_would_refuse(field, tmp_path, fmu
 
 
 def test_every_bad_override_is_reported_at_once(tmp_path, fmu_dir):
-    f = _scenario(tmp_path, "bad", extra="plant: {R_s: -1.0, J: 0, l_s: 0.0}\ncontroller: {c1: -3.0}\n")
+    f = _scenario(tmp_path, "bad", extra="plant: {R_s: -1.0, J: 0, l_s: -1.0e-3}\ncontroller: {c1: -3.0}\n")
     r = _cli("validate", f, "--fmus", fmu_dir)
     assert r.returncode == 2
     for field in ("plant.R_s", "plant.J", "plant.l_s", "controller.c1"):

@@ -165,8 +165,8 @@ def _file_size_limit(limit):
 
 
 # 0: not even metrics.json; then (a 0.6 s run: figure ~140 kB, Parquet ~1.2 MB, CSV ~2.7 MB; the native
-# plant's binary, extracted by the run, ~110 kB) the time series, the CSV alone, the figure, nothing
-@pytest.mark.parametrize("limit", [0, 120_000, 1_500_000, 10_000_000])
+# binaries, extracted by the run, ~125 kB) the time series, the CSV alone, the figure, nothing
+@pytest.mark.parametrize("limit", [0, 200_000, 1_500_000, 10_000_000])
 def test_run_with_a_file_size_limit_says_which_file_and_why(tmp_path, fmu_dir, limit):
     src = _scenario(tmp_path, "lim", 0.6)
     out = tmp_path / "out"
