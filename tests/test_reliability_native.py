@@ -328,7 +328,7 @@ def warnings_of(log):
     return [m for st, m in log if st == 1]
 
 
-@pytest.mark.parametrize("variant", ("native-2.0", "native-3.0"))
+@pytest.mark.parametrize("variant", ("native-2.0", "native-3.0", "pythonfmu"))
 def test_implausible_inputs_warn_once_and_change_nothing(plant, variant):
     """A 5000 V rotating voltage (2.3 x the bound 4 V_dc) on a rotor started at 2000 rad/s: one warning
     each for the voltage, the speed and the current over 300 steps; the outputs bit for bit those of a

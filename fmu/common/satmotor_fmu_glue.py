@@ -311,6 +311,9 @@ class UnitSlave(Fmi2Slave):
         except Exception as exc:
             self.log(f"{type(self).__name__} at t = {current_time!r} s: {exc}", Fmi2Status.discard)
             return False
+        warnings = getattr(unit, "warnings", None)  # the plant's plausibility warnings, once each
+        while warnings:
+            self.log(warnings.pop(0), Fmi2Status.warning)
         return True
 
     def _refuse_step(self, t, dt):
