@@ -83,3 +83,18 @@ def test_an_overload_beyond_the_breakdown_torque_slows_the_drive_without_loss_of
     assert df["controller.current_limited"].to_numpy()[s].all()
     assert not df["controller.voltage_limited"].to_numpy()[s].any()
     assert np.isfinite(df.select_dtypes("number").to_numpy()).all()
+
+
+@pytest.mark.parametrize("variant", ["native", "native-fmi3"])
+def test_a_diverging_plant_makes_the_controller_fail_with_a_readable_message(fmu_dir, variant):
+    """An inertia so small that the plant's RK4 at 100 us diverges after the speed step: the field
+    weakening's steady-state search meets a non-finite value one sample before the plant does; the
+    controller discards with a message in words (before: an uninitialized buffer reached the host)."""
+    sc = dataclasses.replace(load_scenario(ROOT / "scenarios" / "ramp_rated_load.yaml"), stop_time=0.3,
+                             plant={"J": 1.0e-7})
+    plant, ctrl = fmus.paths(fmu_dir, variant)
+    res = run(sc, str(plant), str(ctrl), algorithm="jacobi")
+    assert res.status == "discard" and res.failed_unit == "controller", res.message
+    assert res.message.endswith("the control computation failed at the measured state: a value became "
+                                "non-finite"), res.message
+    assert res.message.isprintable() or "\n" in res.message

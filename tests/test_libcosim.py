@@ -184,8 +184,10 @@ def test_a_bad_parameter_fails_the_run_in_the_fmus_words_without_ending_the_proc
 
 
 def test_a_step_failure_keeps_the_rows_and_carries_the_fmus_message(fmu_dir):
-    # an inertia so small that RK4 at 100 us is unstable once the speed step comes (0.15 s)
-    sc = dataclasses.replace(load_scenario(DEFAULT), stop_time=0.3, plant={"J": 1.0e-7})
+    # an inertia so small that RK4 at 100 us is unstable once the speed step comes (0.15 s); without
+    # field weakening, whose steady-state search at the diverging state fails one sample before the plant
+    sc = dataclasses.replace(load_scenario(DEFAULT), stop_time=0.3, plant={"J": 1.0e-7},
+                             controller={"field_weakening": False})
     plant, ctrl = map(str, fmus.paths(fmu_dir, "native"))
     ref = master_run(sc, plant, ctrl, algorithm="jacobi")
     res = libcosim_engine.run(sc, plant, ctrl)

@@ -161,8 +161,35 @@ static int sample(sm_controller *u, const double in[SM_CONTROLLER_N_IN], char *m
     return SM_CORE_OK;
 }
 
+static int step_samples(sm_controller *u, double t, double dt, const double in[SM_CONTROLLER_N_IN], char *msg,
+                        size_t msg_len);
+
+/* a failing status whose computation wrote no message (e.g. a curve solve in the field weakening at a
+ * diverging plant's state) still gets one: the host never reads an uninitialized buffer */
+static void status_message(int st, char *msg, size_t msg_len)
+{
+    const char *what = st == SM_ERR_NOCONV ? "an iteration did not converge"
+                       : st == SM_ERR_NONFINITE ? "a value became non-finite"
+                       : st == SM_ERR_PARAM ? "a value is out of range" : "an internal error";
+    (void)snprintf(msg, msg_len, "the control computation failed at the measured state: %s", what);
+}
+
 int sm_controller_step(sm_controller *u, double t, double dt, const double in[SM_CONTROLLER_N_IN], char *msg,
                        size_t msg_len)
+{
+    int st;
+    if (msg != NULL && msg_len > 0) {
+        msg[0] = '\0';
+    }
+    st = step_samples(u, t, dt, in, msg, msg_len);
+    if (st != SM_CORE_OK && msg != NULL && msg_len > 0 && msg[0] == '\0') {
+        status_message(st, msg, msg_len);
+    }
+    return st;
+}
+
+static int step_samples(sm_controller *u, double t, double dt, const double in[SM_CONTROLLER_N_IN], char *msg,
+                        size_t msg_len)
 {
     double sum = 0.0;
     long n, k;
