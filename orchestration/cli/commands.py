@@ -140,6 +140,7 @@ def run_file(path, out, fmu_dir, algorithm=None, build=True, plot=True, stop=Non
         return refused(f"--out {out}: cannot write the results: {exc}", sc.name)
     plant, ctrl = fmus.paths(fmu_dir, variant)
     helper = None
+    plot = plot and sc.record.level != "metrics"  # no time series: no figure
     if plot and figure_process:
         from orchestration.results import figure_process as fp
 

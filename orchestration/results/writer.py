@@ -21,7 +21,14 @@ from pathlib import Path
 
 import numpy as np
 
-from orchestration.run.recorder import FILES, StreamingRecorder
+from orchestration.results.running import (
+    FLAG_COLUMNS,
+    METRIC_COLUMNS,
+    PHASE_COLUMN,
+    MetricsObserver,
+    ss_window,
+)
+from orchestration.run.recorder import FILES, MetricsOnly, StreamingRecorder
 from orchestration.scenario.recording import recorded_selection
 from satmotor import metrics as _m
 from satmotor.control.drive import RUN
@@ -35,17 +42,9 @@ def compute_metrics(df, scenario):
     for an empty record."""
     if len(df["time"]) == 0:
         return {}
-    columns = {"t": "time", "omega_m": "plant.omega_m", "omega_ref": "profile.omega_ref",
-               "psi_r_alpha": "plant.psi_r_alpha", "psi_r_beta": "plant.psi_r_beta",
-               "psi_ref": "profile.psi_ref", "z1": "controller.z1", "e1": "controller.e1",
-               "i_s_alpha": "plant.i_s_alpha", "i_s_beta": "plant.i_s_beta",
-               "v_s_alpha": "controller.v_s_alpha", "v_s_beta": "controller.v_s_beta", "W": "controller.W"}
-    acc = scenario.acceptance
-    return closed_loop_metrics(**{k: np.asarray(df[c]) for k, c in columns.items()},
-                               run=np.asarray(df["controller.phase"]) == RUN,
-                               ss_window=acc.ss_window if acc is not None and acc.ss_window else None,
-                               voltage_limited=np.asarray(df["controller.voltage_limited"]),
-                               current_limited=np.asarray(df["controller.current_limited"]))
+    return closed_loop_metrics(**{k: np.asarray(df[c]) for k, c in METRIC_COLUMNS.items()},
+                               run=np.asarray(df[PHASE_COLUMN]) == RUN, ss_window=ss_window(scenario),
+                               **{k: np.asarray(df[c]) for k, c in FLAG_COLUMNS.items()})
 
 
 def check_acceptance(metrics, scenario):
@@ -83,12 +82,30 @@ def prepare_dir(out_dir, scenario):
     return d
 
 
+def level(scenario):
+    """The scenario's record level: ``full`` (every recorded row on disk; the metrics from the
+    series read back), ``decimated`` (one row of ``record.every`` on disk) or ``metrics`` (none on
+    disk); the last two compute the metrics as the run goes, from every recorded row."""
+    return getattr(scenario.record, "level", "full") if scenario.record is not None else "full"
+
+
 def streaming_recorder(scenario, directory, on_parquet=None):
-    """A ``columns -> StreamingRecorder`` factory for :func:`orchestration.run.master.run`;
-    ``on_parquet``: see :attr:`StreamingRecorder.on_parquet`."""
+    """A ``columns -> recorder`` factory for :func:`orchestration.run.master.run`, as the scenario's
+    record level asks (:func:`level`): a :class:`StreamingRecorder` (``decimated``: keeping one row
+    of ``record.every``) or a :class:`MetricsOnly`; the last two carry their
+    :class:`~orchestration.results.running.MetricsObserver` as ``metrics_observer``.  ``on_parquet``:
+    see :attr:`StreamingRecorder.on_parquet`."""
+    lv = level(scenario)
+
     def make(columns):
-        rec = StreamingRecorder(columns, directory, keep=recorded_selection(scenario, columns))
-        rec.on_parquet = on_parquet
+        observer = MetricsObserver(columns, scenario) if lv != "full" else None
+        if lv == "metrics":
+            rec = MetricsOnly(columns, observer=observer)
+        else:
+            rec = StreamingRecorder(columns, directory, keep=recorded_selection(scenario, columns),
+                                    observer=observer, every=scenario.record.every if observer else 1)
+            rec.on_parquet = on_parquet
+        rec.metrics_observer = observer
         return rec
 
     return make
@@ -108,26 +125,35 @@ def write_results(result, out_dir, plot=True, draw=None):
     d = Path(out_dir) / sc.name
     d.mkdir(parents=True, exist_ok=True)
     rec = result.recorder
-    if not isinstance(rec, StreamingRecorder):  # the same writer as a streamed run
+    observer = getattr(rec, "metrics_observer", None)
+    if observer is None and not isinstance(rec, StreamingRecorder):  # the same writer as a streamed run
         disk = StreamingRecorder(rec.columns, d, keep=recorded_selection(sc, rec.columns))
         for row in np.column_stack(list(rec.arrays().values())).tolist():
             disk.append(row)
         disk.close()
-    df = rec.arrays()  # {column: array}: the metrics and the figure need no DataFrame
-    rows = len(df["time"]) if "time" in df else 0
-    metrics = compute_metrics(df, sc) if result.ok and rows else {}
+    if observer is None:  # level full: the metrics from the series on disk
+        df = rec.arrays()  # {column: array}: the metrics and the figure need no DataFrame
+        rows = written = len(df["time"]) if "time" in df else 0
+        metrics = compute_metrics(df, sc) if result.ok and rows else {}
+        times = df["time"] if rows else ()
+    else:  # computed as the run went; the figure (decimated) from the rows on disk
+        rows, written = rec.n_seen, rec.n_rows
+        metrics = (observer.metrics.result() if result.ok and rows else {}) or {}
+        times = observer.times() if metrics else ()
+        df = rec.arrays() if plot and written > 1 and isinstance(rec, StreamingRecorder) else None
     acceptance = check_acceptance(metrics, sc)
-    holds, setpoints = setpoint_status(metrics, df["time"] if rows else (), sc)
+    holds, setpoints = setpoint_status(metrics, times, sc)
     summary = {
         "scenario": sc.name, "file": str(sc.path), "status": result.status, "message": result.message,
         "failed_unit": result.failed_unit, "t_end": result.t_end, "stop_time": sc.stop_time,
-        "wall_time": result.wall_time, "rows": rows, "metrics": metrics, "acceptance": acceptance,
+        "wall_time": result.wall_time, "rows": rows, "rows_written": written, "record": level(sc),
+        "metrics": metrics, "acceptance": acceptance,
         "accepted": all(v["pass"] for v in acceptance.values()) if acceptance else None,
         "holds_setpoints": holds, "setpoints": setpoints,
         "notes": [str(n) for n in getattr(sc, "notes", ())],
     }
     (d / "metrics.json").write_text(json.dumps(summary, indent=2, default=float) + "\n")
-    if plot and rows > 1:
+    if plot and written > 1 and df is not None:
         if draw is None:
             from orchestration.results.plots import figure as draw
         draw(df, *figure_target(sc, out_dir))

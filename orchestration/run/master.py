@@ -46,7 +46,7 @@ from orchestration.run.measurement_noise import MeasurementNoise
 from orchestration.run.recorder import Recorder
 from orchestration.run.result import RunResult, failure_message
 from orchestration.run.step_plans import evaluator, input_port
-from orchestration.scenario.recording import recorded_columns
+from orchestration.scenario.recording import record_steps, recorded_columns
 from orchestration.scenario.system import CONTROLLER, DEFAULT_CONNECTIONS, PLANT, Connection
 
 __all__ = ["run", "Connection", "DEFAULT_CONNECTIONS"]
@@ -146,8 +146,7 @@ def _loop(sc, jacobi, plant, ctrl, p_out, c_out, c_disc, connections, profiles, 
     ``measure``: None, or a :class:`MeasurementNoise` giving, at each controller sample, the plant
     outputs as the controller receives them and the row of measured values."""
     h, N = sc.step, sc.controller_every
-    n = round(sc.stop_time / h)
-    every = max(1, round(sc.record.interval / h))
+    n, every = record_steps(sc)
     outputs = {PLANT: p_out.names, CONTROLLER: c_out.names}
     prof = [profiles[p] for p in sorted(profiles)]
     c_in, c_values = input_port(ctrl, CONTROLLER, connections, outputs, profiles, prof)

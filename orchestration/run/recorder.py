@@ -5,6 +5,11 @@
 ``timeseries.parquet`` as the run goes, so a run holds at most one chunk of rows, and what was
 recorded before a failure or an interrupt is on disk already.  Both give the recorded rows back as
 a DataFrame with :meth:`frame`.
+
+The record levels of a scenario (``record: {level: ...}``) are made here too: an ``observer``
+(a function of each full chunk, every row and column, before anything is dropped: the metrics
+computed as the run goes, :mod:`orchestration.results.running`) and ``every`` (keep one row of
+``every``: level ``decimated``); :class:`MetricsOnly` keeps no row at all (level ``metrics``).
 """
 
 from __future__ import annotations
@@ -28,14 +33,18 @@ class Recorder:
     the list stays the same object for the whole run.
     """
 
-    def __init__(self, columns, keep=None, chunk_rows=CHUNK_ROWS):
+    def __init__(self, columns, keep=None, chunk_rows=CHUNK_ROWS, observer=None, every=1):
         self._all = list(columns)
         self._keep = None if keep is None else list(keep)
         self.columns = self._all if keep is None else [self._all[i] for i in keep]
         self.rows = []  # the current chunk; the stepping loop appends to it
         self.chunk_rows = chunk_rows
         self._chunks = []
-        self.n_rows = 0
+        self.n_rows = 0  # rows kept (written)
+        self.n_seen = 0  # rows the loop gave (the observer saw them all)
+        self.observer = observer  # None, or a function of each chunk (rows x all columns)
+        self.every = max(1, int(every))
+        self._skip = 0  # rows to drop before the next kept one (every > 1)
 
     def append(self, row):
         self.rows.append(row)
@@ -44,12 +53,21 @@ class Recorder:
 
     def _chunk_array(self):
         a = np.array(self.rows, dtype=float).reshape(len(self.rows), len(self._all))
+        self.n_seen += len(a)
+        if self.observer is not None:
+            self.observer(a)
+        if self.every > 1:  # one row of every `every`, counted across the chunks
+            first = self._skip
+            self._skip = (first - len(a)) % self.every
+            a = a[first::self.every]
         return a if self._keep is None else a[:, self._keep]
 
     def flush(self):
         if self.rows:
-            self._write(self._chunk_array())
-            self.n_rows += len(self.rows)
+            chunk = self._chunk_array()
+            if len(chunk):
+                self._write(chunk)
+            self.n_rows += len(chunk)
             self.rows.clear()
 
     def _write(self, chunk):
@@ -113,8 +131,8 @@ class StreamingRecorder(Recorder):
     #: (:mod:`orchestration.results.figure_process`) reads it and draws while the CSV is written
     on_parquet = None
 
-    def __init__(self, columns, directory, keep=None, chunk_rows=CHUNK_ROWS):
-        super().__init__(columns, keep, chunk_rows)
+    def __init__(self, columns, directory, keep=None, chunk_rows=CHUNK_ROWS, observer=None, every=1):
+        super().__init__(columns, keep, chunk_rows, observer, every)
         import pyarrow as pa
         import pyarrow.parquet as pq
 
@@ -151,13 +169,14 @@ class StreamingRecorder(Recorder):
                 self.flush()
             else:  # the Parquet file first, complete, then the last CSV lines
                 chunk = self._chunk_array() if self.rows else None
-                if chunk is not None:
+                if chunk is not None and len(chunk):
                     self._write_parquet(chunk)
                 self._parquet.close()
-                self.on_parquet(self.n_rows + len(self.rows))
+                self.on_parquet(self.n_rows + (len(chunk) if chunk is not None else 0))
                 if chunk is not None:
-                    self._write_csv(chunk)
-                    self.n_rows += len(self.rows)
+                    if len(chunk):
+                        self._write_csv(chunk)
+                    self.n_rows += len(chunk)
                     self.rows.clear()
         finally:
             self._closed = True
@@ -173,3 +192,14 @@ class StreamingRecorder(Recorder):
         import pandas as pd
 
         return pd.read_parquet(self.parquet_path, columns=columns)
+
+
+class MetricsOnly(Recorder):
+    """Level ``metrics``: every chunk goes to the ``observer`` (the metrics computed as the run
+    goes) and is dropped: nothing on disk, nothing kept; :meth:`arrays` is empty."""
+
+    def _write(self, chunk):
+        pass
+
+    def arrays(self, columns=None):
+        return {c: np.empty(0) for c in (self.columns if columns is None else columns)}
