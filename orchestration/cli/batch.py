@@ -12,6 +12,12 @@
 3. SIGINT/SIGTERM (:mod:`orchestration.process.interrupts`): nothing new starts, running children get
    SIGTERM (they write their partial results), and every scenario not finished is a row with
    status ``interrupted``.  ``summary.csv`` is written in every case once runs have started.
+4. A file with a ``sweep:`` section (:mod:`orchestration.scenario.sweep`) is checked variant by
+   variant first (one bad variant makes the file an invalid row: none of its variants runs); each
+   variant then runs as a scenario of its own (``run FILE --sweep-variant I``) into
+   ``OUT/<sweep name>/<variant name>/``, and once the runs are over (finished, failed or
+   interrupted) the sweep's table and figure go to ``OUT/<sweep name>/``
+   (:mod:`orchestration.results.sweep_table`).
 
 Each row also says whether the run held its set-points (``holds_setpoints``, ``setpoints``: see
 :mod:`orchestration.results`); a row that did not is listed after the table (``NOT HELD ...``), without
@@ -32,6 +38,7 @@ import sys
 import tempfile
 from concurrent.futures import ThreadPoolExecutor, as_completed
 from pathlib import Path
+from typing import NamedTuple
 
 from orchestration.build import fmus
 from orchestration.process.interrupts import PARENT_ENV, StopRequest, signal_name
@@ -52,23 +59,43 @@ def collect(items):
     return out
 
 
+class Job(NamedTuple):
+    """One run of a batch: a scenario file, or one variant (``index``) of a file's sweep, whose
+    results go to ``OUT/<group>/<name>/`` (``group`` None: ``OUT/<name>/``)."""
+
+    file: Path
+    name: str
+    index: int | None = None
+    group: str | None = None
+
+    def out(self, out):
+        return Path(out) / self.group if self.group else Path(out)
+
+
 def _row(path, name, status, exit_code, message=""):
     return {"file": str(path), "scenario": name, "status": status, "exit_code": exit_code, "message": message}
 
 
-def plan(files, variables=None, notes=None):
-    """``(runnable, rows)``: ``[(file, scenario name)]`` to run and the rows of the files that
-    cannot run (invalid or unreadable).  ``notes``: a list the scenarios' notes are appended to.
+def plan(files, variables=None, notes=None, sweeps=None):
+    """``(runnable, rows)``: the :class:`Job` list to run (a sweep's variants one by one) and the
+    rows of the files that cannot run (invalid or unreadable).  ``notes``: a list the scenarios'
+    notes are appended to; ``sweeps``: a dict that gets ``{sweep name: (file, Sweep)}``.
     Never raises."""
-    from orchestration.scenario.load import ScenarioError, load_scenario
+    from orchestration.scenario.load import ScenarioError, load_sweep
 
     runnable, rows = [], []
     for f in files:
         try:
-            sc = load_scenario(f, variables)
-            runnable.append((Path(f).resolve(), sc.name))
+            sc, sweep, variants = load_sweep(f, variables)
+            path = Path(f).resolve()
+            if sweep is None:
+                runnable.append(Job(path, sc.name))
+            else:
+                runnable.extend(Job(path, v.name, v.index, sc.name) for v, _ in variants)
+                if sweeps is not None:
+                    sweeps[sc.name] = (path, sweep)
             if notes is not None:
-                notes.extend(sc.notes)
+                notes.extend(sc.notes if sweep is None else [n for _, vs in variants for n in vs.notes])
         except ScenarioError as exc:
             rows.append(_row(f, Path(f).stem, "invalid", INVALID, " | ".join(str(p) for p in exc.problems)))
         except Exception as exc:  # noqa: BLE001 - a batch reports a file it cannot load, it goes on
@@ -77,15 +104,20 @@ def plan(files, variables=None, notes=None):
 
 
 def duplicates(runnable):
-    """``{name: [files]}`` of the scenario names used by more than one file."""
-    by_name = {}
-    for f, name in runnable:
-        by_name.setdefault(name, []).append(str(f))
+    """``{name: [files]}`` of the results directories (scenario names, sweep names) used by more
+    than one file."""
+    by_name, seen = {}, set()
+    for job in runnable:
+        key = job.group or job.name
+        if job.group and (key, job.file) in seen:
+            continue  # the variants of one sweep share its directory
+        seen.add((key, job.file))
+        by_name.setdefault(key, []).append(str(job.file))
     return {n: fs for n, fs in by_name.items() if len(fs) > 1}
 
 
 def run_one(path, out, fmu_dir, algorithm=None, name=None, should_stop=None, tmpdir=None, variant="python",
-            warm=None):
+            warm=None, sweep_index=None, plot=True):
     """Run one scenario in a child process; returns its summary row (a dict).  Never raises.
 
     ``should_stop``: a function polled while the child runs; when it returns True the child gets
@@ -94,6 +126,7 @@ def run_one(path, out, fmu_dir, algorithm=None, name=None, should_stop=None, tmp
     (:func:`orchestration.cli.commands.main`) to call in a child forked from the warm server
     (:mod:`orchestration.cli.warm_children`; ``tmpdir`` required, it also holds the child's
     output) instead of starting ``python -m orchestration run`` afresh (None); the row is the same.
+    ``sweep_index``: run that variant of the file's sweep (named ``name``); ``plot`` False: no figure.
     """
     path, out, fmu_dir = Path(path).resolve(), Path(out).resolve(), Path(fmu_dir).resolve()
     name = name or path.stem
@@ -105,6 +138,10 @@ def run_one(path, out, fmu_dir, algorithm=None, name=None, should_stop=None, tmp
     if algorithm:
         argv += ["--algorithm", algorithm]
     argv += ["--variant", variant]
+    if sweep_index is not None:
+        argv += ["--sweep-variant", str(sweep_index)]
+    if not plot:
+        argv += ["--no-plot"]
     try:
         if warm:
             from orchestration.cli.warm_children import WarmChild
@@ -191,7 +228,7 @@ def _progress(total):
         return None
 
 
-def _run_local(runnable, out, fmu_dir, jobs, algorithm, stop, done, variant, command):
+def _run_local(runnable, out, fmu_dir, jobs, algorithm, stop, done, variant, command, plot=True):
     # the children extract their FMUs under a directory of ours, removed at the end: even a child
     # killed with SIGKILL (which cannot clean up) leaves nothing in the system's temporary directory
     from orchestration.cli import warm_children
@@ -200,9 +237,9 @@ def _run_local(runnable, out, fmu_dir, jobs, algorithm, stop, done, variant, com
     try:
         with tempfile.TemporaryDirectory(prefix="satmotor-batch-") as tmp, \
                 ThreadPoolExecutor(max_workers=max(1, jobs)) as pool:  # each task runs and watches a child
-            futures = [pool.submit(run_one, f, out, fmu_dir, algorithm, name, lambda: bool(stop.signum), tmp,
-                                   variant, warm)
-                       for f, name in runnable]
+            futures = [pool.submit(run_one, job.file, job.out(out), fmu_dir, algorithm, job.name,
+                                   lambda: bool(stop.signum), tmp, variant, warm, job.index, plot)
+                       for job in runnable]
             for fut in as_completed(futures):
                 done(fut.result())
     finally:
@@ -210,7 +247,7 @@ def _run_local(runnable, out, fmu_dir, jobs, algorithm, stop, done, variant, com
             warm_children.stop_server()
 
 
-def _run_dask(runnable, out, fmu_dir, scheduler, algorithm, stop, done, variant):
+def _run_dask(runnable, out, fmu_dir, scheduler, algorithm, stop, done, variant, plot=True):
     import uuid
 
     from distributed import Client, Event
@@ -218,9 +255,9 @@ def _run_dask(runnable, out, fmu_dir, scheduler, algorithm, stop, done, variant)
     with Client(scheduler) as client:
         event_name = f"satmotor-batch-stop-{uuid.uuid4().hex}"
         event = Event(event_name, client=client)
-        remaining = {client.submit(_dask_task, str(f), str(out), str(fmu_dir), algorithm, name, event_name,
-                                   variant,
-                                   pure=False): (f, name) for f, name in runnable}
+        remaining = {client.submit(_dask_task, str(job.file), str(job.out(out)), str(fmu_dir), algorithm,
+                                   job.name, event_name, variant, job.index, plot,
+                                   pure=False): (job.file, job.name) for job in runnable}
         while remaining:
             if stop.signum and not event.is_set():
                 event.set()  # every task still to start, or running, sees it and stops its child
@@ -234,26 +271,29 @@ def _run_dask(runnable, out, fmu_dir, scheduler, algorithm, stop, done, variant)
                 stop.event.wait(POLL)
 
 
-def _dask_task(path, out, fmu_dir, algorithm, name, event_name, variant):
+def _dask_task(path, out, fmu_dir, algorithm, name, event_name, variant, sweep_index=None, plot=True):
     """``run_one`` on a Dask worker, stopping when the batch's Dask Event is set."""
     from distributed import Event
 
     event = Event(event_name)
-    return run_one(path, out, fmu_dir, algorithm, name, should_stop=event.is_set, variant=variant)
+    return run_one(path, out, fmu_dir, algorithm, name, should_stop=event.is_set, variant=variant,
+                   sweep_index=sweep_index, plot=plot)
 
 
 def run_batch(items, out, fmu_dir, jobs=2, scheduler=None, algorithm=None, stop=None, variant="python",
-              command=None):
+              command=None, plot=True):
     """Run every scenario of ``items``; write ``out/summary.csv``; return the exit code.  ``command``:
     the command-line entry point that warm children call (:mod:`orchestration.cli.warm_children`;
-    the CLI passes its own ``main``); None starts a fresh ``python -m orchestration`` per scenario."""
+    the CLI passes its own ``main``); None starts a fresh ``python -m orchestration`` per scenario.
+    ``plot`` False: no figure (neither the runs' nor the sweeps')."""
     stop = stop or StopRequest()
     files = collect(items)
     if not files:
         print("no scenario files found", file=sys.stderr)
         return INVALID
     notes = []
-    runnable, rows = plan(files, notes=notes)
+    sweeps = {}
+    runnable, rows = plan(files, notes=notes, sweeps=sweeps)
     for note in notes:
         print(note, file=sys.stderr)
     dup = duplicates(runnable)
@@ -271,12 +311,12 @@ def run_batch(items, out, fmu_dir, jobs=2, scheduler=None, algorithm=None, stop=
         print(f"--out {out}: cannot write the results: {exc}", file=sys.stderr)
         return INVALID
     started = set()
-    bar = _progress(len(files))
+    bar = _progress(len(runnable) + len(rows))
     bar and bar.update(len(rows))
 
     def done(row):
         rows.append(row)
-        started.add(row["file"])
+        started.add((row["file"], row["scenario"]))
         bar and bar.update(1)
 
     error = ""
@@ -284,22 +324,39 @@ def run_batch(items, out, fmu_dir, jobs=2, scheduler=None, algorithm=None, stop=
         if runnable:
             fmus.ensure(fmu_dir, quiet=True)  # once, before any child starts
             if scheduler:
-                _run_dask(runnable, out, fmu_dir, scheduler, algorithm, stop, done, variant)
+                _run_dask(runnable, out, fmu_dir, scheduler, algorithm, stop, done, variant, plot)
             else:
-                _run_local(runnable, out, fmu_dir, jobs, algorithm, stop, done, variant, command)
+                _run_local(runnable, out, fmu_dir, jobs, algorithm, stop, done, variant, command, plot)
     except Exception as exc:  # noqa: BLE001 - the summary is written whatever happened
         error = f"the batch failed before running it: {exc!r}"
         print(error, file=sys.stderr)
     finally:
         bar and bar.close()
-        for f, name in runnable:  # what never reported: interrupted, or not run because of the error
-            if str(f) not in started:
-                rows.append(_row(f, name, "failed", 1, error) if error and not stop.signum else
-                            _row(f, name, "interrupted", 0, "no result: the batch was interrupted"))
+        for job in runnable:  # what never reported: interrupted, or not run because of the error
+            if (str(job.file), job.name) not in started:
+                rows.append(_row(job.file, job.name, "failed", 1, error) if error and not stop.signum else
+                            _row(job.file, job.name, "interrupted", 0,
+                                 "no result: the batch was interrupted"))
         _write_summary(rows, out)
+        _write_sweeps(sweeps, rows, out, plot)
     if stop.signum:
         return stop.exit_code
     return max(r["exit_code"] for r in rows)
+
+
+def _write_sweeps(sweeps, rows, out, plot):
+    """Each sweep's table and figure (:mod:`orchestration.results.sweep_table`); a sweep whose table
+    cannot be written is said on stderr, the others are still written."""
+    if not sweeps:
+        return
+    from orchestration.results.sweep_table import write_sweep
+
+    for name, (path, sweep) in sweeps.items():
+        try:
+            written = write_sweep(sweep, rows, Path(out) / name, plot, path)
+            print(f"sweep {name}: {', '.join(map(str, written))}")
+        except Exception as exc:  # noqa: BLE001 - the other sweeps' tables are still written
+            print(f"sweep {name} ({path}): cannot write its table: {exc!r}", file=sys.stderr)
 
 
 def _write_summary(rows, out):

@@ -97,7 +97,7 @@ def cmd_validate(args):
 
 
 def run_file(path, out, fmu_dir, algorithm=None, build=True, plot=True, stop=None,
-             variant=fmus.DEFAULT_VARIANT, engine="fmpy", figure_process=False):
+             variant=fmus.DEFAULT_VARIANT, engine="fmpy", figure_process=False, sweep_index=None):
     """Load, run and write one scenario; returns (exit code, summary dict).
 
     Checked before any FMU runs: the scenario (every problem at once), that ``engine`` can run it
@@ -105,11 +105,13 @@ def run_file(path, out, fmu_dir, algorithm=None, build=True, plot=True, stop=Non
     written.  The time series stream to disk as the run goes; ``stop`` (an
     :class:`orchestration.process.interrupts.StopRequest`) ends the run early with what it has.
     ``figure_process``: draw the figure with a helper process that imports matplotlib while the
-    run steps (:mod:`orchestration.results.figure_process`; used where it gains something)."""
+    run steps (:mod:`orchestration.results.figure_process`; used where it gains something).
+    ``sweep_index``: run that variant of the file's sweep (:mod:`orchestration.scenario.sweep`)
+    instead of the file's own scenario."""
     from orchestration.results.writer import figure_target, prepare_dir, streaming_recorder, write_results
     from orchestration.run.master import run
     from orchestration.run.recorder import FILES
-    from orchestration.scenario.load import ScenarioError, load_scenario
+    from orchestration.scenario.load import ScenarioError, load_scenario, load_variant
 
     def refused(message, name=Path(path).stem):
         return INVALID, {"scenario": name, "file": str(path), "status": "invalid", "message": message}
@@ -117,7 +119,10 @@ def run_file(path, out, fmu_dir, algorithm=None, build=True, plot=True, stop=Non
     try:
         if build:
             fmus.ensure(fmu_dir, quiet=True)
-        sc = load_scenario(path, model_variables(fmu_dir))
+        if sweep_index is None:
+            sc = load_scenario(path, model_variables(fmu_dir))
+        else:
+            sc = load_variant(path, sweep_index, model_variables(fmu_dir))
     except ScenarioError as exc:
         return refused(str(exc))
     except subprocess.CalledProcessError as exc:
@@ -176,7 +181,8 @@ def cmd_run(args):
         variant = args.variant or ("native" if args.engine == "libcosim" else fmus.DEFAULT_VARIANT)
         code, s = run_file(args.scenario, args.out, args.fmus, args.algorithm, build=not args.no_build,
                            variant=variant, engine=args.engine,
-                           plot=not args.no_plot, stop=stop, figure_process=True)
+                           plot=not args.no_plot, stop=stop, figure_process=True,
+                           sweep_index=args.sweep_variant)
     if s.get("status") == "invalid":
         print(s["message"], file=sys.stderr)
         return code
@@ -201,7 +207,7 @@ def cmd_batch(args):
     with catch() as stop:
         return run_batch(args.scenarios, args.out, args.fmus, jobs=args.jobs, scheduler=args.scheduler,
                          algorithm=args.algorithm, stop=stop, variant=args.variant or fmus.DEFAULT_VARIANT,
-                         command=main)
+                         command=main, plot=not args.no_plot)
 
 
 def cmd_check(args):
@@ -304,16 +310,22 @@ def parser(prog="satmotor-cosim"):
     common(r)
     r.add_argument("--no-build", action="store_true", help="do not build the FMUs, use them as they are")
     r.add_argument("--no-plot", action="store_true", help="skip the figure")
+    r.add_argument("--sweep-variant", type=int, metavar="I",
+                   help="run variant I (from 0) of the file's sweep: section (batch runs them all); "
+                   "without it, run runs the file's own scenario")
     r.add_argument("--engine", choices=("fmpy", "libcosim"), default="fmpy",
                    help="co-simulation engine: fmpy (our master, default) or libcosim (OSP's C++ engine, "
                    "Jacobi coupling, FMI 2.0 FMUs; see orchestration/run/libcosim_engine.py)")
     r.set_defaults(func=cmd_run)
     ba = sub.add_parser("batch", help="run many scenarios in parallel", description="Run every scenario "
-                        "(files, or the *.yaml of directories), one process each; a summary table of the "
-                        "metrics goes to OUT/summary.csv and the screen.")
+                        "(files, or the *.yaml of directories), one process each, and every variant of a "
+                        "file's sweep: section; a summary table of the metrics goes to OUT/summary.csv and "
+                        "the screen, a sweep's table and figure to OUT/<sweep name>/sweep.{csv,parquet,png}.")
     ba.add_argument("scenarios", nargs="+", help="scenario files or directories")
     common(ba)
     ba.add_argument("--jobs", type=int, default=2, help="parallel processes (default 2)")
+    ba.add_argument("--no-plot", action="store_true",
+                    help="no figure: neither the runs' nor the sweeps' (the tables are written)")
     ba.add_argument("--scheduler", help="address of a Dask distributed scheduler (e.g. tcp://host:8786); "
                     "the workers must see the same files")
     ba.set_defaults(func=cmd_batch)

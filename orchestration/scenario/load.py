@@ -56,7 +56,7 @@ from orchestration.scenario.profiles import Constant, parse_profile
 from orchestration.scenario.system import Measurements
 
 __all__ = ["Problem", "Note", "ScenarioError", "Acceptance", "Record", "Scenario", "Measurements",
-           "load_scenario", "load_sweep", "validate_scenario_file", "check_scenario_file",
+           "load_scenario", "load_sweep", "load_variant", "validate_scenario_file", "check_scenario_file",
            "interface_variables", "motor_variables", "ALGORITHMS", "PROFILE_NAMES"]
 
 ALGORITHMS = ("gauss-seidel", "jacobi")
@@ -466,6 +466,25 @@ def load_sweep(path, variables=None):
     if problems:
         raise ScenarioError(problems, str(path))
     return sc, sweep, variants
+
+
+def load_variant(path, index, variables=None):
+    """The :class:`Scenario` of variant ``index`` of the sweep of the scenario file ``path`` (only
+    that variant checked: the batch that runs it has checked them all); raises
+    :class:`ScenarioError` (a file without a sweep, an index out of range: one problem)."""
+    from orchestration.scenario.sweep import expand
+
+    data, problems = _read(path)
+    if not problems:
+        sweep, problems = expand(data, str(path))
+        if not problems and (sweep is None or not 0 <= index < len(sweep.variants)):
+            count = len(sweep.variants) if sweep else 0
+            problems = [Problem(str(path), "sweep", index, f"no variant {index}: the file has {count}")]
+        if not problems:
+            sc, problems = _check(sweep.variants[index].data, str(path), variables)
+    if problems:
+        raise ScenarioError(problems, str(path))
+    return sc
 
 
 def check_scenario_file(path, variables=None):
