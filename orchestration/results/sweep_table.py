@@ -15,6 +15,7 @@ from __future__ import annotations
 import json
 import math
 import os
+import textwrap
 from pathlib import Path
 
 __all__ = ["FILES", "sweep_frame", "write_sweep", "figure"]
@@ -66,6 +67,7 @@ def sweep_frame(sweep, rows, directory, file=None):
 
 
 def _replace(path, write):
+    path = Path(path)
     tmp = path.with_name(f".{path.name}.tmp{os.getpid()}")
     try:
         write(tmp)
@@ -90,6 +92,11 @@ def write_sweep(sweep, rows, directory, plot=True, file=None):
     return paths
 
 
+def sweep_name(df):
+    """The sweep's name: its variants' names without the index."""
+    return str(df["variant"].iloc[0]).rpartition("-")[0] if len(df) else ""
+
+
 def _finite(values):
     return [x for x in values if isinstance(x, (int, float)) and math.isfinite(x)]
 
@@ -100,8 +107,13 @@ def figure(df, sweep, path):
     value (nothing to draw)."""
     skip = {"variant", "index", *sweep.parameters, *ROW_KEYS, "wall_time", "message"}
     metrics = [c for c in df.columns if c not in skip and _finite(df[c].tolist())]
+    same = [m for m in metrics if len(set(_finite(df[m].tolist()))) == 1]  # said in the title, not drawn
+    metrics = [m for m in metrics if m not in same] or metrics
     if not metrics:
         return False
+    said = f"the same in every variant: {', '.join(same)}" if same and metrics != same else ""
+    width = 3.4 * len(sweep.parameters) if sweep.kind == "grid" else 3.2 * min(4, len(metrics))
+    said = "\n" + textwrap.fill(said, int(width * 13)) if said else ""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -118,8 +130,8 @@ def figure(df, sweep, path):
         for ax in list(axes.flat)[len(metrics):]:
             ax.axis("off")
         varied = ", ".join(sweep.parameters)
-        fig.suptitle(f"{len(df)} draws (seed {sweep.seed}) of {varied}: the metrics' distributions",
-                     fontsize=10)
+        fig.suptitle(f"{sweep_name(df)}: {len(df)} draws (seed {sweep.seed}) of {varied}: the metrics' "
+                     f"distributions{said}", fontsize=10)
     else:
         ncol = len(sweep.parameters)
         fig, axes = plt.subplots(len(metrics), ncol, figsize=(3.4 * ncol, 1.9 * len(metrics)), squeeze=False)
@@ -133,8 +145,9 @@ def figure(df, sweep, path):
                 if i == len(metrics) - 1:
                     ax.set_xlabel(p, fontsize=9)
                 ax.tick_params(labelsize=7)
-        fig.suptitle(f"{len(df)} variants: each metric against each varied parameter", fontsize=10)
-    fig.tight_layout()
+        fig.suptitle(f"{sweep_name(df)}: {len(df)} variants, each metric against each varied parameter{said}",
+                     fontsize=10)
+    fig.tight_layout(rect=(0, 0, 1, 1 - (0.3 + 0.17 * said.count(chr(10))) / fig.get_figheight()))
     _replace(path, lambda p: fig.savefig(p, dpi=90, format="png"))
     plt.close(fig)
     return True
