@@ -45,7 +45,7 @@ from orchestration.process.interrupts import PARENT_ENV, StopRequest, signal_nam
 
 SUMMARY_METRICS = ("iae_speed", "iae_flux", "ss_speed", "ss_flux", "overshoot_speed", "settling_time_speed",
                    "peak_current", "peak_voltage", "min_W")
-INVALID = 2
+INVALID, NOT_ACCEPTED = 2, 3
 POLL = 0.2  # [s] how often a waiting batch looks for a stop request
 GRACE = 30.0  # [s] a child has to write its partial results after SIGTERM before it is killed
 
@@ -60,16 +60,43 @@ def collect(items):
 
 
 class Job(NamedTuple):
-    """One run of a batch: a scenario file, or one variant (``index``) of a file's sweep, whose
-    results go to ``OUT/<group>/<name>/`` (``group`` None: ``OUT/<name>/``)."""
+    """What one child process of a batch runs: a scenario file (``indexes`` None), or variants
+    ``indexes`` of a file's sweep, one after the other; the results of each go to
+    ``OUT/<group>/<name>/`` (``group`` None: ``OUT/<name>/``)."""
 
     file: Path
-    name: str
-    index: int | None = None
+    names: tuple
+    indexes: tuple | None = None
     group: str | None = None
 
     def out(self, out):
         return Path(out) / self.group if self.group else Path(out)
+
+
+#: most variants of a sweep one child process runs (native FMUs only: a pythonfmu FMU needs a process
+#: of its own); fewer when that leaves a job count's processes without work
+MAX_VARIANTS_PER_CHILD = 16
+
+
+def grouped(runnable, jobs, variant):
+    """``runnable`` with the consecutive variants of each sweep joined into jobs of up to
+    :data:`MAX_VARIANTS_PER_CHILD` (about four jobs per process), for the native FMUs; unchanged
+    for the pythonfmu ones."""
+    if variant == "python":
+        return list(runnable)
+    out, sweeps = [], {}
+    for job in runnable:
+        if job.indexes is None:
+            out.append(job)
+        else:
+            sweeps.setdefault((job.file, job.group), []).append(job)
+    for (file, group), js in sweeps.items():
+        size = max(1, min(MAX_VARIANTS_PER_CHILD, -(-len(js) // (4 * max(1, jobs)))))
+        for i in range(0, len(js), size):
+            part = js[i:i + size]
+            out.append(Job(file, tuple(n for j in part for n in j.names),
+                           tuple(k for j in part for k in j.indexes), group))
+    return out
 
 
 def _row(path, name, status, exit_code, message=""):
@@ -89,9 +116,9 @@ def plan(files, variables=None, notes=None, sweeps=None):
             sc, sweep, variants = load_sweep(f, variables)
             path = Path(f).resolve()
             if sweep is None:
-                runnable.append(Job(path, sc.name))
+                runnable.append(Job(path, (sc.name,)))
             else:
-                runnable.extend(Job(path, v.name, v.index, sc.name) for v, _ in variants)
+                runnable.extend(Job(path, (v.name,), (v.index,), sc.name) for v, _ in variants)
                 if sweeps is not None:
                     sweeps[sc.name] = (path, sweep)
             if notes is not None:
@@ -108,7 +135,7 @@ def duplicates(runnable):
     than one file."""
     by_name, seen = {}, set()
     for job in runnable:
-        key = job.group or job.name
+        key = job.group or job.names[0]
         if job.group and (key, job.file) in seen:
             continue  # the variants of one sweep share its directory
         seen.add((key, job.file))
@@ -128,18 +155,30 @@ def run_one(path, out, fmu_dir, algorithm=None, name=None, should_stop=None, tmp
     output) instead of starting ``python -m orchestration run`` afresh (None); the row is the same.
     ``sweep_index``: run that variant of the file's sweep (named ``name``); ``plot`` False: no figure.
     """
+    name = name or Path(path).stem
+    return run_variants(path, out, fmu_dir, algorithm, [name], None if sweep_index is None else [sweep_index],
+                        should_stop, tmpdir, variant, warm, plot)[0]
+
+
+def run_variants(path, out, fmu_dir, algorithm=None, names=(), indexes=None, should_stop=None, tmpdir=None,
+                 variant="python", warm=None, plot=True):
+    """Run the scenario file ``path`` (``indexes`` None, ``names`` its one name), or the variants
+    ``indexes`` of its sweep (named ``names``) one after the other, in one child process; returns
+    a row per name.  Never raises.  The other arguments as for :func:`run_one`.  A variant the
+    child did not finish is a row saying why: killed (by what), interrupted, or not started."""
     path, out, fmu_dir = Path(path).resolve(), Path(out).resolve(), Path(fmu_dir).resolve()
-    name = name or path.stem
+    names = list(names)
     if should_stop and should_stop():
-        return _row(path, name, "interrupted", 0, "not started: the batch was interrupted")
-    metrics = out / name / "metrics.json"
-    metrics.unlink(missing_ok=True)  # a child that dies early must not leave an old row to read
+        return [_row(path, n, "interrupted", 0, "not started: the batch was interrupted") for n in names]
+    files = [out / n / "metrics.json" for n in names]
+    for f in files:
+        f.unlink(missing_ok=True)  # a child that dies early must not leave an old row to read
     argv = ["run", str(path), "--out", str(out), "--fmus", str(fmu_dir), "--no-build"]
     if algorithm:
         argv += ["--algorithm", algorithm]
     argv += ["--variant", variant]
-    if sweep_index is not None:
-        argv += ["--sweep-variant", str(sweep_index)]
+    if indexes is not None:
+        argv += ["--sweep-variant", ",".join(map(str, indexes))]
     if not plot:
         argv += ["--no-plot"]
     try:
@@ -150,7 +189,7 @@ def run_one(path, out, fmu_dir, algorithm=None, name=None, should_stop=None, tmp
         else:
             child = _FreshChild(argv, tmpdir)
     except OSError as exc:
-        return _row(path, name, "failed", 1, f"cannot start the child process: {exc}")
+        return [_row(path, n, "failed", 1, f"cannot start the child process: {exc}") for n in names]
     stopped = False
     while not child.wait(POLL):
         if should_stop and should_stop():
@@ -161,7 +200,30 @@ def run_one(path, out, fmu_dir, algorithm=None, name=None, should_stop=None, tmp
                 child.wait(None)
             break
     stdout, stderr = child.output()
-    return _child_row(path, name, child.returncode, stdout, stderr, metrics, stopped)
+    if len(names) == 1:
+        return [_child_row(path, names[0], child.returncode, stdout, stderr, files[0], stopped)]
+    return [_variant_row(path, n, child.returncode, stdout, stderr, f, stopped) for n, f in zip(names, files)]
+
+
+def _variant_row(path, name, rc, stdout, stderr, metrics, stopped):
+    """The row of one of several variants a child ran: from its own results when it finished
+    (its exit code from its status), else as :func:`_child_row` says of the child, or not started."""
+    try:
+        summary = json.loads(metrics.read_text())
+    except FileNotFoundError:
+        if stopped:
+            return _row(path, name, "interrupted", 0, "not started: the batch was interrupted")
+        why = f"killed by {signal_name(-rc)}" if rc < 0 else f"ended (exit {rc})"
+        return _row(path, name, "failed", 128 - rc if rc < 0 else max(rc, 1),
+                    f"not run: the child process {why} before this variant")
+    except (OSError, ValueError):
+        summary = None
+    if summary is None or summary.get("status") in ("running", "invalid"):
+        return _child_row(path, name, rc if rc else 1, stdout, stderr, metrics, stopped)
+    status = summary.get("status")
+    code = (NOT_ACCEPTED if summary.get("accepted") is False else 0) if status == "ok" else (
+        rc if status == "interrupted" else 1)
+    return _child_row(path, name, code, "", "", metrics, stopped)
 
 
 class _FreshChild:
@@ -237,11 +299,12 @@ def _run_local(runnable, out, fmu_dir, jobs, algorithm, stop, done, variant, com
     try:
         with tempfile.TemporaryDirectory(prefix="satmotor-batch-") as tmp, \
                 ThreadPoolExecutor(max_workers=max(1, jobs)) as pool:  # each task runs and watches a child
-            futures = [pool.submit(run_one, job.file, job.out(out), fmu_dir, algorithm, job.name,
-                                   lambda: bool(stop.signum), tmp, variant, warm, job.index, plot)
+            futures = [pool.submit(run_variants, job.file, job.out(out), fmu_dir, algorithm, job.names,
+                                   job.indexes, lambda: bool(stop.signum), tmp, variant, warm, plot)
                        for job in runnable]
             for fut in as_completed(futures):
-                done(fut.result())
+                for row in fut.result():
+                    done(row)
     finally:
         if warm is not None:
             warm_children.stop_server()
@@ -256,28 +319,31 @@ def _run_dask(runnable, out, fmu_dir, scheduler, algorithm, stop, done, variant,
         event_name = f"satmotor-batch-stop-{uuid.uuid4().hex}"
         event = Event(event_name, client=client)
         remaining = {client.submit(_dask_task, str(job.file), str(job.out(out)), str(fmu_dir), algorithm,
-                                   job.name, event_name, variant, job.index, plot,
-                                   pure=False): (job.file, job.name) for job in runnable}
+                                   job.names, event_name, variant, job.indexes, plot,
+                                   pure=False): job for job in runnable}
         while remaining:
             if stop.signum and not event.is_set():
                 event.set()  # every task still to start, or running, sees it and stops its child
             for fut in [f for f in remaining if f.done()]:
-                f, name = remaining.pop(fut)
+                job = remaining.pop(fut)
                 try:
-                    done(fut.result())
+                    rows = fut.result()
                 except Exception as exc:  # noqa: BLE001 - a lost worker is a failed row
-                    done(_row(f, name, "failed", 1, f"the Dask task failed: {exc!r}"))
+                    rows = [_row(job.file, n, "failed", 1, f"the Dask task failed: {exc!r}")
+                            for n in job.names]
+                for row in rows:
+                    done(row)
             if remaining:
                 stop.event.wait(POLL)
 
 
-def _dask_task(path, out, fmu_dir, algorithm, name, event_name, variant, sweep_index=None, plot=True):
-    """``run_one`` on a Dask worker, stopping when the batch's Dask Event is set."""
+def _dask_task(path, out, fmu_dir, algorithm, names, event_name, variant, indexes=None, plot=True):
+    """``run_variants`` on a Dask worker, stopping when the batch's Dask Event is set."""
     from distributed import Event
 
     event = Event(event_name)
-    return run_one(path, out, fmu_dir, algorithm, name, should_stop=event.is_set, variant=variant,
-                   sweep_index=sweep_index, plot=plot)
+    return run_variants(path, out, fmu_dir, algorithm, names, indexes, should_stop=event.is_set,
+                        variant=variant, plot=plot)
 
 
 def run_batch(items, out, fmu_dir, jobs=2, scheduler=None, algorithm=None, stop=None, variant="python",
@@ -312,6 +378,7 @@ def run_batch(items, out, fmu_dir, jobs=2, scheduler=None, algorithm=None, stop=
         return INVALID
     started = set()
     bar = _progress(len(runnable) + len(rows))
+    runnable = grouped(runnable, jobs, variant)
     bar and bar.update(len(rows))
 
     def done(row):
@@ -333,10 +400,11 @@ def run_batch(items, out, fmu_dir, jobs=2, scheduler=None, algorithm=None, stop=
     finally:
         bar and bar.close()
         for job in runnable:  # what never reported: interrupted, or not run because of the error
-            if (str(job.file), job.name) not in started:
-                rows.append(_row(job.file, job.name, "failed", 1, error) if error and not stop.signum else
-                            _row(job.file, job.name, "interrupted", 0,
-                                 "no result: the batch was interrupted"))
+            for name in job.names:
+                if (str(job.file), name) not in started:
+                    rows.append(_row(job.file, name, "failed", 1, error) if error and not stop.signum else
+                                _row(job.file, name, "interrupted", 0,
+                                     "no result: the batch was interrupted"))
         _write_summary(rows, out)
         _write_sweeps(sweeps, rows, out, plot)
     if stop.signum:

@@ -97,7 +97,8 @@ def cmd_validate(args):
 
 
 def run_file(path, out, fmu_dir, algorithm=None, build=True, plot=True, stop=None,
-             variant=fmus.DEFAULT_VARIANT, engine="fmpy", figure_process=False, sweep_index=None):
+             variant=fmus.DEFAULT_VARIANT, engine="fmpy", figure_process=False, sweep_index=None,
+             shared=None):
     """Load, run and write one scenario; returns (exit code, summary dict).
 
     Checked before any FMU runs: the scenario (every problem at once), that ``engine`` can run it
@@ -107,7 +108,8 @@ def run_file(path, out, fmu_dir, algorithm=None, build=True, plot=True, stop=Non
     ``figure_process``: draw the figure with a helper process that imports matplotlib while the
     run steps (:mod:`orchestration.results.figure_process`; used where it gains something).
     ``sweep_index``: run that variant of the file's sweep (:mod:`orchestration.scenario.sweep`)
-    instead of the file's own scenario."""
+    instead of the file's own scenario.  ``shared``: a :class:`SharedFMUs` (the FMUs extracted and
+    their variables read once for several runs of one process), or None."""
     from orchestration.results.writer import figure_target, prepare_dir, streaming_recorder, write_results
     from orchestration.run.master import run
     from orchestration.run.recorder import FILES
@@ -119,10 +121,11 @@ def run_file(path, out, fmu_dir, algorithm=None, build=True, plot=True, stop=Non
     try:
         if build:
             fmus.ensure(fmu_dir, quiet=True)
+        variables = shared.variables if shared is not None else model_variables(fmu_dir)
         if sweep_index is None:
-            sc = load_scenario(path, model_variables(fmu_dir))
+            sc = load_scenario(path, variables)
         else:
-            sc = load_variant(path, sweep_index, model_variables(fmu_dir))
+            sc = load_variant(path, sweep_index, variables)
     except ScenarioError as exc:
         return refused(str(exc))
     except subprocess.CalledProcessError as exc:
@@ -154,8 +157,9 @@ def run_file(path, out, fmu_dir, algorithm=None, build=True, plot=True, stop=Non
         except OSError:  # no fork today: the figure is drawn here
             helper = None
     try:
-        result = run(sc, str(plant), str(ctrl), algorithm=algorithm, stop=stop,
-                     recorder=streaming_recorder(sc, directory, on_parquet=helper and helper.parquet_done))
+        extra = {"unzip_dirs": shared.dirs} if shared is not None and engine == "fmpy" else {}
+        recorder = streaming_recorder(sc, directory, on_parquet=helper and helper.parquet_done)
+        result = run(sc, str(plant), str(ctrl), algorithm=algorithm, stop=stop, recorder=recorder, **extra)
         summary = write_results(result, out, plot=plot, draw=helper and helper.draw)
     finally:
         if helper is not None:
@@ -165,6 +169,41 @@ def run_file(path, out, fmu_dir, algorithm=None, build=True, plot=True, stop=Non
     if not result.ok:
         return RUN_FAILED, summary
     return (NOT_ACCEPTED if summary["accepted"] is False else OK), summary
+
+
+class SharedFMUs:
+    """The two FMUs of ``variant`` extracted once, and their variables read once, for the runs of
+    one process (several variants of a sweep: :func:`cmd_run`); :meth:`close` removes the copies."""
+
+    def __init__(self, fmu_dir, variant):
+        from orchestration.run.fmu_instance import extract_owned
+
+        self.dirs = []
+        try:
+            for p in fmus.paths(fmu_dir, variant):
+                self.dirs.append(extract_owned(p))
+            self.variables = model_variables(fmu_dir)
+        except BaseException:
+            self.close()
+            raise
+
+    def close(self):
+        from orchestration.run.fmu_instance import remove_extracted
+
+        for d in self.dirs:
+            remove_extracted(d)
+        self.dirs = []
+
+
+def indexes(text):
+    """``--sweep-variant``: ``I`` or ``I,J,...`` (integers >= 0) -> a list."""
+    try:
+        out = [int(x) for x in text.split(",")]
+    except ValueError:
+        out = []
+    if not out or min(out) < 0:
+        raise argparse.ArgumentTypeError(f"{text!r}: an index I >= 0, or indexes I,J,...")
+    return out
 
 
 def cmd_run(args):
@@ -177,27 +216,45 @@ def cmd_run(args):
             print(missing, file=sys.stderr)
             return RUN_FAILED
     die_with_parent()
+    code, several = OK, len(args.sweep_variant or ()) > 1
     with catch() as stop:
         variant = args.variant or ("native" if args.engine == "libcosim" else fmus.DEFAULT_VARIANT)
-        code, s = run_file(args.scenario, args.out, args.fmus, args.algorithm, build=not args.no_build,
-                           variant=variant, engine=args.engine,
-                           plot=not args.no_plot, stop=stop, figure_process=True,
-                           sweep_index=args.sweep_variant)
+        shared = None
+        try:
+            if several and args.engine == "fmpy":  # several variants: the FMUs extracted once
+                if not args.no_build:
+                    fmus.ensure(args.fmus, quiet=True)
+                shared = SharedFMUs(args.fmus, variant)
+            for index in args.sweep_variant or [None]:
+                if stop.signum:  # the variants not started have no results: the batch says so
+                    break
+                c, s = run_file(args.scenario, args.out, args.fmus, args.algorithm, build=not args.no_build,
+                                variant=variant, engine=args.engine, plot=not args.no_plot, stop=stop,
+                                figure_process=not several, sweep_index=index, shared=shared)
+                code = max(code, c) if not stop.signum else stop.exit_code
+                _say(s, args.out)
+        finally:
+            if shared is not None:
+                shared.close()
+    return code
+
+
+def _say(s, out):
+    """What ``run`` prints of one run's summary ``s``."""
     if s.get("status") == "invalid":
         print(s["message"], file=sys.stderr)
-        return code
+        return
     for note in s.get("notes") or ():
         print(note, file=sys.stderr)
     held = f", {s['setpoints']}" if s.get("holds_setpoints") is False else ""
     print(f"{s['scenario']}: {s['status']}" + (f" ({s['message']})" if s["message"] else "") + held
-          + f", {s['rows']} rows, {s['wall_time']:.2f} s wall, results in {Path(args.out) / s['scenario']}")
+          + f", {s['rows']} rows, {s['wall_time']:.2f} s wall, results in {Path(out) / s['scenario']}")
     if s.get("setpoints") and not held:
         print(f"  {s['setpoints']}")
     for key, v in (s.get("metrics") or {}).items():
         print(f"  {key:27s} {v:.6g}")
     for key, v in (s.get("acceptance") or {}).items():
         print(f"  accept {key:20s} {v['value']:.4g} <= {v['limit']:.4g}: {'pass' if v['pass'] else 'FAIL'}")
-    return code
 
 
 def cmd_batch(args):
@@ -310,9 +367,10 @@ def parser(prog="satmotor-cosim"):
     common(r)
     r.add_argument("--no-build", action="store_true", help="do not build the FMUs, use them as they are")
     r.add_argument("--no-plot", action="store_true", help="skip the figure")
-    r.add_argument("--sweep-variant", type=int, metavar="I",
-                   help="run variant I (from 0) of the file's sweep: section (batch runs them all); "
-                   "without it, run runs the file's own scenario")
+    r.add_argument("--sweep-variant", type=indexes, metavar="I[,J,...]",
+                   help="run variant I (from 0) of the file's sweep: section, or variants I, J, ... one "
+                   "after the other in this process (batch runs them all); without it, run runs the "
+                   "file's own scenario")
     r.add_argument("--engine", choices=("fmpy", "libcosim"), default="fmpy",
                    help="co-simulation engine: fmpy (our master, default) or libcosim (OSP's C++ engine, "
                    "Jacobi coupling, FMI 2.0 FMUs; see orchestration/run/libcosim_engine.py)")
