@@ -157,7 +157,8 @@ def run_file(path, out, fmu_dir, algorithm=None, build=True, plot=True, stop=Non
         except OSError:  # no fork today: the figure is drawn here
             helper = None
     try:
-        extra = {"unzip_dirs": shared.dirs} if shared is not None and engine == "fmpy" else {}
+        extra = ({"unzip_dirs": shared.dirs, "descriptions": shared.descriptions}
+                 if shared is not None and engine == "fmpy" else {})
         recorder = streaming_recorder(sc, directory, on_parquet=helper and helper.parquet_done)
         result = run(sc, str(plant), str(ctrl), algorithm=algorithm, stop=stop, recorder=recorder, **extra)
         summary = write_results(result, out, plot=plot, draw=helper and helper.draw)
@@ -172,17 +173,23 @@ def run_file(path, out, fmu_dir, algorithm=None, build=True, plot=True, stop=Non
 
 
 class SharedFMUs:
-    """The two FMUs of ``variant`` extracted once, and their variables read once, for the runs of
-    one process (several variants of a sweep: :func:`cmd_run`); :meth:`close` removes the copies."""
+    """The two FMUs of ``variant`` extracted once, and their model descriptions read once, for the
+    runs of one process (several variants of a sweep: :func:`cmd_run`); :meth:`close` removes the
+    copies.  ``variables``: as :func:`model_variables` gives them."""
 
     def __init__(self, fmu_dir, variant):
+        from fmpy import read_model_description
+
         from orchestration.run.fmu_instance import extract_owned
 
         self.dirs = []
         try:
-            for p in fmus.paths(fmu_dir, variant):
+            paths = fmus.paths(fmu_dir, variant)
+            for p in paths:
                 self.dirs.append(extract_owned(p))
-            self.variables = model_variables(fmu_dir)
+            self.descriptions = [read_model_description(str(p)) for p in paths]
+            self.variables = {unit: {v.name: (v.causality, v.type) for v in md.modelVariables}
+                              for unit, md in zip(("plant", "controller"), self.descriptions)}
         except BaseException:
             self.close()
             raise

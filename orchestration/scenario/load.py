@@ -479,7 +479,7 @@ def load_variant(path, index, variables=None):
 
     data, problems = _read(path)
     if not problems:
-        sweep, problems = expand(data, str(path))
+        sweep, problems = expand(data, str(path), only=index)
         if not problems and (sweep is None or not 0 <= index < len(sweep.variants)):
             count = len(sweep.variants) if sweep else 0
             problems = [Problem(str(path), "sweep", index, f"no variant {index}: the file has {count}")]

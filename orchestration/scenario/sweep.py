@@ -60,7 +60,7 @@ class Variant:
     index: int
     name: str
     values: tuple  # ((path, value), ...) in the order of Sweep.parameters
-    data: dict  # the parsed YAML of this variant, a scenario file without ``sweep:``
+    data: dict | None  # the parsed YAML of this variant, a scenario file without ``sweep:``
 
 
 @dataclass(frozen=True)
@@ -217,10 +217,11 @@ def _locate(chk, data, path, tables):
     return setter, spec.get(key)
 
 
-def parse_sweep(raw, data, file, tables=None):
+def parse_sweep(raw, data, file, tables=None, only=None):
     """``(Sweep or None, problems)`` of the ``sweep:`` mapping ``raw`` of the scenario mapping
     ``data`` (from ``file``).  ``tables``: ``{section: {parameter name: default}}`` of the paths
-    allowed (default: the FMUs' variable tables)."""
+    allowed (default: the FMUs' variable tables).  ``only``: an index; the other variants get no
+    mapping (``data`` None: the run of one variant copies the file's mapping once, not per variant)."""
     chk = Checker(file)
     tables = tables if tables is not None else _unit_tables()
     if not chk.mapping(raw, "sweep", ("parameters",), ("samples", "seed")):
@@ -274,8 +275,11 @@ def parse_sweep(raw, data, file, tables=None):
     width = len(str(len(rows) - 1))
     variants = []
     for i, values in enumerate(rows):
-        d = copy.deepcopy(base)
         name = f"{data.get('name')}-{i:0{width}d}"
+        if only is not None and i != only:
+            variants.append(Variant(i, name, tuple(zip(paths, values)), None))
+            continue
+        d = copy.deepcopy(base)
         d["name"] = name
         for p, v in zip(paths, values):
             located[p][0](d, v)
@@ -288,9 +292,9 @@ def parse_sweep(raw, data, file, tables=None):
     return Sweep("montecarlo" if montecarlo else "grid", paths, tuple(variants), seed), []
 
 
-def expand(data, file, tables=None):
+def expand(data, file, tables=None, only=None):
     """``(Sweep or None, problems)`` of the scenario mapping ``data``: None without a ``sweep:``
-    section (and no problem)."""
+    section (and no problem).  ``only``: as for :func:`parse_sweep`."""
     if not isinstance(data, dict) or "sweep" not in data:
         return None, []
-    return parse_sweep(data["sweep"], data, file, tables)
+    return parse_sweep(data["sweep"], data, file, tables, only)
