@@ -198,8 +198,9 @@ class MetricsOnly(Recorder):
     """Level ``metrics``: every chunk goes to the ``observer`` (the metrics computed as the run
     goes) and is dropped: nothing on disk, nothing kept; :meth:`arrays` is empty."""
 
-    def _write(self, chunk):
-        pass
+    def _chunk_array(self):
+        super()._chunk_array()  # the observer sees the chunk
+        return np.empty((0, len(self.columns)))  # nothing kept
 
     def arrays(self, columns=None):
         return {c: np.empty(0) for c in (self.columns if columns is None else columns)}
