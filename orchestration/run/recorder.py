@@ -202,7 +202,8 @@ class MetricsOnly(Recorder):
     folded in (5 % less CPU per run than 20 000-row chunks, measured on the default scenario)."""
 
     def __init__(self, columns, keep=None, chunk_rows=None, observer=None, every=1):
-        super().__init__(columns, keep, METRICS_CHUNK_ROWS if chunk_rows is None else chunk_rows, observer, every)
+        chunk_rows = METRICS_CHUNK_ROWS if chunk_rows is None else chunk_rows
+        super().__init__(columns, keep, chunk_rows, observer, every)
 
     def _chunk_array(self):
         super()._chunk_array()  # the observer sees the chunk
