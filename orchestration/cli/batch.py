@@ -183,9 +183,9 @@ def run_variants(path, out, fmu_dir, algorithm=None, names=(), indexes=None, sho
         argv += ["--no-plot"]
     try:
         if warm:
-            from orchestration.cli.warm_children import WarmChild
+            from orchestration.cli.warm_children import WarmChild, preload
 
-            child = WarmChild(warm, argv, tmpdir, tmpdir)
+            child = WarmChild(warm, argv, tmpdir, tmpdir, preload(plot, variant == "python"))
         else:
             child = _FreshChild(argv, tmpdir)
     except OSError as exc:
