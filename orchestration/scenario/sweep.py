@@ -170,18 +170,19 @@ def _distribution(chk, spec, where, nominal):
     return kind, a, b
 
 
-def _locate(chk, data, path, tables):
+def _locate(chk, data, path, tables, spec=None):
     """``(setter, nominal)`` of ``path`` in ``data`` (a function writing a value into a copy of the
-    mapping, and the value there now), or None after recording why the path is refused."""
+    mapping, and the value there now), or None after recording why the path is refused (the
+    problem's value: ``spec``, what the file says to vary it over)."""
     section, _, rest = path.partition(".") if isinstance(path, str) else ("", "", "")
     if section in ("motor", "plant", "controller"):
         table = tables.get(section, {})
         if rest not in table:
-            chk.add(f"sweep.parameters.{path}", MISSING if not rest else path,
-                    f"not a {section} parameter; {section}: " + ", ".join(sorted(table)))
+            chk.add(f"sweep.parameters.{path}", spec, f"{rest!r} is not a {section} parameter; {section}: "
+                    + ", ".join(sorted(table)))
             return None
         if section == "controller" and rest == "Ts":
-            chk.add(f"sweep.parameters.{path}", path, "Ts is step * controller_every: vary those instead")
+            chk.add(f"sweep.parameters.{path}", spec, "Ts is step * controller_every: vary those instead")
             return None
         own = data.get(section) if isinstance(data.get(section), dict) else {}
         motor = data.get("motor") if isinstance(data.get("motor"), dict) else {}
@@ -195,7 +196,7 @@ def _locate(chk, data, path, tables):
         return setter, nominal
     m = _PROFILE_PATH.fullmatch(path) if isinstance(path, str) else None
     if m is None:
-        chk.add(f"sweep.parameters.{path}", path, "a parameter path is motor.NAME, plant.NAME, "
+        chk.add(f"sweep.parameters.{path}", spec, "a parameter path is motor.NAME, plant.NAME, "
                 "controller.NAME, profiles.PROFILE.KEY or profiles.PROFILE[i].KEY")
         return None
     name, index, key = m.group(1), m.group(2), m.group(3)
@@ -206,7 +207,7 @@ def _locate(chk, data, path, tables):
     elif isinstance(spec, list):
         spec = None
     if not isinstance(spec, dict):
-        chk.add(f"sweep.parameters.{path}", path, f"the scenario defines no profile {name}"
+        chk.add(f"sweep.parameters.{path}", spec, f"the scenario defines no profile {name}"
                 + (f"[{index}]" if index is not None else "") + " mapping to vary (a summed profile: "
                 "profiles.NAME[i].KEY)")
         return None
@@ -246,7 +247,7 @@ def parse_sweep(raw, data, file, tables=None, only=None):
     located, specs = {}, {}
     for path, spec in params.items():
         where = f"sweep.parameters.{path}"
-        found = _locate(chk, data, path, tables)
+        found = _locate(chk, data, path, tables, spec)
         if found is None:
             continue
         located[path] = found
