@@ -110,6 +110,7 @@ def run_file(path, out, fmu_dir, algorithm=None, build=True, plot=True, stop=Non
     ``sweep_index``: run that variant of the file's sweep (:mod:`orchestration.scenario.sweep`)
     instead of the file's own scenario.  ``shared``: a :class:`SharedFMUs` (the FMUs extracted and
     their variables read once for several runs of one process), or None."""
+    from orchestration.results.running import figure_step
     from orchestration.results.writer import figure_target, prepare_dir, streaming_recorder, write_results
     from orchestration.run.master import run
     from orchestration.run.recorder import FILES
@@ -149,11 +150,13 @@ def run_file(path, out, fmu_dir, algorithm=None, build=True, plot=True, stop=Non
     plant, ctrl = fmus.paths(fmu_dir, variant)
     helper = None
     plot = plot and sc.record.level != "metrics"  # no time series: no figure
-    if plot and figure_process:
+    # the helper reads the Parquet file back (every figure_step-th row): only a full one
+    if plot and figure_process and sc.record.level == "full":
         from orchestration.results import figure_process as fp
 
         try:
-            helper = fp.FigureProcess(directory / FILES[1], *figure_target(sc, out)) if fp.wanted() else None
+            helper = (fp.FigureProcess(directory / FILES[1], *figure_target(sc, out), step=figure_step(sc))
+                      if fp.wanted() else None)
         except OSError:  # no fork today: the figure is drawn here
             helper = None
     try:

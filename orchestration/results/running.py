@@ -1,18 +1,27 @@
-"""The metrics of a run computed as it goes: the recorder's observer
-(:class:`orchestration.run.recorder.Recorder`) feeding :class:`satmotor.metrics.RunningMetrics`
-each chunk of rows, so levels ``metrics`` and ``decimated`` need no time series read back.  The
-columns the metrics read are :data:`METRIC_COLUMNS`, also used by
-:func:`orchestration.results.writer.compute_metrics` (the whole-record computation)."""
+"""What a run's results need, gathered as it goes by the recorder's observer
+(:class:`orchestration.run.recorder.Recorder`), so that nothing reads the whole series back and a
+run's memory does not grow with its simulated time:
+
+* :class:`MetricsObserver` feeds :class:`satmotor.metrics.RunningMetrics` each chunk of rows; the
+  columns the metrics read are :data:`METRIC_COLUMNS`, also used by
+  :func:`orchestration.results.writer.compute_metrics` (the whole-record computation);
+* :class:`FigureCopy` keeps every k-th row of the columns the figure reads, at most
+  :data:`FIGURE_ROWS` rows (every row of a run that records no more).
+"""
 
 from __future__ import annotations
 
 import numpy as np
 
-from orchestration.scenario.recording import last_row_time
+from orchestration.scenario.recording import NEEDED, last_row_time, record_steps
 from satmotor.control.drive import RUN
 from satmotor.metrics import RunningMetrics
 
-__all__ = ["METRIC_COLUMNS", "FLAG_COLUMNS", "MetricsObserver", "ss_window"]
+__all__ = ["METRIC_COLUMNS", "FLAG_COLUMNS", "FIGURE_ROWS", "MetricsObserver", "FigureCopy", "ss_window",
+           "figure_step", "observers"]
+
+#: most rows of the figure's copy of a run (50 000: 5 s at 100 us, about 16 MB): beyond, every k-th row
+FIGURE_ROWS = 50_000
 
 #: {argument of satmotor.metrics.closed_loop_metrics: recorded column}
 METRIC_COLUMNS = {"t": "time", "omega_m": "plant.omega_m", "omega_ref": "profile.omega_ref",
@@ -53,3 +62,42 @@ class MetricsObserver:
         """``[t_first, t_last]`` [s] of the rows seen (empty before the first)."""
         m = self.metrics
         return np.array([m.t_first, m.t_seen]) if m.n else np.empty(0)
+
+
+def figure_step(scenario):
+    """k: the figure of a complete run of ``scenario`` shows every k-th recorded row (1: all)."""
+    n, every = record_steps(scenario)
+    return max(1, -(-(n // every + 1) // FIGURE_ROWS))
+
+
+class FigureCopy:
+    """``observer(chunk)`` keeping every :attr:`step`-th row (:func:`figure_step`, counted across the
+    chunks) of the columns the figure reads (time, the profiles, :data:`NEEDED`); :meth:`arrays`
+    gives them as the figure takes them."""
+
+    def __init__(self, columns, scenario):
+        keep = [i for i, c in enumerate(columns) if c == "time" or c.startswith("profile.") or c in NEEDED]
+        self.columns = [columns[i] for i in keep]
+        self._keep = keep
+        self.step = figure_step(scenario)
+        self._skip = 0
+        self._chunks = []
+
+    def __call__(self, chunk):
+        first = self._skip
+        self._skip = (first - len(chunk)) % self.step
+        self._chunks.append(chunk[first::self.step][:, self._keep])
+
+    def arrays(self):
+        a = np.concatenate(self._chunks) if self._chunks else np.empty((0, len(self.columns)))
+        return {c: a[:, i] for i, c in enumerate(self.columns)}
+
+
+def observers(*functions):
+    """One observer calling each of ``functions`` (None ones left out) with the chunk."""
+    fs = [f for f in functions if f is not None]
+
+    def observe(chunk):
+        for f in fs:
+            f(chunk)
+    return observe

@@ -25,7 +25,9 @@ from orchestration.results.running import (
     FLAG_COLUMNS,
     METRIC_COLUMNS,
     PHASE_COLUMN,
+    FigureCopy,
     MetricsObserver,
+    observers,
     ss_window,
 )
 from orchestration.run.recorder import FILES, MetricsOnly, StreamingRecorder
@@ -83,29 +85,33 @@ def prepare_dir(out_dir, scenario):
 
 
 def level(scenario):
-    """The scenario's record level: ``full`` (every recorded row on disk; the metrics from the
-    series read back), ``decimated`` (one row of ``record.every`` on disk) or ``metrics`` (none on
-    disk); the last two compute the metrics as the run goes, from every recorded row."""
+    """The scenario's record level: ``full`` (every recorded row on disk), ``decimated`` (one row
+    of ``record.every`` on disk) or ``metrics`` (none on disk).  All three compute the metrics as
+    the run goes, from every recorded row, and the first two keep a bounded copy for the figure
+    (:mod:`orchestration.results.running`): nothing reads the series back."""
     return getattr(scenario.record, "level", "full") if scenario.record is not None else "full"
 
 
 def streaming_recorder(scenario, directory, on_parquet=None):
     """A ``columns -> recorder`` factory for :func:`orchestration.run.master.run`, as the scenario's
     record level asks (:func:`level`): a :class:`StreamingRecorder` (``decimated``: keeping one row
-    of ``record.every``) or a :class:`MetricsOnly`; the last two carry their
-    :class:`~orchestration.results.running.MetricsObserver` as ``metrics_observer``.  ``on_parquet``:
-    see :attr:`StreamingRecorder.on_parquet`."""
+    of ``record.every``) or a :class:`MetricsOnly`, carrying its
+    :class:`~orchestration.results.running.MetricsObserver` as ``metrics_observer`` and its
+    :class:`~orchestration.results.running.FigureCopy` (None at level ``metrics``) as
+    ``figure_copy``.  ``on_parquet``: see :attr:`StreamingRecorder.on_parquet`."""
     lv = level(scenario)
 
     def make(columns):
-        observer = MetricsObserver(columns, scenario) if lv != "full" else None
+        metrics = MetricsObserver(columns, scenario)
+        copy = FigureCopy(columns, scenario) if lv != "metrics" else None
         if lv == "metrics":
-            rec = MetricsOnly(columns, observer=observer)
+            rec = MetricsOnly(columns, observer=metrics)
         else:
             rec = StreamingRecorder(columns, directory, keep=recorded_selection(scenario, columns),
-                                    observer=observer, every=scenario.record.every if observer else 1)
+                                    observer=observers(metrics, copy),
+                                    every=scenario.record.every if lv == "decimated" else 1)
             rec.on_parquet = on_parquet
-        rec.metrics_observer = observer
+        rec.metrics_observer, rec.figure_copy = metrics, copy
         return rec
 
     return make
@@ -131,16 +137,22 @@ def write_results(result, out_dir, plot=True, draw=None):
         for row in np.column_stack(list(rec.arrays().values())).tolist():
             disk.append(row)
         disk.close()
-    if observer is None:  # level full: the metrics from the series on disk
+    if observer is None:  # a recorder of its own (master.run's default, in memory): from its rows
         df = rec.arrays()  # {column: array}: the metrics and the figure need no DataFrame
         rows = written = len(df["time"]) if "time" in df else 0
         metrics = compute_metrics(df, sc) if result.ok and rows else {}
         times = df["time"] if rows else ()
-    else:  # computed as the run went; the figure (decimated) from the rows on disk
+    else:  # computed as the run went; the figure from the bounded copy
         rows, written = rec.n_seen, rec.n_rows
-        metrics = (observer.metrics.result() if result.ok and rows else {}) or {}
+        metrics = observer.metrics.result() if result.ok and rows else {}
         times = observer.times() if metrics else ()
-        df = rec.arrays() if plot and written > 1 and isinstance(rec, StreamingRecorder) else None
+        if metrics is None and isinstance(rec, StreamingRecorder) and rec.every == 1:
+            # the run did not end where the scenario said (never seen): the metrics of the file
+            df = rec.arrays()
+            metrics, times = compute_metrics(df, sc), df["time"]
+        metrics = metrics or {}
+        copy = getattr(rec, "figure_copy", None)
+        df = copy.arrays() if plot and copy is not None and rows > 1 else None
     acceptance = check_acceptance(metrics, sc)
     holds, setpoints = setpoint_status(metrics, times, sc)
     summary = {
@@ -153,7 +165,7 @@ def write_results(result, out_dir, plot=True, draw=None):
         "notes": [str(n) for n in getattr(sc, "notes", ())],
     }
     (d / "metrics.json").write_text(json.dumps(summary, indent=2, default=float) + "\n")
-    if plot and written > 1 and df is not None:
+    if plot and rows > 1 and df is not None:
         if draw is None:
             from orchestration.results.plots import figure as draw
         draw(df, *figure_target(sc, out_dir))

@@ -120,6 +120,24 @@ def read_arrays(path, columns=None):
     return {c: _numpy(table.column(c)) for c in table.column_names}
 
 
+def read_every(path, step=1):
+    """``{column: float64 array}`` of every ``step``-th row of a Parquet file of float64 columns,
+    read one row group at a time (memory: one row group, and the rows kept)."""
+    if step <= 1:
+        return read_arrays(path)
+    import pyarrow.parquet as pq
+
+    parts, skip = {}, 0
+    with pq.ParquetFile(path) as f:
+        for i in range(f.num_row_groups):
+            table = f.read_row_group(i)
+            for c in table.column_names:
+                parts.setdefault(c, []).append(_numpy(table.column(c))[skip::step].copy())
+            skip = (skip - table.num_rows) % step
+        names = f.schema_arrow.names
+    return {c: np.concatenate(parts[c]) if parts.get(c) else np.empty(0) for c in names}
+
+
 class StreamingRecorder(Recorder):
     """A :class:`Recorder` that appends each chunk to ``directory/timeseries.{csv,parquet}``.
 
