@@ -162,7 +162,8 @@ def run_file(path, out, fmu_dir, algorithm=None, build=True, plot=True, stop=Non
     try:
         extra = ({"unzip_dirs": shared.dirs, "descriptions": shared.descriptions}
                  if shared is not None and engine == "fmpy" else {})
-        recorder = streaming_recorder(sc, directory, on_parquet=helper and helper.parquet_done)
+        recorder = streaming_recorder(sc, directory, on_parquet=helper and helper.parquet_done,
+                                      figure_copy=helper is None)
         result = run(sc, str(plant), str(ctrl), algorithm=algorithm, stop=stop, recorder=recorder, **extra)
         summary = write_results(result, out, plot=plot, draw=helper and helper.draw)
     finally:

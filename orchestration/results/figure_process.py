@@ -84,6 +84,7 @@ class FigureProcess:
         import pyarrow.parquet  # noqa: F401 - imported once, before the fork: the helper reads the file
 
         self.path, self.title = str(path), title
+        self._parquet, self._step = str(parquet), step
         ctx = multiprocessing.get_context("fork")
         self._conn, child_end = ctx.Pipe()
         args = (child_end, os.getpid(), str(parquet), self.path, title, step)
@@ -105,7 +106,8 @@ class FigureProcess:
 
     def draw(self, data, path, title):
         """Write the figure: the helper's, if it was told to draw it for ``path`` and ``title``,
-        else drawn here from ``data`` (:func:`orchestration.results.plots.figure`)."""
+        else drawn here from ``data`` (:func:`orchestration.results.plots.figure`; None: the rows
+        the helper would have read, read here)."""
         ok = False
         if self._sent and (str(path), title) == (self.path, self.title):
             try:
@@ -117,7 +119,7 @@ class FigureProcess:
         if not ok:
             from orchestration.results.plots import figure
 
-            figure(data, path, title)
+            figure(read_every(self._parquet, self._step) if data is None else data, path, title)
 
     def close(self):
         """End the helper: it finishes a figure it was told to draw, it is killed otherwise."""

@@ -92,18 +92,19 @@ def level(scenario):
     return getattr(scenario.record, "level", "full") if scenario.record is not None else "full"
 
 
-def streaming_recorder(scenario, directory, on_parquet=None):
+def streaming_recorder(scenario, directory, on_parquet=None, figure_copy=True):
     """A ``columns -> recorder`` factory for :func:`orchestration.run.master.run`, as the scenario's
     record level asks (:func:`level`): a :class:`StreamingRecorder` (``decimated``: keeping one row
     of ``record.every``) or a :class:`MetricsOnly`, carrying its
     :class:`~orchestration.results.running.MetricsObserver` as ``metrics_observer`` and its
     :class:`~orchestration.results.running.FigureCopy` (None at level ``metrics``) as
-    ``figure_copy``.  ``on_parquet``: see :attr:`StreamingRecorder.on_parquet`."""
+    ``figure_copy`` (None too with ``figure_copy`` False: the figure helper reads the file).
+    ``on_parquet``: see :attr:`StreamingRecorder.on_parquet`."""
     lv = level(scenario)
 
     def make(columns):
         metrics = MetricsObserver(columns, scenario)
-        copy = FigureCopy(columns, scenario) if lv != "metrics" else None
+        copy = FigureCopy(columns, scenario) if lv != "metrics" and figure_copy else None
         if lv == "metrics":
             rec = MetricsOnly(columns, observer=metrics)
         else:
@@ -165,7 +166,7 @@ def write_results(result, out_dir, plot=True, draw=None):
         "notes": [str(n) for n in getattr(sc, "notes", ())],
     }
     (d / "metrics.json").write_text(json.dumps(summary, indent=2, default=float) + "\n")
-    if plot and rows > 1 and df is not None:
+    if plot and rows > 1 and (df is not None or draw is not None):  # df None: the helper reads the file
         if draw is None:
             from orchestration.results.plots import figure as draw
         draw(df, *figure_target(sc, out_dir))

@@ -20,6 +20,8 @@ import numpy as np
 
 CHUNK_ROWS = 20_000  # rows per chunk: about 4 MB of Python floats for 24 columns
 METRICS_CHUNK_ROWS = 1_000  # rows per chunk of MetricsOnly
+STREAM_CHUNK_ROWS = 2_000  # rows per chunk of StreamingRecorder: the rows as Python objects stay small
+PARQUET_ROWS = 5_000  # rows per Parquet row group (StreamingRecorder gathers its chunks as arrays)
 FILES = ("timeseries.csv", "timeseries.parquet")
 
 
@@ -142,7 +144,10 @@ class StreamingRecorder(Recorder):
     """A :class:`Recorder` that appends each chunk to ``directory/timeseries.{csv,parquet}``.
 
     The files are created (empty, with the header) by the constructor, so an unwritable directory
-    is found before the run starts.
+    is found before the run starts.  Chunks are small (:data:`STREAM_CHUNK_ROWS` rows: the rows as
+    Python objects are the bulk of a run's memory) and go to the CSV file at once; the Parquet file
+    gets them in row groups of :data:`PARQUET_ROWS` rows, gathered as float64 arrays (2 MB for 45
+    columns), and the last one at :meth:`close`.
     """
 
     #: None, or a function ``on_parquet(n_rows)`` called by :meth:`close` once the Parquet file is
@@ -150,8 +155,9 @@ class StreamingRecorder(Recorder):
     #: (:mod:`orchestration.results.figure_process`) reads it and draws while the CSV is written
     on_parquet = None
 
-    def __init__(self, columns, directory, keep=None, chunk_rows=CHUNK_ROWS, observer=None, every=1):
+    def __init__(self, columns, directory, keep=None, chunk_rows=STREAM_CHUNK_ROWS, observer=None, every=1):
         super().__init__(columns, keep, chunk_rows, observer, every)
+        self._pending, self._pending_rows = [], 0  # chunks not yet in the Parquet file
         import pyarrow as pa
         import pyarrow.parquet as pq
 
@@ -168,7 +174,16 @@ class StreamingRecorder(Recorder):
 
     def _write(self, chunk):
         self._write_csv(chunk)
-        self._write_parquet(chunk)
+        self._pending.append(chunk)
+        self._pending_rows += len(chunk)
+        if self._pending_rows >= PARQUET_ROWS:
+            self._flush_parquet()
+
+    def _flush_parquet(self):
+        if self._pending:
+            pending = self._pending
+            self._write_parquet(pending[0] if len(pending) == 1 else np.concatenate(pending))
+            self._pending, self._pending_rows = [], 0
 
     def _write_csv(self, chunk):
         self._csv.write(csv_text(chunk))
@@ -186,10 +201,12 @@ class StreamingRecorder(Recorder):
         try:
             if self.on_parquet is None:
                 self.flush()
+                self._flush_parquet()
             else:  # the Parquet file first, complete, then the last CSV lines
                 chunk = self._chunk_array() if self.rows else None
                 if chunk is not None and len(chunk):
-                    self._write_parquet(chunk)
+                    self._pending.append(chunk)
+                self._flush_parquet()
                 self._parquet.close()
                 self.on_parquet(self.n_rows + (len(chunk) if chunk is not None else 0))
                 if chunk is not None:
