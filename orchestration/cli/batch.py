@@ -46,6 +46,7 @@ from orchestration.process.interrupts import PARENT_ENV, StopRequest, signal_nam
 SUMMARY_METRICS = ("iae_speed", "iae_flux", "ss_speed", "ss_flux", "overshoot_speed", "settling_time_speed",
                    "peak_current", "peak_voltage", "min_W")
 INVALID, NOT_ACCEPTED = 2, 3
+STOPPED_CODES = (128 + 2, 128 + 15)  # a run's exit code after SIGINT / SIGTERM asked it to stop
 POLL = 0.2  # [s] how often a waiting batch looks for a stop request
 GRACE = 30.0  # [s] a child has to write its partial results after SIGTERM before it is killed
 
@@ -211,7 +212,7 @@ def _variant_row(path, name, rc, stdout, stderr, metrics, stopped):
     try:
         summary = json.loads(metrics.read_text())
     except FileNotFoundError:
-        if stopped:
+        if stopped or rc in STOPPED_CODES:  # the batch stopped the child, or Ctrl-C reached it first
             return _row(path, name, "interrupted", 0, "not started: the batch was interrupted")
         why = f"killed by {signal_name(-rc)}" if rc < 0 else f"ended (exit {rc})"
         return _row(path, name, "failed", 128 - rc if rc < 0 else max(rc, 1),
