@@ -6,6 +6,8 @@
   :func:`check_scenario_file`, :func:`validate_scenario_file`, :class:`Scenario`,
   :class:`ScenarioError`.
 * :mod:`~orchestration.scenario.profiles` -- the time profiles of the set-points and the load.
+* :mod:`~orchestration.scenario.sweep` -- the ``sweep:`` section: a grid or Monte Carlo draws of
+  variants, expanded before anything runs.
 * :mod:`~orchestration.scenario.system` -- the system a scenario runs: units, connections, the
   measured signals and the ``measurements:`` section.
 * :mod:`~orchestration.scenario.recording` -- the columns a run records and which ones it keeps.
