@@ -49,7 +49,7 @@ import json, sys, time
 from orchestration.build import fmus
 from orchestration.run.master import run
 from orchestration.run.recorder import Recorder
-from orchestration.scenario.load import load_sweep
+from orchestration.scenario.variants import load_sweep
 
 class Null(Recorder):
     spans = []

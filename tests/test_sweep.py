@@ -9,14 +9,9 @@ import numpy as np
 import pytest
 import yaml
 
-from orchestration.scenario.load import (
-    ScenarioError,
-    check_scenario_file,
-    load_scenario,
-    load_sweep,
-    load_variant,
-)
+from orchestration.scenario.load import ScenarioError, check_scenario_file, load_scenario
 from orchestration.scenario.sweep import expand
+from orchestration.scenario.variants import load_sweep, load_variant
 
 BASE = {"name": "s", "stop_time": 0.2, "motor": {"J": 0.02}, "controller": {"d1": 100.0},
         "profiles": {"psi_ref": {"type": "constant", "value": 0.9},

@@ -109,7 +109,8 @@ def plan(files, variables=None, notes=None, sweeps=None):
     rows of the files that cannot run (invalid or unreadable).  ``notes``: a list the scenarios'
     notes are appended to; ``sweeps``: a dict that gets ``{sweep name: (file, Sweep)}``.
     Never raises."""
-    from orchestration.scenario.load import ScenarioError, load_sweep
+    from orchestration.scenario.load import ScenarioError
+    from orchestration.scenario.variants import load_sweep
 
     runnable, rows = [], []
     for f in files:

@@ -114,7 +114,8 @@ def run_file(path, out, fmu_dir, algorithm=None, build=True, plot=True, stop=Non
     from orchestration.results.writer import figure_target, prepare_dir, streaming_recorder, write_results
     from orchestration.run.master import run
     from orchestration.run.recorder import FILES
-    from orchestration.scenario.load import ScenarioError, load_scenario, load_variant
+    from orchestration.scenario.load import ScenarioError, load_scenario
+    from orchestration.scenario.variants import load_variant
 
     def refused(message, name=Path(path).stem):
         return INVALID, {"scenario": name, "file": str(path), "status": "invalid", "message": message}

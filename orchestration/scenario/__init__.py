@@ -7,7 +7,8 @@
   :class:`ScenarioError`.
 * :mod:`~orchestration.scenario.profiles` -- the time profiles of the set-points and the load.
 * :mod:`~orchestration.scenario.sweep` -- the ``sweep:`` section: a grid or Monte Carlo draws of
-  variants, expanded before anything runs.
+  variants, expanded before anything runs; :mod:`~orchestration.scenario.variants` -- a sweep file
+  read and every variant checked (``load_sweep``), or one variant (``load_variant``).
 * :mod:`~orchestration.scenario.system` -- the system a scenario runs: units, connections, the
   measured signals and the ``measurements:`` section.
 * :mod:`~orchestration.scenario.recording` -- the columns a run records and which ones it keeps.

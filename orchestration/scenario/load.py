@@ -16,7 +16,7 @@ controller are meant to get different motor parameters; default false), ``profil
 or ``metrics`` (no time series on disk; ``record: metrics`` alone says the same); ``interval`` [s],
 a multiple of ``step``, default ``step``; ``outputs``: ``plant.NAME`` /
 ``controller.NAME``, default all), ``sweep`` (variants of the scenario:
-:mod:`orchestration.scenario.sweep`, :func:`load_sweep`),
+:mod:`orchestration.scenario.sweep`, :mod:`orchestration.scenario.variants`),
 ``acceptance`` (bounds checked after the run: ``ss_speed``,
 ``ss_flux`` relative steady-state errors over ``ss_window: [t_from, t_to]`` [s],
 ``overshoot_speed`` relative, ``peak_current``, ``peak_current_run`` [A]), ``measurements``
@@ -56,7 +56,7 @@ from orchestration.scenario.profiles import Constant, parse_profile
 from orchestration.scenario.system import Measurements
 
 __all__ = ["Problem", "Note", "ScenarioError", "Acceptance", "Record", "Scenario", "Measurements",
-           "load_scenario", "load_sweep", "load_variant", "validate_scenario_file", "check_scenario_file",
+           "load_scenario", "validate_scenario_file", "check_scenario_file",
            "interface_variables", "motor_variables", "ALGORITHMS", "PROFILE_NAMES"]
 
 ALGORITHMS = ("gauss-seidel", "jacobi")
@@ -437,59 +437,6 @@ def _read(path):
         return None, [Problem(file, "(yaml syntax)", where, f"invalid YAML: {what}")]
 
 
-def _check_sweep(data, file, variables, base_problems):
-    """``(Sweep or None, [(variant, Scenario)], problems)`` of the ``sweep:`` section of ``data``:
-    every variant checked as a scenario of its own; a variant's problem names the variant and its
-    values (a problem the base scenario has already is not repeated per variant)."""
-    from orchestration.scenario.sweep import expand
-
-    sweep, problems = expand(data, file)
-    if sweep is None:
-        return None, [], problems
-    out = []
-    for v in sweep.variants:
-        sc, probs = _check(v.data, file, variables)
-        said = ", ".join(f"{p} = {x!r}" for p, x in v.values)
-        problems += [Problem(p.file, p.field, p.value, f"{p.message} [variant {v.name}: {said}]")
-                     for p in probs if p not in base_problems]
-        if sc is not None:
-            out.append((v, sc))
-    return sweep, out, problems
-
-
-def load_sweep(path, variables=None):
-    """``(base Scenario, Sweep or None, [(Variant, Scenario)])`` of the scenario file ``path``:
-    the file's own scenario, and its sweep's variants, every one checked; raises
-    :class:`ScenarioError` listing every problem of the file and of its variants."""
-    data, problems = _read(path)
-    if not problems:
-        sc, problems = _check(data, str(path), variables)
-        sweep, variants, more = _check_sweep(data, str(path), variables, problems)
-        problems = problems + more
-    if problems:
-        raise ScenarioError(problems, str(path))
-    return sc, sweep, variants
-
-
-def load_variant(path, index, variables=None):
-    """The :class:`Scenario` of variant ``index`` of the sweep of the scenario file ``path`` (only
-    that variant checked: the batch that runs it has checked them all); raises
-    :class:`ScenarioError` (a file without a sweep, an index out of range: one problem)."""
-    from orchestration.scenario.sweep import expand
-
-    data, problems = _read(path)
-    if not problems:
-        sweep, problems = expand(data, str(path), only=index)
-        if not problems and (sweep is None or not 0 <= index < len(sweep.variants)):
-            count = len(sweep.variants) if sweep else 0
-            problems = [Problem(str(path), "sweep", index, f"no variant {index}: the file has {count}")]
-        if not problems:
-            sc, problems = _check(sweep.variants[index].data, str(path), variables)
-    if problems:
-        raise ScenarioError(problems, str(path))
-    return sc
-
-
 def check_scenario_file(path, variables=None):
     """``(problems, notes)`` of the scenario file ``path``: every :class:`Problem` (empty: valid)
     and, for a valid file, its :class:`Note` lines; with a ``sweep:`` section, every variant's
@@ -503,7 +450,10 @@ def check_scenario_file(path, variables=None):
         if problems:
             return problems, []
         sc, problems = _check(data, str(path), variables)
-        problems = problems + _check_sweep(data, str(path), variables, problems)[2]
+        if isinstance(data, dict) and "sweep" in data:  # every variant checked too
+            from orchestration.scenario.variants import check_sweep
+
+            problems = problems + check_sweep(data, str(path), variables, problems)[2]
         return problems, list(sc.notes) if sc is not None and not problems else []
     except Exception as exc:  # noqa: BLE001 - a validator reports, it does not crash
         return [Problem(str(path), "(internal)", None, f"validation failed: {exc!r}")], []
