@@ -170,3 +170,20 @@ def test_a_killed_child_and_an_interrupt_leave_a_row_per_variant(sig, code, tmp_
     assert _status(d / "long-2" / "metrics.json") == "interrupted"  # it wrote what it had
     summary = pd.read_csv(out / "summary.csv")
     assert sorted(summary["scenario"]) == [f"long-{i}" for i in range(5)]
+
+
+def test_a_sweep_on_a_dask_local_cluster(tmp_path, fmu_dir):
+    from distributed import LocalCluster
+
+    f = tmp_path / "d.yaml"
+    f.write_text("name: d\nstop_time: 0.3\nprofiles:\n  psi_ref: {type: constant, value: 0.9}\n"
+                 "  omega_ref: {type: step, time: 0.15, value: 50.0}\n"
+                 "sweep:\n  samples: 3\n  seed: 5\n  parameters:\n    motor.J: {uniform: [0.01, 0.02]}\n")
+    out = tmp_path / "out"
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
+        r = _cli("batch", f, "--scheduler", cluster.scheduler_address, "--out", out, "--fmus", fmu_dir,
+                 "--variant", "native", "--no-plot")
+    assert r.returncode == 0, r.stderr
+    t = pd.read_csv(out / "d" / "sweep.csv")
+    assert t["variant"].tolist() == ["d-0", "d-1", "d-2"] and (t["status"] == "ok").all()
+    assert t["motor.J"].between(0.01, 0.02).all() and t["iae_speed"].nunique() == 3
