@@ -14,9 +14,11 @@
    status ``interrupted``.  ``summary.csv`` is written in every case once runs have started.
 4. A file with a ``sweep:`` section (:mod:`orchestration.scenario.sweep`) is checked variant by
    variant first (one bad variant makes the file an invalid row: none of its variants runs); each
-   variant then runs as a scenario of its own (``run FILE --sweep-variant I``) into
-   ``OUT/<sweep name>/<variant name>/``, and once the runs are over (finished, failed or
-   interrupted) the sweep's table and figure go to ``OUT/<sweep name>/``
+   variant then runs as a scenario of its own into ``OUT/<sweep name>/<variant name>/``: with the
+   native FMUs several to a child process (``run FILE --sweep-variant I,J,...``, :func:`grouped`:
+   the FMUs extracted and read once per child), with the pythonfmu ones a process each.  A row per
+   variant whatever happens to its child (:func:`run_variants`).  Once the runs are over (finished,
+   failed or interrupted) the sweep's table and figure go to ``OUT/<sweep name>/``
    (:mod:`orchestration.results.sweep_table`).
 
 Each row also says whether the run held its set-points (``holds_setpoints``, ``setpoints``: see
