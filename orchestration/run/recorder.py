@@ -124,18 +124,22 @@ def read_arrays(path, columns=None):
 
 def read_every(path, step=1):
     """``{column: float64 array}`` of every ``step``-th row of a Parquet file of float64 columns,
-    read one row group at a time (memory: one row group, and the rows kept)."""
+    read one row group at a time (memory: one row group, and the rows kept; Arrow's allocator is
+    told to give back what it no longer uses after each group, else it keeps it)."""
     if step <= 1:
         return read_arrays(path)
+    import pyarrow as pa
     import pyarrow.parquet as pq
 
     parts, skip = {}, 0
     with pq.ParquetFile(path) as f:
         for i in range(f.num_row_groups):
-            table = f.read_row_group(i)
+            table = f.read_row_group(i, use_threads=False)
             for c in table.column_names:
                 parts.setdefault(c, []).append(_numpy(table.column(c))[skip::step].copy())
             skip = (skip - table.num_rows) % step
+            del table
+            pa.default_memory_pool().release_unused()
         names = f.schema_arrow.names
     return {c: np.concatenate(parts[c]) if parts.get(c) else np.empty(0) for c in names}
 
@@ -184,6 +188,7 @@ class StreamingRecorder(Recorder):
             pending = self._pending
             self._write_parquet(pending[0] if len(pending) == 1 else np.concatenate(pending))
             self._pending, self._pending_rows = [], 0
+            self._pa.default_memory_pool().release_unused()  # Arrow's allocator keeps freed memory else
 
     def _write_csv(self, chunk):
         self._csv.write(csv_text(chunk))
