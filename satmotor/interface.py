@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import sys
 from typing import NamedTuple
 
 from satmotor.control.backstepping import BacksteppingGains, ControllerConfig
@@ -47,6 +48,10 @@ def _v(name, causality, start, unit, description, type_="Real"):
     return Variable(name, causality, type_, start, unit, description)
 
 
+# max_substeps' default: one doStep(0, 5 s) at the limit (h_int = 1e-4 s) took 1.35-1.40 s on the
+# pythonfmu plant (27-28 us per sub-step; PlantUnit alone 11-12 us) and 0.03-0.13 s on the native one
+# (0.5-2.5 us, by curve), on the project's 2-core machine shared by other jobs (load average 3.5)
+MAX_SUBSTEPS = 50_000
 PLANT_DESCRIPTION = ("Induction motor with main-flux saturation and cross-saturation, stationary alpha-beta "
                      "frame, flux states, RK4 (Ouadi, Giri, Ikhouane model, corrected)")
 CONTROLLER_DESCRIPTION = ("Backstepping speed and rotor-flux controller for the saturated induction motor "
@@ -55,6 +60,8 @@ CONTROLLER_DESCRIPTION = ("Backstepping speed and rotor-flux controller for the 
 AUTHOR = "satmotor"
 
 _M, _A, _P = MotorParams(), ArctanCurve(), PolynomialCurve()
+_G, _C, _D = BacksteppingGains(), ControllerConfig(), DriveConfig()
+OMEGA_WARN = 1500.0  # [rad/s] omega_warn's default: about 10 x the default motor's synchronous speed
 MOTOR_PARAMETERS = _in_struct("motor", (
     _v("R_s", "parameter", _M.R_s, "Ohm", "stator resistance"),
     _v("R_r", "parameter", _M.R_r, "Ohm", "rotor resistance (rotor side; k = 1: referred)"),
@@ -69,7 +76,7 @@ MOTOR_PARAMETERS = _in_struct("motor", (
     _v("L_m_inf", "parameter", _A.L_m_inf, "H", "saturated slope (arctan, exponential)"),
     _v("I_par", "parameter", _A.I_par, "A", "knee current scale (arctan, exponential)"),
     _v("poly_b", "parameter", _P.poly_b, "A/Wb^n", "polynomial: i = psi/L_m0 + poly_b psi^poly_n"),
-    _v("poly_n", "parameter", _P.poly_n, "1", "polynomial: odd exponent >= 3", "Integer"),
+    _v("poly_n", "parameter", _P.poly_n, "1", "polynomial: integer exponent >= 2 (of |psi|)", "Integer"),
     _v("table_file", "parameter", "", "", "table: CSV file of no-load points i_mu [A], psi_m [Wb]",
        "String"),
 ))
@@ -99,9 +106,24 @@ PLANT_PARAMETERS = MOTOR_PARAMETERS + _in_struct("plant", (
     # last: the earlier variables keep their value references
     _v("B_2", "parameter", 0.0, "N m s2/rad2", "quadratic (fan/pump) load: torque B_2 omega_m |omega_m| "
        "opposing motion, >= 0; plant only (the controller sees it as an unknown load)"),
-))
+)) + (
+    # no C struct: the native plant's step (fmu/plant/native_model.c) reads it from its value store
+    _v("max_substeps", "parameter", MAX_SUBSTEPS, "1", "most internal RK4 sub-steps one doStep may take, "
+       ">= 1: a longer step is discarded naming the step size and this limit (bounds the work per call; "
+       "the default is about 1 s of the pythonfmu plant, under 0.1 s of the native one)", "Integer"),
+    # plausibility: a warning, logged once per run and quantity, never a change of the result
+    _v("v_warn", "parameter", 4.0 * _C.V_dc, "V", "stator voltage magnitude |v_s| (input) above which a "
+       "warning is logged, once per run (default 4 V_dc of the controller's default); 0: no check"),
+    _v("i_warn", "parameter", 10.0 * _D.I_max, "A", "stator current magnitude |i_s| (after a step) above "
+       "which a warning is logged, once per run (default 10 I_max of the drive's default); 0: no check"),
+    _v("omega_warn", "parameter", OMEGA_WARN, "rad/s", "mechanical speed |omega_m| (after a step) above "
+       "which a warning is logged, once per run (default about 10 x the default motor's synchronous speed, "
+       "157 rad/s); 0: no check"),
+)
 
-_G, _C, _D = BacksteppingGains(), ControllerConfig(), DriveConfig()
+# the controller's Real parameters that go into DriveConfig as they are (the start-up tolerances)
+_DRIVE_REALS = ("fw_voltage_ratio", "premag_fraction", "premag_min_fraction", "premag_speed_tol",
+                "premag_time_max", "premag_boost", "premag_gain")
 CONTROLLER_MODES = ("saturated", "constant_m", "pi")
 CONTROLLER_INPUTS = (
     _v("i_s_alpha", "input", 0.0, "A", "measured stator current, alpha axis"),
@@ -166,8 +188,66 @@ CONTROLLER_PARAMETERS = _in_struct("controller", (
        "the sample) or 1 (applied one sample later, compensated by prediction)", "Integer"),
     _v("use_stator_flux", "parameter", _C.use_stator_flux, "", "magnetizing state from the measured "
        "stator flux too (seed H1, eqs 18-19) instead of the curve alone", "Boolean"),
+    _v("field_weakening", "parameter", _D.field_weakening, "", "automatic field weakening: psi_ref is the "
+       "nominal flux, lowered (on the magnetizing curve) where the steady stator voltage at the present "
+       "torque and speed would exceed fw_voltage_ratio V_dc/sqrt(3); false: psi_ref as it is", "Boolean"),
+    _v("fw_voltage_ratio", "parameter", _D.fw_voltage_ratio, "1", "share of V_dc/sqrt(3) a steady state "
+       "may use under field weakening, in (0, 1]; the rest is the law's margin"),
+    _v("premag_fraction", "parameter", _D.premag_fraction, "1", "pre-magnetization: the law takes over at "
+       "this fraction of psi_ref, in (0, 1]"),
+    _v("premag_min_fraction", "parameter", _D.premag_min_fraction, "1", "pre-magnetization: the law takes "
+       "over from this fraction of psi_ref on (<= premag_fraction) when the rotor turns faster than "
+       "premag_speed_tol or premag_time_max has passed"),
+    _v("premag_speed_tol", "parameter", _D.premag_speed_tol, "rad/s", "pre-magnetization: |omega_m| above "
+       "which a load is taken to turn the rotor (the flux current goes to 0.9 I_max), > 0"),
+    _v("premag_time_max", "parameter", _D.premag_time_max, "s", "pre-magnetization: time after which the "
+       "law takes over from premag_min_fraction on, > 0"),
+    _v("premag_boost", "parameter", _D.premag_boost, "1", "pre-magnetization current as a multiple of the "
+       "steady magnetizing current of psi_ref (bounded by I_max), >= 1"),
+    _v("premag_gain", "parameter", _D.premag_gain, "Ohm", "proportional gain of the pre-magnetization "
+       "current loop, > 0"),
 )) + MOTOR_PARAMETERS
 
+
+
+class Terminal(NamedTuple):
+    """An FMI 3.0 terminal (``terminalsAndIcons.xml``): a named group of variables a tool connects
+    in one gesture.  ``members``: ``(member name, variable name)`` pairs; two terminals of the same
+    ``name`` on the plant and the controller have the same member names, each an output on one side
+    and an input on the other.  ``rule``: FMI's ``matchingRule`` (``plug``: every member matched;
+    ``bus``: the members present on both sides)."""
+
+    name: str
+    kind: str
+    rule: str
+    description: str
+    members: tuple[tuple[str, str], ...]
+
+
+def _pair(prefix):
+    return (("alpha", f"{prefix}_alpha"), ("beta", f"{prefix}_beta"))
+
+
+_DRIVE = ("org.satmotor.DriveInterface", "plug")
+_STATOR_VOLTAGE = Terminal("statorVoltage", *_DRIVE, "stator voltage command, alpha/beta [V]", _pair("v_s"))
+_STATOR_CURRENT = Terminal("statorCurrent", *_DRIVE, "stator current, alpha/beta [A]", _pair("i_s"))
+_ROTOR_FLUX = Terminal("rotorFlux", *_DRIVE, "rotor flux linkage, alpha/beta [Wb]", _pair("psi_r"))
+_STATOR_FLUX = Terminal("statorFlux", *_DRIVE, "stator flux linkage, alpha/beta [Wb]", _pair("psi_s"))
+_SPEED = Terminal("speed", *_DRIVE, "mechanical speed [rad/s]", (("omega", "omega_m"),))
+# the plant-controller interface, each signal pair its own terminal; the shaft and the set-points for
+# the tool's load and reference sources
+PLANT_TERMINALS = (
+    _STATOR_VOLTAGE, _STATOR_CURRENT, _ROTOR_FLUX, _STATOR_FLUX, _SPEED,
+    Terminal("shaft", "org.satmotor.MechanicalShaft", "bus",
+             "mechanical port: speed [rad/s], angle [rad], air-gap torque [N m], load torque [N m]",
+             (("omega", "omega_m"), ("angle", "theta_m"), ("torque", "T_e"), ("loadTorque", "T_load"))),
+)
+CONTROLLER_TERMINALS = (
+    _STATOR_VOLTAGE, _STATOR_CURRENT, _ROTOR_FLUX, _STATOR_FLUX, _SPEED,
+    Terminal("setPoints", "org.satmotor.SetPoints", "bus",
+             "speed [rad/s] and rotor-flux [Wb] set-points, load torque [N m]",
+             (("speed", "omega_ref"), ("flux", "psi_ref"), ("loadTorque", "T_load"))),
+)
 
 def _number(values, var):
     v = values.get(var.name, var.start)
@@ -202,6 +282,23 @@ def _finite_inputs(names, values):
             require_number(name, v)
 
 
+WARN_NAMES = ("v_warn", "i_warn", "omega_warn")
+_WARN_WHAT = (("|v_s|", "V", "input"), ("|i_s|", "A", "output"), ("|omega_m|", "rad/s", "output"))
+
+
+def plausibility_message(k, t, value, bound):
+    """The warning for quantity ``k`` (0: |v_s|, 1: |i_s|, 2: |omega_m|) at ``t`` [s], as the native plant."""
+    what, unit, kind = _WARN_WHAT[k]
+    return (f"SaturatedInductionMotor: implausible {kind} at t = {t!r} s: {what} = {value!r} {unit} exceeds "
+            f"{WARN_NAMES[k]} = {bound!r} {unit}; the step is computed as given (logged once per run)")
+
+
+def substeps_reason(n_sub, h_int, max_substeps):
+    """Why a communication step of ``n_sub`` sub-steps of ``h_int`` [s] is refused (as the native plant)."""
+    return (f"needs {n_sub} RK4 sub-steps of h_int = {h_int!r} s, more than max_substeps = {max_substeps}: "
+            "take shorter communication steps or raise max_substeps")
+
+
 class PlantUnit:
     """The plant as a co-simulation unit: inputs held over each communication step."""
 
@@ -214,6 +311,11 @@ class PlantUnit:
         w0, psi0 = f["omega_m0"], f["psi_r0"]
         require_number("psi_r0", psi0, 0, inclusive=True)
         self.h_int = require_number("h_int", f["h_int"], 0)
+        self.max_substeps = require_integer("max_substeps", f["max_substeps"], 1)
+        self._warn = tuple(require_number(n, f[n], 0, inclusive=True) for n in WARN_NAMES)
+        self._warned = [False, False, False]
+        self.warnings = []  # plausibility warnings not yet logged (the FMU glue takes them)
+        self._o = None  # the plant's outputs at self.x, once computed (by the |i_s| check)
         # B_2 is the plant's alone: not in MotorParams, which is also the controller's model
         self.plant = Plant(self.params, f["B_2"])
         self.x0 = initial_state(self.params, omega_m=w0, psi_r_alpha=psi0)
@@ -228,16 +330,36 @@ class PlantUnit:
         v_a, v_b, T_load = inputs
         if dt != self._dt:  # checked, and its sub-step count found, once per step size
             require_number("communicationStepSize", dt, 0)
-            self._n_sub = max(1, math.ceil(dt / self.h_int - 1e-9))
+            n_sub = max(1, math.ceil(dt / self.h_int - 1e-9))
+            if n_sub > self.max_substeps:
+                raise ParameterError("communicationStepSize", dt, substeps_reason(n_sub, self.h_int,
+                                                                                  self.max_substeps))
+            self._n_sub = n_sub
             self._dt = dt
+        if self._warn[0] > 0.0 and not self._warned[0]:
+            self._plausible(0, t, v_a, v_b)
         x = self.plant.step(t, self.x, v_a, v_b, T_load, dt, self._n_sub)
         if not math.isfinite(sum(x)) and not all(math.isfinite(v) for v in x):
             raise ArithmeticError(f"the plant state became non-finite over [{t}, {t + dt}] s: {x}")
         self.x = x
+        self._o = None
+        if self._warn[1] > 0.0 and not self._warned[1]:
+            o = self._o = self.plant.outputs(x)  # kept for outputs(): no second computation
+            self._plausible(1, t + dt, o.i_s_alpha, o.i_s_beta)
+        if self._warn[2] > 0.0 and not self._warned[2] and abs(x[OMEGA_M]) > self._warn[2]:
+            self._warned[2] = True
+            self.warnings.append(plausibility_message(2, t + dt, abs(x[OMEGA_M]), self._warn[2]))
+
+    def _plausible(self, k, t, a, b):
+        """|(a, b)| above bound k: the squares compared first, as the native plant does."""
+        bound = self._warn[k]
+        if a * a + b * b > bound * bound:
+            self._warned[k] = True
+            self.warnings.append(plausibility_message(k, t, math.hypot(a, b), bound))
 
     def outputs(self):
         """Output values in the order of :attr:`OUTPUTS`."""
-        x, o = self.x, self.plant.outputs(self.x)
+        x, o = self.x, self._o if self._o is not None else self.plant.outputs(self.x)
         return (o.i_s_alpha, o.i_s_beta, x[PSI_S_A], x[PSI_S_B], x[PSI_R_A], x[PSI_R_B], x[OMEGA_M],
                 x[THETA_M], o.T_e, o.i_mu)
 
@@ -246,10 +368,20 @@ class PlantUnit:
 
     def set_state(self, state):
         self.x = tuple(float(v) for v in state)
+        self._o = None
+
+
+# the controller's communication step rule (ControllerUnit.samples; the same in sm_controller.h)
+STEP_ULPS = 8.0  # a step is n Ts when |dt - n Ts| <= STEP_ULPS eps max(n Ts, |t|, |t + dt|)
+MAX_SAMPLES = 1e9  # at most this many samples in one step
+STOP_REMAINDER = 1e-6  # zero samples: a step of at most this many Ts that ends at the host's stop time
+_EPS = sys.float_info.epsilon
 
 
 class ControllerUnit:
-    """The drive controller as a co-simulation unit: one sample per step of length Ts."""
+    """The drive controller as a co-simulation unit: n samples per step of length n Ts (:meth:`samples`).
+
+    ``stop_time`` [s]: the host's stop time (``math.inf`` when it gave none); the FMU sets it."""
 
     INPUTS = tuple(v.name for v in CONTROLLER_INPUTS)
     OUTPUTS = tuple(v.name for v in CONTROLLER_OUTPUTS)
@@ -264,7 +396,8 @@ class ControllerUnit:
             raise ParameterError("use_stator_flux", True, "needs measured fluxes: not with flux_source = "
                                  "observer")
         dcfg = DriveConfig(ref_bandwidth=f["ref_bandwidth"], I_max=f["I_max"], flux_source=f["flux_source"],
-                           delay_samples=f["delay_samples"])
+                           delay_samples=f["delay_samples"], field_weakening=f["field_weakening"],
+                           **{n: f[n] for n in _DRIVE_REALS})
         if mode == "pi":
             gains = dataclasses.replace(IFOCGains(), V_dc=f["V_dc"], I_max=f["I_max"])
             self.drive = IFOCDrive(p, gains, f["Ts"], drive_cfg=dcfg)
@@ -277,16 +410,52 @@ class ControllerUnit:
                                    use_stator_flux=f["use_stator_flux"])
             self.drive = BacksteppingDrive(p, gains, cfg, dcfg)
         self.Ts = f["Ts"]
+        self.stop_time = math.inf
         self._out = tuple(v.start for v in CONTROLLER_OUTPUTS)
 
+    def samples(self, t, dt):
+        """The number of samples a communication step from ``t`` of length ``dt`` [s] runs: ``n >= 1``
+        when ``dt`` is ``n Ts`` to a few ulps (STEP_ULPS of the largest of ``n Ts``, ``|t|``,
+        ``|t + dt|``: a host's time grid carries rounding of the size of its times); 0 for a remainder
+        of at most STOP_REMAINDER Ts that ends at :attr:`stop_time` (a host whose time accumulated in
+        floating point, clipping its last step to its stop time: the sample at the stop time would hold
+        its output beyond it, so none is taken, as a master on the exact grid takes none); -1 for any
+        other step (refused)."""
+        if dt == self.Ts:  # the common step: the rule below gives 1 too
+            return 1
+        x = dt / self.Ts + 0.5
+        if not 0.0 <= x < MAX_SAMPLES + 1.0:  # also NaN
+            return -1
+        n = math.floor(x)  # the nearest whole number of samples
+        tol = STEP_ULPS * _EPS * max(n * self.Ts, abs(t), abs(t + dt))
+        if n >= 1 and abs(dt - n * self.Ts) <= tol:
+            return n
+        if n == 0 and dt <= STOP_REMAINDER * self.Ts and abs(t + dt - self.stop_time) <= tol:
+            return 0
+        return -1
+
     def step(self, t, dt, inputs):
-        """One sample at ``t`` from the inputs (order of :attr:`INPUTS`); ``dt`` must equal Ts.
-        The outputs are the voltages to hold over ``[t, t + Ts)``."""
-        if abs(dt - self.Ts) > 1e-9 * self.Ts:
+        """:meth:`samples` samples from the inputs (order of :attr:`INPUTS`), held over the step; the
+        first at ``t``.  The outputs are the voltages to hold over ``[t + dt - Ts, t + dt)``.  A
+        refused step, a non-finite input or a failed sample changes nothing."""
+        n = self.samples(t, dt)
+        if n < 0:
             raise ParameterError("communicationStepSize", dt,
-                                 f"must equal the sample period Ts = {self.Ts!r} s")
+                                 f"must be a whole multiple of the sample period Ts = {self.Ts!r} s")
         if not math.isfinite(sum(inputs)):  # per-step fast path, as in PlantUnit.step
             _finite_inputs(self.INPUTS, inputs)
+        if n == 1:
+            self._sample(inputs)
+        elif n > 1:
+            before = self.get_state()
+            try:
+                for _ in range(n):
+                    self._sample(inputs)
+            except Exception:
+                self.set_state(before)
+                raise
+
+    def _sample(self, inputs):
         # the first MEAS_LEN inputs are the drive's measurement tuple, in its order (MEAS_*)
         omega_ref, psi_ref, T_load = inputs[MEAS_LEN:]
         d = self.drive.step(inputs[:MEAS_LEN], omega_ref, psi_ref, T_load)

@@ -100,7 +100,7 @@ def test_a_binary_that_aborts_on_a_nan_input_fails_naming_the_input_and_the_sign
 
 # --- a state blob accepted from another FMU --------------------------------------------------------------
 
-NATIVE_NO_STATE_IDENTITY = {"fg_instance.c": (  # blob_ok without the model identifier and token comparisons
+NATIVE_NO_STATE_IDENTITY = {"fg_state.c": (  # blob_ok without the model identifier and token comparisons
     ("    if (memcmp(h.model_identifier, mine.model_identifier, FG_TAG_LEN) != 0) {",
      "    if (0) { /* the defect */"),
     ("    if (memcmp(h.token, mine.token, FG_TAG_LEN) != 0) {", "    if (0) { /* the defect */"))}

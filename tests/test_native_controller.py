@@ -81,6 +81,14 @@ CASES = {
     "stator flux (H1)": ({"use_stator_flux": True}, {}),
     "current limit binding": ({"I_max": 12.0, "ref_bandwidth": 400.0}, {}),
     "exponential curve, k = 0.9": (EXP, EXP),
+    "field weakening active (V_dc 250 V)": ({"V_dc": 250.0}, {}),
+    "field weakening, observer and delay": ({"V_dc": 250.0, "flux_source": "observer", "delay_samples": 1},
+                                            {}),
+    "field weakening, constant m": ({"V_dc": 250.0, "mode": "constant_m", "fw_voltage_ratio": 0.8}, {}),
+    "field weakening, IFOC PI": ({"V_dc": 250.0, "mode": "pi"}, {}),
+    "field weakening off": ({"V_dc": 250.0, "field_weakening": False}, {}),
+    "start-up tolerances": ({"premag_fraction": 0.8, "premag_min_fraction": 0.3, "premag_speed_tol": 0.5,
+                             "premag_time_max": 0.05, "premag_boost": 2.0, "premag_gain": 30.0}, {}),
 }
 
 
@@ -108,7 +116,11 @@ BAD = [({"mode": "fuzzy"}, "mode"), ({"flux_source": "estimated"}, "flux_source"
        ({"delay_samples": 2}, "delay_samples"), ({"c1": -1.0}, "c1"), ({"d0": math.nan}, "d0"),
        ({"J": 0.0}, "J"),
        ({"flux_source": "observer", "use_stator_flux": True}, "use_stator_flux"),
-       ({"load_mode": "guess"}, "load_mode"), ({"curve": "spline"}, "curve")]
+       ({"load_mode": "guess"}, "load_mode"), ({"curve": "spline"}, "curve"),
+       ({"fw_voltage_ratio": 1.5}, "fw_voltage_ratio"), ({"fw_voltage_ratio": 0.0}, "fw_voltage_ratio"),
+       ({"premag_fraction": 0.0}, "premag_fraction"), ({"premag_min_fraction": 0.95}, "premag_min_fraction"),
+       ({"premag_speed_tol": 0.0}, "premag_speed_tol"), ({"premag_time_max": -1.0}, "premag_time_max"),
+       ({"premag_boost": 0.5}, "premag_boost"), ({"premag_gain": math.inf}, "premag_gain")]
 
 
 @pytest.mark.parametrize("values, field", BAD)
@@ -131,8 +143,9 @@ def test_c_controller_refuses_bad_inputs_and_steps_and_changes_nothing(lib):
     bad[6] = math.nan
     assert lib.sm_controller_step(buf, 1e-4, 1e-4, bad, msg, 256) != 0
     assert msg.value.decode() == "omega_m = nan: must be a finite number"
-    assert lib.sm_controller_step(buf, 1e-4, 2e-4, good, msg, 256) != 0
-    assert msg.value.decode() == "communicationStepSize = 0.0002: must equal the sample period Ts = 0.0001 s"
+    assert lib.sm_controller_step(buf, 1e-4, 1.5e-4, good, msg, 256) != 0
+    assert msg.value.decode() == ("communicationStepSize = 0.00015: must be a whole multiple of the sample "
+                                  "period Ts = 0.0001 s")
     unreachable = (ctypes.c_double * 10)(*good)
     unreachable[8] = 5.0
     assert lib.sm_controller_step(buf, 1e-4, 1e-4, unreachable, msg, 256) != 0

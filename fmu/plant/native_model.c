@@ -3,6 +3,7 @@
  * references, start values and the parameter copy into the core's structs are generated (sm_vars.h /
  * sm_vars.c, orchestration/build/native_tables.py); the get/set accessors are fmu/native/common/sm_values.c. */
 #include <math.h>
+#include <stdio.h>
 #include <string.h>
 
 #include "sm_common.h"
@@ -15,9 +16,44 @@ typedef struct {
     sm_motor p;
     double x[SM_N_STATES];
     int ready;
+    int warned[3]; /* a plausibility warning of |v_s|, |i_s|, |omega_m| was logged in this run */
 } plant_data;
 
 const size_t FG_MODEL_DATA_SIZE = sizeof(plant_data);
+
+/* the plausibility warnings (as PlantUnit.step, satmotor/interface.py): quantity k above its bound
+ * v_warn / i_warn / omega_warn (> 0) is logged once per run at warning level; nothing else changes */
+static const char *const WARN_NAME[3] = {"v_warn", "i_warn", "omega_warn"};
+static const char *const WARN_WHAT[3][3] = {
+    {"|v_s|", "V", "input"}, {"|i_s|", "A", "output"}, {"|omega_m|", "rad/s", "output"}};
+
+static double warn_bound(const plant_data *d, int k)
+{
+    return d->v.r[k == 0 ? SM_VR_v_warn : k == 1 ? SM_VR_i_warn : SM_VR_omega_warn];
+}
+
+/* quantity k: |v_s| of the inputs, |i_s| or |omega_m| of the outputs */
+static void plausible(fg_instance *inst, plant_data *d, int k, double t)
+{
+    char a[40], b[40], c[40];
+    const double *r = d->v.r;
+    double bound = warn_bound(d, k), x, y, value;
+    if (d->warned[k] || !(bound > 0.0)) return;
+    if (k == 2) {
+        value = fabs(r[SM_VR_omega_m]);
+        if (!(value > bound)) return;
+    } else { /* the squares first (cheap, as PlantUnit), the magnitude only for the message */
+        x = r[k == 0 ? SM_VR_v_s_alpha : SM_VR_i_s_alpha];
+        y = r[k == 0 ? SM_VR_v_s_beta : SM_VR_i_s_beta];
+        if (!(x * x + y * y > bound * bound)) return;
+        value = sm_hypot(x, y);
+    }
+    d->warned[k] = 1;
+    fg_log(inst, FG_WARNING, "logStatusWarning", "SaturatedInductionMotor: implausible %s at t = %s s: %s = %s %s "
+           "exceeds %s = %s %s; the step is computed as given (logged once per run)", WARN_WHAT[k][2],
+           sm_repr_double(t, a, sizeof a), WARN_WHAT[k][0], sm_repr_double(value, b, sizeof b), WARN_WHAT[k][1],
+           WARN_NAME[k], sm_repr_double(bound, c, sizeof c), WARN_WHAT[k][1]);
+}
 
 static void publish(plant_data *d)
 {
@@ -57,6 +93,16 @@ fg_status fg_model_exit_initialization(fg_instance *inst, void *data, double sta
     if (sm_resolve_file(inst, "table_file", motor.table_file, sizeof motor.table_file) != FG_OK) {
         return FG_ERROR;
     }
+    if (sm_require_integer("max_substeps", d->v.i[SM_VR_max_substeps], 1, msg, sizeof msg) != 0) {
+        fg_log(inst, FG_ERROR, "logStatusError", "%s", msg);
+        return FG_ERROR;
+    }
+    for (st = 0; st < 3; ++st) {
+        if (sm_require_number(WARN_NAME[st], warn_bound(d, st), 1, 0.0, 1, msg, sizeof msg) != 0) {
+            fg_log(inst, FG_ERROR, "logStatusError", "%s", msg);
+            return FG_ERROR;
+        }
+    }
     st = sm_motor_init(&d->p, &motor, &plant, msg, sizeof msg);
     if (st != 0) {
         fg_log(inst, FG_ERROR, "logStatusError", "%s", msg);
@@ -83,10 +129,19 @@ fg_status fg_model_do_step(fg_instance *inst, void *data, double t, double h)
     }
     st = sm_plant_check_step(&d->p, r[SM_VR_v_s_alpha], r[SM_VR_v_s_beta], r[SM_VR_T_load], h, &n_sub, msg,
                              sizeof msg);
+    if (st == 0 && n_sub > d->v.i[SM_VR_max_substeps]) { /* bounded work per call: as PlantUnit.step */
+        char v[40], hi[40];
+        snprintf(msg, sizeof msg, "communicationStepSize = %s: needs %d RK4 sub-steps of h_int = %s s, more than "
+                 "max_substeps = %ld: take shorter communication steps or raise max_substeps",
+                 sm_repr_double(h, v, sizeof v), n_sub, sm_repr_double(d->p.h_int, hi, sizeof hi),
+                 (long)d->v.i[SM_VR_max_substeps]);
+        st = 1;
+    }
     if (st != 0) {
         fg_log(inst, FG_DISCARD, "logStatusDiscard", "SaturatedInductionMotor at t = %.17g s: %s", t, msg);
         return FG_DISCARD;
     }
+    plausible(inst, d, 0, t);
     for (j = 0; j < SM_N_STATES; ++j) {
         x[j] = d->x[j];
     }
@@ -105,5 +160,7 @@ fg_status fg_model_do_step(fg_instance *inst, void *data, double t, double h)
     }
     d->v.r[SM_VR_time] = t + h;
     publish(d);
+    plausible(inst, d, 1, t + h);
+    plausible(inst, d, 2, t + h);
     return FG_OK;
 }

@@ -132,9 +132,10 @@ def build_all(out_dir="build/fmus", native=True, cross=False):
                         "--out", str(out)], check=True)
         paths.append(out / f"{name}.fmu")
     if native:
-        from orchestration.build.native_fmus import build_all as build_native
+        from orchestration.build import native_fmus, native_me
 
-        for p in build_native(out, cross):
+        cross = native_fmus.zig_available() if cross is None else cross
+        for p in [*native_fmus.build_all(out, cross), *native_me.build_all(out, cross)]:
             print(f"built {p}")
             paths.append(p)
     return paths
@@ -148,7 +149,8 @@ NO_ZIG = ("--all-platforms cross-compiles the Windows and macOS binaries with zi
 def main(argv=None):
     ap = argparse.ArgumentParser(description="Build SaturatedInductionMotor.fmu and "
                                  "BacksteppingController.fmu: FMI 2.0 co-simulation with pythonfmu in OUT, "
-                                 "native C ones in OUT/native (FMI 2.0) and OUT/native-fmi3 (FMI 3.0), for "
+                                 "native C ones in OUT/native (FMI 2.0) and OUT/native-fmi3 (FMI 3.0), the "
+                                 "model-exchange plant in OUT/native-me and OUT/native-me-fmi3, for "
                                  "this machine (Linux x86_64); --all-platforms adds Windows and macOS.")
     ap.add_argument("--out", default="build/fmus", help="output directory (default build/fmus)")
     ap.add_argument("--no-native", action="store_true", help="only the pythonfmu FMUs")

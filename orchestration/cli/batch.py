@@ -20,6 +20,13 @@
    variant whatever happens to its child (:func:`run_variants`).  Once the runs are over (finished,
    failed or interrupted) the sweep's table and figure go to ``OUT/<sweep name>/``
    (:mod:`orchestration.results.sweep_table`).
+5. Files (:mod:`orchestration.results.atomic`, :mod:`orchestration.results.batch_summary`):
+   ``summary.csv`` is written whole before the first run (the unfinished rows ``running`` with the
+   batch's pid) and again as each scenario finishes, so a batch killed even by SIGKILL leaves a
+   complete table; when it cannot be written (a full disk) it is printed on standard error at the
+   end and the exit code is at least 1.  A child that dies (a signal, or an exit without results)
+   leaving its ``metrics.json`` at ``running`` gets it rewritten ``failed`` (``interrupted`` when the
+   batch stopped it) with the reason, e.g. ``killed (SIGKILL)``, and its ``.part`` files removed.
 
 Each row also says whether the run held its set-points (``holds_setpoints``, ``setpoints``: see
 :mod:`orchestration.results`); a row that did not is listed after the table (``NOT HELD ...``), without
@@ -43,7 +50,10 @@ from pathlib import Path
 from typing import NamedTuple
 
 from orchestration.build import fmus
+from orchestration.cli.scheduler import SchedulerUnreachable
 from orchestration.process.interrupts import PARENT_ENV, StopRequest, signal_name
+from orchestration.results.atomic import describe, owner, settle_abandoned
+from orchestration.results.batch_summary import SummaryFile, running_row
 
 SUMMARY_METRICS = ("iae_speed", "iae_flux", "ss_speed", "ss_flux", "overshoot_speed", "settling_time_speed",
                    "peak_current", "peak_voltage", "min_W")
@@ -271,13 +281,15 @@ def _child_row(path, name, rc, stdout, stderr, metrics, stopped):
     if rc < 0:
         sig = signal_name(-rc)
         status = "interrupted" if stopped else "failed"
+        settle_abandoned(metrics, status, f"killed ({sig}): the run ended without writing its results")
         return _row(path, name, status, 128 - rc, f"the child process was killed by {sig}" + (
             f"; {tail}" if tail else ""))
     if rc == INVALID:
         return _row(path, name, "invalid", rc, tail)
     if summary is None or summary.get("status") == "running":
-        return _row(path, name, "interrupted" if stopped else "failed", rc or 1,
-                    f"exit {rc} without results" + (f": {tail}" if tail else ""))
+        message = f"exit {rc} without results" + (f": {tail}" if tail else "")
+        settle_abandoned(metrics, "interrupted" if stopped else "failed", message)
+        return _row(path, name, "interrupted" if stopped else "failed", rc or 1, message)
     row = _row(path, name, summary["status"], rc, summary.get("message", ""))
     row.update(accepted=summary.get("accepted"), holds_setpoints=summary.get("holds_setpoints"),
                setpoints=summary.get("setpoints", ""), wall_time=summary.get("wall_time"),
@@ -317,9 +329,11 @@ def _run_local(runnable, out, fmu_dir, jobs, algorithm, stop, done, variant, com
 def _run_dask(runnable, out, fmu_dir, scheduler, algorithm, stop, done, variant, plot=True):
     import uuid
 
-    from distributed import Client, Event
+    from distributed import Event
 
-    with Client(scheduler) as client:
+    from orchestration.cli.scheduler import connect
+
+    with connect(scheduler) as client:  # within seconds, or SchedulerUnreachable saying why
         event_name = f"satmotor-batch-stop-{uuid.uuid4().hex}"
         event = Event(event_name, client=client)
         remaining = {client.submit(_dask_task, str(job.file), str(job.out(out)), str(fmu_dir), algorithm,
@@ -374,11 +388,17 @@ def run_batch(items, out, fmu_dir, jobs=2, scheduler=None, algorithm=None, stop=
         print("batch refused: nothing was run", file=sys.stderr)
         return INVALID
     out = Path(out)
+    summary = SummaryFile(out / "summary.csv")
+    me = owner()
+    running = {(str(job.file), n): running_row(job.file, n, me)  # replaced as they finish
+               for job in runnable for n in job.names}
     try:
         out.mkdir(parents=True, exist_ok=True)
-        (out / "summary.csv").write_text("")  # --out is writable before anything runs
     except OSError as exc:
-        print(f"--out {out}: cannot write the results: {exc}", file=sys.stderr)
+        print(f"--out {out}: cannot write the results: {describe(exc)}", file=sys.stderr)
+        return INVALID
+    if not summary.write([*rows, *running.values()]):  # --out is writable before anything runs
+        print(f"--out {out}: cannot write the results: {describe(summary.error)}", file=sys.stderr)
         return INVALID
     started = set()
     bar = _progress(len(runnable) + len(rows))
@@ -388,6 +408,8 @@ def run_batch(items, out, fmu_dir, jobs=2, scheduler=None, algorithm=None, stop=
     def done(row):
         rows.append(row)
         started.add((row["file"], row["scenario"]))
+        running.pop((row["file"], row["scenario"]), None)
+        summary.write([*rows, *running.values()])  # whole at every moment (a failure: said at the end)
         bar and bar.update(1)
 
     error = ""
@@ -399,7 +421,8 @@ def run_batch(items, out, fmu_dir, jobs=2, scheduler=None, algorithm=None, stop=
             else:
                 _run_local(runnable, out, fmu_dir, jobs, algorithm, stop, done, variant, command, plot)
     except Exception as exc:  # noqa: BLE001 - the summary is written whatever happened
-        error = f"the batch failed before running it: {exc!r}"
+        said = exc if isinstance(exc, SchedulerUnreachable) else repr(exc)
+        error = f"the batch failed before running it: {said}"
         print(error, file=sys.stderr)
     finally:
         bar and bar.close()
@@ -409,11 +432,11 @@ def run_batch(items, out, fmu_dir, jobs=2, scheduler=None, algorithm=None, stop=
                     rows.append(_row(job.file, name, "failed", 1, error) if error and not stop.signum else
                                 _row(job.file, name, "interrupted", 0,
                                      "no result: the batch was interrupted"))
-        _write_summary(rows, out)
+        written = _write_summary(rows, out, summary)
         _write_sweeps(sweeps, rows, out, plot)
     if stop.signum:
         return stop.exit_code
-    return max(r["exit_code"] for r in rows)
+    return max(max(r["exit_code"] for r in rows), 0 if written else 1)
 
 
 def _write_sweeps(sweeps, rows, out, plot):
@@ -431,11 +454,13 @@ def _write_sweeps(sweeps, rows, out, plot):
             print(f"sweep {name} ({path}): cannot write its table: {exc!r}", file=sys.stderr)
 
 
-def _write_summary(rows, out):
+def _write_summary(rows, out, summary):
+    """Write ``summary.csv`` (:class:`~orchestration.results.batch_summary.SummaryFile`: on standard
+    error when it cannot be written) and show the table; True when the file was written."""
     import pandas as pd
 
+    written = summary.write_or_print(rows)
     df = pd.DataFrame(rows).sort_values("file").reset_index(drop=True)
-    df.to_csv(out / "summary.csv", index=False)
     table = df.rename(columns={"holds_setpoints": "held"})
     shown = [c for c in ("scenario", "status", "accepted", "held", *SUMMARY_METRICS, "wall_time")
              if c in table]
@@ -446,4 +471,5 @@ def _write_summary(rows, out):
                   file=sys.stderr)
         elif r.get("holds_setpoints") is False:
             print(f"NOT HELD {r['file']} (exit {r['exit_code']}): {r.get('setpoints', '')}", file=sys.stderr)
-    print(f"summary: {out / 'summary.csv'}")
+    print(f"summary: {out / 'summary.csv'}" if written else "summary: on standard error (not written)")
+    return written

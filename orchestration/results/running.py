@@ -17,8 +17,8 @@ from orchestration.scenario.recording import NEEDED, last_row_time, record_steps
 from satmotor.control.drive import RUN
 from satmotor.metrics import RunningMetrics
 
-__all__ = ["METRIC_COLUMNS", "FLAG_COLUMNS", "FIGURE_ROWS", "MetricsObserver", "FigureCopy", "ss_window",
-           "figure_step", "observers"]
+__all__ = ["METRIC_COLUMNS", "FLAG_COLUMNS", "PSI_SET_COLUMN", "FIGURE_ROWS", "MetricsObserver", "FigureCopy",
+           "ss_window", "figure_step", "observers"]
 
 #: most rows the figure of a run shows (every k-th row beyond: the default scenario's 15 001, every 4th).
 #: The figure is 900 pixels wide; drawing costs memory: a figure of 8000 rows about 40 MB more than one
@@ -33,6 +33,8 @@ METRIC_COLUMNS = {"t": "time", "omega_m": "plant.omega_m", "omega_ref": "profile
                   "v_s_alpha": "controller.v_s_alpha", "v_s_beta": "controller.v_s_beta", "W": "controller.W"}
 #: the run-phase column and the limiter flags
 PHASE_COLUMN = "controller.phase"
+#: the flux set-point the drive works to (under field weakening below the nominal psi_ref), when recorded
+PSI_SET_COLUMN = "controller.psi_ref_shaped"
 FLAG_COLUMNS = {"voltage_limited": "controller.voltage_limited",
                 "current_limited": "controller.current_limited"}
 
@@ -52,13 +54,15 @@ class MetricsObserver:
         self._cols = [(k, index[c]) for k, c in METRIC_COLUMNS.items()]
         self._flags = [(k, index[c]) for k, c in FLAG_COLUMNS.items()]
         self._phase = index[PHASE_COLUMN]
+        self._psi_set = index.get(PSI_SET_COLUMN)
         t_last = last_row_time(scenario)
         w_final = scenario.profiles["omega_ref"].value(t_last)
         self.metrics = RunningMetrics(t_last, w_final, ss_window(scenario))
 
     def __call__(self, chunk):
         self.metrics.update(**{k: chunk[:, i] for k, i in self._cols + self._flags},
-                            run=chunk[:, self._phase] == RUN)
+                            run=chunk[:, self._phase] == RUN,
+                            psi_set=None if self._psi_set is None else chunk[:, self._psi_set])
 
     def times(self):
         """``[t_first, t_last]`` [s] of the rows seen (empty before the first)."""

@@ -9,9 +9,11 @@
 * :mod:`~orchestration.scenario.sweep` -- the ``sweep:`` section: a grid or Monte Carlo draws of
   variants, expanded before anything runs; :mod:`~orchestration.scenario.variants` -- a sweep file
   read and every variant checked (``load_sweep``), or one variant (``load_variant``).
+* :mod:`~orchestration.scenario.plausibility` -- notes for inputs far outside the motor's range.
 * :mod:`~orchestration.scenario.system` -- the system a scenario runs: units, connections, the
   measured signals and the ``measurements:`` section.
 * :mod:`~orchestration.scenario.recording` -- the columns a run records and which ones it keeps.
 * :mod:`~orchestration.scenario.feasibility` -- physics checks (reachable flux, the torque the
   current limit allows, recording size).
+* :mod:`~orchestration.scenario.presets` -- ``motor: {preset: NAME, ...}``: a named motor expanded.
 """

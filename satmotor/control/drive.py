@@ -19,7 +19,10 @@ Start from standstill (the backstepping law is singular at Phi_rd = 0):
    speed shaper at ``(omega_m, 0, 0)``, so that ``e1 = e2 = z1 = 0`` at the switch: the law
    takes over without a jump.
 
-3. *Run*: references from the shapers (third-order, exact derivatives), the control law, and
+3. *Run*: with ``field_weakening`` the flux shaper's input is the set-point of
+   :class:`satmotor.control.field_weakening.FieldWeakening` (``psi_ref`` itself while the steady
+   voltage at ``psi_ref`` fits in ``fw_voltage_ratio V_dc/sqrt(3)``; lower above base speed); references
+   from the shapers (third-order, exact derivatives), the control law, and
    in the estimated-load mode ``theta_hat <- clip(theta_hat + Ts theta_hat', +-theta_max)``
    (forward Euler over the hold).  In the known-load mode the load torque input is taken as
    piecewise constant (dT_L/dt = 0: a difference quotient would turn a load step into a
@@ -35,6 +38,7 @@ from typing import NamedTuple
 from satmotor.control.backstepping import D_SHARE, BacksteppingGains, ControllerConfig, control
 from satmotor.control.delay import N_STATE as N_DELAY_STATE
 from satmotor.control.delay import DelayCompensator
+from satmotor.control.field_weakening import FieldWeakening
 from satmotor.control.fo_model import flux_rate, model_constants
 from satmotor.control.ifoc import IFOCController, IFOCGains
 from satmotor.control.measurements import (
@@ -46,7 +50,7 @@ from satmotor.control.measurements import (
     from_rotor_flux,
 )
 from satmotor.control.observer import RotorFluxObserver
-from satmotor.control.references import REF_VALUE, ReferenceShaper
+from satmotor.control.references import REF_RATE, REF_VALUE, ReferenceShaper
 from satmotor.errors import ParameterError, require_number
 
 PREMAG, RUN = 0, 1
@@ -67,7 +71,9 @@ class DriveConfig:
     premag_boost [1]; premag_gain [Ohm] K_pm of the pre-magnetization current loop;
     flux_source 'measured' (the psi_r inputs, the seed's assumption) or 'observer'
     (:class:`satmotor.control.observer.RotorFluxObserver` from i_s and omega_m); delay_samples 0 or 1
-    (:mod:`satmotor.control.delay`).
+    (:mod:`satmotor.control.delay`); field_weakening: the flux set-point psi_ref is the nominal flux,
+    lowered where the steady stator voltage would exceed fw_voltage_ratio [1] of V_dc/sqrt(3)
+    (:mod:`satmotor.control.field_weakening`); False: psi_ref as it is (the drive before it).
     """
 
     ref_bandwidth: float = 40.0
@@ -80,6 +86,8 @@ class DriveConfig:
     premag_speed_tol: float = 2.0
     flux_source: str = "measured"
     delay_samples: int = 0
+    field_weakening: bool = True
+    fw_voltage_ratio: float = 0.95
 
     def __post_init__(self):
         require_number("ref_bandwidth", self.ref_bandwidth, 0)
@@ -94,6 +102,9 @@ class DriveConfig:
             raise ParameterError("flux_source", self.flux_source, f"must be one of {', '.join(FLUX_SOURCES)}")
         if self.delay_samples not in (0, 1) or isinstance(self.delay_samples, bool):
             raise ParameterError("delay_samples", self.delay_samples, "must be 0 or 1")
+        if not isinstance(self.field_weakening, bool):
+            raise ParameterError("field_weakening", self.field_weakening, "must be a bool")
+        require_number("fw_voltage_ratio", self.fw_voltage_ratio, 0, upper=1)
 
 
 class DriveOutput(NamedTuple):
@@ -137,7 +148,15 @@ class _Drive:
         self._n_switch = round(drive_cfg.premag_time_max / Ts)
         self._observer = (RotorFluxObserver(params, Ts) if drive_cfg.flux_source == "observer" else None)
         self._delay = DelayCompensator(params, Ts) if drive_cfg.delay_samples else None
+        self._fw = (FieldWeakening(params, self._V_max, drive_cfg.fw_voltage_ratio, drive_cfg.ref_bandwidth)
+                    if drive_cfg.field_weakening else None)
+        self._i_lim = drive_cfg.I_max  # [A] the law's current bound this sample (lower beyond breakdown)
         self.reset()
+
+    @property
+    def V_max(self):
+        """Largest stator voltage magnitude [V] the law may apply: V_dc / sqrt(3)."""
+        return self._V_max
 
     def reset(self):
         self._phase = PREMAG
@@ -184,6 +203,10 @@ class _Drive:
                 self._n += 1
                 return self._delayed(self._premag(meas, I_set, phi, psi_ref))
             self._switch(meas)
+        self._i_lim = self.dcfg.I_max
+        if self._fw is not None:  # the nominal flux, or lower where the voltage does not suffice
+            psi_ref, self._i_lim = self._fw.flux_reference(meas, self._speed.value[REF_RATE], psi_ref,
+                                                           self._i_lim)
         if self._delay is None:
             out = self._run(meas, self._flux.value, self._speed.value, T_load)
             self._flux.step(psi_ref, self.Ts)
@@ -321,7 +344,7 @@ class BacksteppingDrive(_Drive):
     def _run(self, meas, psi_ref_shaped, omega_ref_shaped, T_load):
         cfg, p = self.cfg, self.params
         o = control(meas, psi_ref_shaped + omega_ref_shaped, (T_load, 0.0), p, self.gains, cfg,
-                    self._theta_hat, (self._e0, self._z0), self.dcfg.I_max)
+                    self._theta_hat, (self._e0, self._z0), self._i_lim)
         if cfg.load_mode == "estimated":
             t_load = self._theta_hat * p.J
             th = self._theta_hat + cfg.Ts * o.theta_hat_dot

@@ -8,6 +8,7 @@
 #include <stddef.h>
 
 #include "sm_delay.h"
+#include "sm_fieldweak.h"
 #include "sm_ifoc.h"
 #include "sm_law.h"
 #include "sm_observer.h"
@@ -22,6 +23,8 @@ typedef struct {
     double premag_min_fraction, premag_speed_tol;
     int observer;      /* flux_source: 0 measured, 1 observer */
     int delay_samples; /* 0 or 1 */
+    int field_weakening;     /* 0/1: the flux set-point of sm_fieldweak.h, or psi_ref as it is */
+    double fw_voltage_ratio; /* [1] in (0, 1] */
 } sm_drive_config;
 
 /* The Python defaults, DriveConfig() (defined in the generated sm_params.c). */
@@ -49,6 +52,8 @@ typedef struct {
     sm_shaper flux, speed;
     sm_observer obs;
     sm_delay delay;
+    sm_fieldweak fw;
+    double i_lim; /* [A] the law's current bound this sample (below I_max beyond the breakdown torque) */
     /* state */
     int phase;
     long n;

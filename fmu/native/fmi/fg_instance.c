@@ -7,19 +7,55 @@
 #include <stdlib.h>
 #include <string.h>
 
-#define FG_STATE_MAGIC "SMFMUST"
-#define FG_STATE_FORMAT 1u
-#define FG_TAG_LEN 64
+/* The registry of live instances: the one piece of mutable state shared by the instances of this
+ * library, kept so that a second fmi2FreeInstance/fmi3FreeInstance of the same pointer (a host bug the
+ * standards leave undefined) is ignored instead of freeing freed memory.  The pointer handed to
+ * free is only compared with the addresses of live instances, never read.  A lock guards it, as
+ * hosts may instantiate and free in several threads.  Why and what it cannot do: docs/fmus.md,
+ * "Double freeInstance". */
+#if defined(_WIN32)
+#include <windows.h>
+static struct {
+    SRWLOCK lock;
+    fg_instance *head;
+} fg_live = {SRWLOCK_INIT, NULL};
+#define LIVE_LOCK() AcquireSRWLockExclusive(&fg_live.lock)
+#define LIVE_UNLOCK() ReleaseSRWLockExclusive(&fg_live.lock)
+#else
+#include <pthread.h>
+static struct {
+    pthread_mutex_t lock;
+    fg_instance *head;
+} fg_live = {PTHREAD_MUTEX_INITIALIZER, NULL};
+#define LIVE_LOCK() (void)pthread_mutex_lock(&fg_live.lock)
+#define LIVE_UNLOCK() (void)pthread_mutex_unlock(&fg_live.lock)
+#endif
 
-typedef struct {
-    char magic[8];
-    uint32_t format_version;
-    uint32_t phase;
-    uint64_t data_size;
-    char model_identifier[FG_TAG_LEN];
-    char token[FG_TAG_LEN];
-    double time;
-} fg_state_header;
+static void live_add(fg_instance *inst)
+{
+    LIVE_LOCK();
+    inst->live_prev = NULL;
+    inst->live_next = fg_live.head;
+    if (fg_live.head != NULL) fg_live.head->live_prev = inst;
+    fg_live.head = inst;
+    LIVE_UNLOCK();
+}
+
+/* 1 if inst was a live instance (now removed from the registry), 0 if not (then it was not read) */
+static int live_remove(const fg_instance *inst)
+{
+    fg_instance *i;
+    LIVE_LOCK();
+    for (i = fg_live.head; i != NULL && i != inst; i = i->live_next) {
+    }
+    if (i != NULL) {
+        if (i->live_prev != NULL) i->live_prev->live_next = i->live_next;
+        else fg_live.head = i->live_next;
+        if (i->live_next != NULL) i->live_next->live_prev = i->live_prev;
+    }
+    LIVE_UNLOCK();
+    return i != NULL;
+}
 
 static char *dup_string(const char *s)
 {
@@ -68,6 +104,15 @@ static char *resource_dir(const char *loc)
     return out;
 }
 
+static void destroy(fg_instance *inst)
+{
+    fg_state_free_all(inst);
+    free(inst->name);
+    free(inst->resource_path);
+    free(inst->data);
+    free(inst);
+}
+
 fg_instance *fg_instance_new(const char *name, const char *resource_path, void *env, fg_generic_fn logger,
                              fg_emit_fn emit, int logging_on)
 {
@@ -81,32 +126,33 @@ fg_instance *fg_instance_new(const char *name, const char *resource_path, void *
     inst->logging_on = logging_on;
     inst->data = calloc(1, FG_MODEL_DATA_SIZE > 0 ? FG_MODEL_DATA_SIZE : 1);
     if (inst->name == NULL || inst->data == NULL) {
-        fg_instance_free(inst);
+        destroy(inst);
         return NULL;
     }
     fg_instance_reset(inst);
+    live_add(inst);
     return inst;
 }
 
 void fg_instance_free(fg_instance *inst)
 {
-    if (inst == NULL) return;
-    free(inst->name);
-    free(inst->resource_path);
-    free(inst->data);
-    free(inst);
+    if (inst == NULL || !live_remove(inst)) return;
+    destroy(inst);
 }
 
 void fg_instance_reset(fg_instance *inst)
 {
     memset(inst->data, 0, FG_MODEL_DATA_SIZE);
     inst->phase = FG_PHASE_INSTANTIATED;
+    inst->me_continuous = 0;
     inst->time = 0.0;
+    inst->stop_time = INFINITY;
     fg_model_start(inst, inst->data);
 }
 
 const char *fg_instance_name(const fg_instance *inst) { return inst ? inst->name : NULL; }
 const char *fg_resource_path(const fg_instance *inst) { return inst ? inst->resource_path : NULL; }
+double fg_stop_time(const fg_instance *inst) { return inst ? inst->stop_time : INFINITY; }
 
 void fg_log(fg_instance *inst, fg_status status, const char *category, const char *fmt, ...)
 {
@@ -319,146 +365,4 @@ fg_status fg_do_step(fg_instance *inst, const char *func, double t, double h)
         s = FG_ERROR;
     }
     return s;
-}
-
-/* ---- FMU state ---- */
-
-size_t fg_state_size(void) { return sizeof(fg_state_header) + FG_MODEL_DATA_SIZE; }
-
-static void fill_header(const fg_instance *inst, fg_state_header *h)
-{
-    memset(h, 0, sizeof *h);
-    memcpy(h->magic, FG_STATE_MAGIC, sizeof FG_STATE_MAGIC);
-    h->format_version = FG_STATE_FORMAT;
-    h->phase = (uint32_t)inst->phase;
-    h->data_size = (uint64_t)FG_MODEL_DATA_SIZE;
-    strncpy(h->model_identifier, FG_MODEL_IDENTIFIER_STRING, FG_TAG_LEN - 1);
-    strncpy(h->token, INSTANTIATION_TOKEN, FG_TAG_LEN - 1);
-    h->time = inst->time;
-}
-
-#define STATE_MASK (FG_PHASE_INSTANTIATED | FG_PHASE_INIT | FG_PHASE_STEP | FG_PHASE_STEP_FAILED | FG_PHASE_TERMINATED)
-
-fg_status fg_state_get(fg_instance *inst, const char *func, void **state)
-{
-    fg_state_header h;
-    unsigned char *blob;
-    if (!fg_allowed(inst, func, STATE_MASK)) return FG_ERROR;
-    if (state == NULL) {
-        fg_log(inst, FG_ERROR, NULL, "%s: NULL state pointer", func);
-        return FG_ERROR;
-    }
-    blob = (unsigned char *)(*state != NULL ? *state : malloc(fg_state_size()));
-    if (blob == NULL) {
-        fg_log(inst, FG_ERROR, NULL, "%s: out of memory", func);
-        return FG_ERROR;
-    }
-    fill_header(inst, &h);
-    memcpy(blob, &h, sizeof h);
-    memcpy(blob + sizeof h, inst->data, FG_MODEL_DATA_SIZE);
-    *state = blob;
-    return FG_OK;
-}
-
-/* checks a blob of size bytes; logs why it is refused */
-static int blob_ok(fg_instance *inst, const char *func, const unsigned char *buf, size_t size)
-{
-    fg_state_header h, mine;
-    if (buf == NULL) {
-        fg_log(inst, FG_ERROR, NULL, "%s: NULL state", func);
-        return 0;
-    }
-    if (size < sizeof h) {
-        fg_log(inst, FG_ERROR, NULL, "%s: state of %lu bytes is truncated (header is %lu bytes)", func,
-               (unsigned long)size, (unsigned long)sizeof h);
-        return 0;
-    }
-    memcpy(&h, buf, sizeof h);
-    fill_header(inst, &mine);
-    if (memcmp(h.magic, mine.magic, sizeof h.magic) != 0) {
-        fg_log(inst, FG_ERROR, NULL, "%s: not a serialized FMU state of this glue (bad magic)", func);
-        return 0;
-    }
-    if (h.format_version != mine.format_version) {
-        fg_log(inst, FG_ERROR, NULL, "%s: state format version %lu, expected %lu", func,
-               (unsigned long)h.format_version, (unsigned long)mine.format_version);
-        return 0;
-    }
-    /* the whole zero-padded fields must match */
-    h.model_identifier[FG_TAG_LEN - 1] = '\0';
-    h.token[FG_TAG_LEN - 1] = '\0';
-    if (memcmp(h.model_identifier, mine.model_identifier, FG_TAG_LEN) != 0) {
-        fg_log(inst, FG_ERROR, NULL, "%s: state of another model ('%s'), this is '%s'", func, h.model_identifier,
-               mine.model_identifier);
-        return 0;
-    }
-    if (memcmp(h.token, mine.token, FG_TAG_LEN) != 0) {
-        fg_log(inst, FG_ERROR, NULL, "%s: state of build %s, this is %s", func, h.token, mine.token);
-        return 0;
-    }
-    if (h.data_size == mine.data_size && size < fg_state_size()) {
-        fg_log(inst, FG_ERROR, NULL, "%s: state of %lu bytes is truncated (expected %lu)", func, (unsigned long)size,
-               (unsigned long)fg_state_size());
-        return 0;
-    }
-    if (h.data_size != mine.data_size || size != fg_state_size()) {
-        fg_log(inst, FG_ERROR, NULL, "%s: state of %lu bytes with %lu data bytes, expected %lu and %lu", func,
-               (unsigned long)size, (unsigned long)h.data_size, (unsigned long)fg_state_size(),
-               (unsigned long)mine.data_size);
-        return 0;
-    }
-    if (!(h.phase & STATE_MASK) || !isfinite(h.time)) {
-        fg_log(inst, FG_ERROR, NULL, "%s: state with invalid phase %lu or time", func, (unsigned long)h.phase);
-        return 0;
-    }
-    return 1;
-}
-
-fg_status fg_state_set(fg_instance *inst, const char *func, const void *state)
-{
-    fg_state_header h;
-    if (!fg_allowed(inst, func, STATE_MASK)) return FG_ERROR;
-    if (!blob_ok(inst, func, (const unsigned char *)state, fg_state_size())) return FG_ERROR;
-    memcpy(&h, state, sizeof h);
-    memcpy(inst->data, (const unsigned char *)state + sizeof h, FG_MODEL_DATA_SIZE);
-    inst->phase = (fg_phase)h.phase;
-    inst->time = h.time;
-    return FG_OK;
-}
-
-void fg_state_free(void *state) { free(state); }
-
-fg_status fg_state_serialize(fg_instance *inst, const char *func, const void *state, unsigned char *buf, size_t size)
-{
-    if (!fg_allowed(inst, func, FG_PHASE_ANY)) return FG_ERROR;
-    if (state == NULL || buf == NULL) {
-        fg_log(inst, FG_ERROR, NULL, "%s: NULL state or buffer", func);
-        return FG_ERROR;
-    }
-    if (size != fg_state_size()) {
-        fg_log(inst, FG_ERROR, NULL, "%s: buffer of %lu bytes, the state has %lu", func, (unsigned long)size,
-               (unsigned long)fg_state_size());
-        return FG_ERROR;
-    }
-    memcpy(buf, state, size);
-    return FG_OK;
-}
-
-fg_status fg_state_deserialize(fg_instance *inst, const char *func, const unsigned char *buf, size_t size, void **state)
-{
-    void *blob;
-    if (!fg_allowed(inst, func, FG_PHASE_ANY)) return FG_ERROR;
-    if (state == NULL) {
-        fg_log(inst, FG_ERROR, NULL, "%s: NULL state pointer", func);
-        return FG_ERROR;
-    }
-    if (!blob_ok(inst, func, buf, size)) return FG_ERROR;
-    blob = *state != NULL ? *state : malloc(size);
-    if (blob == NULL) {
-        fg_log(inst, FG_ERROR, NULL, "%s: out of memory", func);
-        return FG_ERROR;
-    }
-    memcpy(blob, buf, size);
-    *state = blob;
-    return FG_OK;
 }

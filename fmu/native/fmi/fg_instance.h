@@ -1,11 +1,17 @@
 /* fg_instance.h - the model-agnostic FMU instance shared by fmi2_glue.c and fmi3_glue.c:
  * instance name, logger, FMI phase (state machine), resource path, the model data buffer,
- * variable checks and the FMU state blob. No global mutable state. */
+ * variable checks (fg_instance.c) and its FMU states (fg_state.c).  No global mutable state but one:
+ * the registry of live instances in fg_instance.c (see fg_instance_free). */
 #ifndef FG_INSTANCE_H
 #define FG_INSTANCE_H
 
 #include "fg_model.h"
 
+/* a source-code FMU carries its identity in fg_identity.h beside the sources (written by the build),
+ * so that `cc -shared *.c` needs no -D; the build itself passes both with -D */
+#if !defined(MODEL_IDENTIFIER) && !defined(INSTANTIATION_TOKEN)
+#include "fg_identity.h"
+#endif
 #if !defined(MODEL_IDENTIFIER) || !defined(INSTANTIATION_TOKEN)
 #error "compile with -DMODEL_IDENTIFIER=<id> -DINSTANTIATION_TOKEN=\"{guid}\""
 #endif
@@ -27,6 +33,7 @@ typedef enum {
 /* the FMI-version specific emitter of one formatted message */
 typedef void (*fg_emit_fn)(fg_instance *inst, fg_status status, const char *category, const char *message);
 typedef void (*fg_generic_fn)(void);
+typedef struct fg_state_node fg_state_node;
 
 struct fg_instance {
     char *name;
@@ -36,12 +43,19 @@ struct fg_instance {
     fg_emit_fn emit;
     int logging_on;
     fg_phase phase;
+    int me_continuous;          /* model exchange in FG_PHASE_STEP: 1 continuous-time mode, 0 event mode */
     double time;
+    double stop_time;           /* the host's stop time, +inf when it gave none */
     void *data;                 /* FG_MODEL_DATA_SIZE bytes */
+    fg_state_node *states;      /* the FMU states made by get/deserialize, not yet freed (fg_state.c) */
+    fg_instance *live_next, *live_prev; /* the registry of live instances (fg_instance.c) */
 };
 
 fg_instance *fg_instance_new(const char *name, const char *resource_path, void *env, fg_generic_fn logger,
                              fg_emit_fn emit, int logging_on);
+/* frees the instance and every FMU state it made; a pointer that is not a live instance of this
+ * library (NULL, freed already, never made) is ignored without being read: the registry of live
+ * instances is compared by address under a lock */
 void fg_instance_free(fg_instance *inst);
 void fg_instance_reset(fg_instance *inst);
 
@@ -65,13 +79,19 @@ fg_status fg_enter_initialization(fg_instance *inst, const char *func, double st
 fg_status fg_exit_initialization(fg_instance *inst, const char *func);
 fg_status fg_do_step(fg_instance *inst, const char *func, double t, double h);
 
-/* FMU state: one heap blob = header + model data; the in-memory and serialized forms are the same */
+/* FMU states (fg_state.c): each a heap block tracked in the instance's list, its serialized form a
+ * header (tag: magic, format version, phase, data size, model identifier, token, time, checksum) and
+ * the model data.  Every handle is looked up in the instance's list before use: a handle that is not
+ * the instance's own live state is an error, never read. */
 size_t fg_state_size(void);
 fg_status fg_state_get(fg_instance *inst, const char *func, void **state);
 fg_status fg_state_set(fg_instance *inst, const char *func, const void *state);
-void fg_state_free(void *state);
+/* *state NULL: nothing; else the instance's own state, freed and *state set to NULL */
+fg_status fg_state_free(fg_instance *inst, const char *func, void **state);
+void fg_state_free_all(fg_instance *inst);
+fg_status fg_state_serialized_size(fg_instance *inst, const char *func, const void *state, size_t *size);
 fg_status fg_state_serialize(fg_instance *inst, const char *func, const void *state, unsigned char *buf, size_t size);
-/* checks tag, sizes; on success *state holds a new (or the reused *state) blob; on failure unchanged */
+/* checks tag, sizes, checksum; on success *state holds a new (or the reused *state) blob; on failure unchanged */
 fg_status fg_state_deserialize(fg_instance *inst, const char *func, const unsigned char *buf, size_t size, void **state);
 
 #endif
