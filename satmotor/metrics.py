@@ -228,3 +228,130 @@ def acceptance(metrics, bounds):
             value = metrics[name]
             out[name] = {"limit": limit, "value": value, "pass": bool(value <= limit)}
     return out
+
+
+class RunningMetrics:
+    """:func:`closed_loop_metrics` computed as the run goes, chunk by chunk, in memory that does not
+    grow with the run: the same definitions (module docstring), the same float operations, so every
+    figure equals the whole-record one bit for bit but ``iae_speed`` and ``iae_flux`` (summed chunk
+    by chunk: equal to within a few units in the last place).
+
+    What the whole-record computation takes from the end of the record must be known before:
+    ``t_last`` [s] the time of the last sample, ``omega_ref_final`` [rad/s] the speed set-point
+    there (the profiles are functions of time).  :meth:`update` takes the chunks' series (the keys
+    of :data:`SERIES`, ``run`` the ``phase == RUN`` mask, the limiter flags), :meth:`result` gives
+    the metrics, or None when the record did not end at ``t_last`` with ``omega_ref_final`` (a run
+    cut short: its metrics are not these).
+    """
+
+    def __init__(self, t_last, omega_ref_final, ss_window=None, flags=True):
+        self.t_last, self.w_final = float(t_last), float(omega_ref_final)
+        self.ss_window, self.flags = ss_window, flags
+        self.n = 0
+        self.t_first = self.t_seen = math.nan
+        self._last_ref = math.nan
+        self._prev = None  # (t, |z1|, |e1|) of the last run-phase sample
+        self._t_switch = math.nan
+        self._iae = [0.0, 0.0]
+        # largest speed and flux errors in the window; their set-points at its last sample
+        self._ss = [-math.inf, -math.inf, math.nan, math.nan]
+        self._w = [math.inf, -math.inf, math.nan]  # min, max of omega_m, omega_m[0]
+        self._settle = math.nan  # time of the last sample outside the band
+        self._peak = [-math.inf, -math.inf, -math.inf, math.inf]  # |i_s|, |v_s|, |i_s| run, min W run
+        self._on = [0, 0, 0, 0, 0]  # voltage, current limited: all samples, in the window; window size
+
+    def _window(self, t):
+        if self.ss_window is None:  # as steady_state_window, with t[0] and t[-1] of the record
+            return t >= self.t_first + (1.0 - SS_DEFAULT_FRACTION) * (self.t_last - self.t_first)
+        return steady_state_window(t, self.ss_window)
+
+    def update(self, *, t, omega_m, omega_ref, psi_r_alpha, psi_r_beta, psi_ref, z1, e1, i_s_alpha, i_s_beta,
+               v_s_alpha, v_s_beta, W, run, voltage_limited=None, current_limited=None, psi_set=None):
+        """Fold in the next chunk of samples (1-D arrays of one length, in time order); ``psi_set``
+        as for :func:`closed_loop_metrics` (the flux set-point the drive works to, or None)."""
+        t, w = np.asarray(t, dtype=float), np.asarray(omega_m, dtype=float)
+        if t.size == 0:
+            return
+        if self.n == 0:
+            self.t_first, self._w[2] = float(t[0]), float(w[0])
+        self.n += t.size
+        self.t_seen, self._last_ref = float(t[-1]), float(np.asarray(omega_ref)[-1])
+        ss = self._window(t)
+        if ss.any():
+            flux = np.hypot(np.asarray(psi_r_alpha, dtype=float)[ss], np.asarray(psi_r_beta, dtype=float)[ss])
+            for i, (y, y_set) in enumerate(((w[ss], np.asarray(omega_ref, dtype=float)[ss]),
+                                            (flux, np.asarray(psi_ref if psi_set is None else psi_set,
+                                                              dtype=float)[ss]))):
+                self._ss[i] = max(self._ss[i], float(np.max(np.abs(y - y_set))))
+                self._ss[2 + i] = float(y_set[-1])
+        self._w[0], self._w[1] = min(self._w[0], float(np.min(w))), max(self._w[1], float(np.max(w)))
+        if self.w_final != 0:
+            out = np.nonzero(np.abs(w - self.w_final) > SETTLING_BAND * abs(self.w_final))[0]
+            if out.size:
+                self._settle = float(t[out[-1]])
+        i_abs = np.hypot(i_s_alpha, i_s_beta)
+        self._peak[0] = max(self._peak[0], float(np.max(i_abs)))
+        self._peak[1] = max(self._peak[1], float(np.max(np.hypot(v_s_alpha, v_s_beta))))
+        run = np.asarray(run, dtype=bool)
+        if self._prev is None:
+            run = from_first(run)
+            if run.any():
+                self._t_switch = float(t[np.argmax(run)])
+        else:
+            run = np.ones(t.size, dtype=bool)
+        if run.any():
+            tr = t[run]
+            z, e = np.abs(np.asarray(z1, dtype=float)[run]), np.abs(np.asarray(e1, dtype=float)[run])
+            if self._prev is not None:  # the trapezoid across the chunks' boundary
+                tr, z, e = (np.concatenate(([p], a)) for p, a in zip(self._prev, (tr, z, e)))
+            if tr.size >= 2:
+                dt = np.diff(tr)
+                self._iae[0] += float(np.sum(0.5 * (z[1:] + z[:-1]) * dt))
+                self._iae[1] += float(np.sum(0.5 * (e[1:] + e[:-1]) * dt))
+            self._prev = (tr[-1], z[-1], e[-1])
+            self._peak[2] = max(self._peak[2], float(np.max(i_abs[run])))
+            self._peak[3] = min(self._peak[3], float(np.min(np.asarray(W, dtype=float)[run])))
+        if self.flags and voltage_limited is not None and current_limited is not None:
+            for i, f in enumerate((voltage_limited, current_limited)):
+                on = np.asarray(f, dtype=float) != 0.0
+                self._on[i] += int(np.count_nonzero(on))
+                self._on[2 + i] += int(np.count_nonzero(on[ss]))
+        self._on[4] += int(np.count_nonzero(ss))
+
+    def result(self):
+        """The metrics of :func:`closed_loop_metrics` (``{}`` for no sample), or None when the record
+        did not end at ``t_last`` with the speed set-point ``omega_ref_final``."""
+        if self.n == 0:
+            return {}
+        if self.t_seen != self.t_last or self._last_ref != self.w_final:
+            return None
+        running = self._prev is not None
+        step = self.w_final - self._w[2]
+        if step == 0:
+            over = 0.0
+        else:
+            peak = self._w[1] - self.w_final if step > 0 else -(self._w[0] - self.w_final)
+            over = float(max(peak, 0.0) / abs(step))
+        if self.w_final == 0:
+            settle = math.nan
+        else:
+            settle = self._settle if not math.isnan(self._settle) else self.t_first
+        empty = self._on[4] == 0
+        out = {
+            "t_switch": self._t_switch if running else math.nan,
+            "iae_speed": self._iae[0] if running else math.nan,
+            "iae_flux": self._iae[1] if running else math.nan,
+            "ss_speed": math.nan if empty else self._ss[0] / max(abs(self._ss[2]), SS_SPEED_FLOOR),
+            "ss_flux": math.nan if empty else self._ss[1] / max(abs(self._ss[3]), SS_FLUX_FLOOR),
+            "overshoot_speed": over,
+            "settling_time_speed": settle,
+            "peak_current": self._peak[0],
+            "peak_voltage": self._peak[1],
+            "peak_current_run": self._peak[2] if running else math.nan,
+            "min_W": self._peak[3] if running else math.nan,
+        }
+        if self.flags:
+            for i, name in enumerate(("voltage_limited", "current_limited")):
+                out[f"{name}_fraction"] = self._on[i] / self.n
+                out[f"ss_{name}_fraction"] = self._on[2 + i] / self._on[4] if not empty else math.nan
+        return out

@@ -12,7 +12,15 @@
 3. SIGINT/SIGTERM (:mod:`orchestration.process.interrupts`): nothing new starts, running children get
    SIGTERM (they write their partial results), and every scenario not finished is a row with
    status ``interrupted``.  ``summary.csv`` is written in every case once runs have started.
-4. Files (:mod:`orchestration.results.atomic`, :mod:`orchestration.results.batch_summary`):
+4. A file with a ``sweep:`` section (:mod:`orchestration.scenario.sweep`) is checked variant by
+   variant first (one bad variant makes the file an invalid row: none of its variants runs); each
+   variant then runs as a scenario of its own into ``OUT/<sweep name>/<variant name>/``: with the
+   native FMUs several to a child process (``run FILE --sweep-variant I,J,...``, :func:`grouped`:
+   the FMUs extracted and read once per child), with the pythonfmu ones a process each.  A row per
+   variant whatever happens to its child (:func:`run_variants`).  Once the runs are over (finished,
+   failed or interrupted) the sweep's table and figure go to ``OUT/<sweep name>/``
+   (:mod:`orchestration.results.sweep_table`).
+5. Files (:mod:`orchestration.results.atomic`, :mod:`orchestration.results.batch_summary`):
    ``summary.csv`` is written whole before the first run (the unfinished rows ``running`` with the
    batch's pid) and again as each scenario finishes, so a batch killed even by SIGKILL leaves a
    complete table; when it cannot be written (a full disk) it is printed on standard error at the
@@ -39,6 +47,7 @@ import sys
 import tempfile
 from concurrent.futures import ThreadPoolExecutor, as_completed
 from pathlib import Path
+from typing import NamedTuple
 
 from orchestration.build import fmus
 from orchestration.cli.scheduler import SchedulerUnreachable
@@ -48,7 +57,8 @@ from orchestration.results.batch_summary import SummaryFile, running_row
 
 SUMMARY_METRICS = ("iae_speed", "iae_flux", "ss_speed", "ss_flux", "overshoot_speed", "settling_time_speed",
                    "peak_current", "peak_voltage", "min_W")
-INVALID = 2
+INVALID, NOT_ACCEPTED = 2, 3
+STOPPED_CODES = (128 + 2, 128 + 15)  # a run's exit code after SIGINT / SIGTERM asked it to stop
 POLL = 0.2  # [s] how often a waiting batch looks for a stop request
 GRACE = 30.0  # [s] a child has to write its partial results after SIGTERM before it is killed
 
@@ -62,23 +72,71 @@ def collect(items):
     return out
 
 
+class Job(NamedTuple):
+    """What one child process of a batch runs: a scenario file (``indexes`` None), or variants
+    ``indexes`` of a file's sweep, one after the other; the results of each go to
+    ``OUT/<group>/<name>/`` (``group`` None: ``OUT/<name>/``)."""
+
+    file: Path
+    names: tuple
+    indexes: tuple | None = None
+    group: str | None = None
+
+    def out(self, out):
+        return Path(out) / self.group if self.group else Path(out)
+
+
+#: most variants of a sweep one child process runs (native FMUs only: a pythonfmu FMU needs a process
+#: of its own); fewer when that leaves a job count's processes without work
+MAX_VARIANTS_PER_CHILD = 16
+
+
+def grouped(runnable, jobs, variant):
+    """``runnable`` with the consecutive variants of each sweep joined into jobs of up to
+    :data:`MAX_VARIANTS_PER_CHILD` (about four jobs per process), for the native FMUs; unchanged
+    for the pythonfmu ones."""
+    if variant == "python":
+        return list(runnable)
+    out, sweeps = [], {}
+    for job in runnable:
+        if job.indexes is None:
+            out.append(job)
+        else:
+            sweeps.setdefault((job.file, job.group), []).append(job)
+    for (file, group), js in sweeps.items():
+        size = max(1, min(MAX_VARIANTS_PER_CHILD, -(-len(js) // (4 * max(1, jobs)))))
+        for i in range(0, len(js), size):
+            part = js[i:i + size]
+            out.append(Job(file, tuple(n for j in part for n in j.names),
+                           tuple(k for j in part for k in j.indexes), group))
+    return out
+
+
 def _row(path, name, status, exit_code, message=""):
     return {"file": str(path), "scenario": name, "status": status, "exit_code": exit_code, "message": message}
 
 
-def plan(files, variables=None, notes=None):
-    """``(runnable, rows)``: ``[(file, scenario name)]`` to run and the rows of the files that
-    cannot run (invalid or unreadable).  ``notes``: a list the scenarios' notes are appended to.
+def plan(files, variables=None, notes=None, sweeps=None):
+    """``(runnable, rows)``: the :class:`Job` list to run (a sweep's variants one by one) and the
+    rows of the files that cannot run (invalid or unreadable).  ``notes``: a list the scenarios'
+    notes are appended to; ``sweeps``: a dict that gets ``{sweep name: (file, Sweep)}``.
     Never raises."""
-    from orchestration.scenario.load import ScenarioError, load_scenario
+    from orchestration.scenario.load import ScenarioError
+    from orchestration.scenario.variants import load_sweep
 
     runnable, rows = [], []
     for f in files:
         try:
-            sc = load_scenario(f, variables)
-            runnable.append((Path(f).resolve(), sc.name))
+            sc, sweep, variants = load_sweep(f, variables)
+            path = Path(f).resolve()
+            if sweep is None:
+                runnable.append(Job(path, (sc.name,)))
+            else:
+                runnable.extend(Job(path, (v.name,), (v.index,), sc.name) for v, _ in variants)
+                if sweeps is not None:
+                    sweeps[sc.name] = (path, sweep)
             if notes is not None:
-                notes.extend(sc.notes)
+                notes.extend(sc.notes if sweep is None else [n for _, vs in variants for n in vs.notes])
         except ScenarioError as exc:
             rows.append(_row(f, Path(f).stem, "invalid", INVALID, " | ".join(str(p) for p in exc.problems)))
         except Exception as exc:  # noqa: BLE001 - a batch reports a file it cannot load, it goes on
@@ -87,15 +145,20 @@ def plan(files, variables=None, notes=None):
 
 
 def duplicates(runnable):
-    """``{name: [files]}`` of the scenario names used by more than one file."""
-    by_name = {}
-    for f, name in runnable:
-        by_name.setdefault(name, []).append(str(f))
+    """``{name: [files]}`` of the results directories (scenario names, sweep names) used by more
+    than one file."""
+    by_name, seen = {}, set()
+    for job in runnable:
+        key = job.group or job.names[0]
+        if job.group and (key, job.file) in seen:
+            continue  # the variants of one sweep share its directory
+        seen.add((key, job.file))
+        by_name.setdefault(key, []).append(str(job.file))
     return {n: fs for n, fs in by_name.items() if len(fs) > 1}
 
 
 def run_one(path, out, fmu_dir, algorithm=None, name=None, should_stop=None, tmpdir=None, variant="python",
-            warm=None):
+            warm=None, sweep_index=None, plot=True):
     """Run one scenario in a child process; returns its summary row (a dict).  Never raises.
 
     ``should_stop``: a function polled while the child runs; when it returns True the child gets
@@ -104,26 +167,43 @@ def run_one(path, out, fmu_dir, algorithm=None, name=None, should_stop=None, tmp
     (:func:`orchestration.cli.commands.main`) to call in a child forked from the warm server
     (:mod:`orchestration.cli.warm_children`; ``tmpdir`` required, it also holds the child's
     output) instead of starting ``python -m orchestration run`` afresh (None); the row is the same.
+    ``sweep_index``: run that variant of the file's sweep (named ``name``); ``plot`` False: no figure.
     """
+    name = name or Path(path).stem
+    return run_variants(path, out, fmu_dir, algorithm, [name], None if sweep_index is None else [sweep_index],
+                        should_stop, tmpdir, variant, warm, plot)[0]
+
+
+def run_variants(path, out, fmu_dir, algorithm=None, names=(), indexes=None, should_stop=None, tmpdir=None,
+                 variant="python", warm=None, plot=True):
+    """Run the scenario file ``path`` (``indexes`` None, ``names`` its one name), or the variants
+    ``indexes`` of its sweep (named ``names``) one after the other, in one child process; returns
+    a row per name.  Never raises.  The other arguments as for :func:`run_one`.  A variant the
+    child did not finish is a row saying why: killed (by what), interrupted, or not started."""
     path, out, fmu_dir = Path(path).resolve(), Path(out).resolve(), Path(fmu_dir).resolve()
-    name = name or path.stem
+    names = list(names)
     if should_stop and should_stop():
-        return _row(path, name, "interrupted", 0, "not started: the batch was interrupted")
-    metrics = out / name / "metrics.json"
-    metrics.unlink(missing_ok=True)  # a child that dies early must not leave an old row to read
+        return [_row(path, n, "interrupted", 0, "not started: the batch was interrupted") for n in names]
+    files = [out / n / "metrics.json" for n in names]
+    for f in files:
+        f.unlink(missing_ok=True)  # a child that dies early must not leave an old row to read
     argv = ["run", str(path), "--out", str(out), "--fmus", str(fmu_dir), "--no-build"]
     if algorithm:
         argv += ["--algorithm", algorithm]
     argv += ["--variant", variant]
+    if indexes is not None:
+        argv += ["--sweep-variant", ",".join(map(str, indexes))]
+    if not plot:
+        argv += ["--no-plot"]
     try:
         if warm:
-            from orchestration.cli.warm_children import WarmChild
+            from orchestration.cli.warm_children import WarmChild, preload
 
-            child = WarmChild(warm, argv, tmpdir, tmpdir)
+            child = WarmChild(warm, argv, tmpdir, tmpdir, preload(plot, variant == "python"))
         else:
             child = _FreshChild(argv, tmpdir)
     except OSError as exc:
-        return _row(path, name, "failed", 1, f"cannot start the child process: {exc}")
+        return [_row(path, n, "failed", 1, f"cannot start the child process: {exc}") for n in names]
     stopped = False
     while not child.wait(POLL):
         if should_stop and should_stop():
@@ -134,7 +214,30 @@ def run_one(path, out, fmu_dir, algorithm=None, name=None, should_stop=None, tmp
                 child.wait(None)
             break
     stdout, stderr = child.output()
-    return _child_row(path, name, child.returncode, stdout, stderr, metrics, stopped)
+    if len(names) == 1:
+        return [_child_row(path, names[0], child.returncode, stdout, stderr, files[0], stopped)]
+    return [_variant_row(path, n, child.returncode, stdout, stderr, f, stopped) for n, f in zip(names, files)]
+
+
+def _variant_row(path, name, rc, stdout, stderr, metrics, stopped):
+    """The row of one of several variants a child ran: from its own results when it finished
+    (its exit code from its status), else as :func:`_child_row` says of the child, or not started."""
+    try:
+        summary = json.loads(metrics.read_text())
+    except FileNotFoundError:
+        if stopped or rc in STOPPED_CODES:  # the batch stopped the child, or Ctrl-C reached it first
+            return _row(path, name, "interrupted", 0, "not started: the batch was interrupted")
+        why = f"killed by {signal_name(-rc)}" if rc < 0 else f"ended (exit {rc})"
+        return _row(path, name, "failed", 128 - rc if rc < 0 else max(rc, 1),
+                    f"not run: the child process {why} before this variant")
+    except (OSError, ValueError):
+        summary = None
+    if summary is None or summary.get("status") in ("running", "invalid"):
+        return _child_row(path, name, rc if rc else 1, stdout, stderr, metrics, stopped)
+    status = summary.get("status")
+    code = (NOT_ACCEPTED if summary.get("accepted") is False else 0) if status == "ok" else (
+        rc if status == "interrupted" else 1)
+    return _child_row(path, name, code, "", "", metrics, stopped)
 
 
 class _FreshChild:
@@ -203,7 +306,7 @@ def _progress(total):
         return None
 
 
-def _run_local(runnable, out, fmu_dir, jobs, algorithm, stop, done, variant, command):
+def _run_local(runnable, out, fmu_dir, jobs, algorithm, stop, done, variant, command, plot=True):
     # the children extract their FMUs under a directory of ours, removed at the end: even a child
     # killed with SIGKILL (which cannot clean up) leaves nothing in the system's temporary directory
     from orchestration.cli import warm_children
@@ -212,17 +315,18 @@ def _run_local(runnable, out, fmu_dir, jobs, algorithm, stop, done, variant, com
     try:
         with tempfile.TemporaryDirectory(prefix="satmotor-batch-") as tmp, \
                 ThreadPoolExecutor(max_workers=max(1, jobs)) as pool:  # each task runs and watches a child
-            futures = [pool.submit(run_one, f, out, fmu_dir, algorithm, name, lambda: bool(stop.signum), tmp,
-                                   variant, warm)
-                       for f, name in runnable]
+            futures = [pool.submit(run_variants, job.file, job.out(out), fmu_dir, algorithm, job.names,
+                                   job.indexes, lambda: bool(stop.signum), tmp, variant, warm, plot)
+                       for job in runnable]
             for fut in as_completed(futures):
-                done(fut.result())
+                for row in fut.result():
+                    done(row)
     finally:
         if warm is not None:
             warm_children.stop_server()
 
 
-def _run_dask(runnable, out, fmu_dir, scheduler, algorithm, stop, done, variant):
+def _run_dask(runnable, out, fmu_dir, scheduler, algorithm, stop, done, variant, plot=True):
     import uuid
 
     from distributed import Event
@@ -232,42 +336,48 @@ def _run_dask(runnable, out, fmu_dir, scheduler, algorithm, stop, done, variant)
     with connect(scheduler) as client:  # within seconds, or SchedulerUnreachable saying why
         event_name = f"satmotor-batch-stop-{uuid.uuid4().hex}"
         event = Event(event_name, client=client)
-        remaining = {client.submit(_dask_task, str(f), str(out), str(fmu_dir), algorithm, name, event_name,
-                                   variant,
-                                   pure=False): (f, name) for f, name in runnable}
+        remaining = {client.submit(_dask_task, str(job.file), str(job.out(out)), str(fmu_dir), algorithm,
+                                   job.names, event_name, variant, job.indexes, plot,
+                                   pure=False): job for job in runnable}
         while remaining:
             if stop.signum and not event.is_set():
                 event.set()  # every task still to start, or running, sees it and stops its child
             for fut in [f for f in remaining if f.done()]:
-                f, name = remaining.pop(fut)
+                job = remaining.pop(fut)
                 try:
-                    done(fut.result())
+                    rows = fut.result()
                 except Exception as exc:  # noqa: BLE001 - a lost worker is a failed row
-                    done(_row(f, name, "failed", 1, f"the Dask task failed: {exc!r}"))
+                    rows = [_row(job.file, n, "failed", 1, f"the Dask task failed: {exc!r}")
+                            for n in job.names]
+                for row in rows:
+                    done(row)
             if remaining:
                 stop.event.wait(POLL)
 
 
-def _dask_task(path, out, fmu_dir, algorithm, name, event_name, variant):
-    """``run_one`` on a Dask worker, stopping when the batch's Dask Event is set."""
+def _dask_task(path, out, fmu_dir, algorithm, names, event_name, variant, indexes=None, plot=True):
+    """``run_variants`` on a Dask worker, stopping when the batch's Dask Event is set."""
     from distributed import Event
 
     event = Event(event_name)
-    return run_one(path, out, fmu_dir, algorithm, name, should_stop=event.is_set, variant=variant)
+    return run_variants(path, out, fmu_dir, algorithm, names, indexes, should_stop=event.is_set,
+                        variant=variant, plot=plot)
 
 
 def run_batch(items, out, fmu_dir, jobs=2, scheduler=None, algorithm=None, stop=None, variant="python",
-              command=None):
+              command=None, plot=True):
     """Run every scenario of ``items``; write ``out/summary.csv``; return the exit code.  ``command``:
     the command-line entry point that warm children call (:mod:`orchestration.cli.warm_children`;
-    the CLI passes its own ``main``); None starts a fresh ``python -m orchestration`` per scenario."""
+    the CLI passes its own ``main``); None starts a fresh ``python -m orchestration`` per scenario.
+    ``plot`` False: no figure (neither the runs' nor the sweeps')."""
     stop = stop or StopRequest()
     files = collect(items)
     if not files:
         print("no scenario files found", file=sys.stderr)
         return INVALID
     notes = []
-    runnable, rows = plan(files, notes=notes)
+    sweeps = {}
+    runnable, rows = plan(files, notes=notes, sweeps=sweeps)
     for note in notes:
         print(note, file=sys.stderr)
     dup = duplicates(runnable)
@@ -280,7 +390,8 @@ def run_batch(items, out, fmu_dir, jobs=2, scheduler=None, algorithm=None, stop=
     out = Path(out)
     summary = SummaryFile(out / "summary.csv")
     me = owner()
-    running = {str(f): running_row(f, name, me) for f, name in runnable}  # replaced as they finish
+    running = {(str(job.file), n): running_row(job.file, n, me)  # replaced as they finish
+               for job in runnable for n in job.names}
     try:
         out.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
@@ -290,13 +401,14 @@ def run_batch(items, out, fmu_dir, jobs=2, scheduler=None, algorithm=None, stop=
         print(f"--out {out}: cannot write the results: {describe(summary.error)}", file=sys.stderr)
         return INVALID
     started = set()
-    bar = _progress(len(files))
+    bar = _progress(len(runnable) + len(rows))
+    runnable = grouped(runnable, jobs, variant)
     bar and bar.update(len(rows))
 
     def done(row):
         rows.append(row)
-        started.add(row["file"])
-        running.pop(row["file"], None)
+        started.add((row["file"], row["scenario"]))
+        running.pop((row["file"], row["scenario"]), None)
         summary.write([*rows, *running.values()])  # whole at every moment (a failure: said at the end)
         bar and bar.update(1)
 
@@ -305,23 +417,41 @@ def run_batch(items, out, fmu_dir, jobs=2, scheduler=None, algorithm=None, stop=
         if runnable:
             fmus.ensure(fmu_dir, quiet=True)  # once, before any child starts
             if scheduler:
-                _run_dask(runnable, out, fmu_dir, scheduler, algorithm, stop, done, variant)
+                _run_dask(runnable, out, fmu_dir, scheduler, algorithm, stop, done, variant, plot)
             else:
-                _run_local(runnable, out, fmu_dir, jobs, algorithm, stop, done, variant, command)
+                _run_local(runnable, out, fmu_dir, jobs, algorithm, stop, done, variant, command, plot)
     except Exception as exc:  # noqa: BLE001 - the summary is written whatever happened
         said = exc if isinstance(exc, SchedulerUnreachable) else repr(exc)
         error = f"the batch failed before running it: {said}"
         print(error, file=sys.stderr)
     finally:
         bar and bar.close()
-        for f, name in runnable:  # what never reported: interrupted, or not run because of the error
-            if str(f) not in started:
-                rows.append(_row(f, name, "failed", 1, error) if error and not stop.signum else
-                            _row(f, name, "interrupted", 0, "no result: the batch was interrupted"))
+        for job in runnable:  # what never reported: interrupted, or not run because of the error
+            for name in job.names:
+                if (str(job.file), name) not in started:
+                    rows.append(_row(job.file, name, "failed", 1, error) if error and not stop.signum else
+                                _row(job.file, name, "interrupted", 0,
+                                     "no result: the batch was interrupted"))
         written = _write_summary(rows, out, summary)
+        _write_sweeps(sweeps, rows, out, plot)
     if stop.signum:
         return stop.exit_code
     return max(max(r["exit_code"] for r in rows), 0 if written else 1)
+
+
+def _write_sweeps(sweeps, rows, out, plot):
+    """Each sweep's table and figure (:mod:`orchestration.results.sweep_table`); a sweep whose table
+    cannot be written is said on stderr, the others are still written."""
+    if not sweeps:
+        return
+    from orchestration.results.sweep_table import write_sweep
+
+    for name, (path, sweep) in sweeps.items():
+        try:
+            written = write_sweep(sweep, rows, Path(out) / name, plot, path)
+            print(f"sweep {name}: {', '.join(map(str, written))}")
+        except Exception as exc:  # noqa: BLE001 - the other sweeps' tables are still written
+            print(f"sweep {name} ({path}): cannot write its table: {exc!r}", file=sys.stderr)
 
 
 def _write_summary(rows, out, summary):

@@ -97,7 +97,8 @@ def cmd_validate(args):
 
 
 def run_file(path, out, fmu_dir, algorithm=None, build=True, plot=True, stop=None,
-             variant=fmus.DEFAULT_VARIANT, engine="fmpy", figure_process=False):
+             variant=fmus.DEFAULT_VARIANT, engine="fmpy", figure_process=False, sweep_index=None,
+             shared=None):
     """Load, run and write one scenario; returns (exit code, summary dict).
 
     Checked before any FMU runs: the scenario (every problem at once), that ``engine`` can run it
@@ -105,12 +106,17 @@ def run_file(path, out, fmu_dir, algorithm=None, build=True, plot=True, stop=Non
     written.  The time series stream to disk as the run goes; ``stop`` (an
     :class:`orchestration.process.interrupts.StopRequest`) ends the run early with what it has.
     ``figure_process``: draw the figure with a helper process that imports matplotlib while the
-    run steps (:mod:`orchestration.results.figure_process`; used where it gains something)."""
+    run steps (:mod:`orchestration.results.figure_process`; used where it gains something).
+    ``sweep_index``: run that variant of the file's sweep (:mod:`orchestration.scenario.sweep`)
+    instead of the file's own scenario.  ``shared``: a :class:`SharedFMUs` (the FMUs extracted and
+    their variables read once for several runs of one process), or None."""
     from orchestration.results.atomic import describe
+    from orchestration.results.running import figure_step
     from orchestration.results.writer import figure_target, prepare_dir, streaming_recorder, write_results
     from orchestration.run.master import run
     from orchestration.run.recorder import FILES
     from orchestration.scenario.load import ScenarioError, load_scenario
+    from orchestration.scenario.variants import load_variant
 
     def refused(message, name=Path(path).stem):
         return INVALID, {"scenario": name, "file": str(path), "status": "invalid", "message": message}
@@ -118,7 +124,11 @@ def run_file(path, out, fmu_dir, algorithm=None, build=True, plot=True, stop=Non
     try:
         if build:
             fmus.ensure(fmu_dir, quiet=True)
-        sc = load_scenario(path, model_variables(fmu_dir))
+        variables = shared.variables if shared is not None else model_variables(fmu_dir)
+        if sweep_index is None:
+            sc = load_scenario(path, variables)
+        else:
+            sc = load_variant(path, sweep_index, variables)
     except ScenarioError as exc:
         return refused(str(exc))
     except subprocess.CalledProcessError as exc:
@@ -141,16 +151,22 @@ def run_file(path, out, fmu_dir, algorithm=None, build=True, plot=True, stop=Non
         return refused(f"--out {out}: cannot write the results: {describe(exc)}", sc.name)
     plant, ctrl = fmus.paths(fmu_dir, variant)
     helper = None
-    if plot and figure_process:
+    plot = plot and sc.record.level != "metrics"  # no time series: no figure
+    # the helper reads the Parquet file back (every figure_step-th row): only a full one
+    if plot and figure_process and sc.record.level == "full":
         from orchestration.results import figure_process as fp
 
         try:
-            helper = fp.FigureProcess(directory / FILES[1], *figure_target(sc, out)) if fp.wanted() else None
+            helper = (fp.FigureProcess(directory / FILES[1], *figure_target(sc, out), step=figure_step(sc))
+                      if fp.wanted() else None)
         except OSError:  # no fork today: the figure is drawn here
             helper = None
-    make = streaming_recorder(sc, directory, on_parquet=helper and helper.parquet_done)
+    make = streaming_recorder(sc, directory, on_parquet=helper and helper.parquet_done,
+                              figure_copy=helper is None)
     try:
-        result = run(sc, str(plant), str(ctrl), algorithm=algorithm, stop=stop, recorder=make)
+        extra = ({"unzip_dirs": shared.dirs, "descriptions": shared.descriptions}
+                 if shared is not None and engine == "fmpy" else {})
+        result = run(sc, str(plant), str(ctrl), algorithm=algorithm, stop=stop, recorder=make, **extra)
         summary = write_results(result, out, plot=plot, draw=helper and helper.draw, write_error=make.error,
                                 discard_figure=helper and helper.discard)
     except OSError as exc:  # a file of the run could not be written: said, never a traceback
@@ -167,6 +183,47 @@ def run_file(path, out, fmu_dir, algorithm=None, build=True, plot=True, stop=Non
     return (NOT_ACCEPTED if summary["accepted"] is False else OK), summary
 
 
+class SharedFMUs:
+    """The two FMUs of ``variant`` extracted once, and their model descriptions read once, for the
+    runs of one process (several variants of a sweep: :func:`cmd_run`); :meth:`close` removes the
+    copies.  ``variables``: as :func:`model_variables` gives them."""
+
+    def __init__(self, fmu_dir, variant):
+        from fmpy import read_model_description
+
+        from orchestration.run.fmu_instance import extract_owned
+
+        self.dirs = []
+        try:
+            paths = fmus.paths(fmu_dir, variant)
+            for p in paths:
+                self.dirs.append(extract_owned(p))
+            self.descriptions = [read_model_description(str(p)) for p in paths]
+            self.variables = {unit: {v.name: (v.causality, v.type) for v in md.modelVariables}
+                              for unit, md in zip(("plant", "controller"), self.descriptions)}
+        except BaseException:
+            self.close()
+            raise
+
+    def close(self):
+        from orchestration.run.fmu_instance import remove_extracted
+
+        for d in self.dirs:
+            remove_extracted(d)
+        self.dirs = []
+
+
+def indexes(text):
+    """``--sweep-variant``: ``I`` or ``I,J,...`` (integers >= 0) -> a list."""
+    try:
+        out = [int(x) for x in text.split(",")]
+    except ValueError:
+        out = []
+    if not out or min(out) < 0:
+        raise argparse.ArgumentTypeError(f"{text!r}: an index I >= 0, or indexes I,J,...")
+    return out
+
+
 def cmd_run(args):
     from orchestration.process.interrupts import catch, die_with_parent
 
@@ -177,28 +234,47 @@ def cmd_run(args):
             print(missing, file=sys.stderr)
             return RUN_FAILED
     die_with_parent()
+    code, several = OK, len(args.sweep_variant or ()) > 1
     with catch() as stop:
         variant = args.variant or ("native" if args.engine == "libcosim" else fmus.DEFAULT_VARIANT)
-        code, s = run_file(args.scenario, args.out, args.fmus, args.algorithm, build=not args.no_build,
-                           variant=variant, engine=args.engine,
-                           plot=not args.no_plot, stop=stop, figure_process=True)
+        shared = None
+        try:
+            if several and args.engine == "fmpy":  # several variants: the FMUs extracted once
+                if not args.no_build:
+                    fmus.ensure(args.fmus, quiet=True)
+                shared = SharedFMUs(args.fmus, variant)
+            for index in args.sweep_variant or [None]:
+                if stop.signum:  # the variants not started have no results: the batch says so
+                    break
+                c, s = run_file(args.scenario, args.out, args.fmus, args.algorithm, build=not args.no_build,
+                                variant=variant, engine=args.engine, plot=not args.no_plot, stop=stop,
+                                figure_process=not several, sweep_index=index, shared=shared)
+                code = max(code, c) if not stop.signum else stop.exit_code
+                _say(s, args.out)
+        finally:
+            if shared is not None:
+                shared.close()
+    return code
+
+
+def _say(s, out):
+    """What ``run`` prints of one run's summary ``s``."""
     if s.get("status") == "invalid":
         print(s["message"], file=sys.stderr)
-        return code
+        return
     for note in s.get("notes") or ():
         print(note, file=sys.stderr)
     if s.get("metrics_written") is False:  # the one place left to say it (a batch shows this line)
         print(f"{s['scenario']}: failed: {s['message']}", file=sys.stderr)
     held = f", {s['setpoints']}" if s.get("holds_setpoints") is False else ""
     print(f"{s['scenario']}: {s['status']}" + (f" ({s['message']})" if s.get("message") else "") + held
-          + f", {s['rows']} rows, {s['wall_time']:.2f} s wall, results in {Path(args.out) / s['scenario']}")
+          + f", {s['rows']} rows, {s['wall_time']:.2f} s wall, results in {Path(out) / s['scenario']}")
     if s.get("setpoints") and not held:
         print(f"  {s['setpoints']}")
     for key, v in (s.get("metrics") or {}).items():
         print(f"  {key:27s} {v:.6g}")
     for key, v in (s.get("acceptance") or {}).items():
         print(f"  accept {key:20s} {v['value']:.4g} <= {v['limit']:.4g}: {'pass' if v['pass'] else 'FAIL'}")
-    return code
 
 
 def cmd_batch(args):
@@ -208,7 +284,7 @@ def cmd_batch(args):
     with catch() as stop:
         return run_batch(args.scenarios, args.out, args.fmus, jobs=args.jobs, scheduler=args.scheduler,
                          algorithm=args.algorithm, stop=stop, variant=args.variant or fmus.DEFAULT_VARIANT,
-                         command=main)
+                         command=main, plot=not args.no_plot)
 
 
 def cmd_check(args):
@@ -315,16 +391,23 @@ def parser(prog="satmotor-cosim"):
     common(r)
     r.add_argument("--no-build", action="store_true", help="do not build the FMUs, use them as they are")
     r.add_argument("--no-plot", action="store_true", help="skip the figure")
+    r.add_argument("--sweep-variant", type=indexes, metavar="I[,J,...]",
+                   help="run variant I (from 0) of the file's sweep: section, or variants I, J, ... one "
+                   "after the other in this process (batch runs them all); without it, run runs the "
+                   "file's own scenario")
     r.add_argument("--engine", choices=("fmpy", "libcosim"), default="fmpy",
                    help="co-simulation engine: fmpy (our master, default) or libcosim (OSP's C++ engine, "
                    "Jacobi coupling, FMI 2.0 FMUs; see orchestration/run/libcosim_engine.py)")
     r.set_defaults(func=cmd_run)
     ba = sub.add_parser("batch", help="run many scenarios in parallel", description="Run every scenario "
-                        "(files, or the *.yaml of directories), one process each; a summary table of the "
-                        "metrics goes to OUT/summary.csv and the screen.")
+                        "(files, or the *.yaml of directories), one process each, and every variant of a "
+                        "file's sweep: section; a summary table of the metrics goes to OUT/summary.csv and "
+                        "the screen, a sweep's table and figure to OUT/<sweep name>/sweep.{csv,parquet,png}.")
     ba.add_argument("scenarios", nargs="+", help="scenario files or directories")
     common(ba)
     ba.add_argument("--jobs", type=int, default=2, help="parallel processes (default 2)")
+    ba.add_argument("--no-plot", action="store_true",
+                    help="no figure: neither the runs' nor the sweeps' (the tables are written)")
     ba.add_argument("--scheduler", help="address of a Dask distributed scheduler (e.g. tcp://host:8786); "
                     "the workers must see the same files")
     ba.set_defaults(func=cmd_batch)

@@ -2,6 +2,9 @@
 
 * :mod:`~orchestration.results.writer` -- the results directory of a run: time series (CSV,
   Parquet), ``metrics.json``, the acceptance check.
+* :mod:`~orchestration.results.running` -- what the results need, gathered as the run goes: the
+  metrics (:class:`satmotor.metrics.RunningMetrics`) and the figure's bounded copy.
+* :mod:`~orchestration.results.sweep_table` -- a sweep's table (CSV, Parquet) and figure.
 * :mod:`~orchestration.results.plots` -- the figure.
 * :mod:`~orchestration.results.figure_process` -- a helper process that imports matplotlib and draws
   while the run steps.

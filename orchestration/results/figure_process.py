@@ -8,10 +8,12 @@ another core (a warm batch child has matplotlib imported already: its helper onl
 the run ends, the recorder completes the Parquet file first and tells the helper
 (:attr:`orchestration.run.recorder.StreamingRecorder.on_parquet`); the helper reads it and draws while
 the parent writes the last CSV lines.  It draws exactly what :func:`orchestration.results.plots.figure`
-draws in the parent from the same file (the same code on the same float64 values): the PNG is byte
-for byte the same.  If anything about the helper fails (it was killed, the pipe broke, the figure
-raised), the parent draws the figure itself, so the result and any error are those of the plain
-path.
+draws in the parent from the same rows (the same code on the same float64 values): the PNG is byte
+for byte the same.  A long run's figure shows every k-th row
+(:func:`orchestration.results.running.figure_step`): the helper reads the file one row group at a
+time and keeps those rows only, so its memory does not grow with the run either.  If anything
+about the helper fails (it was killed, the pipe broke, the figure raised), the parent draws the
+figure itself, so the result and any error are those of the plain path.
 
 Nothing is left behind: the helper ignores SIGINT (a Ctrl-C reaches the whole process group; the
 parent decides, and it still wants the figure of a partial run), gets SIGKILL from Linux when the
@@ -29,7 +31,7 @@ import threading
 
 from orchestration.process.interrupts import WATCHER
 from orchestration.process.title import set_title
-from orchestration.run.recorder import read_arrays
+from orchestration.run.recorder import read_every
 
 
 def wanted():
@@ -42,7 +44,7 @@ def wanted():
             and all(t.name.startswith(WATCHER) for t in others))
 
 
-def _helper(conn, parent, parquet, path, title):
+def _helper(conn, parent, parquet, path, title, step=1):
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_DFL)  # not the parent's stop request
     try:
@@ -62,7 +64,7 @@ def _helper(conn, parent, parquet, path, title):
     except EOFError:  # the parent needs no figure
         return
     try:
-        figure(read_arrays(parquet), path, title, blank)
+        figure(read_every(parquet, step), path, title, blank)
         answer = "ok"
     except Exception as exc:  # noqa: BLE001 - the parent draws it again and gets the error itself
         answer = repr(exc)
@@ -73,17 +75,19 @@ def _helper(conn, parent, parquet, path, title):
 
 
 class FigureProcess:
-    """A helper process that draws one figure, of the record in the Parquet file ``parquet``, to
-    ``path`` with ``title``: :meth:`parquet_done` (the recorder's ``on_parquet``), then :meth:`draw`
-    (``write_results``' ``draw``), then :meth:`close`.  Raises OSError if it cannot fork."""
+    """A helper process that draws one figure, of every ``step``-th row of the record in the
+    Parquet file ``parquet``, to ``path`` with ``title``: :meth:`parquet_done` (the recorder's
+    ``on_parquet``), then :meth:`draw` (``write_results``' ``draw``), then :meth:`close`.  Raises
+    OSError if it cannot fork."""
 
-    def __init__(self, parquet, path, title):
+    def __init__(self, parquet, path, title, step=1):
         import pyarrow.parquet  # noqa: F401 - imported once, before the fork: the helper reads the file
 
         self.path, self.title = str(path), title
+        self._parquet, self._step = str(parquet), step
         ctx = multiprocessing.get_context("fork")
         self._conn, child_end = ctx.Pipe()
-        args = (child_end, os.getpid(), str(parquet), self.path, title)
+        args = (child_end, os.getpid(), str(parquet), self.path, title, step)
         self._proc = ctx.Process(target=_helper, args=args, daemon=True, name="satmotor-figure")
         self._proc.start()
         child_end.close()
@@ -102,7 +106,8 @@ class FigureProcess:
 
     def draw(self, data, path, title):
         """Write the figure: the helper's, if it was told to draw it for ``path`` and ``title``,
-        else drawn here from ``data`` (:func:`orchestration.results.plots.figure`)."""
+        else drawn here from ``data`` (:func:`orchestration.results.plots.figure`; None: the rows
+        the helper would have read, read here)."""
         ok = False
         if self._sent and (str(path), title) == (self.path, self.title):
             try:
@@ -114,7 +119,7 @@ class FigureProcess:
         if not ok:
             from orchestration.results.plots import figure
 
-            figure(data, path, title)
+            figure(read_every(self._parquet, self._step) if data is None else data, path, title)
 
     def discard(self):
         """End the helper without a figure (the time series it was drawing were not kept): killed,

@@ -25,7 +25,17 @@ from pathlib import Path
 import numpy as np
 
 from orchestration.results import atomic
-from orchestration.run.recorder import FILES, StreamingRecorder
+from orchestration.results.running import (
+    FLAG_COLUMNS,
+    METRIC_COLUMNS,
+    PHASE_COLUMN,
+    PSI_SET_COLUMN,
+    FigureCopy,
+    MetricsObserver,
+    observers,
+    ss_window,
+)
+from orchestration.run.recorder import FILES, MetricsOnly, StreamingRecorder
 from orchestration.scenario.recording import recorded_selection
 from satmotor import metrics as _m
 from satmotor.control.drive import RUN
@@ -39,19 +49,10 @@ def compute_metrics(df, scenario):
     for an empty record."""
     if len(df["time"]) == 0:
         return {}
-    columns = {"t": "time", "omega_m": "plant.omega_m", "omega_ref": "profile.omega_ref",
-               "psi_r_alpha": "plant.psi_r_alpha", "psi_r_beta": "plant.psi_r_beta",
-               "psi_ref": "profile.psi_ref", "z1": "controller.z1", "e1": "controller.e1",
-               "i_s_alpha": "plant.i_s_alpha", "i_s_beta": "plant.i_s_beta",
-               "v_s_alpha": "controller.v_s_alpha", "v_s_beta": "controller.v_s_beta", "W": "controller.W"}
-    acc = scenario.acceptance
-    return closed_loop_metrics(**{k: np.asarray(df[c]) for k, c in columns.items()},
-                               run=np.asarray(df["controller.phase"]) == RUN,
-                               ss_window=acc.ss_window if acc is not None and acc.ss_window else None,
-                               voltage_limited=np.asarray(df["controller.voltage_limited"]),
-                               current_limited=np.asarray(df["controller.current_limited"]),
-                               psi_set=(np.asarray(df["controller.psi_ref_shaped"])
-                                        if "controller.psi_ref_shaped" in df else None))
+    return closed_loop_metrics(**{k: np.asarray(df[c]) for k, c in METRIC_COLUMNS.items()},
+                               run=np.asarray(df[PHASE_COLUMN]) == RUN, ss_window=ss_window(scenario),
+                               **{k: np.asarray(df[c]) for k, c in FLAG_COLUMNS.items()},
+                               psi_set=np.asarray(df[PSI_SET_COLUMN]) if PSI_SET_COLUMN in df else None)
 
 
 def check_acceptance(metrics, scenario):
@@ -94,17 +95,40 @@ def prepare_dir(out_dir, scenario):
     return d
 
 
-def streaming_recorder(scenario, directory, on_parquet=None):
-    """A ``columns -> StreamingRecorder`` factory for :func:`orchestration.run.master.run`;
+def level(scenario):
+    """The scenario's record level: ``full`` (every recorded row on disk), ``decimated`` (one row
+    of ``record.every`` on disk) or ``metrics`` (none on disk).  All three compute the metrics as
+    the run goes, from every recorded row, and the first two keep a bounded copy for the figure
+    (:mod:`orchestration.results.running`): nothing reads the series back."""
+    return getattr(scenario.record, "level", "full") if scenario.record is not None else "full"
+
+
+def streaming_recorder(scenario, directory, on_parquet=None, figure_copy=True):
+    """A ``columns -> recorder`` factory for :func:`orchestration.run.master.run`, as the scenario's
+    record level asks (:func:`level`): a :class:`StreamingRecorder` (``decimated``: keeping one row
+    of ``record.every``) or a :class:`MetricsOnly`, carrying its
+    :class:`~orchestration.results.running.MetricsObserver` as ``metrics_observer`` and its
+    :class:`~orchestration.results.running.FigureCopy` (None at level ``metrics``) as
+    ``figure_copy`` (None too with ``figure_copy`` False: the figure helper reads the file).
     ``on_parquet``: see :attr:`StreamingRecorder.on_parquet`.  ``make.error``: the OSError of a
     recorder it could not create (None otherwise; a created one keeps its own ``error``)."""
+    lv = level(scenario)
+
     def make(columns):
-        try:
-            rec = StreamingRecorder(columns, directory, keep=recorded_selection(scenario, columns))
-        except OSError as exc:
-            make.error = make.error or exc
-            raise
-        rec.on_parquet = on_parquet
+        metrics = MetricsObserver(columns, scenario)
+        copy = FigureCopy(columns, scenario) if lv != "metrics" and figure_copy else None
+        if lv == "metrics":
+            rec = MetricsOnly(columns, observer=metrics)
+        else:
+            try:
+                rec = StreamingRecorder(columns, directory, keep=recorded_selection(scenario, columns),
+                                        observer=observers(metrics, copy),
+                                        every=scenario.record.every if lv == "decimated" else 1)
+            except OSError as exc:
+                make.error = make.error or exc
+                raise
+            rec.on_parquet = on_parquet
+        rec.metrics_observer, rec.figure_copy = metrics, copy
         return rec
 
     make.error = None
@@ -143,8 +167,9 @@ def write_results(result, out_dir, plot=True, draw=None, write_error=None, disca
     d.mkdir(parents=True, exist_ok=True)
     rec = result.recorder
     error = write_failure(result, write_error)
-    if error is None and not isinstance(rec, StreamingRecorder):  # the same writer as a streamed run
-        try:
+    observer = getattr(rec, "metrics_observer", None)
+    if error is None and observer is None and not isinstance(rec, StreamingRecorder):
+        try:  # the same writer as a streamed run
             disk = StreamingRecorder(rec.columns, d, keep=recorded_selection(sc, rec.columns))
             for row in np.column_stack(list(rec.arrays().values())).tolist():
                 disk.append(row)
@@ -152,11 +177,28 @@ def write_results(result, out_dir, plot=True, draw=None, write_error=None, disca
             error = disk.error
         except OSError as exc:
             error = exc
-    df = rec.arrays() if error is None else {}  # {column: array}: metrics and figure need no DataFrame
-    rows = len(df["time"]) if "time" in df else 0
-    metrics = compute_metrics(df, sc) if result.ok and rows else {}
+    df = None
+    if error is not None:  # the time series were not kept: no metrics, no figure
+        rows = written = 0
+        metrics, times = {}, ()
+    elif observer is None:  # a recorder of its own (master.run's default, in memory): from its rows
+        df = rec.arrays()  # {column: array}: the metrics and the figure need no DataFrame
+        rows = written = len(df["time"]) if "time" in df else 0
+        metrics = compute_metrics(df, sc) if result.ok and rows else {}
+        times = df["time"] if rows else ()
+    else:  # computed as the run went; the figure from the bounded copy
+        rows, written = rec.n_seen, rec.n_rows
+        metrics = observer.metrics.result() if result.ok and rows else {}
+        times = observer.times() if metrics else ()
+        if metrics is None and isinstance(rec, StreamingRecorder) and rec.every == 1:
+            # the run did not end where the scenario said (never seen): the metrics of the file
+            df = rec.arrays()
+            metrics, times = compute_metrics(df, sc), df["time"]
+        metrics = metrics or {}
+        copy = getattr(rec, "figure_copy", None)
+        df = copy.arrays() if plot and copy is not None and rows > 1 else None
     acceptance = check_acceptance(metrics, sc)
-    holds, setpoints = setpoint_status(metrics, df["time"] if rows else (), sc)
+    holds, setpoints = setpoint_status(metrics, times, sc)
     status, message = result.status, result.message
     if error is not None:
         for name in FILES:  # e.g. the empty record a run that failed at its start falls back to
@@ -165,7 +207,7 @@ def write_results(result, out_dir, plot=True, draw=None, write_error=None, disca
             discard_figure()
         status, message = "failed", (f"{atomic.describe(error)}: the time series were not kept (the run "
                                      f"reached t = {result.t_end:.6g} s)")
-    elif plot and rows > 1:
+    elif plot and rows > 1 and (df is not None or draw is not None):  # df None: the helper reads the file
         if draw is None:
             from orchestration.results.plots import figure as draw
         try:
@@ -177,8 +219,8 @@ def write_results(result, out_dir, plot=True, draw=None, write_error=None, disca
     summary = {
         "scenario": sc.name, "file": str(sc.path), "status": status, "message": message,
         "failed_unit": result.failed_unit if error is None else "", "t_end": result.t_end,
-        "stop_time": sc.stop_time,
-        "wall_time": result.wall_time, "rows": rows, "metrics": metrics, "acceptance": acceptance,
+        "stop_time": sc.stop_time, "wall_time": result.wall_time, "rows": rows, "rows_written": written,
+        "record": level(sc), "metrics": metrics, "acceptance": acceptance,
         "accepted": all(v["pass"] for v in acceptance.values()) if acceptance else None,
         "holds_setpoints": holds, "setpoints": setpoints,
         "notes": [str(n) for n in getattr(sc, "notes", ())],

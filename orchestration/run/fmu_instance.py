@@ -178,10 +178,10 @@ class FMUInstance:
         An already extracted copy (shared between instances of one FMU).
     """
 
-    def __init__(self, path, instance_name, unzip_dir=None):
+    def __init__(self, path, instance_name, unzip_dir=None, md=None):
         self.path = str(path)
         self.name = instance_name
-        self.md = read_model_description(self.path)
+        self.md = read_model_description(self.path) if md is None else md  # md: read once by the caller
         self.fmi3 = self.md.fmiVersion.startswith("3")
         self.calls = FMI3_CALLS if self.fmi3 else FMI2_CALLS
         self._owned_dir = unzip_dir is None

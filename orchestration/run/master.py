@@ -46,7 +46,7 @@ from orchestration.run.measurement_noise import MeasurementNoise
 from orchestration.run.recorder import Recorder
 from orchestration.run.result import RunResult, failure_message
 from orchestration.run.step_plans import evaluator, input_port
-from orchestration.scenario.recording import recorded_columns
+from orchestration.scenario.recording import record_steps, recorded_columns
 from orchestration.scenario.system import CONTROLLER, DEFAULT_CONNECTIONS, PLANT, Connection
 
 __all__ = ["run", "Connection", "DEFAULT_CONNECTIONS"]
@@ -62,13 +62,15 @@ class _NoStop:
 
 
 def run(scenario, plant_fmu, controller_fmu, connections=DEFAULT_CONNECTIONS, algorithm=None,
-        unzip_dirs=None, recorder=None, stop=None):
+        unzip_dirs=None, recorder=None, stop=None, descriptions=None):
     """Run ``scenario`` (an :class:`orchestration.scenario.load.Scenario`) with the two FMU files.
 
     ``algorithm`` overrides the scenario's ('gauss-seidel' or 'jacobi'); ``unzip_dirs`` optional
     (plant, controller) extracted copies, to share between runs (the caller owns them);
     ``recorder``: a function ``columns -> Recorder`` (default: in memory, every column);
-    ``stop``: an object whose ``signum`` becomes non-zero to stop the run.  Never raises for an FMU
+    ``stop``: an object whose ``signum`` becomes non-zero to stop the run; ``descriptions``:
+    optional (plant, controller) model descriptions (fmpy's), read once by a caller that runs the
+    same FMUs many times.  Never raises for an FMU
     failure: the :class:`RunResult` says what happened.
     """
     algorithm = algorithm or scenario.algorithm
@@ -85,10 +87,11 @@ def run(scenario, plant_fmu, controller_fmu, connections=DEFAULT_CONNECTIONS, al
             for path in (plant_fmu, controller_fmu):
                 extracted.append(extract_owned(path))
         ud = extracted if owned else unzip_dirs
-        plant = FMUInstance(plant_fmu, PLANT, ud[0])
+        mds = descriptions or (None, None)
+        plant = FMUInstance(plant_fmu, PLANT, ud[0], mds[0])
         units.append(plant)
         current = CONTROLLER
-        ctrl = FMUInstance(controller_fmu, CONTROLLER, ud[1])
+        ctrl = FMUInstance(controller_fmu, CONTROLLER, ud[1], mds[1])
         units.append(ctrl)
         for inst, overrides in ((plant, scenario.plant), (ctrl, {**scenario.controller, "Ts": scenario.Ts})):
             current = inst.name
@@ -146,8 +149,7 @@ def _loop(sc, jacobi, plant, ctrl, p_out, c_out, c_disc, connections, profiles, 
     ``measure``: None, or a :class:`MeasurementNoise` giving, at each controller sample, the plant
     outputs as the controller receives them and the row of measured values."""
     h, N = sc.step, sc.controller_every
-    n = round(sc.stop_time / h)
-    every = max(1, round(sc.record.interval / h))
+    n, every = record_steps(sc)
     outputs = {PLANT: p_out.names, CONTROLLER: c_out.names}
     prof = [profiles[p] for p in sorted(profiles)]
     c_in, c_values = input_port(ctrl, CONTROLLER, connections, outputs, profiles, prof)

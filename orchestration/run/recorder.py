@@ -5,6 +5,11 @@
 ``timeseries.parquet`` as the run goes, so a run holds at most one chunk of rows, and what was
 recorded before a failure or an interrupt is on disk already.  Both give the recorded rows back as
 a DataFrame with :meth:`frame`.
+
+The record levels of a scenario (``record: {level: ...}``) are made here too: an ``observer``
+(a function of each full chunk, every row and column, before anything is dropped: the metrics
+computed as the run goes, :mod:`orchestration.results.running`) and ``every`` (keep one row of
+``every``: level ``decimated``); :class:`MetricsOnly` keeps no row at all (level ``metrics``).
 """
 
 from __future__ import annotations
@@ -17,6 +22,9 @@ import numpy as np
 from orchestration.results import atomic
 
 CHUNK_ROWS = 20_000  # rows per chunk: about 4 MB of Python floats for 24 columns
+METRICS_CHUNK_ROWS = 1_000  # rows per chunk of MetricsOnly
+STREAM_CHUNK_ROWS = 2_000  # rows per chunk of StreamingRecorder: the rows as Python objects stay small
+PARQUET_ROWS = 5_000  # rows per Parquet row group (StreamingRecorder gathers its chunks as arrays)
 FILES = ("timeseries.csv", "timeseries.parquet")
 
 
@@ -31,14 +39,18 @@ class Recorder:
     the list stays the same object for the whole run.
     """
 
-    def __init__(self, columns, keep=None, chunk_rows=CHUNK_ROWS):
+    def __init__(self, columns, keep=None, chunk_rows=CHUNK_ROWS, observer=None, every=1):
         self._all = list(columns)
         self._keep = None if keep is None else list(keep)
         self.columns = self._all if keep is None else [self._all[i] for i in keep]
         self.rows = []  # the current chunk; the stepping loop appends to it
         self.chunk_rows = chunk_rows
         self._chunks = []
-        self.n_rows = 0
+        self.n_rows = 0  # rows kept (written)
+        self.n_seen = 0  # rows the loop gave (the observer saw them all)
+        self.observer = observer  # None, or a function of each chunk (rows x all columns)
+        self.every = max(1, int(every))
+        self._skip = 0  # rows to drop before the next kept one (every > 1)
 
     def append(self, row):
         self.rows.append(row)
@@ -47,12 +59,21 @@ class Recorder:
 
     def _chunk_array(self):
         a = np.array(self.rows, dtype=float).reshape(len(self.rows), len(self._all))
+        self.n_seen += len(a)
+        if self.observer is not None:
+            self.observer(a)
+        if self.every > 1:  # one row of every `every`, counted across the chunks
+            first = self._skip
+            self._skip = (first - len(a)) % self.every
+            a = a[first::self.every]
         return a if self._keep is None else a[:, self._keep]
 
     def flush(self):
         if self.rows:
-            self._write(self._chunk_array())
-            self.n_rows += len(self.rows)
+            chunk = self._chunk_array()
+            if len(chunk):
+                self._write(chunk)
+            self.n_rows += len(chunk)
             self.rows.clear()
 
     def _write(self, chunk):
@@ -104,11 +125,37 @@ def read_arrays(path, columns=None):
     return {c: _numpy(table.column(c)) for c in table.column_names}
 
 
+def read_every(path, step=1):
+    """``{column: float64 array}`` of every ``step``-th row of a Parquet file of float64 columns,
+    read one row group at a time (memory: one row group, and the rows kept; Arrow's allocator is
+    told to give back what it no longer uses after each group, else it keeps it)."""
+    if step <= 1:
+        return read_arrays(path)
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    parts, skip = {}, 0
+    with pq.ParquetFile(path) as f:
+        for i in range(f.num_row_groups):
+            table = f.read_row_group(i, use_threads=False)
+            for c in table.column_names:
+                parts.setdefault(c, []).append(_numpy(table.column(c))[skip::step].copy())
+            skip = (skip - table.num_rows) % step
+            del table
+            pa.default_memory_pool().release_unused()
+        names = f.schema_arrow.names
+    return {c: np.concatenate(parts[c]) if parts.get(c) else np.empty(0) for c in names}
+
+
 class StreamingRecorder(Recorder):
     """A :class:`Recorder` that appends each chunk to ``directory/timeseries.{csv,parquet}``.
 
     The files are created (empty, with the header) by the constructor, so an unwritable directory
-    is found before the run starts.  They are written under temporary names
+    is found before the run starts.  Chunks are small (:data:`STREAM_CHUNK_ROWS` rows: the rows as
+    Python objects are the bulk of a run's memory) and go to the CSV file at once; the Parquet file
+    gets them in row groups of :data:`PARQUET_ROWS` rows, gathered as float64 arrays (2 MB for 45
+    columns), and the last one at :meth:`close`.
+    They are written under temporary names
     (:mod:`orchestration.results.atomic`) and renamed by :meth:`close` when complete; a write that
     fails (a full disk) raises, sets :attr:`error` and removes both.
     """
@@ -118,8 +165,9 @@ class StreamingRecorder(Recorder):
     #: (:mod:`orchestration.results.figure_process`) reads it and draws while the CSV is written
     on_parquet = None
 
-    def __init__(self, columns, directory, keep=None, chunk_rows=CHUNK_ROWS):
-        super().__init__(columns, keep, chunk_rows)
+    def __init__(self, columns, directory, keep=None, chunk_rows=STREAM_CHUNK_ROWS, observer=None, every=1):
+        super().__init__(columns, keep, chunk_rows, observer, every)
+        self._pending, self._pending_rows = [], 0  # chunks not yet in the Parquet file
         import pyarrow as pa
         import pyarrow.parquet as pq
 
@@ -147,11 +195,21 @@ class StreamingRecorder(Recorder):
         path = self.csv_path
         try:
             self._write_csv(chunk)
-            path = self.parquet_path
-            self._write_parquet(chunk)
+            self._pending.append(chunk)
+            self._pending_rows += len(chunk)
+            if self._pending_rows >= PARQUET_ROWS:
+                path = self.parquet_path
+                self._flush_parquet()
         except OSError as exc:  # the run stops here (its caller sees the exception)
             self._fail(exc, path)
             raise
+
+    def _flush_parquet(self):
+        if self._pending:
+            pending = self._pending
+            self._write_parquet(pending[0] if len(pending) == 1 else np.concatenate(pending))
+            self._pending, self._pending_rows = [], 0
+            self._pa.default_memory_pool().release_unused()  # Arrow's allocator keeps freed memory else
 
     def _fail(self, exc, path=None):
         """Writing ``path`` failed: nothing half-written is left (the temporary files are removed)."""
@@ -187,19 +245,22 @@ class StreamingRecorder(Recorder):
         try:
             if self.on_parquet is None:
                 self.flush()
+                self._flush_parquet()
                 self._parquet.close()
                 os.replace(self._parts[1], self.parquet_path)
             else:  # the Parquet file first, complete, then the last CSV lines
                 chunk = self._chunk_array() if self.rows else None
-                if chunk is not None:
-                    self._write_parquet(chunk)
+                if chunk is not None and len(chunk):
+                    self._pending.append(chunk)
+                self._flush_parquet()
                 self._parquet.close()
                 os.replace(self._parts[1], self.parquet_path)
-                self.on_parquet(self.n_rows + len(self.rows))
+                self.on_parquet(self.n_rows + (len(chunk) if chunk is not None else 0))
                 path = self.csv_path
                 if chunk is not None:
-                    self._write_csv(chunk)
-                    self.n_rows += len(self.rows)
+                    if len(chunk):
+                        self._write_csv(chunk)
+                    self.n_rows += len(chunk)
                     self.rows.clear()
             path = self.csv_path
             self._csv.close()
@@ -220,3 +281,21 @@ class StreamingRecorder(Recorder):
         import pandas as pd
 
         return pd.read_parquet(self.parquet_path, columns=columns)
+
+
+class MetricsOnly(Recorder):
+    """Level ``metrics``: every chunk goes to the ``observer`` (the metrics computed as the run
+    goes) and is dropped: nothing on disk, nothing kept; :meth:`arrays` is empty.  Its chunks are
+    small (:data:`METRICS_CHUNK_ROWS`): the rows are still in the processor's cache when they are
+    folded in (5 % less CPU per run than 20 000-row chunks, measured on the default scenario)."""
+
+    def __init__(self, columns, keep=None, chunk_rows=None, observer=None, every=1):
+        chunk_rows = METRICS_CHUNK_ROWS if chunk_rows is None else chunk_rows
+        super().__init__(columns, keep, chunk_rows, observer, every)
+
+    def _chunk_array(self):
+        super()._chunk_array()  # the observer sees the chunk
+        return np.empty((0, len(self.columns)))  # nothing kept
+
+    def arrays(self, columns=None):
+        return {c: np.empty(0) for c in (self.columns if columns is None else columns)}

@@ -6,6 +6,9 @@
   :func:`check_scenario_file`, :func:`validate_scenario_file`, :class:`Scenario`,
   :class:`ScenarioError`.
 * :mod:`~orchestration.scenario.profiles` -- the time profiles of the set-points and the load.
+* :mod:`~orchestration.scenario.sweep` -- the ``sweep:`` section: a grid or Monte Carlo draws of
+  variants, expanded before anything runs; :mod:`~orchestration.scenario.variants` -- a sweep file
+  read and every variant checked (``load_sweep``), or one variant (``load_variant``).
 * :mod:`~orchestration.scenario.plausibility` -- notes for inputs far outside the motor's range.
 * :mod:`~orchestration.scenario.system` -- the system a scenario runs: units, connections, the
   measured signals and the ``measurements:`` section.

@@ -10,11 +10,16 @@ both units: the names of :data:`satmotor.interface.MOTOR_PARAMETERS`, which the 
 controller's model share, or ``preset: NAME`` of a motor of :mod:`satmotor.machine.library` with
 overrides beside it, :mod:`orchestration.scenario.presets`), ``plant`` and ``controller``
 (parameter overrides by FMI variable name, over ``motor``: only the deliberate differences),
-``mismatch`` (``true``: the plant and the controller are meant to get different motor
-parameters; default false), ``profiles`` (``omega_ref`` [rad/s], default 0; ``psi_ref`` [Wb],
-required; ``T_load`` [N m], default 0; see :mod:`orchestration.scenario.profiles`), ``record``
-(``interval`` [s], a multiple of ``step``, default ``step``; ``outputs``: ``plant.NAME`` /
-``controller.NAME``, default all), ``acceptance`` (bounds checked after the run: ``ss_speed``,
+``mismatch`` (``true``: the plant and the controller are meant to get different motor parameters;
+default false), ``profiles``
+(``omega_ref`` [rad/s], default 0; ``psi_ref`` [Wb], required; ``T_load`` [N m], default 0; see
+:mod:`orchestration.scenario.profiles`), ``record``
+(``level``: ``full`` (default), ``decimated`` (every ``every``-th recorded row on disk, default 10)
+or ``metrics`` (no time series on disk; ``record: metrics`` alone says the same); ``interval`` [s],
+a multiple of ``step``, default ``step``; ``outputs``: ``plant.NAME`` /
+``controller.NAME``, default all), ``sweep`` (variants of the scenario:
+:mod:`orchestration.scenario.sweep`, :mod:`orchestration.scenario.variants`),
+``acceptance`` (bounds checked after the run: ``ss_speed``,
 ``ss_flux`` relative steady-state errors over ``ss_window: [t_from, t_to]`` [s],
 ``overshoot_speed`` relative, ``peak_current``, ``peak_current_run`` [A]), ``measurements``
 (noise and quantization the master applies to the plant outputs it passes to the controller:
@@ -54,17 +59,22 @@ from orchestration.scenario.profiles import Constant, parse_profile
 from orchestration.scenario.system import Measurements
 
 __all__ = ["Problem", "Note", "ScenarioError", "Acceptance", "Record", "Scenario", "Measurements",
-           "load_scenario", "validate_scenario_file", "check_scenario_file", "interface_variables",
-           "motor_variables", "ALGORITHMS", "PROFILE_NAMES"]
+           "load_scenario", "validate_scenario_file", "check_scenario_file",
+           "interface_variables", "motor_variables", "ALGORITHMS", "PROFILE_NAMES"]
 
 ALGORITHMS = ("gauss-seidel", "jacobi")
 PROFILE_NAMES = ("omega_ref", "psi_ref", "T_load")
 UNITS = ("plant", "controller")
 TOP_KEYS = ("name", "description", "stop_time", "step", "controller_every", "algorithm", "motor", "plant",
-            "controller", "mismatch", "profiles", "record", "acceptance", "measurements")
+            "controller", "mismatch", "profiles", "record", "acceptance", "measurements", "sweep")
+RECORD_LEVELS = ("full", "decimated", "metrics")  # what a run keeps: orchestration.run.recorder
 ACCEPTANCE_KEYS = ("ss_speed", "ss_flux", "ss_window", "overshoot_speed", "peak_current", "peak_current_run")
 _NAME = re.compile(r"[A-Za-z0-9_.-]+")
 _REL = 1e-9  # relative tolerance of "a multiple of step"
+#: libyaml's safe loader when PyYAML has it (the same documents, ten times faster: a sweep's variants
+#: each read their file), else the pure-Python one
+_LOADER = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
+DECIMATE_DEFAULT = 10  # record.every of level decimated when the file does not say
 
 
 class ScenarioError(ValueError):
@@ -93,6 +103,8 @@ class Acceptance:
 class Record:
     interval: float  # [s] a multiple of the step
     outputs: tuple[str, ...] = ()  # "plant.NAME" / "controller.NAME"; empty: all outputs of both
+    level: str = "full"  # full: every row on disk; decimated: every `every`-th; metrics: none on disk
+    every: int = 1  # decimated: one row of `every` recorded rows goes to disk
 
 
 @dataclass(frozen=True)
@@ -230,8 +242,21 @@ def _overrides(chk, raw, unit, variables, base_dir):
 def _record(chk, raw, step, variables):
     if raw is None:
         return Record(step if step else 1e-4, ())
-    if not chk.mapping(raw, "record", (), ("interval", "outputs")):
+    if isinstance(raw, str):  # record: metrics -- the level alone
+        raw = {"level": raw}
+    if not chk.mapping(raw, "record", (), ("level", "every", "interval", "outputs")):
         return None
+    level = raw.get("level", "full")
+    if level not in RECORD_LEVELS:
+        chk.add("record.level", level, f"must be one of {', '.join(RECORD_LEVELS)}")
+        level = "full"
+    every = 1
+    if "every" in raw:
+        every = chk.integer(raw["every"], "record.every", low=1) or 1
+        if level != "decimated":
+            chk.add("record.every", raw["every"], f"applies to level: decimated only (level is {level})")
+    elif level == "decimated":
+        every = DECIMATE_DEFAULT
     interval = step
     if "interval" in raw:
         interval = chk.number(raw["interval"], "record.interval", low=0.0, strict=True)
@@ -246,7 +271,7 @@ def _record(chk, raw, step, variables):
         if unit not in UNITS or variables.get(unit, {}).get(var, ("",))[0] != "output":
             chk.add(f"record.outputs[{i}]", name, "not an output; write 'plant.NAME' or 'controller.NAME' "
                     "with NAME an output of that FMU")
-    return Record(interval or step or 1e-4, tuple(o for o in outputs if isinstance(o, str)))
+    return Record(interval or step or 1e-4, tuple(o for o in outputs if isinstance(o, str)), level, every)
 
 
 def _acceptance(chk, raw, stop_time):
@@ -408,7 +433,7 @@ def _read(path):
     except (OSError, UnicodeDecodeError) as exc:
         return None, [Problem(file, "(file)", file, f"cannot read: {exc}")]
     try:
-        return yaml.safe_load(text), []
+        return yaml.load(text, Loader=_LOADER), []
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
         where = f"line {mark.line + 1}, column {mark.column + 1}" if mark else "?"
@@ -418,7 +443,8 @@ def _read(path):
 
 def check_scenario_file(path, variables=None):
     """``(problems, notes)`` of the scenario file ``path``: every :class:`Problem` (empty: valid)
-    and, for a valid file, its :class:`Note` lines.  Never raises.
+    and, for a valid file, its :class:`Note` lines; with a ``sweep:`` section, every variant's
+    problems too.  Never raises.
 
     ``variables``: ``{"plant": {name: (causality, type)}, "controller": {...}}`` of the FMUs
     (e.g. from fmpy's model descriptions); None: :func:`interface_variables`.
@@ -428,7 +454,11 @@ def check_scenario_file(path, variables=None):
         if problems:
             return problems, []
         sc, problems = _check(data, str(path), variables)
-        return problems, list(sc.notes) if sc is not None else []
+        if isinstance(data, dict) and "sweep" in data:  # every variant checked too
+            from orchestration.scenario.variants import check_sweep
+
+            problems = problems + check_sweep(data, str(path), variables, problems)[2]
+        return problems, list(sc.notes) if sc is not None and not problems else []
     except Exception as exc:  # noqa: BLE001 - a validator reports, it does not crash
         return [Problem(str(path), "(internal)", None, f"validation failed: {exc!r}")], []
 

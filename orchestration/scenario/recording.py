@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from orchestration.scenario.system import COLUMN_PREFIX, CONTROLLER, PLANT, PROFILE
 
-__all__ = ["NEEDED", "recorded_columns", "recorded_selection"]
+__all__ = ["NEEDED", "recorded_columns", "recorded_selection", "record_steps", "last_row_time"]
 
 # what compute_metrics and the figure read: always recorded, whatever record.outputs lists
 NEEDED = ("plant.omega_m", "plant.psi_r_alpha", "plant.psi_r_beta", "plant.i_s_alpha", "plant.i_s_beta",
@@ -30,3 +30,17 @@ def recorded_selection(scenario, columns):
     wanted = set(scenario.record.outputs) | set(NEEDED) if scenario.record.outputs else None
     return [i for i, c in enumerate(columns) if c == "time" or c.startswith((PROFILE + ".", COLUMN_PREFIX))
             or wanted is None or c in wanted]
+
+
+def record_steps(scenario):
+    """``(n, every)``: the run's plant steps (``stop_time / step``) and the steps between two
+    recorded rows (``record.interval / step``); row ``k`` is recorded when ``k % every == 0``."""
+    h = scenario.step
+    return round(scenario.stop_time / h), max(1, round(scenario.record.interval / h))
+
+
+def last_row_time(scenario):
+    """[s] the time of the last row a complete run of ``scenario`` records, as the stepping loop
+    computes it (``t0 + k h``, ``t0 = 0``)."""
+    n, every = record_steps(scenario)
+    return 0.0 + (n // every * every) * scenario.step

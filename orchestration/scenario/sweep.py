@@ -1,0 +1,301 @@
+"""The ``sweep:`` section of a scenario file: one scenario becomes many variants, expanded before
+anything runs.  Pure: parsed YAML in, variants (parsed YAML again) and problems out; no file is read.
+
+Two kinds, told apart by the key ``samples``::
+
+    sweep:                                # a full grid: every combination of the values listed
+      parameters:
+        motor.J: [0.0131, 0.0262, 0.0524]                 # a list
+        controller.c1: {start: 100, stop: 300, num: 3}    # a range: num values, both ends included
+        profiles.T_load.value: {start: 0, stop: 20, step: 10}   # a range by step, stop included
+
+    sweep:                                # Monte Carlo: ``samples`` draws with ``seed``
+      samples: 20
+      seed: 7
+      parameters:
+        motor.R_r: {tolerance: 0.1}       # uniform in nominal * [1 - 0.1, 1 + 0.1]
+        motor.J: {normal: [0.0131, 0.001]}    # normal, [mean, standard deviation]
+        controller.c1: {uniform: [150, 250]}  # uniform in [low, high]
+
+A parameter path is ``motor.NAME``, ``plant.NAME`` or ``controller.NAME`` (a parameter of that
+section; :data:`satmotor.interface.MOTOR_PARAMETERS` for ``motor``), or ``profiles.PROFILE.KEY``
+(``profiles.PROFILE[i].KEY`` for the i-th part of a summed profile) for a key of a profile the
+scenario defines.  The nominal value of a ``tolerance`` is the one the file writes (for
+``plant.NAME`` / ``controller.NAME`` of a motor parameter, the unit's own value, else its
+``motor:`` value), else the FMU's default.  Range values are ``start + i * step`` (or ``start + i
+(stop - start) / (num - 1)``), rounded to 12 significant digits so that ``0.1 * 3`` reads 0.3;
+integer ends and step give integers.  Draws: one ``numpy.random.default_rng(seed)``, ``samples``
+values per parameter in the order the file lists them.
+
+Variant ``i`` (from 0) is named ``NAME-iii`` (zero-padded to the width of the count); the grid
+varies the last parameter fastest.  A variant is the file's mapping with the sweep removed, its
+name changed and its values set; without a ``record: {level: ...}`` it records ``metrics`` only
+(:mod:`orchestration.run.recorder`).  The loader (:func:`orchestration.scenario.load.load_sweep`)
+checks every variant as a scenario of its own.
+"""
+
+from __future__ import annotations
+
+import copy
+import math
+import re
+from dataclasses import dataclass
+
+from orchestration.scenario.problems import MISSING, Checker
+
+__all__ = ["Sweep", "Variant", "expand", "parse_sweep", "MAX_VARIANTS", "SECTIONS"]
+
+MAX_VARIANTS = 10_000  # a grid beyond this is refused (a typo in a range, not a study)
+SECTIONS = ("motor", "plant", "controller", "profiles")
+DISTRIBUTIONS = ("uniform", "normal", "tolerance")
+RANGE_KEYS = ("start", "stop", "num", "step")
+_PROFILE_PATH = re.compile(r"profiles\.([A-Za-z_]\w*)(?:\[(\d+)\])?\.([A-Za-z_]\w*)")
+_REL = 1e-9  # a range's stop is reached when within this relative tolerance
+
+
+@dataclass(frozen=True)
+class Variant:
+    """One variant: its index, name, the values of the varied paths, and its scenario mapping."""
+
+    index: int
+    name: str
+    values: tuple  # ((path, value), ...) in the order of Sweep.parameters
+    data: dict | None  # the parsed YAML of this variant, a scenario file without ``sweep:``
+
+
+@dataclass(frozen=True)
+class Sweep:
+    kind: str  # "grid" or "montecarlo"
+    parameters: tuple  # the varied paths, in the file's order
+    variants: tuple  # Variant, by index
+    seed: int | None = None  # Monte Carlo only
+
+
+def _unit_tables():
+    """``{section: {name: default}}`` of the parameters a path may name (the FMUs' variable tables)."""
+    from satmotor.interface import CONTROLLER_PARAMETERS, MOTOR_PARAMETERS, PLANT_PARAMETERS
+
+    ctrl = {v.name: v.start for v in CONTROLLER_PARAMETERS}
+    return {"motor": {v.name: v.start for v in MOTOR_PARAMETERS if v.name in ctrl},
+            "plant": {v.name: v.start for v in PLANT_PARAMETERS}, "controller": ctrl}
+
+
+def _round(x):
+    return float(f"{x:.12g}")
+
+
+def _range(chk, spec, where):
+    """The values of ``{start, stop, num}`` or ``{start, stop, step}``, or None."""
+    extra = [k for k in spec if k not in RANGE_KEYS]
+    if extra or "start" not in spec or "stop" not in spec or ("num" in spec) == ("step" in spec):
+        chk.add(where, spec, "a range is {start, stop, num} or {start, stop, step} "
+                "(exactly one of num, step)")
+        return None
+    start, stop = chk.number(spec["start"], f"{where}.start"), chk.number(spec["stop"], f"{where}.stop")
+    if "num" in spec:
+        num = chk.integer(spec["num"], f"{where}.num", low=1)
+        if None in (start, stop, num):
+            return None
+        if num == 1 and start != stop:
+            chk.add(f"{where}.num", num, "must be >= 2 when start != stop")
+            return None
+        if num > MAX_VARIANTS:
+            chk.add(f"{where}.num", num, f"must be <= {MAX_VARIANTS}")
+            return None
+        values = [start] if num == 1 else [_round(start + i * (stop - start) / (num - 1)) for i in range(num)]
+        integral = all(isinstance(spec[k], int) and not isinstance(spec[k], bool) for k in ("start", "stop"))
+    else:
+        step = chk.number(spec["step"], f"{where}.step")
+        if None in (start, stop, step):
+            return None
+        if step == 0 or (stop - start) * step < 0:
+            chk.add(f"{where}.step", spec["step"], "must be non-zero and lead from start = "
+                    f"{spec['start']!r} to stop = {spec['stop']!r}")
+            return None
+        count = math.floor((stop - start) / step * (1 + _REL) + _REL) + 1
+        if count > MAX_VARIANTS:
+            chk.add(where, spec, f"gives {count} values; at most {MAX_VARIANTS}")
+            return None
+        values = [_round(start + i * step) for i in range(count)]
+        integral = all(isinstance(spec[k], int) and not isinstance(spec[k], bool)
+                       for k in ("start", "stop", "step"))
+    if integral and all(v == int(v) for v in values):
+        values = [int(v) for v in values]
+    return values
+
+
+def _grid_values(chk, spec, where):
+    if isinstance(spec, list):
+        if not spec:
+            chk.add(where, spec, "an empty list varies nothing")
+            return None
+        return list(spec)
+    if isinstance(spec, dict) and any(k in spec for k in DISTRIBUTIONS):
+        chk.add(where, spec, "a distribution needs sweep.samples (a Monte Carlo sweep); a grid takes a list "
+                "or a range {start, stop, num | step}")
+        return None
+    if isinstance(spec, dict):
+        return _range(chk, spec, where)
+    chk.add(where, spec, "must be a list of values or a range {start, stop, num | step}")
+    return None
+
+
+def _distribution(chk, spec, where, nominal):
+    """``(kind, a, b)`` of a distribution spec, or None: uniform (low, high), normal (mean, std),
+    tolerance -> uniform (nominal (1 - r), nominal (1 + r))."""
+    if not (isinstance(spec, dict) and len(spec) == 1 and next(iter(spec)) in DISTRIBUTIONS):
+        chk.add(where, spec, "a Monte Carlo parameter is one of {uniform: [low, high]}, "
+                "{normal: [mean, std]}, {tolerance: r} (relative, uniform around the nominal value)")
+        return None
+    (kind, arg), = spec.items()
+    if kind == "tolerance":
+        r = chk.number(arg, f"{where}.tolerance", low=0.0)
+        if r is None:
+            return None
+        if isinstance(nominal, bool) or not isinstance(nominal, (int, float)) or not math.isfinite(nominal):
+            chk.add(f"{where}.tolerance", arg,
+                    f"needs a numeric nominal value; the scenario's is {nominal!r}")
+            return None
+        return "uniform", nominal * (1.0 - r), nominal * (1.0 + r)
+    if not (isinstance(arg, list) and len(arg) == 2):
+        pair = "[low, high]" if kind == "uniform" else "[mean, std]"
+        chk.add(f"{where}.{kind}", arg, f"must be a pair {pair}")
+        return None
+    a, b = chk.number(arg[0], f"{where}.{kind}[0]"), chk.number(arg[1], f"{where}.{kind}[1]", low=0.0)
+    if a is None or b is None:
+        return None
+    if kind == "uniform" and not a <= b:
+        chk.add(f"{where}.uniform", arg, "low must be <= high")
+        return None
+    return kind, a, b
+
+
+def _locate(chk, data, path, tables, spec=None):
+    """``(setter, nominal)`` of ``path`` in ``data`` (a function writing a value into a copy of the
+    mapping, and the value there now), or None after recording why the path is refused (the
+    problem's value: ``spec``, what the file says to vary it over)."""
+    section, _, rest = path.partition(".") if isinstance(path, str) else ("", "", "")
+    if section in ("motor", "plant", "controller"):
+        table = tables.get(section, {})
+        if rest not in table:
+            chk.add(f"sweep.parameters.{path}", spec, f"{rest!r} is not a {section} parameter; {section}: "
+                    + ", ".join(sorted(table)))
+            return None
+        if section == "controller" and rest == "Ts":
+            chk.add(f"sweep.parameters.{path}", spec, "Ts is step * controller_every: vary those instead")
+            return None
+        own = data.get(section) if isinstance(data.get(section), dict) else {}
+        motor = data.get("motor") if isinstance(data.get("motor"), dict) else {}
+        fallback = motor.get(rest, table[rest]) if rest in tables.get("motor", {}) else table[rest]
+        nominal = own.get(rest, fallback)
+
+        def setter(d, v, section=section, name=rest):
+            if not isinstance(d.get(section), dict):
+                d[section] = {}
+            d[section][name] = v
+        return setter, nominal
+    m = _PROFILE_PATH.fullmatch(path) if isinstance(path, str) else None
+    if m is None:
+        chk.add(f"sweep.parameters.{path}", spec, "a parameter path is motor.NAME, plant.NAME, "
+                "controller.NAME, profiles.PROFILE.KEY or profiles.PROFILE[i].KEY")
+        return None
+    name, index, key = m.group(1), m.group(2), m.group(3)
+    profiles = data.get("profiles") if isinstance(data.get("profiles"), dict) else {}
+    spec = profiles.get(name)
+    if index is not None:
+        spec = spec[int(index)] if isinstance(spec, list) and int(index) < len(spec) else None
+    elif isinstance(spec, list):
+        spec = None
+    if not isinstance(spec, dict):
+        chk.add(f"sweep.parameters.{path}", spec, f"the scenario defines no profile {name}"
+                + (f"[{index}]" if index is not None else "") + " mapping to vary (a summed profile: "
+                "profiles.NAME[i].KEY)")
+        return None
+
+    def setter(d, v, name=name, index=index, key=key):
+        target = d["profiles"][name]
+        (target[int(index)] if index is not None else target)[key] = v
+    return setter, spec.get(key)
+
+
+def parse_sweep(raw, data, file, tables=None, only=None):
+    """``(Sweep or None, problems)`` of the ``sweep:`` mapping ``raw`` of the scenario mapping
+    ``data`` (from ``file``).  ``tables``: ``{section: {parameter name: default}}`` of the paths
+    allowed (default: the FMUs' variable tables).  ``only``: an index; the other variants get no
+    mapping (``data`` None: the run of one variant copies the file's mapping once, not per variant)."""
+    chk = Checker(file)
+    tables = tables if tables is not None else _unit_tables()
+    if not chk.mapping(raw, "sweep", ("parameters",), ("samples", "seed")):
+        return None, chk.problems
+    params = raw["parameters"]
+    if not isinstance(params, dict) or not params:
+        chk.add("sweep.parameters", params, "must be a non-empty mapping {parameter path: values}")
+        return None, chk.problems
+    montecarlo = "samples" in raw
+    samples = seed = None
+    if montecarlo:
+        samples = chk.integer(raw["samples"], "sweep.samples", low=1)
+        if samples is not None and samples > MAX_VARIANTS:
+            chk.add("sweep.samples", samples, f"must be <= {MAX_VARIANTS}")
+            samples = None
+        seed = chk.integer(raw["seed"], "sweep.seed", low=0) if "seed" in raw else None
+        if "seed" not in raw:
+            chk.add("sweep.seed", MISSING, "a Monte Carlo sweep needs a seed (an integer >= 0): "
+                    "the same seed, the same draws")
+    elif "seed" in raw:
+        chk.add("sweep.seed", raw["seed"], "a seed needs sweep.samples (a Monte Carlo sweep)")
+    located, specs = {}, {}
+    for path, spec in params.items():
+        where = f"sweep.parameters.{path}"
+        found = _locate(chk, data, path, tables, spec)
+        if found is None:
+            continue
+        located[path] = found
+        specs[path] = (_distribution(chk, spec, where, found[1]) if montecarlo
+                       else _grid_values(chk, spec, where))
+    if chk.problems:
+        return None, chk.problems
+    paths = tuple(params)
+    if montecarlo:
+        import numpy as np
+
+        rng = np.random.default_rng(seed)
+        draws = {p: (rng.uniform if kind != "normal" else rng.normal)(a, b, samples).tolist()
+                 for p, (kind, a, b) in specs.items()}
+        rows = [tuple(draws[p][i] for p in paths) for i in range(samples)]
+    else:
+        count = math.prod(len(specs[p]) for p in paths)
+        if count > MAX_VARIANTS:
+            chk.add("sweep.parameters", {p: len(specs[p]) for p in paths},
+                    f"a grid of {count} variants; at most {MAX_VARIANTS}")
+            return None, chk.problems
+        import itertools
+
+        rows = list(itertools.product(*(specs[p] for p in paths)))
+    base = {k: v for k, v in data.items() if k != "sweep"}
+    width = len(str(len(rows) - 1))
+    variants = []
+    for i, values in enumerate(rows):
+        name = f"{data.get('name')}-{i:0{width}d}"
+        if only is not None and i != only:
+            variants.append(Variant(i, name, tuple(zip(paths, values)), None))
+            continue
+        d = copy.deepcopy(base)
+        d["name"] = name
+        for p, v in zip(paths, values):
+            located[p][0](d, v)
+        record = d.get("record")
+        if record is None:
+            d["record"] = {"level": "metrics"}
+        elif isinstance(record, dict) and "level" not in record:
+            d["record"] = {**record, "level": "metrics"}
+        variants.append(Variant(i, name, tuple(zip(paths, values)), d))
+    return Sweep("montecarlo" if montecarlo else "grid", paths, tuple(variants), seed), []
+
+
+def expand(data, file, tables=None, only=None):
+    """``(Sweep or None, problems)`` of the scenario mapping ``data``: None without a ``sweep:``
+    section (and no problem).  ``only``: as for :func:`parse_sweep`."""
+    if not isinstance(data, dict) or "sweep" not in data:
+        return None, []
+    return parse_sweep(data["sweep"], data, file, tables, only)
