@@ -35,6 +35,7 @@ from typing import NamedTuple
 from satmotor.control.backstepping import D_SHARE, BacksteppingGains, ControllerConfig, control
 from satmotor.control.delay import N_STATE as N_DELAY_STATE
 from satmotor.control.delay import DelayCompensator
+from satmotor.control.flux_observer import ClosedLoopObserver
 from satmotor.control.fo_model import flux_rate, model_constants
 from satmotor.control.ifoc import IFOCController, IFOCGains
 from satmotor.control.measurements import (
@@ -51,6 +52,8 @@ from satmotor.errors import ParameterError, require_number
 
 PREMAG, RUN = 0, 1
 FLUX_SOURCES = ("measured", "observer")
+OBSERVERS = ("closed_loop", "current_model")
+SPEED_SOURCES = ("measured", "estimated")
 _SQRT3 = math.sqrt(3.0)
 _FRAME_MIN = 1e-3  # [1] below this fraction of the set-point the premag current stays on alpha
 
@@ -66,7 +69,12 @@ class DriveConfig:
     than premag_speed_tol [rad/s] or premag_time_max [s] has passed, never below it;
     premag_boost [1]; premag_gain [Ohm] K_pm of the pre-magnetization current loop;
     flux_source 'measured' (the psi_r inputs, the seed's assumption) or 'observer'
-    (:class:`satmotor.control.observer.RotorFluxObserver` from i_s and omega_m); delay_samples 0 or 1
+    (from i_s, omega_m and the applied v_s); observer 'closed_loop'
+    (:class:`satmotor.control.flux_observer.ClosedLoopObserver`, current and voltage models blended) or
+    'current_model' (:class:`satmotor.control.observer.RotorFluxObserver`, open loop);
+    speed_source 'measured' (the omega_m input) or 'estimated' (the closed-loop observer's speed
+    estimate; the omega_m input is not read; needs flux_source 'observer', observer 'closed_loop');
+    speed_bandwidth [rad/s] of the speed estimate's adaptation; delay_samples 0 or 1
     (:mod:`satmotor.control.delay`).
     """
 
@@ -80,6 +88,9 @@ class DriveConfig:
     premag_speed_tol: float = 2.0
     flux_source: str = "measured"
     delay_samples: int = 0
+    observer: str = "closed_loop"
+    speed_source: str = "measured"
+    speed_bandwidth: float = 200.0
 
     def __post_init__(self):
         require_number("ref_bandwidth", self.ref_bandwidth, 0)
@@ -94,6 +105,16 @@ class DriveConfig:
             raise ParameterError("flux_source", self.flux_source, f"must be one of {', '.join(FLUX_SOURCES)}")
         if self.delay_samples not in (0, 1) or isinstance(self.delay_samples, bool):
             raise ParameterError("delay_samples", self.delay_samples, "must be 0 or 1")
+        require_number("speed_bandwidth", self.speed_bandwidth, 0)
+        if self.observer not in OBSERVERS:
+            raise ParameterError("observer", self.observer, f"must be one of {', '.join(OBSERVERS)}")
+        if self.speed_source not in SPEED_SOURCES:
+            raise ParameterError("speed_source", self.speed_source,
+                                 f"must be one of {', '.join(SPEED_SOURCES)}")
+        closed_loop = self.flux_source == "observer" and self.observer == "closed_loop"
+        if self.speed_source == "estimated" and not closed_loop:
+            raise ParameterError("speed_source", self.speed_source, "needs flux_source = observer and "
+                                 "observer = closed_loop (the speed estimate is the closed-loop observer's)")
 
 
 class DriveOutput(NamedTuple):
@@ -120,6 +141,7 @@ class DriveOutput(NamedTuple):
     current_limited: bool
     psi_r_hat_alpha: float  # [Wb] rotor flux the drive used (estimate, or the measurement)
     psi_r_hat_beta: float  # [Wb]
+    omega_m_hat: float = 0.0  # [rad/s] speed the drive used (the estimate, or the measurement)
 
 
 class _Drive:
@@ -135,7 +157,15 @@ class _Drive:
         self._speed = ReferenceShaper(drive_cfg.ref_bandwidth)
         self._checked = (None, 0.0)  # last flux set-point checked, its magnetizing current
         self._n_switch = round(drive_cfg.premag_time_max / Ts)
-        self._observer = (RotorFluxObserver(params, Ts) if drive_cfg.flux_source == "observer" else None)
+        self._observer = self._cl = None
+        if drive_cfg.flux_source == "observer":
+            if drive_cfg.observer == "closed_loop":
+                sensorless = drive_cfg.speed_source == "estimated"
+                self._cl = ClosedLoopObserver(params, Ts, sensorless, drive_cfg.speed_bandwidth)
+                self._observer = self._cl
+            else:
+                self._observer = RotorFluxObserver(params, Ts)
+        self._w_used = 0.0  # [rad/s] the speed of the last sample (not a state: set by every step)
         self._delay = DelayCompensator(params, Ts) if drive_cfg.delay_samples else None
         self.reset()
 
@@ -168,6 +198,13 @@ class _Drive:
         return I
 
     def step(self, meas, omega_ref, psi_ref, T_load):
+        """One sample (see :meth:`_step`); the closed-loop observer learns the voltage applied next."""
+        out = self._step(meas, omega_ref, psi_ref, T_load)
+        if self._cl is not None:
+            self._cl.applied(out.v_s_alpha, out.v_s_beta)
+        return out._replace(omega_m_hat=self._w_used)
+
+    def _step(self, meas, omega_ref, psi_ref, T_load):
         """One sample: ``meas`` the measurement tuple of :mod:`satmotor.control.measurements`
         [A, A, Wb, Wb, Wb, Wb, rad/s] (the controller unit's input order); the raw set-points
         ``omega_ref`` [rad/s], ``psi_ref`` [Wb] (shaped inside: ``omega_ref_shaped``,
@@ -175,9 +212,13 @@ class _Drive:
         Returns a :class:`DriveOutput`."""
         I_set = self.magnetizing_current(psi_ref)
         require_number("omega_ref", omega_ref)
-        if self._observer is not None:  # the psi inputs are ignored: the estimate replaces them
+        if self._cl is not None:  # the psi inputs (and with speed_source estimated omega_m) are ignored
+            pa, pb, w = self._cl.update(meas[MEAS_I_S_A], meas[MEAS_I_S_B], meas[MEAS_OMEGA_M])
+            meas = (meas[MEAS_I_S_A], meas[MEAS_I_S_B], pa, pb, 0.0, 0.0, w)  # MEAS_* order
+        elif self._observer is not None:  # the psi inputs are ignored: the estimate replaces them
             pa, pb = self._observer.update(meas[MEAS_I_S_A], meas[MEAS_I_S_B], meas[MEAS_OMEGA_M])
             meas = (meas[MEAS_I_S_A], meas[MEAS_I_S_B], pa, pb, 0.0, 0.0, meas[MEAS_OMEGA_M])  # MEAS_* order
+        self._w_used = meas[MEAS_OMEGA_M]
         if self._phase == PREMAG:
             phi = math.hypot(meas[MEAS_PSI_R_A], meas[MEAS_PSI_R_B])
             if not self._switch_now(phi, psi_ref, meas[MEAS_OMEGA_M]):
