@@ -117,7 +117,8 @@ BAD = [({"mode": "fuzzy"}, "mode"), ({"flux_source": "estimated"}, "flux_source"
        ({"load_mode": "guess"}, "load_mode"), ({"curve": "spline"}, "curve"),
        ({"observer": "luenberger"}, "observer"), ({"speed_source": "guessed"}, "speed_source"),
        ({"speed_source": "estimated"}, "speed_source"),
-       ({"flux_source": "observer", "observer": "current_model", "speed_source": "estimated"}, "speed_source")]
+       ({"flux_source": "observer", "observer": "current_model", "speed_source": "estimated"},
+        "speed_source")]
 
 
 @pytest.mark.parametrize("values, field", BAD)
@@ -169,6 +170,7 @@ def test_sensorless_controller_does_not_read_omega_m(lib, garbage):
         assert lib.sm_controller_step(buf, t, 1e-4, arr, msgbuf, 256) == 0, msgbuf.value
         assert list(py.outputs()) == list(want)  # bit for bit: omega_m was not read
         got = _out(buf, lib)
-        assert max(abs(g - float(w)) for g, w in zip(got, want)) <= 1e-12 * (1.0 + max(abs(float(w)) for w in want))
+        scale = 1.0 + max(abs(float(w)) for w in want)
+        assert max(abs(g - float(w)) for g, w in zip(got, want)) <= 1e-12 * scale
         n += 1
     assert n > 2000

@@ -24,14 +24,14 @@ the flux, ``w_r = n_p omega_m`` and ``delta = f_i(psi_r) - f_i_hat(psi_r)`` the 
 error (e.g. from a wrong R_r).  We place the error pole at ``-b`` at every speed:
 ``1 - G = b/(a - j w_r)``, i.e.::
 
-    G = ((a - b) a + w_r^2 - j b w_r) / (a^2 + w_r^2),       here b = a:
+    G = ((a - b) a + w_r^2 - j b w_r) / (a^2 + w_r^2),       with the speed measured b = a:
     G = (w_r^2 - j a w_r) / (a^2 + w_r^2)
 
 (the reduced-order design of Verghese and Sanders 1988 and Hinkkanen et al. 2010, written here
 on the saturated model).  Consequences, all from the error equation:
 
-* at standstill G = 0: the current model alone (no drift, no integration of offsets);
-* the error decays at the rotor rate a at every speed (it is not merely turned by the speed,
+* at standstill (b = a) G = 0: the current model alone (no drift, no integration of offsets);
+* the error decays at the rate b at every speed (it is not merely turned by the speed,
   as in the open-loop current model, and not marginal, as in the pure voltage model);
 * the steady error the current model's error leaves, at the stator frequency w_s, is
   ``e = b delta / ((a - j w_r)(j w_s + b))``: against the open-loop ``delta/(a + j (w_s - w_r))``
@@ -42,7 +42,11 @@ same estimate; their difference ``d = psi_v - psi_i`` holds ``Ts j n_p (omega_m 
 psi_hat`` plus the flux error's own terms.  The speed error seen in one sample is
 ``eps = Im(d conj(psi_hat)) / (n_p Ts max(|psi_hat|^2, PSI_ADAPT_MIN^2))`` [rad/s], and
 ``omega_hat <- omega_hat + Ts alpha_w eps`` (an integral law of bandwidth ``alpha_w`` [rad/s]).
-The speed estimate then drives both the current model's rotation and the gain G.  Limits: at zero
+The speed estimate then drives both the current model's rotation and the gain G.  The speed
+error and the flux error are coupled (a flux error turns into a speed error and back); with b = a
+that mode rings for about a second (period about 0.1 s), so with the speed estimated the pole is
+placed at b = 3a (``POLE_FACTOR_ESTIMATED``): the mode is damped within about 0.3 s, at the price of
+G = 1 - b/a = -2 at standstill (the voltage model weighs in there too).  Limits: at zero
 stator frequency (``w_s = 0``: standstill without load, or the slip cancelling the rotation in
 regeneration) d carries no speed information; in low-speed regeneration the estimate can drift
 (documented in docs/controller.md).
@@ -63,6 +67,8 @@ import math
 from satmotor.control.observer import RotorFluxObserver
 from satmotor.errors import ParameterError, require_number
 
+POLE_FACTOR_MEASURED = 1.0  # [1] b/a with the speed measured: the current model alone at standstill
+POLE_FACTOR_ESTIMATED = 3.0  # [1] b/a with the speed estimated: the speed loop's damping (see the docstring)
 PSI_ADAPT_MIN = 0.1  # [Wb] below this flux the speed adaptation's normalization is held at it
 N_STATE = 10  # get_state's length
 
@@ -85,7 +91,7 @@ class ClosedLoopObserver:
 
     __slots__ = ("params", "Ts", "estimate_speed", "alpha_w", "_cm", "_curve", "_k", "_ls", "_lr", "_Rs",
                  "_Rr", "_np", "_lr_k", "_a_solve", "_k_lr", "_pa", "_pb", "_isa", "_isb", "_w", "_va", "_vb",
-                 "_w_hat", "_has_prev")
+                 "_w_hat", "_has_prev", "_pole")
 
     def __init__(self, params, Ts, estimate_speed=False, alpha_w=200.0):
         for name in ("R_s", "R_r", "l_s", "l_r", "k", "n_p", "curve"):
@@ -96,6 +102,7 @@ class ClosedLoopObserver:
         if not isinstance(estimate_speed, bool):
             raise ParameterError("estimate_speed", estimate_speed, "must be a Boolean")
         self.estimate_speed = estimate_speed
+        self._pole = POLE_FACTOR_ESTIMATED if estimate_speed else POLE_FACTOR_MEASURED
         self.params = params
         self._cm = RotorFluxObserver(params, Ts)
         self._curve = params.curve
@@ -188,13 +195,14 @@ class ClosedLoopObserver:
         sb += Ts * (self._vb - self._Rs * 0.5 * (isb0 + isb1))
         va, vb = self._rotor_flux(sa, sb, isa1, isb1)
         da, db = va - ia, vb - ib
-        # gain: the error pole at -a at every speed
+        # gain: the error pole at -b = -pole a at every speed
         m = psi0 / I0 if I0 > 0.0 else self._curve.m0
         a = self._Rr / (self._lr + self._k * self._k * m)
+        b = self._pole * a
         wr = self._np * 0.5 * (w0 + w1)
         den = a * a + wr * wr
-        g_re = wr * wr / den
-        g_im = -a * wr / den
+        g_re = ((a - b) * a + wr * wr) / den
+        g_im = -b * wr / den
         self._pa = ia + g_re * da - g_im * db
         self._pb = ib + g_im * da + g_re * db
         if self.estimate_speed:
@@ -206,4 +214,4 @@ class ClosedLoopObserver:
         return (self._pa, self._pb, self.speed)
 
 
-__all__ = ["ClosedLoopObserver", "N_STATE", "PSI_ADAPT_MIN"]
+__all__ = ["ClosedLoopObserver", "N_STATE", "POLE_FACTOR_ESTIMATED", "POLE_FACTOR_MEASURED", "PSI_ADAPT_MIN"]

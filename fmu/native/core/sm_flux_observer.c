@@ -5,7 +5,9 @@
 
 #include "sm_common.h"
 
-static const double PSI_ADAPT_MIN = 0.1; /* flux_observer.PSI_ADAPT_MIN [Wb] */
+static const double PSI_ADAPT_MIN = 0.1;         /* flux_observer.PSI_ADAPT_MIN [Wb] */
+static const double POLE_FACTOR_MEASURED = 1.0;  /* flux_observer.POLE_FACTOR_MEASURED [1] */
+static const double POLE_FACTOR_ESTIMATED = 3.0; /* flux_observer.POLE_FACTOR_ESTIMATED [1] */
 
 size_t sm_cl_observer_size(void)
 {
@@ -30,6 +32,7 @@ int sm_cl_observer_init(sm_cl_observer *o, double R_s, double R_r, double l_s, d
     o->Ts = Ts;
     o->alpha_w = alpha_w;
     o->estimate_speed = estimate_speed ? 1 : 0;
+    o->pole = o->estimate_speed ? POLE_FACTOR_ESTIMATED : POLE_FACTOR_MEASURED;
     o->k = k;
     o->ls = l_s;
     o->lr = l_r;
@@ -132,8 +135,8 @@ int sm_cl_observer_update(sm_cl_observer *o, const sm_curve *curve, double i_s_a
                           double omega_m, double *pa_out, double *pb_out, double *w_out)
 {
     double w1 = o->estimate_speed ? o->w_hat : omega_m;
-    double isa0, isb0, w0, pa, pb, ia, ib, sa, sb, I0 = 0.0, psi0 = 0.0, Ts, va, vb, da, db, m, a, wr, den, g_re,
-                                                g_im;
+    double isa0, isb0, w0, pa, pb, ia, ib, sa, sb, I0 = 0.0, psi0 = 0.0, Ts, va, vb, da, db, m, a, b, wr, den;
+    double g_re, g_im;
     int st;
     if (!o->has_prev) {
         o->isa = i_s_alpha;
@@ -170,13 +173,14 @@ int sm_cl_observer_update(sm_cl_observer *o, const sm_curve *curve, double i_s_a
     }
     da = va - ia;
     db = vb - ib;
-    /* gain: the error pole at -a at every speed */
+    /* gain: the error pole at -b = -pole a at every speed */
     m = I0 > 0.0 ? psi0 / I0 : curve->m0;
     a = o->Rr / (o->lr + o->k * o->k * m);
+    b = o->pole * a;
     wr = o->np * 0.5 * (w0 + w1);
     den = a * a + wr * wr;
-    g_re = wr * wr / den;
-    g_im = -a * wr / den;
+    g_re = ((a - b) * a + wr * wr) / den;
+    g_im = -b * wr / den;
     o->pa = ia + g_re * da - g_im * db;
     o->pb = ib + g_im * da + g_re * db;
     if (o->estimate_speed) {

@@ -15,6 +15,7 @@ typedef struct {
     sm_observer cm; /* the current model, restarted from the estimate every sample */
     double Ts, alpha_w;
     int estimate_speed;
+    double pole; /* b/a: flux_observer.POLE_FACTOR_MEASURED or _ESTIMATED */
     double k, ls, lr, Rs, Rr, np, lr_k, k_lr, a_solve;
     /* state: estimate [Wb]; previous sample's i_s [A], speed [rad/s]; applied v_s [V]; speed estimate */
     double pa, pb, isa, isb, w, va, vb, w_hat;
