@@ -304,7 +304,7 @@ class ControllerUnit:
         d = self.drive.step(inputs[:MEAS_LEN], omega_ref, psi_ref, T_load)
         self._out = (d.v_s_alpha, d.v_s_beta, d.v_sd, d.v_sq, d.e1, d.e2, d.z1, d.z2, d.W, d.T_load_est,
                      d.psi_r_hat_alpha, d.psi_r_hat_beta, d.omega_ref_shaped, d.psi_ref_shaped, d.phase,
-                     d.voltage_limited, d.current_limited, d.singular_limited, d.omega_m_hat)
+                     d.voltage_limited, d.current_limited, d.singular_limited, self.drive.omega_m_hat)
 
     def outputs(self):
         """Output values in the order of :attr:`OUTPUTS` (zeros before the first sample)."""

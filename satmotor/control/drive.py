@@ -141,7 +141,6 @@ class DriveOutput(NamedTuple):
     current_limited: bool
     psi_r_hat_alpha: float  # [Wb] rotor flux the drive used (estimate, or the measurement)
     psi_r_hat_beta: float  # [Wb]
-    omega_m_hat: float = 0.0  # [rad/s] speed the drive used (the estimate, or the measurement)
 
 
 class _Drive:
@@ -202,7 +201,13 @@ class _Drive:
         out = self._step(meas, omega_ref, psi_ref, T_load)
         if self._cl is not None:
             self._cl.applied(out.v_s_alpha, out.v_s_beta)
-        return out._replace(omega_m_hat=self._w_used)
+        return out
+
+    @property
+    def omega_m_hat(self):
+        """The speed [rad/s] the last sample used: the observer's estimate (speed_source estimated) or
+        the omega_m measurement (C: ``sm_drive_output.omega_m_hat``)."""
+        return self._w_used
 
     def _step(self, meas, omega_ref, psi_ref, T_load):
         """One sample: ``meas`` the measurement tuple of :mod:`satmotor.control.measurements`

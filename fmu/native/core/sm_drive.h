@@ -37,7 +37,8 @@ typedef struct {
     double omega_ref_shaped, psi_ref_shaped; /* the shaped references (pre-magnetization: the shapers at rest) */
     int phase, voltage_limited, singular_limited, current_limited;
     double psi_r_hat_alpha, psi_r_hat_beta;
-    double omega_m_hat; /* [rad/s] the speed the drive used (the estimate, or the measurement) */
+    double omega_m_hat; /* [rad/s] the speed the drive used (the estimate, or the measurement); Python:
+                         * the drive's property omega_m_hat */
 } sm_drive_output;
 
 typedef struct {
