@@ -99,14 +99,16 @@ def main(argv=None):
 
     rr = rotor_resistance(plant, ctrl)
     fig, axes = plt.subplots(1, 3, figsize=(12, 3.6), sharey=False)
-    print("| R_r +50 %, rated load | true flux error, current_model | closed_loop |\n|---|---|---|")
+    print("| R_r +50 %, rated load | true flux error, current_model: mean, largest | closed_loop: mean, largest |")
+    print("|---|---|---|")
     for ax, w in zip(axes, SPEEDS):
         cells = []
         for obs, style in zip(OBSERVERS, ("--", "-")):
             t, psi = rr[obs, w]
             err = 100.0 * (psi - PSI_REF) / PSI_REF
             ax.plot(t, err, style, label=obs)
-            cells.append(f"{np.mean(_window(t, err)):+.3g} %")
+            win = _window(t, err)
+            cells.append(f"{np.mean(win):+.3g} %, {np.max(np.abs(win)):.3g} %")
         print(f"| {w:g} rad/s | {cells[0]} | {cells[1]} |")
         ax.set_title(f"{w:g} rad/s, plant R_r +50 %")
         ax.set_xlabel("t [s]")
@@ -128,6 +130,8 @@ def main(argv=None):
         ax.plot(t, 1e3 * (psi - PSI_REF), "--" if obs == "current_model" else "-", label=f"{obs}, {level}",
                 lw=0.8)
     ax.set_xlim(0.8, 1.5)
+    late = np.concatenate([1e3 * (_window(t, psi, (0.8, 1.5)) - PSI_REF) for t, psi, _ in nz.values()])
+    ax.set_ylim(1.2 * late.min(), 1.2 * late.max())
     ax.set_xlabel("t [s]")
     ax.set_ylabel("true |psi_r| - psi_ref [mWb]")
     ax.set_title("Measurement noise through the flux observer")
