@@ -99,7 +99,8 @@ def main(argv=None):
 
     rr = rotor_resistance(plant, ctrl)
     fig, axes = plt.subplots(1, 3, figsize=(12, 3.6), sharey=False)
-    print("| R_r +50 %, rated load | true flux error, current_model: mean, largest | closed_loop: mean, largest |")
+    print("| R_r +50 %, rated load | true flux error, current_model: mean, largest "
+          "| closed_loop: mean, largest |")
     print("|---|---|---|")
     for ax, w in zip(axes, SPEEDS):
         cells = []

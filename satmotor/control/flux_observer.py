@@ -40,13 +40,17 @@ on the saturated model).  Consequences, all from the error equation:
 Speed adaptation (``speed_source = estimated``).  Over one sample, both models start from the
 same estimate; their difference ``d = psi_v - psi_i`` holds ``Ts j n_p (omega_m - omega_hat)
 psi_hat`` plus the flux error's own terms.  The speed error seen in one sample is
-``eps = Im(d conj(psi_hat)) / (n_p Ts max(|psi_hat|^2, PSI_ADAPT_MIN^2))`` [rad/s], and
-``omega_hat <- omega_hat + Ts alpha_w eps`` (an integral law of bandwidth ``alpha_w`` [rad/s]).
+``eps = Im(d conj(psi_hat)) / (n_p Ts |psi_hat|^2)`` [rad/s], and ``omega_hat <- omega_hat + Ts
+alpha_w eps`` (an integral law of bandwidth ``alpha_w`` [rad/s]); below ``PSI_ADAPT_MIN`` (0.3 Wb)
+of estimated flux the estimate is held: there the current noise, divided by the small flux,
+swamps eps (with 0.12 A of noise it tripped the pre-magnetization's "rotor moves" test).
 The speed estimate then drives both the current model's rotation and the gain G.  The speed
 error and the flux error are coupled (a flux error turns into a speed error and back); with b = a
-that mode rings for about a second (period about 0.1 s), so with the speed estimated the pole is
-placed at b = 3a (``POLE_FACTOR_ESTIMATED``): the mode is damped within about 0.3 s, at the price of
-G = 1 - b/a = -2 at standstill (the voltage model weighs in there too).  Limits: at zero
+that mode rings for about a second (period about 0.1 s), so with the speed estimated the pole
+moves from b = a at standstill to b = 3a at speed (``POLE_FACTOR_ESTIMATED``),
+``b = a + 2 a w_r^2/(a^2 + w_r^2)``: the mode is damped within about 0.3 s and G stays 0 at
+standstill (a constant b = 3a gave G = -2 there, and under a Jacobi master the pre-magnetization
+locked into a spurious rotating estimate).  Limits: at zero
 stator frequency (``w_s = 0``: standstill without load, or the slip cancelling the rotation in
 regeneration) d carries no speed information; in low-speed regeneration the estimate can drift
 (documented in docs/controller.md).
@@ -69,7 +73,7 @@ from satmotor.errors import ParameterError, require_number
 
 POLE_FACTOR_MEASURED = 1.0  # [1] b/a with the speed measured: the current model alone at standstill
 POLE_FACTOR_ESTIMATED = 3.0  # [1] b/a with the speed estimated: the speed loop's damping (see the docstring)
-PSI_ADAPT_MIN = 0.1  # [Wb] below this flux the speed adaptation's normalization is held at it
+PSI_ADAPT_MIN = 0.3  # [Wb] below this estimated flux the speed estimate is held (no speed information)
 N_STATE = 10  # get_state's length
 
 
@@ -198,15 +202,15 @@ class ClosedLoopObserver:
         # gain: the error pole at -b = -pole a at every speed
         m = psi0 / I0 if I0 > 0.0 else self._curve.m0
         a = self._Rr / (self._lr + self._k * self._k * m)
-        b = self._pole * a
         wr = self._np * 0.5 * (w0 + w1)
         den = a * a + wr * wr
+        b = a + (self._pole - 1.0) * a * (wr * wr / den)  # a at standstill, pole a at speed
         g_re = ((a - b) * a + wr * wr) / den
         g_im = -b * wr / den
         self._pa = ia + g_re * da - g_im * db
         self._pb = ib + g_im * da + g_re * db
-        if self.estimate_speed:
-            n2 = max(pa * pa + pb * pb, PSI_ADAPT_MIN * PSI_ADAPT_MIN)
+        n2 = pa * pa + pb * pb
+        if self.estimate_speed and n2 >= PSI_ADAPT_MIN * PSI_ADAPT_MIN:  # below: no speed information
             eps = (db * pa - da * pb) / (self._np * Ts * n2)
             self._w_hat = w1 + Ts * self.alpha_w * eps
             w1 = self._w_hat

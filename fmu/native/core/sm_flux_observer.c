@@ -5,7 +5,7 @@
 
 #include "sm_common.h"
 
-static const double PSI_ADAPT_MIN = 0.1;         /* flux_observer.PSI_ADAPT_MIN [Wb] */
+static const double PSI_ADAPT_MIN = 0.3;         /* flux_observer.PSI_ADAPT_MIN [Wb] */
 static const double POLE_FACTOR_MEASURED = 1.0;  /* flux_observer.POLE_FACTOR_MEASURED [1] */
 static const double POLE_FACTOR_ESTIMATED = 3.0; /* flux_observer.POLE_FACTOR_ESTIMATED [1] */
 
@@ -136,7 +136,7 @@ int sm_cl_observer_update(sm_cl_observer *o, const sm_curve *curve, double i_s_a
 {
     double w1 = o->estimate_speed ? o->w_hat : omega_m;
     double isa0, isb0, w0, pa, pb, ia, ib, sa, sb, I0 = 0.0, psi0 = 0.0, Ts, va, vb, da, db, m, a, b, wr, den;
-    double g_re, g_im;
+    double g_re, g_im, n2;
     int st;
     if (!o->has_prev) {
         o->isa = i_s_alpha;
@@ -176,19 +176,16 @@ int sm_cl_observer_update(sm_cl_observer *o, const sm_curve *curve, double i_s_a
     /* gain: the error pole at -b = -pole a at every speed */
     m = I0 > 0.0 ? psi0 / I0 : curve->m0;
     a = o->Rr / (o->lr + o->k * o->k * m);
-    b = o->pole * a;
     wr = o->np * 0.5 * (w0 + w1);
     den = a * a + wr * wr;
+    b = a + (o->pole - 1.0) * a * (wr * wr / den); /* a at standstill, pole a at speed */
     g_re = ((a - b) * a + wr * wr) / den;
     g_im = -b * wr / den;
     o->pa = ia + g_re * da - g_im * db;
     o->pb = ib + g_im * da + g_re * db;
-    if (o->estimate_speed) {
-        double n2 = pa * pa + pb * pb, fl = PSI_ADAPT_MIN * PSI_ADAPT_MIN, eps;
-        if (fl > n2) { /* Python max(n2, fl) */
-            n2 = fl;
-        }
-        eps = (db * pa - da * pb) / (o->np * Ts * n2);
+    n2 = pa * pa + pb * pb;
+    if (o->estimate_speed && n2 >= PSI_ADAPT_MIN * PSI_ADAPT_MIN) { /* below: no speed information */
+        double eps = (db * pa - da * pb) / (o->np * Ts * n2);
         o->w_hat = w1 + Ts * o->alpha_w * eps;
         w1 = o->w_hat;
     }
