@@ -34,7 +34,7 @@ test: $(STAMP)
 
 check: $(STAMP)
 	$(PY) -m orchestration build --out $(FMUS) --if-stale
-	$(PY) -m orchestration check $(FMUS)/*.fmu $(FMUS)/native/*.fmu $(FMUS)/native-fmi3/*.fmu --junit build/check.xml
+	$(PY) -m orchestration check $(FMUS)/*.fmu $(FMUS)/native/*.fmu $(FMUS)/native-fmi3/*.fmu $(FMUS)/native-me/*.fmu $(FMUS)/native-me-fmi3/*.fmu --junit build/check.xml
 
 test-fast: $(STAMP)
 	SATMOTOR_TEST_FMUS=$(FMUS) $(PY) -m pytest -n auto -m "not slow"

@@ -1,8 +1,11 @@
-"""Direct-on-line start of the default 4 kW, 400 V, 50 Hz motor: CSV and plot.
+"""Direct-on-line start of a motor of the library (default: the 4 kW, 400 V, 50 Hz motor): CSV and plot.
 
 Usage::
 
-    python demos/dol_start.py --out results [--t-end 1.0] [--step 1e-4]
+    python demos/dol_start.py --out results [--t-end 1.0] [--step 1e-4] [--motor qu2012_2kw2]
+
+The supply is the motor's rated voltage and frequency, the load step its rated torque at 0.6 s
+(satmotor/machine/library.py gives the nameplates).
 """
 
 from __future__ import annotations
@@ -17,6 +20,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import pandas as pd  # noqa: E402
 
+from satmotor.machine.library import MOTORS  # noqa: E402
 from satmotor.simulate_open_loop import dol_start  # noqa: E402
 
 UNITS = {
@@ -25,7 +29,7 @@ UNITS = {
     "psi_r_alpha": "Wb", "psi_r_beta": "Wb", "omega_m": "rad/s", "theta_m": "rad",
     "T_e": "N m", "i_mu": "A", "psi_r_mag": "Wb", "i_s_mag": "A",
 }
-TITLE = "DOL start, 4 kW 400 V 50 Hz 1430 rpm induction motor (saturated), rated load step"
+TITLE = "DOL start, {title}, rated load step"
 
 
 def parse_args(argv=None):
@@ -34,10 +38,12 @@ def parse_args(argv=None):
     ap.add_argument("--out", default="results", help="output directory, created if missing (default results)")
     ap.add_argument("--t-end", type=float, default=1.0, help="simulated time [s] (default 1.0)")
     ap.add_argument("--step", type=float, default=1e-4, help="integration/sampling step [s] (default 1e-4)")
+    ap.add_argument("--motor", choices=tuple(MOTORS), default="default_4kw",
+                    help="motor of the library, satmotor/machine/library.py (default default_4kw)")
     return ap.parse_args(argv)
 
 
-def plot(r, path):
+def plot(r, path, title=MOTORS["default_4kw"].title):
     t = r["t"]
     fig, ax = plt.subplots(5, 1, sharex=True, figsize=(9, 11), constrained_layout=True)
     ax[0].plot(t, r["omega_m"], label="omega_m")
@@ -57,7 +63,7 @@ def plot(r, path):
     for a in ax:
         a.grid(True, alpha=0.4)
         a.legend(loc="upper right", fontsize=8)
-    fig.suptitle(TITLE)
+    fig.suptitle(TITLE.format(title=title))
     fig.savefig(path, dpi=110)
     plt.close(fig)
 
@@ -66,10 +72,12 @@ def main(argv=None):
     args = parse_args(argv)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    r = dol_start(t_end=args.t_end, h=args.step)
-    csv_path, png_path = out / "dol_start.csv", out / "dol_start.png"
+    m = MOTORS[args.motor]
+    r = dol_start(params=m.params(), rated=m.nameplate, t_end=args.t_end, h=args.step)
+    stem = "dol_start" if args.motor == "default_4kw" else f"dol_start_{args.motor}"
+    csv_path, png_path = out / f"{stem}.csv", out / f"{stem}.png"
     pd.DataFrame({f"{k} [{UNITS[k]}]": v for k, v in r.items()}).to_csv(csv_path, index=False)
-    plot(r, png_path)
+    plot(r, png_path, m.title)
     print(f"wrote {csv_path}")
     print(f"wrote {png_path}")
     print(f"final speed {r['omega_m'][-1]:.2f} rad/s ({r['omega_m'][-1] * 30 / math.pi:.0f} rpm), "

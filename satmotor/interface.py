@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import sys
 from typing import NamedTuple
 
 from satmotor.control.backstepping import BacksteppingGains, ControllerConfig
@@ -69,7 +70,7 @@ MOTOR_PARAMETERS = _in_struct("motor", (
     _v("L_m_inf", "parameter", _A.L_m_inf, "H", "saturated slope (arctan, exponential)"),
     _v("I_par", "parameter", _A.I_par, "A", "knee current scale (arctan, exponential)"),
     _v("poly_b", "parameter", _P.poly_b, "A/Wb^n", "polynomial: i = psi/L_m0 + poly_b psi^poly_n"),
-    _v("poly_n", "parameter", _P.poly_n, "1", "polynomial: odd exponent >= 3", "Integer"),
+    _v("poly_n", "parameter", _P.poly_n, "1", "polynomial: integer exponent >= 2 (of |psi|)", "Integer"),
     _v("table_file", "parameter", "", "", "table: CSV file of no-load points i_mu [A], psi_m [Wb]",
        "String"),
 ))
@@ -177,6 +178,46 @@ CONTROLLER_PARAMETERS = _in_struct("controller", (
 )) + MOTOR_PARAMETERS
 
 
+
+class Terminal(NamedTuple):
+    """An FMI 3.0 terminal (``terminalsAndIcons.xml``): a named group of variables a tool connects
+    in one gesture.  ``members``: ``(member name, variable name)`` pairs; two terminals of the same
+    ``name`` on the plant and the controller have the same member names, each an output on one side
+    and an input on the other.  ``rule``: FMI's ``matchingRule`` (``plug``: every member matched;
+    ``bus``: the members present on both sides)."""
+
+    name: str
+    kind: str
+    rule: str
+    description: str
+    members: tuple[tuple[str, str], ...]
+
+
+def _pair(prefix):
+    return (("alpha", f"{prefix}_alpha"), ("beta", f"{prefix}_beta"))
+
+
+_DRIVE = ("org.satmotor.DriveInterface", "plug")
+_STATOR_VOLTAGE = Terminal("statorVoltage", *_DRIVE, "stator voltage command, alpha/beta [V]", _pair("v_s"))
+_STATOR_CURRENT = Terminal("statorCurrent", *_DRIVE, "stator current, alpha/beta [A]", _pair("i_s"))
+_ROTOR_FLUX = Terminal("rotorFlux", *_DRIVE, "rotor flux linkage, alpha/beta [Wb]", _pair("psi_r"))
+_STATOR_FLUX = Terminal("statorFlux", *_DRIVE, "stator flux linkage, alpha/beta [Wb]", _pair("psi_s"))
+_SPEED = Terminal("speed", *_DRIVE, "mechanical speed [rad/s]", (("omega", "omega_m"),))
+# the plant-controller interface, each signal pair its own terminal; the shaft and the set-points for
+# the tool's load and reference sources
+PLANT_TERMINALS = (
+    _STATOR_VOLTAGE, _STATOR_CURRENT, _ROTOR_FLUX, _STATOR_FLUX, _SPEED,
+    Terminal("shaft", "org.satmotor.MechanicalShaft", "bus",
+             "mechanical port: speed [rad/s], angle [rad], air-gap torque [N m], load torque [N m]",
+             (("omega", "omega_m"), ("angle", "theta_m"), ("torque", "T_e"), ("loadTorque", "T_load"))),
+)
+CONTROLLER_TERMINALS = (
+    _STATOR_VOLTAGE, _STATOR_CURRENT, _ROTOR_FLUX, _STATOR_FLUX, _SPEED,
+    Terminal("setPoints", "org.satmotor.SetPoints", "bus",
+             "speed [rad/s] and rotor-flux [Wb] set-points, load torque [N m]",
+             (("speed", "omega_ref"), ("flux", "psi_ref"), ("loadTorque", "T_load"))),
+)
+
 def _number(values, var):
     v = values.get(var.name, var.start)
     if var.type == "Integer":
@@ -256,8 +297,17 @@ class PlantUnit:
         self.x = tuple(float(v) for v in state)
 
 
+# the controller's communication step rule (ControllerUnit.samples; the same in sm_controller.h)
+STEP_ULPS = 8.0  # a step is n Ts when |dt - n Ts| <= STEP_ULPS eps max(n Ts, |t|, |t + dt|)
+MAX_SAMPLES = 1e9  # at most this many samples in one step
+STOP_REMAINDER = 1e-6  # zero samples: a step of at most this many Ts that ends at the host's stop time
+_EPS = sys.float_info.epsilon
+
+
 class ControllerUnit:
-    """The drive controller as a co-simulation unit: one sample per step of length Ts."""
+    """The drive controller as a co-simulation unit: n samples per step of length n Ts (:meth:`samples`).
+
+    ``stop_time`` [s]: the host's stop time (``math.inf`` when it gave none); the FMU sets it."""
 
     INPUTS = tuple(v.name for v in CONTROLLER_INPUTS)
     OUTPUTS = tuple(v.name for v in CONTROLLER_OUTPUTS)
@@ -287,18 +337,54 @@ class ControllerUnit:
             self.drive = BacksteppingDrive(p, gains, cfg, dcfg)
         self.Ts = f["Ts"]
         self._speed_estimated = f["speed_source"] == "estimated"
+        self.stop_time = math.inf
         self._out = tuple(v.start for v in CONTROLLER_OUTPUTS)
 
+    def samples(self, t, dt):
+        """The number of samples a communication step from ``t`` of length ``dt`` [s] runs: ``n >= 1``
+        when ``dt`` is ``n Ts`` to a few ulps (STEP_ULPS of the largest of ``n Ts``, ``|t|``,
+        ``|t + dt|``: a host's time grid carries rounding of the size of its times); 0 for a remainder
+        of at most STOP_REMAINDER Ts that ends at :attr:`stop_time` (a host whose time accumulated in
+        floating point, clipping its last step to its stop time: the sample at the stop time would hold
+        its output beyond it, so none is taken, as a master on the exact grid takes none); -1 for any
+        other step (refused)."""
+        if dt == self.Ts:  # the common step: the rule below gives 1 too
+            return 1
+        x = dt / self.Ts + 0.5
+        if not 0.0 <= x < MAX_SAMPLES + 1.0:  # also NaN
+            return -1
+        n = math.floor(x)  # the nearest whole number of samples
+        tol = STEP_ULPS * _EPS * max(n * self.Ts, abs(t), abs(t + dt))
+        if n >= 1 and abs(dt - n * self.Ts) <= tol:
+            return n
+        if n == 0 and dt <= STOP_REMAINDER * self.Ts and abs(t + dt - self.stop_time) <= tol:
+            return 0
+        return -1
+
     def step(self, t, dt, inputs):
-        """One sample at ``t`` from the inputs (order of :attr:`INPUTS`); ``dt`` must equal Ts.
-        The outputs are the voltages to hold over ``[t, t + Ts)``."""
-        if abs(dt - self.Ts) > 1e-9 * self.Ts:
+        """:meth:`samples` samples from the inputs (order of :attr:`INPUTS`), held over the step; the
+        first at ``t``.  The outputs are the voltages to hold over ``[t + dt - Ts, t + dt)``.  A
+        refused step, a non-finite input or a failed sample changes nothing."""
+        n = self.samples(t, dt)
+        if n < 0:
             raise ParameterError("communicationStepSize", dt,
-                                 f"must equal the sample period Ts = {self.Ts!r} s")
+                                 f"must be a whole multiple of the sample period Ts = {self.Ts!r} s")
         if self._speed_estimated:  # the omega_m input is not read: whatever it holds
             inputs = (*inputs[:MEAS_OMEGA_M], 0.0, *inputs[MEAS_OMEGA_M + 1:])
         if not math.isfinite(sum(inputs)):  # per-step fast path, as in PlantUnit.step
             _finite_inputs(self.INPUTS, inputs)
+        if n == 1:
+            self._sample(inputs)
+        elif n > 1:
+            before = self.get_state()
+            try:
+                for _ in range(n):
+                    self._sample(inputs)
+            except Exception:
+                self.set_state(before)
+                raise
+
+    def _sample(self, inputs):
         # the first MEAS_LEN inputs are the drive's measurement tuple, in its order (MEAS_*)
         omega_ref, psi_ref, T_load = inputs[MEAS_LEN:]
         d = self.drive.step(inputs[:MEAS_LEN], omega_ref, psi_ref, T_load)

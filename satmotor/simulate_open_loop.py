@@ -36,7 +36,7 @@ def dol_start(params=None, rated=None, t_end=1.0, h=1e-4, n_sub=1, t_load=0.6, l
     ----------
     params : MotorParams, optional
         Motor; the default 4 kW, 400 V, 50 Hz motor if None.
-    rated : RatedData, optional
+    rated : RatedData or satmotor.machine.library.Nameplate, optional
         Supply and rated data; ``RatedData()`` if None.
     t_end : float
         Simulated time [s].

@@ -7,6 +7,8 @@
 #   wine wine64  tests/test_native_windows.py runs the win64 binaries under wine (wine64 holds the 64-bit
 #              loader, wine the `wine` launcher); without their recommends, which add 97 desktop packages
 #              a console .exe does not need: 24 packages, 105 MB, about 10 s on Debian 12
+#   libtbb12   Intel's oneTBB runtime, which the Ecos engine of the ecospy wheel links against
+#              (tests/test_ecos.py)
 # Without them the tests that need them skip, each with its reason.
 #
 #   scripts/system_packages.sh          install what is missing (as root, apt-get; what .ci/run and
@@ -18,6 +20,7 @@ missing=()
 command -v valgrind >/dev/null 2>&1 || missing+=(valgrind)
 command -v gcc >/dev/null 2>&1 || missing+=(gcc)
 { command -v nm >/dev/null 2>&1 && command -v objdump >/dev/null 2>&1; } || missing+=(binutils)
+{ /sbin/ldconfig -p 2>/dev/null || ldconfig -p 2>/dev/null; } | grep -q 'libtbb\.so\.12 ' || missing+=(libtbb12)
 lean=()  # installed without recommends
 command -v wine64 >/dev/null 2>&1 || { command -v wine >/dev/null 2>&1 && [ -x /usr/lib/wine/wine64 ]; } \
   || lean+=(wine wine64)

@@ -24,6 +24,8 @@ CURVES = {
     "arctan": ArctanCurve(),
     "exponential": ExponentialCurve(),
     "polynomial": PolynomialCurve(),
+    # even exponent: the 2.2-kW machine of Qu et al. 2012, L_s(psi) = 0.34 / (1 + (0.84 psi)^7) H
+    "polynomial_even": PolynomialCurve(0.34, 0.84**7 / 0.34, 8),
     "table": TableCurve(*no_load_table()),
     "linear": LinearCurve(0.1722),
 }

@@ -15,6 +15,8 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
+from orchestration.results.atomic import being_written
+
 pytestmark = pytest.mark.slow
 ROOT = Path(__file__).resolve().parents[1]
 PSI = "  psi_ref: {type: constant, value: 0.9}\n"
@@ -47,10 +49,10 @@ def _processes(marker):
 def _wait_running(metrics, proc, timeout=120.0):
     """Until ``metrics`` says the run has started and its first chunk of rows is in timeseries.csv
     beside it (a state, not a time: a loaded machine only makes the wait longer)."""
-    csv = metrics.parent / "timeseries.csv"
     t0 = time.monotonic()
     while time.monotonic() - t0 < timeout:
         assert proc.poll() is None, proc.communicate()
+        csv = being_written(metrics.parent, "timeseries.csv")  # streamed under its temporary name
         if metrics.exists() and '"running"' in metrics.read_text() and csv.exists():
             with open(csv) as f:
                 if len(f.readlines(1 << 16)) >= 2:  # the header and at least one row

@@ -14,6 +14,8 @@ from pathlib import Path
 import psutil
 import pytest
 
+from orchestration.results.atomic import being_written
+
 pytestmark = pytest.mark.slow
 ROOT = Path(__file__).resolve().parents[1]
 PNG = b"\x89PNG\r\n\x1a\n"
@@ -86,9 +88,9 @@ def _helper_when_running(p, metrics, rows=False, timeout=300.0):
     stopped before its second row writes none).  The states, not a time: under load, loading the FMUs
     alone can take seconds."""
     t0 = time.monotonic()
-    csv = metrics.with_name("timeseries.csv")
     while time.monotonic() - t0 < timeout:
         assert p.poll() is None, p.communicate()
+        csv = being_written(metrics.parent, "timeseries.csv")  # streamed under its temporary name
         kids = psutil.Process(p.pid).children(recursive=True)
         if kids and metrics.exists() and '"running"' in metrics.read_text():
             if not rows or (csv.exists() and _lines(csv) > 1):  # a data line below the header

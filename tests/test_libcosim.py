@@ -29,6 +29,7 @@ pytest.importorskip("libcosimpy")
 
 from orchestration.build import fmus  # noqa: E402
 from orchestration.cli.commands import run_file  # noqa: E402
+from orchestration.results.atomic import being_written  # noqa: E402
 from orchestration.run import libcosim_engine  # noqa: E402
 from orchestration.run.master import run as master_run  # noqa: E402
 from orchestration.scenario.load import Record, load_scenario  # noqa: E402
@@ -307,7 +308,8 @@ def test_run_with_libcosim_stops_on_a_signal_and_writes_what_it_has(sig, code, t
     csv = out / "long" / "timeseries.csv"
     for _ in range(2400):  # until the first chunk of rows is on disk (at most 120 s)
         assert p.poll() is None, p.communicate()
-        if csv.exists() and csv.stat().st_size > 10_000:
+        part = being_written(csv.parent, csv.name)  # streamed under its temporary name
+        if part.exists() and part.stat().st_size > 10_000:
             break
         time.sleep(0.05)
     p.send_signal(sig)

@@ -141,7 +141,7 @@ def test_table_reads_csv(tmp_path):
         (lambda: ArctanCurve(L_m_inf=0.5), "L_m_inf"),
         (lambda: ArctanCurve(I_par=float("nan")), "I_par"),
         (lambda: ExponentialCurve(I_par=0.0), "I_par"),
-        (lambda: PolynomialCurve(poly_n=4), "poly_n"),
+        (lambda: PolynomialCurve(poly_n=1), "poly_n"),
         (lambda: PolynomialCurve(poly_b=-1.0), "poly_b"),
         (lambda: LinearCurve(0.0), "L_m0"),
         (lambda: TableCurve((1.0, 2.0, 2.0), (0.2, 0.3, 0.4)), "i_mu[3]"),

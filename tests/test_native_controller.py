@@ -141,8 +141,9 @@ def test_c_controller_refuses_bad_inputs_and_steps_and_changes_nothing(lib):
     bad[6] = math.nan
     assert lib.sm_controller_step(buf, 1e-4, 1e-4, bad, msg, 256) != 0
     assert msg.value.decode() == "omega_m = nan: must be a finite number"
-    assert lib.sm_controller_step(buf, 1e-4, 2e-4, good, msg, 256) != 0
-    assert msg.value.decode() == "communicationStepSize = 0.0002: must equal the sample period Ts = 0.0001 s"
+    assert lib.sm_controller_step(buf, 1e-4, 1.5e-4, good, msg, 256) != 0
+    assert msg.value.decode() == ("communicationStepSize = 0.00015: must be a whole multiple of the sample "
+                                  "period Ts = 0.0001 s")
     unreachable = (ctypes.c_double * 10)(*good)
     unreachable[8] = 5.0
     assert lib.sm_controller_step(buf, 1e-4, 1e-4, unreachable, msg, 256) != 0

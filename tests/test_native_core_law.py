@@ -175,13 +175,17 @@ def motors(lib, tmp_path_factory):
     out = []
     rng = random.Random(7)
     for name in CURVES:
-        for k in (1.0, 0.83):
+        for k, gamma in ((1.0, False), (0.83, False), (1.0, True)):  # gamma: l_s = 0, the Gamma model
             R_s, R_r = 1.405 * rng.uniform(0.7, 1.3), 1.395 * rng.uniform(0.7, 1.3)
             l_s, l_r = 5.839e-3 * rng.uniform(0.7, 1.3), 5.839e-3 * rng.uniform(0.7, 1.3)
             n_p, J, B = rng.choice((1, 2, 3)), 0.0131 * rng.uniform(0.5, 2.0), 2.985e-3
             L_m0, L_m_inf, I_par, poly_b, poly_n = 0.2772, 0.01, 3.31, 2.46, 7
             if name == "exponential":
                 L_m0, I_par = 0.330, 3.66
+            if gamma:
+                l_s, l_r = 0.0, 2.0 * l_r
+                if name == "polynomial":  # Qu et al. 2012: even exponent
+                    L_m0, poly_b, poly_n = 0.34, 0.84**7 / 0.34, 8
             curve = make_curve(name, L_m0, L_m_inf, I_par, poly_b, poly_n, tf if name == "table" else "")
             p = MotorParams(R_s, R_r, l_s, l_r, k, n_p, J, B, curve)
             buf = new_motor(lib)
@@ -192,7 +196,7 @@ def motors(lib, tmp_path_factory):
                 table_file=tf if name == "table" else ""))
             st = lib.sm_motor_init(buf, m, None, msg, 256)
             assert st == 0, msg.value
-            out.append((f"{name}, k={k}", p, buf))
+            out.append((f"{name}, k={k}" + (", l_s=0" if gamma else ""), p, buf))
     return out
 
 

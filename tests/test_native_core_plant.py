@@ -74,6 +74,8 @@ def curve_cases(table_csv):
         ("polynomial", {}),
         ("polynomial", dict(L_m0=0.3, poly_b=10.0, poly_n=11)),
         ("polynomial", dict(L_m0=0.2772, poly_b=0.0, poly_n=3)),
+        ("polynomial", dict(L_m0=0.34, poly_b=0.84**7 / 0.34, poly_n=8)),  # Qu et al. 2012 (even n)
+        ("polynomial", dict(L_m0=0.3, poly_b=1.5, poly_n=2)),
         ("linear", dict(L_m0=0.1722)),
         ("table", dict(table_file=str(f))),
         ("table", dict(table_file=str(g))),
@@ -179,6 +181,11 @@ def motor_cases(table_csv):
         ("polynomial k=1.3 B_2", dict(curve="polynomial", k=1.3, R_r=0.9, J=0.05, B=0.0), 0.004),
         ("table", dict(curve="table", table_file=str(f)), 0.0),
         ("linear", dict(curve="linear", L_m0=0.1722), 0.0),
+        # l_s = 0: the Gamma-equivalent model (the 2.2-kW machine of Qu et al. 2012, its curve exact)
+        ("gamma qu2012", dict(l_s=0.0, R_s=3.7, R_r=2.5, l_r=0.023, J=0.015, B=0.0, curve="polynomial",
+                              L_m0=0.34, poly_b=0.84**7 / 0.34, poly_n=8), 0.0),
+        ("gamma arctan k=0.9 B_2", dict(l_s=0.0, k=0.9), 0.01),
+        ("gamma table", dict(l_s=0.0, curve="table", table_file=str(f)), 0.0),
     ]
 
 
@@ -343,7 +350,8 @@ BAD_PARAMETERS = [
     dict(R_s=-1.0), dict(R_s=0.0), dict(R_r=float("nan")), dict(l_s=float("inf")), dict(k=0.0),
     dict(J=float("nan")), dict(J=-0.0131), dict(B=-1.0), dict(n_p=0), dict(L_m_inf=0.5), dict(L_m_inf=0.2772),
     dict(L_m0=-0.1), dict(I_par=float("nan")), dict(I_par=0.0), dict(curve="exponential", I_par=-3.0),
-    dict(curve="polynomial", poly_n=4), dict(curve="polynomial", poly_n=1),
+    dict(curve="polynomial", poly_n=1), dict(curve="polynomial", poly_n=0), dict(l_s=-1e-3),
+    dict(l_s=float("nan")),
     dict(curve="polynomial", poly_b=-1.0),
     dict(curve="linear", L_m0=0.0), dict(curve="linear", L_m_inf=float("nan")), dict(curve="tanh"),
     dict(curve="table"), dict(curve="table", table_file="/nonexistent/no_load.csv"), dict(psi_r0=-0.1),

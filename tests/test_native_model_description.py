@@ -97,6 +97,6 @@ def test_native_fmus_document_their_variables_and_their_own_flags(name, version,
     declared = {v.get("name"): v.get("causality") for v in md.find("ModelVariables")
                 if v.get("causality") != "independent"}
     assert {n: r[1] for n, r in rows.items()} == declared
-    flags = dict(re.findall(r"<li>(\w+) = (\w+)</li>", doc))
+    flags = dict(re.findall(r"<li>(\w+) = ([\w.]+)</li>", doc))
     cs = {k: v for k, v in md.find("CoSimulation").attrib.items() if k != "modelIdentifier"}
     assert flags == cs and flags["needsExecutionTool"] == "false"

@@ -451,12 +451,12 @@ def test_bad_motor_section(tmp_path, text, field, words):
 
 def test_schema_problems_and_bad_values_are_reported_in_one_pass(tmp_path):
     path = tmp_path / "all.yaml"
-    path.write_text(BASE + "colour: red\nplant: {R_s: abc, l_s: 0.0}\ncontroller: {I_max: -3}\n"
+    path.write_text(BASE + "colour: red\nplant: {R_s: abc, l_s: -1.0e-3}\ncontroller: {I_max: -3}\n"
                     "motor: {R_r: -1.0}\nrecord: {interval: 1.5e-4}\n")
     problems = validate_scenario_file(path)
     assert {(p.field, p.value) for p in problems} == {
         ("colour", "red"), ("plant.R_s", "abc"), ("record.interval", 1.5e-4),  # the schema's
-        ("plant.l_s", 0.0), ("controller.I_max", -3.0), ("motor.R_r", -1.0)}  # the physics'
+        ("plant.l_s", -1.0e-3), ("controller.I_max", -3.0), ("motor.R_r", -1.0)}  # the physics'
     assert all(p.file == str(path) for p in problems)
 
 

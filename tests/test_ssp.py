@@ -366,7 +366,7 @@ def test_a_failure_while_writing_leaves_nothing_and_keeps_an_old_file(fmu_dir, t
         raise OSError(28, "No space left on device")
 
     monkeypatch.setattr(ssp.shutil, "copyfileobj", disk_full)
-    with pytest.raises(OSError, match="No space left"):
+    with pytest.raises(OSError, match="cannot write the SSP package: no space left on device"):
         ssp.export(load_scenario(DEFAULT), old, plant, ctrl)
     assert old.read_bytes() == b"previous" and sorted(tmp_path.iterdir()) == [old]
 

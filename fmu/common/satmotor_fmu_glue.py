@@ -11,14 +11,16 @@ modelDescription.xml next to ``resources/`` carries the GUID the build wrote int
 ``resources/build_guid.txt``.  These two refusals raise in the constructor: pythonfmu logs the text
 (fmi2Fatal) and fmi2Instantiate returns NULL.
 
-Statuses.  pythonfmu 0.7.0 turns any Python exception into fmi2Fatal and drops the Python instance
-(a later call, even fmi2FreeInstance, may then crash the host); it ignores what set_*,
+Statuses. pythonfmu 0.7.0 turns any Python exception into fmi2Fatal and drops the Python instance (a
+later call, even fmi2FreeInstance, may then crash the host); it ignores what set_*,
 exit_initialization_mode, terminate and _set_fmu_state return (the host gets fmi2OK); only do_step
-can report anything else: returning False gives fmi2Discard.  fmi2Error cannot be reached from
-Python.  So any later refusal never raises: it logs a message naming the variable and the value
-(status error), leaves the instance unchanged, and is reported again by the next doStep, which
-returns fmi2Discard (the host may redo that step) -- unless a valid FMU state is set in between:
-the instance is then exactly that state.
+can report anything else: returning False gives fmi2Discard. fmi2Error cannot be reached from
+Python. So no refusal after instantiation raises: bad parameters are logged by
+exitInitializationMode (status error; the call returns fmi2OK) and every doStep then discards,
+naming them; any later refusal logs a message naming the variable and the value (status error),
+leaves the instance unchanged, and is reported again by the next doStep, which returns fmi2Discard
+(the host may redo that step) -- unless a valid FMU state is set in between: the instance is then
+exactly that state.
 """
 
 from __future__ import annotations
@@ -39,6 +41,7 @@ import satmotor
 _INF = math.inf
 INSTANTIATED, INITIALIZATION, STEPPING, TERMINATED = (
     "not initialized", "in initialization mode", "initialized", "terminated")
+REFUSED_PARAMETERS = "not initialized: exitInitializationMode refused its parameters"
 
 _TAG, _UNIT, _REFUSED = "_tag", "_unit", "_refused"  # FMU state keys besides the variables
 _PYTHON_TYPES = {"Real": (float, int), "Integer": (int,), "Boolean": (bool,), "String": (str,)}
@@ -82,6 +85,26 @@ def pin_namespace(namespace, defined=None):
         for name, obj in defined.items():
             if isinstance(obj, type) and issubclass(obj, UnitSlave) and obj is not UnitSlave:
                 namespace[name] = obj
+
+
+def forget_search_path_entry(resources):
+    """Undo the ``sys.path`` entry pythonfmu 0.7.0's fmi2Instantiate inserted for this instance.
+
+    Its C++ constructor inserts the FMU's resources directory at ``sys.path[0]`` at every
+    instantiation, before it imports the slave module and calls the slave class: 2000
+    instantiations in one process left 2006 entries (each import then searched them all).  By the
+    time the slave's constructor runs, the slave module, this glue and ``satmotor`` are imported
+    (the package's submodules are found through ``satmotor.__path__``, not ``sys.path``), so the
+    entry has done its work: the one at index 0, if it is this FMU's resources, is removed.  An
+    entry anywhere else (put there by the host) is left alone; never raises.  Not called when
+    pythonfmu's builder makes the slave (it inserts and removes the entry itself)."""
+    import sys
+
+    try:
+        if resources and sys.path and sys.path[0] == resources:
+            del sys.path[0]
+    except Exception:  # noqa: BLE001 - housekeeping, never a reason to fail an instantiation
+        pass
 
 
 _GUIDS = {}
@@ -135,10 +158,22 @@ def _picker(indices):
     return itemgetter(*indices)
 
 
+_SLOTS = {}  # (sequence, i, name) -> property, made once per process (see _slot)
+
+
 def _slot(sequence, i, name):
     """The attribute ``name`` of a slave as item ``i`` of its tuple ``sequence`` (``_in``: the inputs,
     ``_out``: the outputs); setting it makes a new tuple (initialization, fmi2Set of one input,
-    restoring a state: never per step)."""
+    restoring a state: never per step).  One property object per process for each (sequence, i,
+    name): pythonfmu 0.7.0 executes the slave script, and so defines the slave class anew, at every
+    instantiation, and keeps each class; they then share these instead of each holding its own."""
+    key = (sequence, i, name)
+    if key not in _SLOTS:
+        _SLOTS[key] = _new_slot(sequence, i, name)
+    return _SLOTS[key]
+
+
+def _new_slot(sequence, i, name):
 
     def fget(self):
         return getattr(self, sequence)[i]
@@ -182,6 +217,8 @@ class UnitSlave(Fmi2Slave):
 
     def __init__(self, **kwargs):
         super().__init__(**kwargs)
+        if "logger" in kwargs:  # made by the FMU binary's fmi2Instantiate (the build passes no logger)
+            forget_search_path_entry(self.resources)  # see forget_search_path_entry
         guard_process_exit(self.resources)  # see guard_process_exit (end of file)
         if self.FINGERPRINT and _FINGERPRINT != self.FINGERPRINT:
             raise ImportError(
@@ -225,12 +262,18 @@ class UnitSlave(Fmi2Slave):
         self._phase = INITIALIZATION
 
     def exit_initialization_mode(self):
-        """Build the unit from the parameters; a bad value is logged (naming it) and refused."""
+        """Build the unit from the parameters; a bad value is logged (naming it, status error) and
+        refused: the instance stays uninitialized and every doStep returns fmi2Discard saying why.
+        Not raised: pythonfmu would report fmi2Fatal and drop the Python instance, after which
+        fmi2FreeInstance crashed the host (SIGSEGV, 2 of 4 runs of 10 instances); fmi2Error cannot
+        be reached from Python (module docstring), so the call itself returns fmi2OK."""
         try:
             self._unit = self.UNIT({name: getattr(self, name) for name in self._params})
         except Exception as exc:  # ParameterError, or a table file that cannot be read
             self.log(f"{type(self).__name__}: bad parameter: {exc}", Fmi2Status.error)
-            raise
+            self._phase = f"{REFUSED_PARAMETERS} ({exc})"
+            self._go = False
+            return
         self._publish()
         self._phase = STEPPING
         self._go = not self._pending

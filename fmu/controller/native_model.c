@@ -57,6 +57,8 @@ fg_status fg_model_do_step(fg_instance *inst, void *data, double t, double h)
         return FG_ERROR;
     }
     sm_vars_get_inputs(&d->v, in);
+    /* this instance's stop time, also after a state set from another (a remainder ending there: no sample) */
+    d->u.stop_time = fg_stop_time(inst);
     if (sm_controller_step(&d->u, t, h, in, msg, sizeof msg) != 0) {
         fg_log(inst, FG_DISCARD, "logStatusDiscard", "BacksteppingController at t = %.17g s: %s", t, msg);
         return FG_DISCARD;

@@ -148,7 +148,8 @@ NO_ZIG = ("--all-platforms cross-compiles the Windows and macOS binaries with zi
 def main(argv=None):
     ap = argparse.ArgumentParser(description="Build SaturatedInductionMotor.fmu and "
                                  "BacksteppingController.fmu: FMI 2.0 co-simulation with pythonfmu in OUT, "
-                                 "native C ones in OUT/native (FMI 2.0) and OUT/native-fmi3 (FMI 3.0), for "
+                                 "native C ones in OUT/native (FMI 2.0) and OUT/native-fmi3 (FMI 3.0), the "
+                                 "model-exchange plant in OUT/native-me and OUT/native-me-fmi3, for "
                                  "this machine (Linux x86_64); --all-platforms adds Windows and macOS.")
     ap.add_argument("--out", default="build/fmus", help="output directory (default build/fmus)")
     ap.add_argument("--no-native", action="store_true", help="only the pythonfmu FMUs")

@@ -63,7 +63,9 @@ def up_to_date(fmu_dir=DEFAULT_DIR, all_platforms=False):
                     ok = set(native_fmus.ALL[version]) <= binary_folders(p)
             if not ok:
                 return False
-    return True
+    from orchestration.build import native_me
+
+    return native_me.up_to_date(fmu_dir, all_platforms)
 
 
 def build(fmu_dir=DEFAULT_DIR, quiet=False, all_platforms=False):

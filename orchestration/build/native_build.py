@@ -31,6 +31,7 @@ from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
+from orchestration.build import source_fmu
 from orchestration.build.sources import fmu_sources
 
 GLUE_DIR = fmu_sources() / "native" / "fmi"
@@ -41,6 +42,10 @@ ZIP_DATE = (1980, 1, 1, 0, 0, 0)
 # arithmetic as the Python core, so results stay bit-identical to it
 CFLAGS = ("-std=c99", "-O2", "-shared", "-Wall", "-Wextra", "-Werror", "-pedantic", "-fvisibility=hidden",
           "-ffp-contract=off")
+
+
+MACOS_MIN = "11.0"  # the declared minimum macOS (LC_BUILD_VERSION minos) of both Mach-O binaries: Big Sur,
+# the first macOS on Apple silicon (zig 0.17 would declare 15.0, its default deployment target)
 
 
 @dataclass(frozen=True)
@@ -54,8 +59,8 @@ class Platform:
 PLATFORMS = {
     "linux64": Platform("linux64", "x86_64-linux", ".so", None),
     "win64": Platform("win64", "x86_64-windows", ".dll", "x86_64-windows-gnu"),
-    "darwin64": Platform("darwin64", "x86_64-darwin", ".dylib", "x86_64-macos"),
-    "aarch64-darwin": Platform(None, "aarch64-darwin", ".dylib", "aarch64-macos"),
+    "darwin64": Platform("darwin64", "x86_64-darwin", ".dylib", f"x86_64-macos.{MACOS_MIN}"),
+    "aarch64-darwin": Platform(None, "aarch64-darwin", ".dylib", f"aarch64-macos.{MACOS_MIN}"),
 }
 # the FMI 3.0 names are accepted too
 ALIASES = {p.fmi3: name for name, p in PLATFORMS.items()}
@@ -198,12 +203,14 @@ def _resource_files(resources) -> dict[str, bytes]:
 
 def build_native_fmu(model_identifier: str, sources: Iterable[str | Path], model_description_xml: str,
                      out_path: str | Path, fmi_version: str = "2.0", platforms: Sequence[str] = ("linux64",),
-                     resources=None, extra_cflags: Sequence[str] = (),
-                     linux_glibc: str | None = None, documentation=None) -> tuple[Path, str]:
+                     resources=None, extra_cflags: Sequence[str] = (), linux_glibc: str | None = None,
+                     documentation=None, extra_files=None) -> tuple[Path, str]:
     """Build a native co-simulation FMU; returns ``(path of the .fmu, GUID/instantiationToken)``.
 
     ``sources``: the model's files (``.c`` compiled, ``.h`` and others only copied), placed flat
-    next to the glue in ``sources/`` of the FMU (so ``#include "x.h"`` of any of them works).
+    next to the glue in ``sources/`` of the FMU (so ``#include "x.h"`` of any of them works), with
+    what makes it a source-code FMU (:mod:`orchestration.build.source_fmu`: the FMI 2.0 source file
+    list, the FMI 3.0 build description, the identity header).
     ``model_description_xml``: the complete modelDescription.xml; its ``modelIdentifier`` must be
     ``model_identifier``; its guid/instantiationToken is compiled in (``{GUID}``: derived from the
     inputs). ``platforms``: keys of :data:`PLATFORMS` (``linux64``, ``win64``, ``darwin64``,
@@ -211,7 +218,8 @@ def build_native_fmu(model_identifier: str, sources: Iterable[str | Path], model
     name -> content for ``resources/``. ``linux_glibc`` (e.g. ``"2.17"``): build the Linux binary
     with zig against that glibc (the host gcc links against the host's glibc, 2.29+ for ``exp``
     on Debian 12). ``documentation``: like ``resources``, for ``documentation/`` (e.g.
-    ``{"index.html": ...}``). Raises :class:`NativeBuildError` on any failure.
+    ``{"index.html": ...}``). ``extra_files``: ``{path in the FMU: bytes}`` (e.g. FMI 3.0's
+    ``terminalsAndIcons/terminalsAndIcons.xml``). Raises :class:`NativeBuildError` on any failure.
     """
     major = _major(fmi_version)
     if not re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", model_identifier):
@@ -236,6 +244,8 @@ def build_native_fmu(model_identifier: str, sources: Iterable[str | Path], model
     c_files = sorted(n for n in src_files if n.endswith(".c"))
 
     xml = model_description_xml
+    if major == 2:  # a source-code FMU: the C files to compile (FMI 3.0: sources/buildDescription.xml)
+        xml = source_fmu.with_source_files(xml, c_files)
     attr = _token_attribute(major)
     if f'{attr}="{GUID_PLACEHOLDER}"' in xml:
         seed = f"{model_identifier}\0{major}\0{sorted(platforms)}\0{list(extra_cflags)}\0{linux_glibc}\0"
@@ -251,12 +261,16 @@ def build_native_fmu(model_identifier: str, sources: Iterable[str | Path], model
 
     files: dict[str, bytes] = {"modelDescription.xml": xml.encode("utf-8")}
     files.update({f"sources/{n}": b for n, b in src_files.items()})
-    flags = " ".join([*CFLAGS, *extra_cflags])
-    files["sources/BUILD.txt"] = (
-        f"cc {flags} -fPIC -I. -DMODEL_IDENTIFIER={model_identifier} "
-        f"'-DINSTANTIATION_TOKEN=\"{token}\"' {' '.join(c_files)} -o {model_identifier}.so -lm\n").encode()
+    identity = source_fmu.identity_header(model_identifier, token,
+                                          [f[2:] for f in extra_cflags if f.startswith("-D")])
+    files[f"sources/{source_fmu.IDENTITY_HEADER}"] = identity.encode()
+    if major == 3:
+        description = source_fmu.build_description(model_identifier, c_files)
+        files[f"sources/{source_fmu.BUILD_DESCRIPTION}"] = description.encode()
+    files["sources/BUILD.txt"] = source_fmu.build_text(model_identifier, c_files, major).encode()
     files.update({f"resources/{n}": b for n, b in _resource_files(resources).items()})
     files.update({f"documentation/{n}": b for n, b in _resource_files(documentation).items()})
+    files.update(extra_files or {})
 
     with tempfile.TemporaryDirectory(prefix="sm_native_") as tmp:
         staging = Path(tmp) / "src"

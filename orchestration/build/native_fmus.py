@@ -51,12 +51,13 @@ def inputs_fingerprint(name):
     """SHA-256 over everything the native FMU ``name`` is built from: its C sources, the glue, the
     interface tables and the generators (a change to any makes a built FMU stale)."""
     from orchestration.build import documentation as documentation_module
-    from orchestration.build import fmu_model_description, native_build, native_tables
+    from orchestration.build import fmu_model_description, native_build, native_tables, source_fmu
     from orchestration.build import sources as sources_module
     from satmotor import interface
 
     h = hashlib.sha256()
     files = [*sources(name), *sorted(GLUE_DIR.glob("*.[ch]")), Path(__file__), Path(native_build.__file__),
+             Path(source_fmu.__file__),
              Path(native_tables.__file__), Path(nmd.__file__), Path(fmu_model_description.__file__),
              Path(interface.__file__), Path(sources_module.__file__), Path(documentation_module.__file__)]
     for f in files:
@@ -82,7 +83,9 @@ def build(name, out_dir, fmi_version="2.0", platforms=None, resources=None):
                                    resources={**(resources or {}),
                                               BUILD_INPUTS: (inputs_fingerprint(name) + "\n").encode()},
                                    linux_glibc=PORTABLE_GLIBC if portable else None,
-                                   documentation={"index.html": doc})
+                                   documentation={"index.html": doc},
+                                   extra_files={nmd.TERMINALS_FILE: nmd.terminals_and_icons(name)}
+                                   if fmi_version != "2.0" and name in nmd.TERMINALS else None)
     return path
 
 
@@ -102,10 +105,13 @@ def documentation(name, xml, fmi_version):
 
 
 def build_all(out_dir, cross=False):
-    """Both native FMUs in both FMI versions; returns the paths.  For this machine (Linux x86_64) by
+    """Both native FMUs in both FMI versions and the model-exchange plant
+    (:mod:`orchestration.build.native_me`); returns the paths.  For this machine (Linux x86_64) by
     default; ``cross``: also Windows and macOS (:data:`ALL`, cross-compiled with zig cc, which the
     ``ziglang`` wheel provides; on a fresh machine zig first compiles its MinGW and macOS C runtimes:
     minutes).  ``cross=None``: cross when zig is installed."""
+    from orchestration.build import native_me  # the plant as model exchange, both versions
+
     cross = zig_available() if cross is None else cross
-    return [build(name, out_dir, version, (ALL if cross else LINUX)[version])
-            for version in DIRS for name in NAMES]
+    return [*(build(name, out_dir, version, (ALL if cross else LINUX)[version])
+              for version in DIRS for name in NAMES), *native_me.build_all(out_dir, cross)]

@@ -14,7 +14,8 @@ FMI 3.0 description is a translation of it:
 * the independent variable ``time`` [s] FMI 3.0 requires, with the first value reference after
   the table's (the others keep theirs);
 * ``<CoSimulation>``: ``canGetAndSetFMUState`` (capital S in 3.0), ``needsExecutionTool="false"``,
-  no intermediate update, no event mode.
+  no intermediate update, no event mode; the controller's sample period ``Ts`` (its start value) as
+  ``fixedInternalStepSize``.
 
 Both say ``needsExecutionTool="false"``: the binaries need nothing but the C library.
 """
@@ -83,6 +84,11 @@ def fmi2(name, guid="{GUID}"):
     return complete(name, _xml(root))
 
 
+def sample_period_start():
+    """The start value of the controller's sample period ``Ts`` [s]."""
+    return next(v.start for v in itf.CONTROLLER_PARAMETERS if v.name == "Ts")
+
+
 def fmi3(name, token="{GUID}"):
     """FMI 3.0 modelDescription.xml (bytes) of the native FMU ``name``: the FMI 2.0 one translated."""
     src = ET.fromstring(fmi2(name))
@@ -99,6 +105,8 @@ def fmi3(name, token="{GUID}"):
         "canHandleVariableCommunicationStepSize": cs.get("canHandleVariableCommunicationStepSize"),
         "providesIntermediateUpdate": "false", "canReturnEarlyAfterIntermediateUpdate": "false",
         "hasEventMode": "false"})
+    if name == "BacksteppingController":  # the sample period as FMI 3.0 lets a tool read it (docs/fmus.md)
+        root.find("CoSimulation").set("fixedInternalStepSize", repr(float(sample_period_start())))
     root.append(src.find("UnitDefinitions"))
     cats = ET.SubElement(root, "LogCategories")
     for cat in src.find("LogCategories"):
@@ -131,4 +139,23 @@ def fmi3(name, token="{GUID}"):
         for u in (block if block is not None else ()):
             deps = " ".join(vr_of_index[d] for d in (u.get("dependencies") or "").split())
             ET.SubElement(ms, tag, {"valueReference": vr_of_index[u.get("index")], "dependencies": deps})
+    return _xml(root)
+
+
+TERMINALS = {"SaturatedInductionMotor": itf.PLANT_TERMINALS,
+             "BacksteppingController": itf.CONTROLLER_TERMINALS}
+TERMINALS_FILE = "terminalsAndIcons/terminalsAndIcons.xml"
+
+
+def terminals_and_icons(name):
+    """FMI 3.0 ``terminalsAndIcons/terminalsAndIcons.xml`` (bytes) of the native FMU ``name``, from the
+    terminal tables of :mod:`satmotor.interface`; every member a ``signal``."""
+    root = ET.Element("fmiTerminalsAndIcons", {"fmiVersion": "3.0"})
+    terminals = ET.SubElement(root, "Terminals")
+    for t in TERMINALS[name]:
+        el = ET.SubElement(terminals, "Terminal", {"name": t.name, "matchingRule": t.rule,
+                                                   "terminalKind": t.kind, "description": t.description})
+        for member, variable in t.members:
+            ET.SubElement(el, "TerminalMemberVariable", {"variableName": variable, "memberName": member,
+                                                         "variableKind": "signal"})
     return _xml(root)

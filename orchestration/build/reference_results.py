@@ -15,6 +15,12 @@ very floats that were used, and regenerating gives the same bytes.
 
 * ``SaturatedInductionMotor``: direct-on-line start at the rated voltage (400 V, 50 Hz), rated load
   torque from 0.2 s, 0.3 s at 1e-4 s, default parameters.
+* ``SaturatedInductionMotorME`` (the model-exchange plant): the same inputs, written as the
+  piecewise-constant signal the co-simulation plant sees (each row held over its step: every inner
+  time point twice, the value before and after, which an importer reads as a discontinuity), and
+  the outputs of that signal integrated by the plain-Python plant with RK4 at ``H / 10``
+  (:data:`ME_H_INT`; within about 1e-11 of the converged solution, relative to each column's
+  largest value); ``RelTol`` :data:`ME_REL_TOL` for the importer's solver.
 * ``BacksteppingController``: the measurements, set-points and load of the plain closed loop of the
   default scenario (``scenarios/ramp_rated_load.yaml``) over its first 0.3 s: pre-magnetization,
   the switch to the law (0.114 s), the start of the speed ramp (0.2 s); default parameters.
@@ -34,6 +40,9 @@ H = 1e-4  # [s] communication step of both references (plant h_int, controller T
 N = 3000  # steps: 0.3 s
 T_LOAD_STEP = 2000  # plant reference: rated load from step 2000 (0.2 s)
 REL_TOL = 1e-6  # required by the format; both FMUs are fixed-step and ignore it
+ME_NAME = "SaturatedInductionMotorME"
+ME_H_INT = H / 10  # [s] RK4 step of the model-exchange plant's reference
+ME_REL_TOL = 1e-10  # the importer's solver tolerance its reference asks for
 DEFAULT_SCENARIO = Path(__file__).resolve().parents[2] / "scenarios" / "ramp_rated_load.yaml"
 
 
@@ -77,6 +86,29 @@ def _csv(path, names, rows):
     path.write_text("\n".join(lines) + "\n", encoding="ascii", newline="\n")
 
 
+def _held_csv(path, names, rows):
+    """``rows[k]`` held over ``[t_k, t_(k+1))``: every inner time point twice (left and right value)."""
+    lines = [",".join(("time",) + tuple(names))]
+    for k, row in enumerate(rows):
+        if k > 0:
+            lines.append(",".join(repr(float(v)) for v in (k * H, *rows[k - 1])))
+        lines.append(",".join(repr(float(v)) for v in (k * H, *row)))
+    path.write_text("\n".join(lines) + "\n", encoding="ascii", newline="\n")
+
+
+def write_me(out="reference"):
+    """The model-exchange plant's reference under ``out``; returns the paths written."""
+    d = Path(out) / ME_NAME
+    d.mkdir(parents=True, exist_ok=True)
+    inputs = plant_inputs()
+    _held_csv(d / f"{ME_NAME}_in.csv", PlantUnit.INPUTS, inputs)
+    _csv(d / f"{ME_NAME}_ref.csv", PlantUnit.OUTPUTS, run_unit(PlantUnit({"h_int": ME_H_INT}), inputs))
+    opts = {"StartTime": 0.0, "StopTime": round(N * H, 12), "StepSize": H, "RelTol": ME_REL_TOL}
+    (d / "ReferenceOptions.txt").write_text("".join(f"{k}, {v!r}\n" for k, v in opts.items()),
+                                            encoding="ascii", newline="\n")
+    return [d / f"{ME_NAME}_in.csv", d / f"{ME_NAME}_ref.csv", d / "ReferenceOptions.txt"]
+
+
 def write(out="reference"):
     """Write both references under ``out``; returns the paths written."""
     cases = {"SaturatedInductionMotor": (PlantUnit, {}, plant_inputs()),
@@ -91,7 +123,7 @@ def write(out="reference"):
         (d / "ReferenceOptions.txt").write_text("".join(f"{k}, {v!r}\n" for k, v in opts.items()),
                                                 encoding="ascii", newline="\n")
         paths += [d / f"{name}_in.csv", d / f"{name}_ref.csv", d / "ReferenceOptions.txt"]
-    return paths
+    return paths + write_me(out)
 
 
 def main(argv=None):

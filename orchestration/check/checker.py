@@ -11,10 +11,16 @@ FMU is a FAIL, not the end of the checker; ``non-finite-input`` and ``foreign-st
 description's must be refused (KNOWN for pythonfmu FMUs: pythonfmu does not pass it to Python).
 ``foreign-state``: the serialized state of every other FMU of the same command (another GUID), and
 the FMU's own blob truncated and with every byte inverted, must be refused (error or discard), not
-crash, and leave the instance usable.  ``reference`` runs the FMU against
+crash, and leave the instance usable.  ``steps``: the communication steps hosts make (2 h, h + 4 ulps,
+1.5 h; h the default experiment's step size), see :func:`judge_steps`.  ``source-build``: the FMU's
+``sources/`` built alone with gcc and run next to the shipped binary (:func:`judge_source_build`).
+``reference`` runs the FMU against
 ``reference/<modelName>/`` (cross-check layout) when that directory exists (ours), else SKIP.
 ``fmutool`` is FMI 2.0 only (SKIP for FMI 3.0); the other checks run on both versions.  Another
-FMI version (1.0) gets ``validate`` only.  KNOWN: a known limitation, reported, not failing.
+FMI version (1.0) gets ``validate`` only.  An FMU with ``<ModelExchange>`` also gets the
+model-exchange checks ``me-instantiate``, ``me-states``, ``me-events``, ``me-reference``
+(:mod:`orchestration.check.model_exchange`); a model-exchange-only FMU SKIPs the co-simulation ones.
+KNOWN: a known limitation, reported, not failing.
 Exit: 1 if any check FAILs, else 0 (usage errors, 2, are found by the caller before any check).
 """
 
@@ -32,7 +38,7 @@ from xml.etree import ElementTree as ET
 from orchestration.process.interrupts import signal_name
 
 CHECKS = ("validate", "fmutool", "instantiate", "wrong-guid", "cycles", "state", "foreign-state", "reset",
-          "bad-parameter", "non-finite-input", "reference")
+          "bad-parameter", "non-finite-input", "steps", "source-build", "reference")
 PROBED = CHECKS[2:]
 ITEMIZED = ("non-finite-input", "foreign-state")  # probes that try one item at a time
 
@@ -117,9 +123,9 @@ def check_fmutool(path):
     return "FAIL", f"fmu-manipulation-toolbox check_fmu: {report}"[:500]
 
 
-def run_probe_lines(mode, path, *extra):
+def run_probe_lines(mode, path, *extra, module="orchestration.check.probes"):
     """``(returncode, [JSON objects printed, in order], stderr tail)`` of one child probe."""
-    cmd = [sys.executable, "-m", "orchestration.check.probes", mode, str(path), *map(str, extra)]
+    cmd = [sys.executable, "-m", module, mode, str(path), *map(str, extra)]
     try:
         proc = subprocess.run(cmd, capture_output=True, text=True, timeout=TIMEOUT)
     except subprocess.TimeoutExpired as exc:
@@ -197,6 +203,11 @@ def judge(check, result):
             return "FAIL", head + tail
         if st in ("error", "discard"):
             return "PASS", head + tail
+        if st == "logged" and "pythonfmu" in result["generationTool"].lower():
+            return "KNOWN", head + tail + (" (pythonfmu cannot return fmi2Error from Python: the error is "
+                                           "logged, the call returns fmi2OK, and every doStep discards)")
+        if st == "logged":
+            return "FAIL", head + tail + " (an error logged, but the call returned OK: expected an error)"
         if st == "fatal" and "pythonfmu" in result["generationTool"].lower():
             return "KNOWN", head + tail + " (pythonfmu reports fmi2Fatal, never fmi2Error: known limitation)"
         if st == "fatal":
@@ -220,6 +231,10 @@ def judge(check, result):
         return "FAIL", f"instantiated with {head}: the FMU does not compare the host's {result['token']}"
     if check == "foreign-state":
         return judge_foreign_state(result)
+    if check == "steps":
+        return judge_steps(result)
+    if check == "source-build":
+        return judge_source_build(result)
     if check == "reference":
         dev, worst = result.get("dev"), result.get("worst")
         if dev is None:
@@ -228,6 +243,66 @@ def judge(check, result):
         return verdict, (f"{len(dev)} outputs over {result['rows']} rows, worst {worst} "
                          f"{dev[worst]:.3g} of max|ref| (band {REFERENCE_BAND:g})")
     return ("PASS" if result.get("ok") else "FAIL"), result.get("detail", "")
+
+
+def judge_steps(result):
+    """Per step pattern of the ``steps`` probe: a step of 2 h accepted (PASS) or refused by an FMU that
+    declares it cannot handle variable steps (KNOWN: such hosts as the FMU Compliance Checker, default
+    step 2e-4 s, then fail it); a step a few ulps off h accepted (else FAIL: a host whose time is a
+    float sum drifts so); a step of 1.5 h accepted, or refused with a message by a fixed-step FMU (PASS;
+    refused by a variable-step one, or without a message: FAIL).  Any fatal status, or a fresh instance
+    that cannot step afterwards: FAIL."""
+    h, variable = result["h"], result["variable"]
+    verdicts, parts = [], []
+    for key, label in (("multiple", "2 h"), ("ulp-off", "h + 4 ulps"), ("refused", "1.5 h")):
+        r = result[key]
+        st, text = r["status"], f"{label} = {r['step']!r} s: {r['status']}"
+        if st in ("ok", "warning"):
+            verdict = "PASS"
+            if r["same"] is not None:
+                text += ", bit-identical to the same span in steps of h" if r["same"] else \
+                        ", differs from the same span in steps of h"
+            if key == "refused":
+                text += " (accepted)"
+        elif st == "fatal":
+            verdict, text = "FAIL", text + " (the instance is lost)"
+        elif key == "multiple" and not variable:
+            verdict, text = "KNOWN", text + (" (canHandleVariableCommunicationStepSize = false; a host "
+                                             "stepping by 2e-4 s, as the FMU Compliance Checker does, "
+                                             "fails it)")
+        elif key == "ulp-off":
+            verdict, text = "FAIL", text + " (a host whose time is a float sum drifts off h by ulps)"
+        elif key == "refused" and not variable and r["log"]:
+            verdict, text = "PASS", text + f", refused with: {r['log'][:160]}"
+        else:
+            verdict = "FAIL"
+            text += (" without a message" if not r["log"]
+                     else " (canHandleVariableCommunicationStepSize = true)")
+        verdicts.append(verdict)
+        parts.append(text)
+    if not result["alive"]:
+        verdicts.append("FAIL")
+        parts.append("a fresh instance then FAILS")
+    verdict = "FAIL" if "FAIL" in verdicts else "KNOWN" if "KNOWN" in verdicts else "PASS"
+    return verdict, f"h = {h:g} s; " + "; ".join(parts)
+
+
+def judge_source_build(result):
+    """KNOWN: C files in sources/ but no list of them; PASS: the binary built from the sources runs, and
+    gives the shipped binary's outputs (bit for bit, or within BUILD_BAND); else FAIL."""
+    from orchestration.check.user_probes import BUILD_BAND
+
+    if result.get("unlisted"):
+        return "KNOWN", result["detail"]
+    head = f"built with `{result['built']}` in sources/"
+    if not result["shipped"]:
+        return "PASS", head + (f"; it ran {result['steps']} steps (no shipped binary for this platform to "
+                               "compare)")
+    if result["identical"]:
+        return "PASS", head + f"; {result['steps']} steps bit-identical to the shipped binary"
+    verdict = "PASS" if result["worst"] <= BUILD_BAND else "FAIL"
+    return verdict, head + (f"; {result['steps']} steps, outputs within {result['worst']:.3g} of the shipped "
+                            f"binary's (relative; band {BUILD_BAND:g})")
 
 
 def judge_foreign_state(result):
@@ -315,6 +390,10 @@ def check_fmu(path, references=(REFERENCE_DIR,), foreign=()):
     else:
         out.append(("fmutool", "SKIP", f"FMI {version}: fmu-manipulation-toolbox check_fmu is FMI 2.0 only",
                     0.0))
+    if root.find("ModelExchange") is not None:  # its own checks (orchestration/check/model_exchange.py)
+        from orchestration.check.model_exchange import check_model_exchange
+
+        out += check_model_exchange(path, root, references)
     if root.find("CoSimulation") is None:
         return out + [(c, "SKIP", "no CoSimulation element (model exchange only)", 0.0) for c in PROBED]
     offers = [x for label, f in foreign for x in (label, f)]

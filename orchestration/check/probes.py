@@ -4,11 +4,11 @@
 
 so that an FMU that crashes or corrupts the heap takes down the probe, not the checker.  A probe
 prints one JSON object (its last line of stdout) and exits normally: the exit code is part of the
-result (:mod:`orchestration.check.checker` reads both).  Modes: ``instantiate``, ``wrong-guid``, ``cycles``,
-``state``, ``reset``, ``bad-parameter``, ``reference``, ``serialize`` (writes a serialized state to a
-file, for the other FMUs' ``foreign-state``).  Two probes try several items, each on a fresh
-instance: ``non-finite-input`` (one NaN input at a time) and ``foreign-state`` (one state blob not
-the FMU's own at a time); they take the index of the first item (the checker restarts the probe
+result (:mod:`orchestration.check.checker` reads both).  Modes: ``instantiate``, ``wrong-guid``,
+``cycles``, ``state``, ``reset``, ``bad-parameter``, ``steps``, ``reference``, ``serialize`` (writes a
+serialized state to a file, for the other FMUs' ``foreign-state``).  Two probes try several items,
+each on a fresh instance: ``non-finite-input`` (one NaN input at a time) and ``foreign-state`` (one
+state blob not the FMU's own at a time); they take the index of the first item (the checker restarts the probe
 after the item it died on) and print ``{"trying": ...}`` before and ``{"item": ...}`` after each
 item, then their result.  Only fmpy here: the probes work for any FMI 2.0 or FMI 3.0 co-simulation
 FMU (:class:`Slave` hides the version differences: the probes are written once).
@@ -274,7 +274,11 @@ def probe_bad_parameter(p):
     if status == "ok":
         where = "initialization"
         status, _ = status_of(p.initialize, s)
-    if status in ("error", "discard"):
+        if status == "ok" and p.errors():  # refused in words only (pythonfmu: no fmi2Error from Python)
+            step, _ = status_of(s.do_step, 0.0, p.h)
+            if step in ("error", "discard"):
+                status, where = "logged", f"initialization (fmi2OK with an error logged; doStep: {step})"
+    if status in ("error", "discard", "logged"):
         s.free()
     # after fmi2Fatal/fmi3Fatal no further call on that instance (FMI 2.0 section 2.1.3)
     out = {"status": status, "where": where, "param": f"{name} = {value!r}", "log": p.errors(),
@@ -444,7 +448,8 @@ def main(argv):
             elif mode in ("non-finite-input", "foreign-state"):
                 out = PROBES[mode](p, int(argv[2]) if len(argv) > 2 else 0, *argv[3:])
             else:
-                out = PROBES[mode](p, *argv[2:])
+                from orchestration.check import user_probes  # what hosts do: steps, source build
+                out = {**PROBES, **user_probes.PROBES}[mode](p, *argv[2:])
         except Exception as exc:  # an FMI call failed: the probe reports it, the exit code stays 0
             out = {"ok": False, "detail": f"{exc}" + (f" (log: {p.errors()})" if p.errors() else "")}
     finally:

@@ -6,6 +6,8 @@
   summary row each.
 * :mod:`~orchestration.cli.warm_children` -- batch children forked from a server that has imported
   the run path once.
+* :mod:`~orchestration.cli.scheduler` -- ``batch --scheduler``: whether a Dask scheduler answers,
+  found out within seconds.
 """
 
 from orchestration.cli.commands import main

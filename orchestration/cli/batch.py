@@ -12,6 +12,13 @@
 3. SIGINT/SIGTERM (:mod:`orchestration.process.interrupts`): nothing new starts, running children get
    SIGTERM (they write their partial results), and every scenario not finished is a row with
    status ``interrupted``.  ``summary.csv`` is written in every case once runs have started.
+4. Files (:mod:`orchestration.results.atomic`, :mod:`orchestration.results.batch_summary`):
+   ``summary.csv`` is written whole before the first run (the unfinished rows ``running`` with the
+   batch's pid) and again as each scenario finishes, so a batch killed even by SIGKILL leaves a
+   complete table; when it cannot be written (a full disk) it is printed on standard error at the
+   end and the exit code is at least 1.  A child that dies (a signal, or an exit without results)
+   leaving its ``metrics.json`` at ``running`` gets it rewritten ``failed`` (``interrupted`` when the
+   batch stopped it) with the reason, e.g. ``killed (SIGKILL)``, and its ``.part`` files removed.
 
 Each row also says whether the run held its set-points (``holds_setpoints``, ``setpoints``: see
 :mod:`orchestration.results`); a row that did not is listed after the table (``NOT HELD ...``), without
@@ -34,7 +41,10 @@ from concurrent.futures import ThreadPoolExecutor, as_completed
 from pathlib import Path
 
 from orchestration.build import fmus
+from orchestration.cli.scheduler import SchedulerUnreachable
 from orchestration.process.interrupts import PARENT_ENV, StopRequest, signal_name
+from orchestration.results.atomic import describe, owner, settle_abandoned
+from orchestration.results.batch_summary import SummaryFile, running_row
 
 SUMMARY_METRICS = ("iae_speed", "iae_flux", "ss_speed", "ss_flux", "overshoot_speed", "settling_time_speed",
                    "peak_current", "peak_voltage", "min_W")
@@ -168,13 +178,15 @@ def _child_row(path, name, rc, stdout, stderr, metrics, stopped):
     if rc < 0:
         sig = signal_name(-rc)
         status = "interrupted" if stopped else "failed"
+        settle_abandoned(metrics, status, f"killed ({sig}): the run ended without writing its results")
         return _row(path, name, status, 128 - rc, f"the child process was killed by {sig}" + (
             f"; {tail}" if tail else ""))
     if rc == INVALID:
         return _row(path, name, "invalid", rc, tail)
     if summary is None or summary.get("status") == "running":
-        return _row(path, name, "interrupted" if stopped else "failed", rc or 1,
-                    f"exit {rc} without results" + (f": {tail}" if tail else ""))
+        message = f"exit {rc} without results" + (f": {tail}" if tail else "")
+        settle_abandoned(metrics, "interrupted" if stopped else "failed", message)
+        return _row(path, name, "interrupted" if stopped else "failed", rc or 1, message)
     row = _row(path, name, summary["status"], rc, summary.get("message", ""))
     row.update(accepted=summary.get("accepted"), holds_setpoints=summary.get("holds_setpoints"),
                setpoints=summary.get("setpoints", ""), wall_time=summary.get("wall_time"),
@@ -213,9 +225,11 @@ def _run_local(runnable, out, fmu_dir, jobs, algorithm, stop, done, variant, com
 def _run_dask(runnable, out, fmu_dir, scheduler, algorithm, stop, done, variant):
     import uuid
 
-    from distributed import Client, Event
+    from distributed import Event
 
-    with Client(scheduler) as client:
+    from orchestration.cli.scheduler import connect
+
+    with connect(scheduler) as client:  # within seconds, or SchedulerUnreachable saying why
         event_name = f"satmotor-batch-stop-{uuid.uuid4().hex}"
         event = Event(event_name, client=client)
         remaining = {client.submit(_dask_task, str(f), str(out), str(fmu_dir), algorithm, name, event_name,
@@ -264,11 +278,16 @@ def run_batch(items, out, fmu_dir, jobs=2, scheduler=None, algorithm=None, stop=
         print("batch refused: nothing was run", file=sys.stderr)
         return INVALID
     out = Path(out)
+    summary = SummaryFile(out / "summary.csv")
+    me = owner()
+    running = {str(f): running_row(f, name, me) for f, name in runnable}  # replaced as they finish
     try:
         out.mkdir(parents=True, exist_ok=True)
-        (out / "summary.csv").write_text("")  # --out is writable before anything runs
     except OSError as exc:
-        print(f"--out {out}: cannot write the results: {exc}", file=sys.stderr)
+        print(f"--out {out}: cannot write the results: {describe(exc)}", file=sys.stderr)
+        return INVALID
+    if not summary.write([*rows, *running.values()]):  # --out is writable before anything runs
+        print(f"--out {out}: cannot write the results: {describe(summary.error)}", file=sys.stderr)
         return INVALID
     started = set()
     bar = _progress(len(files))
@@ -277,6 +296,8 @@ def run_batch(items, out, fmu_dir, jobs=2, scheduler=None, algorithm=None, stop=
     def done(row):
         rows.append(row)
         started.add(row["file"])
+        running.pop(row["file"], None)
+        summary.write([*rows, *running.values()])  # whole at every moment (a failure: said at the end)
         bar and bar.update(1)
 
     error = ""
@@ -288,7 +309,8 @@ def run_batch(items, out, fmu_dir, jobs=2, scheduler=None, algorithm=None, stop=
             else:
                 _run_local(runnable, out, fmu_dir, jobs, algorithm, stop, done, variant, command)
     except Exception as exc:  # noqa: BLE001 - the summary is written whatever happened
-        error = f"the batch failed before running it: {exc!r}"
+        said = exc if isinstance(exc, SchedulerUnreachable) else repr(exc)
+        error = f"the batch failed before running it: {said}"
         print(error, file=sys.stderr)
     finally:
         bar and bar.close()
@@ -296,17 +318,19 @@ def run_batch(items, out, fmu_dir, jobs=2, scheduler=None, algorithm=None, stop=
             if str(f) not in started:
                 rows.append(_row(f, name, "failed", 1, error) if error and not stop.signum else
                             _row(f, name, "interrupted", 0, "no result: the batch was interrupted"))
-        _write_summary(rows, out)
+        written = _write_summary(rows, out, summary)
     if stop.signum:
         return stop.exit_code
-    return max(r["exit_code"] for r in rows)
+    return max(max(r["exit_code"] for r in rows), 0 if written else 1)
 
 
-def _write_summary(rows, out):
+def _write_summary(rows, out, summary):
+    """Write ``summary.csv`` (:class:`~orchestration.results.batch_summary.SummaryFile`: on standard
+    error when it cannot be written) and show the table; True when the file was written."""
     import pandas as pd
 
+    written = summary.write_or_print(rows)
     df = pd.DataFrame(rows).sort_values("file").reset_index(drop=True)
-    df.to_csv(out / "summary.csv", index=False)
     table = df.rename(columns={"holds_setpoints": "held"})
     shown = [c for c in ("scenario", "status", "accepted", "held", *SUMMARY_METRICS, "wall_time")
              if c in table]
@@ -317,4 +341,5 @@ def _write_summary(rows, out):
                   file=sys.stderr)
         elif r.get("holds_setpoints") is False:
             print(f"NOT HELD {r['file']} (exit {r['exit_code']}): {r.get('setpoints', '')}", file=sys.stderr)
-    print(f"summary: {out / 'summary.csv'}")
+    print(f"summary: {out / 'summary.csv'}" if written else "summary: on standard error (not written)")
+    return written

@@ -106,6 +106,7 @@ def run_file(path, out, fmu_dir, algorithm=None, build=True, plot=True, stop=Non
     :class:`orchestration.process.interrupts.StopRequest`) ends the run early with what it has.
     ``figure_process``: draw the figure with a helper process that imports matplotlib while the
     run steps (:mod:`orchestration.results.figure_process`; used where it gains something)."""
+    from orchestration.results.atomic import describe
     from orchestration.results.writer import figure_target, prepare_dir, streaming_recorder, write_results
     from orchestration.run.master import run
     from orchestration.run.recorder import FILES
@@ -137,7 +138,7 @@ def run_file(path, out, fmu_dir, algorithm=None, build=True, plot=True, stop=Non
     try:
         directory = prepare_dir(out, sc)
     except OSError as exc:
-        return refused(f"--out {out}: cannot write the results: {exc}", sc.name)
+        return refused(f"--out {out}: cannot write the results: {describe(exc)}", sc.name)
     plant, ctrl = fmus.paths(fmu_dir, variant)
     helper = None
     if plot and figure_process:
@@ -147,16 +148,21 @@ def run_file(path, out, fmu_dir, algorithm=None, build=True, plot=True, stop=Non
             helper = fp.FigureProcess(directory / FILES[1], *figure_target(sc, out)) if fp.wanted() else None
         except OSError:  # no fork today: the figure is drawn here
             helper = None
+    make = streaming_recorder(sc, directory, on_parquet=helper and helper.parquet_done)
     try:
-        result = run(sc, str(plant), str(ctrl), algorithm=algorithm, stop=stop,
-                     recorder=streaming_recorder(sc, directory, on_parquet=helper and helper.parquet_done))
-        summary = write_results(result, out, plot=plot, draw=helper and helper.draw)
+        result = run(sc, str(plant), str(ctrl), algorithm=algorithm, stop=stop, recorder=make)
+        summary = write_results(result, out, plot=plot, draw=helper and helper.draw, write_error=make.error,
+                                discard_figure=helper and helper.discard)
+    except OSError as exc:  # a file of the run could not be written: said, never a traceback
+        return RUN_FAILED, {"scenario": sc.name, "file": str(path), "status": "failed", "rows": 0,
+                            "wall_time": 0.0, "message": f"{describe(exc)}: the results are not complete",
+                            "metrics_written": False}
     finally:
         if helper is not None:
             helper.close()
-    if result.status == "interrupted":
+    if summary["status"] == "interrupted":
         return stop.exit_code, summary
-    if not result.ok:
+    if summary["status"] != "ok":
         return RUN_FAILED, summary
     return (NOT_ACCEPTED if summary["accepted"] is False else OK), summary
 
@@ -181,8 +187,10 @@ def cmd_run(args):
         return code
     for note in s.get("notes") or ():
         print(note, file=sys.stderr)
+    if s.get("metrics_written") is False:  # the one place left to say it (a batch shows this line)
+        print(f"{s['scenario']}: failed: {s['message']}", file=sys.stderr)
     held = f", {s['setpoints']}" if s.get("holds_setpoints") is False else ""
-    print(f"{s['scenario']}: {s['status']}" + (f" ({s['message']})" if s["message"] else "") + held
+    print(f"{s['scenario']}: {s['status']}" + (f" ({s['message']})" if s.get("message") else "") + held
           + f", {s['rows']} rows, {s['wall_time']:.2f} s wall, results in {Path(args.out) / s['scenario']}")
     if s.get("setpoints") and not held:
         print(f"  {s['setpoints']}")
@@ -251,7 +259,9 @@ def cmd_fit_curve(args):
     from orchestration.tools.fit_curve import InputError, run
 
     try:
-        run(args.noload, args.R_s, args.l_s, args.out)
+        run(args.noload, args.R_s, args.l_s, args.out, copper_tol=args.copper_tol, motor_yaml=args.motor_yaml,
+            motor={k: getattr(args, k) for k in ("l_r", "R_r", "n_p", "J", "B")},
+            locked_rotor=args.locked_rotor, leakage_ratio=args.leakage_ratio)
     except InputError as exc:
         print(exc, file=sys.stderr)
         return INVALID
@@ -272,10 +282,12 @@ def parser(prog="satmotor-cosim"):
                                  description="Co-simulate the saturated induction motor FMU with the "
                                  "backstepping controller FMU over YAML scenarios (fmpy master).")
     sub = ap.add_subparsers(dest="command", required=True)
-    b = sub.add_parser("build", help="build the FMUs", description="Build the six FMUs into OUT: "
+    b = sub.add_parser("build", help="build the FMUs", description="Build the eight FMUs into OUT: "
                        "SaturatedInductionMotor.fmu and BacksteppingController.fmu (pythonfmu, FMI 2.0), "
-                       "their native C twins in OUT/native (FMI 2.0) and OUT/native-fmi3 (FMI 3.0); for this "
-                       "machine (Linux x86_64) unless --all-platforms.")
+                       "their native C twins in OUT/native (FMI 2.0) and OUT/native-fmi3 (FMI 3.0), and the "
+                       "plant as model exchange in OUT/native-me and OUT/native-me-fmi3 "
+                       "(SaturatedInductionMotorME.fmu); for this machine (Linux x86_64) unless "
+                       "--all-platforms.")
     b.add_argument("--out", default=str(fmus.DEFAULT_DIR), help="output directory (default build/fmus)")
     b.add_argument("--all-platforms", action="store_true",
                    help="the native FMUs for Windows and macOS too (cross-compiled with zig, from the "
@@ -324,7 +336,9 @@ def parser(prog="satmotor-cosim"):
     c = sub.add_parser("check", help="check FMUs (any FMI 2.0 or 3.0 co-simulation FMU)", description="Check "
                        "any FMI 2.0 or FMI 3.0 co-simulation FMU: fmpy validate, fmu-manipulation-toolbox "
                        "(FMI 2.0 only), and run-time checks in child processes (instantiate, wrong-guid, "
-                       "cycles, state, foreign-state, reset, bad-parameter, non-finite-input, reference); "
+                       "cycles, state, foreign-state, reset, bad-parameter, non-finite-input, steps, "
+                       "source-build, reference; a model-exchange FMU: me-instantiate, me-states, "
+                       "me-events, me-reference); "
                        "one line per check; exit 1 if any FAILs, 2 for a path that is not an FMU.")
     c.add_argument("fmu", nargs="+", help="FMU file(s)")
     c.add_argument("--junit", metavar="FILE", help="write the results as JUnit XML")
@@ -347,8 +361,25 @@ def parser(prog="satmotor-cosim"):
                         "fit.yaml (scenario overrides), curve_table.csv (for curve: table) and fit.png.")
     fc.add_argument("noload", help="no-load test CSV file")
     fc.add_argument("--R-s", dest="R_s", required=True, metavar="OHM", help="stator resistance [Ohm]")
-    fc.add_argument("--l-s", dest="l_s", required=True, metavar="H", help="stator leakage inductance [H]")
+    fc.add_argument("--l-s", dest="l_s", default=None, metavar="H",
+                    help="stator leakage inductance [H] (or --locked-rotor)")
+    fc.add_argument("--locked-rotor", dest="locked_rotor", default=None, metavar="V,I,P,F",
+                    help="locked-rotor test: V_ll_rms [V], I_rms [A], P_in [W], f [Hz]; gives l_s, l_r and "
+                    "R_r (with --leakage-ratio l_r/l_s, default 1), written into --motor-yaml")
+    fc.add_argument("--leakage-ratio", dest="leakage_ratio", default=None, metavar="RATIO",
+                    help="l_r / l_s for --locked-rotor (IEEE 112: 1 design A and D, 1.5 B, 7/3 C; default 1)")
     fc.add_argument("--out", default="results/fit_curve", help="output directory (default results/fit_curve)")
+    fc.add_argument("--copper-tol", dest="copper_tol", default=None, metavar="REL",
+                    help="P_in this far (relative) below the stator copper loss is taken as lossless, with a "
+                    "warning; further below, the row is refused (default 0.05)")
+    fc.add_argument("--motor-yaml", dest="motor_yaml", default=None, metavar="FILE",
+                    help="also write a ready motor: section (and plant: {R_fe: ...}) for a scenario")
+    for opt, dest, unit, what in (("--l-r", "l_r", "H", "rotor leakage inductance (default: l_s)"),
+                                  ("--R-r", "R_r", "OHM", "rotor resistance"),
+                                  ("--n-p", "n_p", "N", "pole pairs"), ("--J", "J", "KG_M2", "inertia"),
+                                  ("--B", "B", "N_M_S", "viscous friction")):
+        fc.add_argument(opt, dest=dest, default=None, metavar=unit,
+                        help=f"{what} [{unit.replace('_', ' ')}], written into --motor-yaml")
     fc.set_defaults(func=cmd_fit_curve)
     return ap
 

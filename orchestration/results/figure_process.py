@@ -116,6 +116,18 @@ class FigureProcess:
 
             figure(data, path, title)
 
+    def discard(self):
+        """End the helper without a figure (the time series it was drawing were not kept): killed,
+        and whatever it wrote removed (:mod:`orchestration.results.atomic`)."""
+        from pathlib import Path
+
+        from orchestration.results import atomic
+
+        self._sent = False
+        self.close()
+        atomic.discard(self.path)
+        atomic.remove_partial(Path(self.path).parent)
+
     def close(self):
         """End the helper: it finishes a figure it was told to draw, it is killed otherwise."""
         if self._proc is None:

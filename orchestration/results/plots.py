@@ -11,6 +11,8 @@ import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
+from orchestration.results import atomic
+
 _COLUMNS = ("time", "plant.psi_r_alpha", "plant.psi_r_beta", "controller.phase", "profile.omega_ref",
             "plant.omega_m", "controller.omega_ref_shaped", "profile.psi_ref", "controller.psi_ref_shaped",
             "plant.T_e", "profile.T_load", "controller.T_load_est", "plant.i_s_alpha", "plant.i_s_beta",
@@ -83,4 +85,5 @@ def figure(data, path, title, blank=None):
         a.grid(True, alpha=0.4)
         a.legend(loc="best", fontsize=7)
     fig.suptitle(title, fontsize=10, y=0.996, va="top")
-    fig.savefig(path, dpi=100)
+    with atomic.atomic_file(path, "wb") as f:  # a whole PNG or none (a full disk: OSError)
+        fig.savefig(f, format="png", dpi=100)

@@ -9,9 +9,12 @@ a DataFrame with :meth:`frame`.
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import numpy as np
+
+from orchestration.results import atomic
 
 CHUNK_ROWS = 20_000  # rows per chunk: about 4 MB of Python floats for 24 columns
 FILES = ("timeseries.csv", "timeseries.parquet")
@@ -105,7 +108,9 @@ class StreamingRecorder(Recorder):
     """A :class:`Recorder` that appends each chunk to ``directory/timeseries.{csv,parquet}``.
 
     The files are created (empty, with the header) by the constructor, so an unwritable directory
-    is found before the run starts.
+    is found before the run starts.  They are written under temporary names
+    (:mod:`orchestration.results.atomic`) and renamed by :meth:`close` when complete; a write that
+    fails (a full disk) raises, sets :attr:`error` and removes both.
     """
 
     #: None, or a function ``on_parquet(n_rows)`` called by :meth:`close` once the Parquet file is
@@ -121,17 +126,46 @@ class StreamingRecorder(Recorder):
         self.directory = Path(directory)
         self.csv_path = self.directory / FILES[0]
         self.parquet_path = self.directory / FILES[1]
+        self.error = None  #: the OSError that stopped the writing (a full disk...), None while all is written
         self._pa = pa
-        self._csv = open(self.csv_path, "w", newline="")  # noqa: SIM115 - closed in close()
-        self._csv.write(",".join(self.columns) + "\n")
-        self._csv.flush()
-        self._schema = pa.schema([(c, pa.float64()) for c in self.columns])
-        self._parquet = pq.ParquetWriter(self.parquet_path, self._schema)
+        self._csv = self._parquet = None
+        self._parts = [atomic.partial_path(self.csv_path), atomic.partial_path(self.parquet_path)]
         self._closed = False
+        try:
+            self._csv = open(self._parts[0], "w", newline="")  # noqa: SIM115 - closed in close()
+            self._csv.write(",".join(self.columns) + "\n")
+            self._csv.flush()
+            self._schema = pa.schema([(c, pa.float64()) for c in self.columns])
+            self._parquet = pq.ParquetWriter(self._parts[1], self._schema)
+        except OSError as exc:
+            self._fail(exc, self.directory)
+            raise
 
     def _write(self, chunk):
-        self._write_csv(chunk)
-        self._write_parquet(chunk)
+        if self.error is not None:  # pragma: no cover - the run stopped at the first failure
+            raise self.error
+        path = self.csv_path
+        try:
+            self._write_csv(chunk)
+            path = self.parquet_path
+            self._write_parquet(chunk)
+        except OSError as exc:  # the run stops here (its caller sees the exception)
+            self._fail(exc, path)
+            raise
+
+    def _fail(self, exc, path=None):
+        """Writing ``path`` failed: nothing half-written is left (the temporary files are removed)."""
+        if path is not None and getattr(exc, "filename", None) is None:
+            exc.filename = str(path)  # the file's name, not its temporary one
+        self.error = exc
+        self._closed = True
+        for f in (self._csv, self._parquet):
+            try:
+                f is not None and f.close()
+            except OSError:
+                pass
+        for p in self._parts:
+            atomic.discard(p)
 
     def _write_csv(self, chunk):
         self._csv.write(csv_text(chunk))
@@ -144,25 +178,38 @@ class StreamingRecorder(Recorder):
         self._parquet.write_table(pa.Table.from_arrays(cols, schema=self._schema))
 
     def close(self):
+        """Write the last rows and give both files their names (each renamed from its temporary
+        name once complete).  Never raises OSError: a failure to write is kept in :attr:`error`
+        and no file is left (a caller writing a status reads it)."""
         if self._closed:
             return
+        path = self.parquet_path
         try:
             if self.on_parquet is None:
                 self.flush()
+                self._parquet.close()
+                os.replace(self._parts[1], self.parquet_path)
             else:  # the Parquet file first, complete, then the last CSV lines
                 chunk = self._chunk_array() if self.rows else None
                 if chunk is not None:
                     self._write_parquet(chunk)
                 self._parquet.close()
+                os.replace(self._parts[1], self.parquet_path)
                 self.on_parquet(self.n_rows + len(self.rows))
+                path = self.csv_path
                 if chunk is not None:
                     self._write_csv(chunk)
                     self.n_rows += len(self.rows)
                     self.rows.clear()
-        finally:
-            self._closed = True
+            path = self.csv_path
             self._csv.close()
-            self._parquet.close()
+            os.replace(self._parts[0], self.csv_path)
+            self._closed = True
+        except OSError as exc:
+            if self.error is None:
+                self._fail(exc, path)
+            for p in (self.csv_path, self.parquet_path):  # neither file of a record cut short
+                atomic.discard(p)
 
     def arrays(self, columns=None):
         """``{column: float64 array}`` read back from the Parquet file (``columns``: only those)."""

@@ -6,9 +6,11 @@
   :func:`check_scenario_file`, :func:`validate_scenario_file`, :class:`Scenario`,
   :class:`ScenarioError`.
 * :mod:`~orchestration.scenario.profiles` -- the time profiles of the set-points and the load.
+* :mod:`~orchestration.scenario.plausibility` -- notes for inputs far outside the motor's range.
 * :mod:`~orchestration.scenario.system` -- the system a scenario runs: units, connections, the
   measured signals and the ``measurements:`` section.
 * :mod:`~orchestration.scenario.recording` -- the columns a run records and which ones it keeps.
 * :mod:`~orchestration.scenario.feasibility` -- physics checks (reachable flux, the torque the
   current limit allows, recording size).
+* :mod:`~orchestration.scenario.presets` -- ``motor: {preset: NAME, ...}``: a named motor expanded.
 """

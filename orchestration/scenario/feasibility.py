@@ -15,6 +15,7 @@ its bad values are found in one pass.
 
 from __future__ import annotations
 
+from orchestration.scenario.plausibility import plausibility_notes
 from orchestration.scenario.problems import Note, Problem
 
 #: Largest number of recorded values (rows x columns) a run may produce.  The recorder streams
@@ -70,6 +71,7 @@ def physics_check(sc, fields=None):
     plant = _build(PlantUnit, "plant", sc.plant, {}, file, problems, fields.get("plant"))
     ctrl = _build(ControllerUnit, "controller", sc.controller, {"Ts": sc.Ts}, file, problems,
                   fields.get("controller"))
+    notes.extend(plausibility_notes(sc, plant, ctrl, file))  # inputs far beyond the motor: said
     psi = sc.profiles.get("psi_ref")
     if psi is None or sc.stop_time is None:
         return problems, notes
@@ -101,7 +103,8 @@ def physics_check(sc, fields=None):
         peak = max(abs(T_lo), abs(T_hi))
         I_max = ctrl.drive.dcfg.I_max
         T_max, psi_at = load_torque_limit(plant.params, I_max, lo, hi)
-        if peak > T_max:
+        if peak > T_max:  # says more than the plausibility note of the same load (if any): instead of it
+            notes = [n for n in notes if n.field != "profiles.T_load"]
             notes.append(Note(file, "profiles.T_load", peak, (
                 f"the load's peak |T_load| = {peak:.4g} N m exceeds {T_max:.4g} N m, the most torque the "
                 f"plant gives at |i_s| = controller I_max = {I_max:.4g} A and |psi_r| = {psi_at:.4g} Wb "

@@ -7,11 +7,12 @@ Top-level keys (SI units; see ``scenarios/ramp_rated_load.yaml`` for a full exam
 per controller sample, default 1; the controller's ``Ts = step * controller_every``),
 ``algorithm`` (``gauss-seidel`` default, or ``jacobi``), ``motor`` (motor parameters given to
 both units: the names of :data:`satmotor.interface.MOTOR_PARAMETERS`, which the plant and the
-controller's model share), ``plant`` and ``controller`` (parameter overrides by FMI variable name,
-over ``motor``: only the deliberate differences), ``mismatch`` (``true``: the plant and the
-controller are meant to get different motor parameters; default false), ``profiles``
-(``omega_ref`` [rad/s], default 0; ``psi_ref`` [Wb], required; ``T_load`` [N m], default 0; see
-:mod:`orchestration.scenario.profiles`), ``record``
+controller's model share, or ``preset: NAME`` of a motor of :mod:`satmotor.machine.library` with
+overrides beside it, :mod:`orchestration.scenario.presets`), ``plant`` and ``controller``
+(parameter overrides by FMI variable name, over ``motor``: only the deliberate differences),
+``mismatch`` (``true``: the plant and the controller are meant to get different motor
+parameters; default false), ``profiles`` (``omega_ref`` [rad/s], default 0; ``psi_ref`` [Wb],
+required; ``T_load`` [N m], default 0; see :mod:`orchestration.scenario.profiles`), ``record``
 (``interval`` [s], a multiple of ``step``, default ``step``; ``outputs``: ``plant.NAME`` /
 ``controller.NAME``, default all), ``acceptance`` (bounds checked after the run: ``ss_speed``,
 ``ss_flux`` relative steady-state errors over ``ss_window: [t_from, t_to]`` [s],
@@ -47,6 +48,7 @@ from types import MappingProxyType
 import yaml
 
 from orchestration.scenario.feasibility import physics_check
+from orchestration.scenario.presets import expand as expand_preset
 from orchestration.scenario.problems import Checker, Note, Problem
 from orchestration.scenario.profiles import Constant, parse_profile
 from orchestration.scenario.system import Measurements
@@ -333,9 +335,10 @@ def _check(data, file, variables):
     algorithm = data.get("algorithm", "gauss-seidel")
     if algorithm not in ALGORITHMS:
         chk.add("algorithm", algorithm, f"must be one of {', '.join(ALGORITHMS)}")
-    motor = _overrides(chk, data.get("motor"), "motor", variables, base_dir)
+    raw_motor, raw_controller = expand_preset(chk, data.get("motor"), data.get("controller"))
+    motor = _overrides(chk, raw_motor, "motor", variables, base_dir)
     plant = _overrides(chk, data.get("plant"), "plant", variables, base_dir)
-    controller = _overrides(chk, data.get("controller"), "controller", variables, base_dir)
+    controller = _overrides(chk, raw_controller, "controller", variables, base_dir)
     mismatch = data.get("mismatch", False)
     if not isinstance(mismatch, bool):
         chk.add("mismatch", mismatch, "must be true or false")

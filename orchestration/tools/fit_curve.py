@@ -1,5 +1,5 @@
-"""``satmotor-cosim fit-curve NOLOAD.csv --R-s OHM --l-s H [--out DIR]``: the magnetizing curve
-from a no-load test.
+"""``satmotor-cosim fit-curve NOLOAD.csv --R-s OHM (--l-s H | --locked-rotor V,I,P,F) [--out DIR]``:
+the magnetizing curve from a no-load test.
 
 Input: a CSV file with a header line and one row per voltage level of a no-load test (star
 connection, motor uncoupled): ``V_ll_rms`` [V] line-to-line rms voltage, ``I_rms`` [A] line rms
@@ -15,7 +15,21 @@ into ``--out`` (default ``results/fit_curve``):
   scenario, plus ``chosen``, ``fits`` (every family's parameters and residuals) and ``input``;
 * ``curve_table.csv``: the points ``i_mu, psi_m`` for ``curve: table`` (made strictly increasing,
   see :func:`satmotor.identify.curve_fit.monotone_table`);
-* ``fit.png``: the points, every fit, and the residuals.
+* ``fit.png``: the points, every fit, and the residuals;
+* with ``--motor-yaml FILE``: a ready ``motor:`` section (the chosen curve, ``R_s``, ``l_s``, and
+  ``l_r``, ``R_r``, ``n_p``, ``J``, ``B`` when given as options; the others keep the default motor's
+  values, which a comment lists) and the core-loss resistance ``R_fe`` (a plant parameter:
+  ``plant: {R_fe: ...}``), to paste into a scenario.
+
+With ``--locked-rotor V_ll_rms,I_rms,P_in,f`` (and ``--leakage-ratio`` l_r/l_s, default 1) instead of
+``--l-s``: the stator leakage, rotor leakage and rotor resistance come from that test and the no-load
+fit together (:mod:`satmotor.identify.locked_rotor`), into ``fit.yaml`` (``locked_rotor``) and
+``--motor-yaml``.
+
+With ``P_in``: a row whose ``P_in`` is below the stator copper loss by less than ``--copper-tol``
+(relative, default 5 %) is taken as lossless, with a warning naming its line; further below it is
+refused.  The no-load loss ``P_in - 3 R_s I_rms^2`` is split into core loss (``R_fe``) and friction
+(:func:`satmotor.identify.noload.separate_losses`), in ``fit.yaml`` under ``core_loss``.
 
 Exit codes: 0 written; 2 an input problem (the message names the file, the line and the value) or
 ``--out`` cannot be written.
@@ -118,14 +132,37 @@ def _float_option(name, raw):
     return v
 
 
-def points_from_file(path, R_s, l_s):
-    """``(MagnetizingPoints, lines, has_P_in)`` of a no-load file; :class:`InputError` on bad input."""
+def _motor_option(name, raw):
+    if name == "n_p":
+        try:
+            v = int(raw)
+        except (TypeError, ValueError):
+            v = 0
+        if v < 1 or str(raw).strip() != str(v):
+            raise InputError(f"--n-p = {raw!r}: must be an integer >= 1")
+        return v
+    v = _float_option(f"--{name.replace('_', '-')}", raw)
+    if v == 0.0 and name in ("l_r", "R_r", "J"):
+        raise InputError(f"--{name.replace('_', '-')} = {raw!r}: must be > 0")
+    return v
+
+
+def points_from_file(path, R_s, l_s, copper_tol=None, l_r=None):
+    """``(MagnetizingPoints, lines, has_P_in, losses)`` of a no-load file (``losses``: the
+    :class:`~satmotor.identify.noload.LossSeparation`, None without P_in); :class:`InputError` on bad
+    input."""
     from satmotor.errors import ParameterError
-    from satmotor.identify.noload import magnetizing_points
+    from satmotor.identify.noload import COPPER_TOL, magnetizing_points, separate_losses
 
     cols, lines = read_noload(path)
+    tol = COPPER_TOL if copper_tol is None else copper_tol
+    args = (cols["V_ll_rms"], cols["I_rms"], cols["f"], R_s, l_s, cols.get("P_in"), l_r, tol)
+    losses = None
     try:
-        pts = magnetizing_points(cols["V_ll_rms"], cols["I_rms"], cols["f"], R_s, l_s, cols.get("P_in"))
+        pts = magnetizing_points(*args)
+        if "P_in" in cols:  # the core-loss current is not rotor current: out of the leakage correction
+            losses = separate_losses(pts.E_m, pts.P_loss, cols["P_in"])
+            pts = magnetizing_points(*args, R_fe=losses.R_fe)
     except ParameterError as exc:
         field = exc.field
         if "[" in field:
@@ -133,7 +170,8 @@ def points_from_file(path, R_s, l_s):
             raise InputError(f"{path}: line {lines[k]}: {field.split('[')[0]} = {exc.value!r}: "
                              f"{exc.reason}") from None
         raise InputError(f"{path}: {exc}") from None
-    return pts, lines, "P_in" in cols
+    pts = pts._replace(warnings=tuple((lines[k], text) for k, text in pts.warnings))
+    return pts, lines, "P_in" in cols, losses
 
 
 def _overrides(fit):
@@ -141,7 +179,7 @@ def _overrides(fit):
             **{k: (int(v) if k == "poly_n" else float(v)) for k, v in fit.params.items()}}
 
 
-def write_outputs(out, source, pts, has_p, fits, failures, best, table, R_s, l_s):
+def write_outputs(out, source, pts, has_p, fits, failures, best, table, R_s, l_s, losses=None, rotor=None):
     import yaml
 
     out = Path(out)
@@ -161,6 +199,12 @@ def write_outputs(out, source, pts, has_p, fits, failures, best, table, R_s, l_s
                  for name, f in sorted(fits.items(), key=lambda kv: kv[1].rms)},
         "input": {"file": str(source), "rows": int(pts.i_mu.size), "P_in": has_p, "R_s": R_s, "l_s": l_s},
     }
+    if rotor is not None:
+        doc["locked_rotor"] = {"l_s_H": rotor.l_s, "l_r_H": rotor.l_r, "R_r_Ohm": rotor.R_r,
+                               "psi_m_Wb": rotor.psi_m}
+    if losses is not None:
+        doc["core_loss"] = {"R_fe_Ohm": losses.R_fe, "P_fw_W": losses.P_fw, "rms_W": losses.rms,
+                            "lossless_rows": [line for line, _ in pts.warnings]}
     if failures:
         doc["failed"] = dict(failures)
     head = (f"# satmotor-cosim fit-curve {source} --R-s {R_s!r} --l-s {l_s!r}\n"
@@ -209,8 +253,80 @@ def _figure(path, source, pts, fits, best):
     plt.close(fig)
 
 
-def run(path, R_s, l_s, out=DEFAULT_OUT, stream=None):
+MOTOR_OPTIONS = ("l_r", "R_r", "n_p", "J", "B")  # the motor parameters a no-load test does not give
+
+
+def write_motor_yaml(path, source, best, R_s, l_s, losses, motor=None):
+    """The ``motor:`` section (and ``plant: {R_fe: ...}``) of the fitted motor, to paste into a scenario."""
+    import yaml
+
+    from satmotor.interface import PLANT_PARAMETERS
+
+    motor = {k: v for k, v in (motor or {}).items() if v is not None}
+    if "l_r" not in motor and l_s > 0.0:
+        motor["l_r"] = l_s  # as the rotor-leakage correction assumed
+    section = {"R_s": R_s, "l_s": l_s, **motor, **_overrides(best)}
+    rest = [name for name in ("R_r", "l_r", "k", "n_p", "J", "B") if name not in section]
+    doc = {"motor": section}
+    plant_has_r_fe = any(v.name == "R_fe" for v in PLANT_PARAMETERS)
+    if losses is not None and plant_has_r_fe:
+        doc["plant"] = {"R_fe": losses.R_fe}
+    head = (f"# satmotor-cosim fit-curve {source}: the motor identified from a no-load test, to paste\n"
+            "# into a scenario (motor: sets the plant and the controller's model alike).\n"
+            + (f"# Not given, so the default motor's: {', '.join(rest)}.\n" if rest else ""))
+    if losses is not None:
+        head += (f"# Core loss: R_fe = {losses.R_fe!r} Ohm (0: none found); friction and windage at no load "
+                 f"P_fw = {losses.P_fw:.6g} W.\n")
+        if not plant_has_r_fe:
+            head += "# (this plant has no core-loss parameter: R_fe is reported here only)\n"
+    Path(path).write_text(head + yaml.safe_dump(doc, sort_keys=False, default_flow_style=False),
+                          encoding="utf-8")
+
+
+def _locked_rotor_option(raw):
+    from satmotor.machine.forms import LockedRotorTest
+
+    try:
+        v = [float(x) for x in str(raw).split(",")]
+    except ValueError:
+        v = []
+    if len(v) != 4 or not all(math.isfinite(x) for x in v) or min(v[0], v[1], v[3]) <= 0.0 or v[2] < 0.0:
+        raise InputError(f"--locked-rotor = {raw!r}: must be V_ll_rms,I_rms,P_in,f (four numbers: V > 0, "
+                         "A > 0, W >= 0, Hz > 0)")
+    return LockedRotorTest(*v)
+
+
+def leakage_from_locked_rotor(path, R_s, test, ratio, tol):
+    """``(l_s, l_r, R_r)`` from the locked-rotor test and the no-load file (the curve and R_fe
+    identified at each trial l_s; :func:`satmotor.identify.locked_rotor.leakage_from_tests`)."""
+    from scipy.optimize import brentq, least_squares
+
+    from satmotor.errors import ParameterError
+    from satmotor.identify.curve_fit import choose, fit_all
+    from satmotor.identify.locked_rotor import leakage_from_tests
+
+    def identify_at(l_s):
+        pts, _, _, losses = points_from_file(path, R_s, l_s, tol, ratio * l_s)
+        fits, _ = fit_all(pts.i_mu, pts.psi_m, least_squares)
+        if not fits:
+            raise InputError(f"{path}: no curve family could be fitted at l_s = {l_s!r} H")
+        return choose(fits).curve, (losses.R_fe if losses is not None else 0.0)
+
+    try:
+        rb, _, _ = leakage_from_tests(R_s, test, identify_at, ratio,
+                                      root=lambda f, a, b: brentq(f, a, b, xtol=1e-15, rtol=1e-13))
+    except ParameterError as exc:
+        raise InputError(f"--locked-rotor: {exc}") from None
+    return rb
+
+
+def run(path, R_s, l_s, out=DEFAULT_OUT, stream=None, copper_tol=None, motor_yaml=None, motor=None,
+        locked_rotor=None, leakage_ratio=None):
     """Fit the no-load file ``path`` and write the outputs; returns the chosen :class:`Fit`.
+    ``copper_tol`` [1] (default ``COPPER_TOL``); ``motor_yaml``: also write the motor section there;
+    ``motor``: ``{name: value}`` of :data:`MOTOR_OPTIONS` (None: not given); ``locked_rotor``:
+    ``"V_ll_rms,I_rms,P_in,f"`` of a locked-rotor test, which then gives l_s (``l_s`` None), l_r and
+    R_r with ``l_r = leakage_ratio l_s`` (default 1).
     Raises :class:`InputError` for bad input or an unwritable ``out``."""
     from scipy.optimize import least_squares
 
@@ -219,8 +335,22 @@ def run(path, R_s, l_s, out=DEFAULT_OUT, stream=None):
 
     stream = sys.stdout if stream is None else stream
     R_s = _float_option("--R-s", R_s)
+    tol = None if copper_tol is None else _float_option("--copper-tol", copper_tol)
+    motor = {k: (None if v is None else _motor_option(k, v)) for k, v in (motor or {}).items()}
+    rb = None
+    if locked_rotor is not None:
+        if l_s is not None or motor.get("l_r") is not None or motor.get("R_r") is not None:
+            raise InputError("--locked-rotor gives l_s, l_r and R_r: leave out --l-s, --l-r and --R-r")
+        ratio = 1.0 if leakage_ratio is None else _float_option("--leakage-ratio", leakage_ratio)
+        if ratio <= 0.0:
+            raise InputError(f"--leakage-ratio = {leakage_ratio!r}: must be > 0")
+        rb = leakage_from_locked_rotor(path, R_s, _locked_rotor_option(locked_rotor), ratio, tol)
+        l_s = rb.l_s
+        motor.update(l_r=rb.l_r, R_r=rb.R_r)
+    elif l_s is None:
+        raise InputError("--l-s is needed (or --locked-rotor, which gives it)")
     l_s = _float_option("--l-s", l_s)
-    pts, lines, has_p = points_from_file(path, R_s, l_s)
+    pts, lines, has_p, losses = points_from_file(path, R_s, l_s, tol, motor.get("l_r"))
     try:
         fits, failures = fit_all(pts.i_mu, pts.psi_m, least_squares)
         table = monotone_table(pts.i_mu, pts.psi_m)
@@ -231,9 +361,16 @@ def run(path, R_s, l_s, out=DEFAULT_OUT, stream=None):
     best = choose(fits)
     try:
         Path(out).mkdir(parents=True, exist_ok=True)
-        write_outputs(out, path, pts, has_p, fits, failures, best, table, R_s, l_s)
+        write_outputs(out, path, pts, has_p, fits, failures, best, table, R_s, l_s, losses, rb)
     except OSError as exc:
         raise InputError(f"--out {out}: cannot write the results: {exc}") from None
+    if motor_yaml is not None:
+        try:
+            write_motor_yaml(motor_yaml, path, best, R_s, l_s, losses, motor)
+        except OSError as exc:
+            raise InputError(f"--motor-yaml {motor_yaml}: cannot write: {exc}") from None
+    for line, text in pts.warnings:
+        print(f"warning: {path}: line {line}: {text}", file=sys.stderr)
     print(f"{path}: {pts.i_mu.size} points, i_mu {pts.i_mu.min():.4g}-{pts.i_mu.max():.4g} A, psi_m "
           f"{pts.psi_m.min():.4g}-{pts.psi_m.max():.4g} Wb"
           + ("" if has_p else "; no P_in column: the line current is taken as purely magnetizing (too high "
@@ -252,5 +389,12 @@ def run(path, R_s, l_s, out=DEFAULT_OUT, stream=None):
               "measure 6-10 voltage levels", file=stream)
     if table[2]:
         print(f"  curve_table.csv: {table[2]} point(s) pooled so that psi_m increases with i_mu", file=stream)
-    print(f"  written: {Path(out) / 'fit.yaml'}, curve_table.csv, fit.png", file=stream)
+    if rb is not None:
+        print(f"  locked rotor: l_s = {rb.l_s:.6g} H, l_r = {rb.l_r:.6g} H, R_r = {rb.R_r:.6g} Ohm "
+              f"(main flux {rb.psi_m:.4g} Wb in the test)", file=stream)
+    if losses is not None:
+        print(f"  core loss: R_fe = {losses.R_fe:.6g} Ohm" + (" (none found)" if losses.R_fe == 0.0 else "")
+              + f", friction and windage {losses.P_fw:.4g} W (fit RMS {losses.rms:.3g} W)", file=stream)
+    print(f"  written: {Path(out) / 'fit.yaml'}, curve_table.csv, fit.png"
+          + (f", {motor_yaml}" if motor_yaml is not None else ""), file=stream)
     return best

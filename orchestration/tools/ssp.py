@@ -35,6 +35,7 @@ from orchestration.build import native_fmus, signals_fmu
 from orchestration.build import native_model_description as nmd
 from orchestration.build.native_build import PLATFORMS, ZIP_DATE
 from orchestration.build.ssd import COMPONENTS, RESOURCES, SIGNALS_UNIT, NotExpressible, ssd_xml
+from orchestration.results.atomic import describe
 from orchestration.scenario.system import CONTROLLER, DEFAULT_CONNECTIONS, PLANT
 
 __all__ = ["NotExpressible", "NotWritable", "export", "check_expressible"]
@@ -116,16 +117,24 @@ def export(scenario, out, plant_fmu, controller_fmu, connections=DEFAULT_CONNECT
                  for p in paths.values())
     check_expressible(scenario, embed_files=native)
     out = Path(out)
+    if out.is_dir():  # os.replace would fail at the very end, after the whole package was built
+        raise NotWritable(f"{out}: is a directory; export-ssp writes one file, e.g. "
+                          f"{out / (scenario.name + '.ssp')}")
     partial = out.with_name(f".{out.name}.{os.getpid()}.partial")  # the usual permissions (umask)
     try:  # OUT must be writable before anything is built
         out.parent.mkdir(parents=True, exist_ok=True)
         fh = open(partial, "xb")
     except OSError as exc:
-        raise NotWritable(f"{out}: cannot write the SSP package: {exc}") from exc
+        raise NotWritable(f"{out}: cannot write the SSP package: {describe(exc)}") from exc
     try:
         with fh, tempfile.TemporaryDirectory(prefix="sm_ssp_") as tmp:
             _write(scenario, fh, paths, _platforms_of(plant_fmu), connections, Path(tmp))
         os.replace(partial, out)
+    except OSError as exc:  # a full disk, OUT made a directory meanwhile: nothing left behind
+        partial.unlink(missing_ok=True)
+        if isinstance(exc, NotWritable):
+            raise
+        raise NotWritable(f"{out}: cannot write the SSP package: {describe(exc, out)}") from exc
     except BaseException:
         partial.unlink(missing_ok=True)
         raise

@@ -168,6 +168,11 @@ class _Drive:
         self._delay = DelayCompensator(params, Ts) if drive_cfg.delay_samples else None
         self.reset()
 
+    @property
+    def V_max(self):
+        """Largest stator voltage magnitude [V] the law may apply: V_dc / sqrt(3)."""
+        return self._V_max
+
     def reset(self):
         self._phase = PREMAG
         self._n = 0

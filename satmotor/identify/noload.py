@@ -39,6 +39,16 @@ phase peak; :mod:`satmotor.machine.plant`), through these steps and corrections:
    current: small near rated voltage, large at low voltage where the friction (and iron-loss)
    current is a large part of the line current.  Record P_in when you can.
 
+6. Measurement tolerance.  ``P_in`` below the stator copper loss ``3 R_s I_rms^2`` is impossible
+   for the model, but real (and exactly lossless synthetic) data get there by rounding and noise.
+   Within ``copper_tol`` (relative, default 5 %) below it, the row is taken as **no loss**
+   (``P_in = 3 R_s I_rms^2``) and a warning names the row; further below, the row is refused.
+7. Iron loss.  ``P_in - 3 R_s I_rms^2`` (the no-load loss ``P_loss``) is core loss plus friction
+   and windage: :func:`separate_losses` fits ``P_loss = 3/2 |E_m|^2 / R_fe + P_fw`` over the rows
+   (core loss in a resistance R_fe across the main field; friction constant at the near-synchronous
+   no-load speed: the classical separation).  Given ``R_fe``, the core-loss current ``|E_m| / R_fe``
+   is removed from the in-phase current before the rotor-leakage correction of step 4.
+
 Errors are :class:`satmotor.errors.ParameterError` naming the quantity and, in ``field``, the row
 index (``V_ll_rms[3]``); the CLI (``orchestration.tools.fit_curve``) maps the index to the file line.
 """
@@ -53,6 +63,7 @@ import numpy as np
 from satmotor.errors import ParameterError, require_number
 
 SQRT2, SQRT3 = math.sqrt(2.0), math.sqrt(3.0)
+COPPER_TOL = 0.05  # [1] P_in this far below the stator copper loss is taken as no loss (step 6)
 
 
 class MagnetizingPoints(NamedTuple):
@@ -62,6 +73,17 @@ class MagnetizingPoints(NamedTuple):
     psi_m: np.ndarray  # [Wb] peak main flux linkage
     I_s: np.ndarray  # [A] peak line (stator) current
     cos_phi: np.ndarray | None  # [1] power factor (None: no P_in, current assumed purely magnetizing)
+    E_m: np.ndarray | None = None  # [V] peak main-flux EMF |E_m| (None without P_in)
+    P_loss: np.ndarray | None = None  # [W] P_in - 3 R_s I_rms^2 (>= 0; None without P_in)
+    warnings: tuple = ()  # ((row index, message), ...): rows taken as lossless (step 6)
+
+
+class LossSeparation(NamedTuple):
+    """Result of :func:`separate_losses`."""
+
+    R_fe: float  # [Ohm] core-loss resistance across the main field (0: no core loss found)
+    P_fw: float  # [W] friction and windage loss (constant over the rows)
+    rms: float  # [W] RMS residual of the fit of P_loss
 
 
 def _row_array(name, values, n=None):
@@ -75,7 +97,7 @@ def _row_array(name, values, n=None):
     return a
 
 
-def magnetizing_points(V_ll_rms, I_rms, f, R_s, l_s, P_in=None, l_r=None):
+def magnetizing_points(V_ll_rms, I_rms, f, R_s, l_s, P_in=None, l_r=None, copper_tol=COPPER_TOL, R_fe=0.0):
     """Convert no-load test rows to magnetizing points (see the module docstring).
 
     Parameters
@@ -89,6 +111,10 @@ def magnetizing_points(V_ll_rms, I_rms, f, R_s, l_s, P_in=None, l_r=None):
     l_r : float or None
         Rotor leakage inductance [H] for the rotor-leakage correction (used with P_in only);
         None: ``l_r = l_s``.
+    copper_tol : float
+        Relative tolerance [1], >= 0, of P_in below the stator copper loss (step 6).
+    R_fe : float
+        Core-loss resistance [Ohm] (0: none), its current left out of the rotor-leakage correction.
 
     Returns
     -------
@@ -97,6 +123,9 @@ def magnetizing_points(V_ll_rms, I_rms, f, R_s, l_s, P_in=None, l_r=None):
     R_s = require_number("R_s", R_s, 0.0, inclusive=True)
     l_s = require_number("l_s", l_s, 0.0, inclusive=True)
     l_r = l_s if l_r is None else require_number("l_r", l_r, 0.0, inclusive=True)
+    copper_tol = require_number("copper_tol", copper_tol, 0.0, inclusive=True)
+    R_fe = require_number("R_fe", R_fe, 0.0, inclusive=True)
+    warnings = []
     V_ll = _row_array("V_ll_rms", V_ll_rms)
     n = V_ll.size
     I_r = _row_array("I_rms", I_rms, n)
@@ -118,9 +147,9 @@ def magnetizing_points(V_ll_rms, I_rms, f, R_s, l_s, P_in=None, l_r=None):
                                  f"is below the stator resistance drop R_s I = {R_s * I[k]:.6g} V (peak)")
         psi = np.sqrt(rad) / w - l_s * I
         i_mu = I.copy()
-        cos_phi = None
+        cos_phi = Eabs = P_loss = None
     else:
-        P = _row_array("P_in", P_in, n)
+        P = _row_array("P_in", P_in, n).copy()
         S = SQRT3 * V_ll * I_r
         for k in range(n):
             if P[k] < 0.0:
@@ -129,9 +158,15 @@ def magnetizing_points(V_ll_rms, I_rms, f, R_s, l_s, P_in=None, l_r=None):
                 raise ParameterError(f"P_in[{k}]", float(P[k]), f"is greater than the apparent power "
                                      f"sqrt(3) V_ll_rms I_rms = {S[k]:.6g} VA")
             copper = 1.5 * R_s * I[k] ** 2  # = 3 R_s I_rms^2
-            if P[k] < copper:
+            if P[k] < copper * (1.0 - copper_tol):
                 raise ParameterError(f"P_in[{k}]", float(P[k]), f"is less than the stator copper loss "
-                                     f"3 R_s I_rms^2 = {copper:.6g} W: check R_s and P_in")
+                                     f"3 R_s I_rms^2 = {copper:.6g} W by more than the tolerance "
+                                     f"{copper_tol:.3g} (relative): check R_s and P_in")
+            if P[k] < copper:
+                warnings.append((k, f"P_in = {float(P[k])!r} W is below the stator copper loss "
+                                    f"3 R_s I_rms^2 = {copper:.6g} W, within the tolerance {copper_tol:.3g}: "
+                                    "taken as no loss"))
+                P[k] = min(copper, S[k])
         cos_phi = P / S
         sin_phi = np.sqrt(np.clip(1.0 - cos_phi * cos_phi, 0.0, None))
         Ic = I * (cos_phi - 1j * sin_phi)  # the voltage phasor on the real axis, current lagging by phi
@@ -142,10 +177,35 @@ def magnetizing_points(V_ll_rms, I_rms, f, R_s, l_s, P_in=None, l_r=None):
         with np.errstate(divide="ignore", invalid="ignore"):
             i_quad = np.real(1j * Ic * np.conj(E)) / Eabs
             i_p = np.real(Ic * np.conj(E)) / Eabs  # in phase with E_m: rotor (friction) / iron-loss current
-        i_mu = i_quad - i_p * i_p * w * l_r / Eabs  # minus the lagging part of the rotor-branch current
+        i_rot = np.clip(i_p - (Eabs / R_fe if R_fe > 0.0 else 0.0), 0.0, None)  # the rotor's in-phase part
+        i_mu = i_quad - i_rot * i_rot * w * l_r / Eabs  # minus the lagging part of the rotor-branch current
+        P_loss = np.clip(P - 1.5 * R_s * I * I, 0.0, None)
     for k in range(n):
         if not (psi[k] > 0.0 and i_mu[k] > 0.0):
             raise ParameterError(f"row[{k}]", (float(V_ll[k]), float(I_r[k])),
                                  f"gives no positive magnetizing point (psi_m = {psi[k]:.6g} Wb, "
                                  f"i_mu = {i_mu[k]:.6g} A): check R_s, l_s and the row's values")
-    return MagnetizingPoints(i_mu, psi, I, cos_phi)
+    return MagnetizingPoints(i_mu, psi, I, cos_phi, Eabs, P_loss, tuple(warnings))
+
+
+CORE_LOSS_FLOOR = 1e-6  # [1] a core loss below this share of the input power (top row) is none
+
+
+def separate_losses(E_m, P_loss, P_in):
+    """Core loss and friction from the no-load loss: least squares of ``P_loss = 3/2 E_m^2 / R_fe +
+    P_fw`` over the rows (``E_m`` [V] peak EMF, ``P_loss`` [W], as :class:`MagnetizingPoints` gives
+    them; ``P_in`` [W] the input power); :class:`LossSeparation`.  No loss growing with the voltage
+    (a slope <= 0, or a core loss at the highest EMF below ``CORE_LOSS_FLOOR`` of that row's input
+    power) gives ``R_fe = 0`` (none) and ``P_fw`` the mean loss.  At least 2 rows."""
+    E2 = np.asarray(E_m, dtype=float) ** 2
+    y = np.asarray(P_loss, dtype=float)
+    if E2.size < 2 or y.size != E2.size:
+        raise ParameterError("P_in", y.size, "needs at least 2 rows to separate core and friction loss")
+    A = np.column_stack([E2, np.ones_like(E2)])
+    (slope, P_fw), *_ = np.linalg.lstsq(A, y, rcond=None)
+    top = int(np.argmax(E2))
+    if not slope * E2[top] > CORE_LOSS_FLOOR * float(np.asarray(P_in, dtype=float)[top]):
+        P_fw = float(np.mean(y))
+        return LossSeparation(0.0, P_fw, float(np.sqrt(np.mean((y - P_fw) ** 2))))
+    rms = float(np.sqrt(np.mean((A @ np.array([slope, P_fw]) - y) ** 2)))
+    return LossSeparation(1.5 / float(slope), float(P_fw), rms)

@@ -296,9 +296,12 @@ class PolynomialCurve(_Curve):
     """Inverse-polynomial characteristic ``I = psi / L_m0 + poly_b psi**poly_n``.
 
     The classical single-valued approximation of a magnetization curve by a
-    polynomial in the flux (a linear term plus one odd power, typically n = 7 to
+    polynomial in the flux (a linear term plus one power, typically n = 7 to
     13), written for the current so that psi(I) is strictly increasing for every
-    ``poly_b >= 0``.  Then ``m = 1 / (1/L_m0 + poly_b psi**(n-1))``.
+    ``poly_b >= 0``.  Then ``m = 1 / (1/L_m0 + poly_b psi**(n-1))``.  The curve maps the
+    magnitudes ``psi = |psi_m| >= 0`` and ``I = |i_mu|``, so an even n is as valid as an odd one:
+    the curve of Qu et al. (2012), ``L_s(psi) = 0.34 / (1 + (0.84 psi)**7)`` H, is exactly
+    ``I = psi/0.34 + (0.84**7/0.34) psi**8`` (n = 8, see :mod:`satmotor.machine.library`).
 
     Parameters
     ----------
@@ -307,7 +310,7 @@ class PolynomialCurve(_Curve):
     poly_b : float
         Coefficient of the saturating term [A / Wb**poly_n], >= 0.
     poly_n : int
-        Odd exponent >= 3.
+        Exponent, an integer >= 2 (odd or even).
     """
 
     L_m0: float = 0.2772
@@ -318,8 +321,7 @@ class PolynomialCurve(_Curve):
     def __post_init__(self):
         require_number("L_m0", self.L_m0, 0)
         require_number("poly_b", self.poly_b, 0, inclusive=True)
-        if require_integer("poly_n", self.poly_n, 3) % 2 != 1:
-            raise ParameterError("poly_n", self.poly_n, "must be an odd integer >= 3")
+        require_integer("poly_n", self.poly_n, 2)
 
     @property
     def m0(self):

@@ -51,7 +51,8 @@ class MotorParams:
     R_s, R_r : float
         Stator and rotor resistance [Ohm].
     l_s, l_r : float
-        Stator and rotor leakage inductance [H].
+        Stator and rotor leakage inductance [H]; l_s >= 0 (0: the Gamma-equivalent model,
+        :mod:`satmotor.machine.forms`), l_r > 0.
     k : float
         Turns ratio k = k_r n_r / (k_s n_s) [1] (seed eq 1).
     n_p : int
@@ -76,7 +77,8 @@ class MotorParams:
 
     def __post_init__(self):
         for name in ("R_s", "R_r", "l_s", "l_r", "k", "J"):
-            require_number(name, getattr(self, name), 0)
+            # l_s = 0: the Gamma-equivalent model
+            require_number(name, getattr(self, name), 0, inclusive=name == "l_s")
         require_integer("n_p", self.n_p, 1)
         require_number("B", self.B, 0, inclusive=True)
         if not hasattr(self.curve, "solve"):
@@ -89,7 +91,9 @@ class MotorParams:
 
     @property
     def l_e(self):
-        """Parallel leakage l_e = 1 / (1/l_s + k^2/l_r) [H]."""
+        """Parallel leakage l_e = 1 / (1/l_s + k^2/l_r) [H]; 0 for l_s = 0 (the Gamma model)."""
+        if self.l_s == 0.0:
+            return 0.0
         return 1.0 / (1.0 / self.l_s + self.k * self.k / self.l_r)
 
     @property

@@ -25,6 +25,12 @@ Currents from fluxes: eliminating i_s and i_r gives
 ``(l_e + m(I)) i_mu = l_e (psi_s/l_s + k psi_r/l_r)`` with ``1/l_e = 1/l_s + k^2/l_r``,
 so i_mu is collinear with ``u = psi_s/l_s + k psi_r/l_r`` and its magnitude is the
 scalar root of ``l_e I + psi_m(I) = l_e |u|`` (unique: the left side increases).
+
+The Gamma-equivalent model is the case ``l_s = 0`` (exact, not a limit; all the stator-side
+leakage is in l_r).  Then ``psi_s = m(I) i_mu`` is the main flux itself, so i_mu is collinear with
+psi_s and ``I = |i_mu|`` solves ``psi_m(I) = |psi_s|`` (the inverse curve, ``curve.solve(0, |psi_s|)``);
+then ``i_r = (psi_r - k psi_s) / l_r`` and ``i_s = i_mu - k i_r``.  (Substituting: ``psi_r = l_r i_r +
+k m i_mu`` is the seed's rotor equation; ``i_s + k i_r = i_mu`` its definition of i_mu.)
 """
 
 from __future__ import annotations
@@ -67,13 +73,14 @@ class Plant:
     """
 
     __slots__ = ("p", "B_2", "_curve", "_inv_ls", "_k_lr", "_le", "_k", "_ls", "_lr", "_Rs", "_Rr",
-                 "_np", "_kappa", "_inv_J", "_B", "_B2", "_m0")
+                 "_np", "_kappa", "_inv_J", "_B", "_B2", "_m0", "_gamma")
 
     def __init__(self, params, B_2=0.0):
         self.p = params
         self.B_2 = self._B2 = require_number("B_2", B_2, 0, inclusive=True)
         self._curve = params.curve
-        self._inv_ls = 1.0 / params.l_s
+        self._gamma = params.l_s == 0.0  # the Gamma-equivalent model (module docstring)
+        self._inv_ls = 0.0 if self._gamma else 1.0 / params.l_s
         self._k_lr = params.k / params.l_r
         self._le = params.l_e
         self._k = params.k
@@ -87,8 +94,27 @@ class Plant:
         self._B = params.B
         self._m0 = params.curve.m0
 
+    def _magnetizing_gamma(self, psa, psb):
+        """:meth:`magnetizing` for l_s = 0: i_mu along psi_s, ``psi_m(I) = |psi_s|``."""
+        pn = math.hypot(psa, psb)
+        I, psi = self._curve.solve(0.0, pn)
+        if I == 0.0:
+            return 0.0, 0.0, 0.0, 0.0, self._m0
+        s = I / pn
+        return s * psa, s * psb, I, psi, psi / I
+
+    def _currents_gamma(self, psa, psb, pra, prb):
+        """``(i_s_alpha, i_s_beta, i_r_alpha, i_r_beta, i_mu_alpha, i_mu_beta, I, psi_m, m)`` for l_s = 0."""
+        ima, imb, I, psi, m = self._magnetizing_gamma(psa, psb)
+        k = self._k
+        ira = (pra - k * psa) / self._lr
+        irb = (prb - k * psb) / self._lr
+        return ima - k * ira, imb - k * irb, ira, irb, ima, imb, I, psi, m
+
     def magnetizing(self, psa, psb, pra, prb):
         """Return ``(i_mu_alpha, i_mu_beta, I, psi_m, m)`` from the four fluxes [Wb]."""
+        if self._gamma:
+            return self._magnetizing_gamma(psa, psb)
         ua = psa * self._inv_ls + self._k_lr * pra
         ub = psb * self._inv_ls + self._k_lr * prb
         un = math.hypot(ua, ub)
@@ -102,6 +128,8 @@ class Plant:
     def derivatives(self, t, x, v_a, v_b, T_load):
         """Right-hand side ``dx/dt`` [SI per s] for constant inputs over the call (state order)."""
         psa, psb, pra, prb, w = x[PSI_S_A], x[PSI_S_B], x[PSI_R_A], x[PSI_R_B], x[OMEGA_M]
+        if self._gamma:
+            return self._derivatives_gamma(psa, psb, pra, prb, w, v_a, v_b, T_load)
         # self.magnetizing written out (same operations): one call less per evaluation
         ua = psa * self._inv_ls + self._k_lr * pra
         ub = psb * self._inv_ls + self._k_lr * prb
@@ -131,9 +159,27 @@ class Plant:
             w,
         )
 
+    def _derivatives_gamma(self, psa, psb, pra, prb, w, v_a, v_b, T_load):
+        """:meth:`derivatives` for l_s = 0 (the same equations, the currents of :meth:`_currents_gamma`)."""
+        isa, isb, ira, irb = self._currents_gamma(psa, psb, pra, prb)[:4]
+        we = self._np * w
+        te = self._kappa * (psa * isb - psb * isa)
+        return (
+            v_a - self._Rs * isa,
+            v_b - self._Rs * isb,
+            -self._Rr * ira - we * prb,
+            -self._Rr * irb + we * pra,
+            (te - T_load - (self._B + self._B2 * abs(w)) * w) * self._inv_J,
+            w,
+        )
+
     def outputs(self, x):
         """Currents, magnetizing state and torque at state ``x``."""
         psa, psb, pra, prb = x[PSI_S_A], x[PSI_S_B], x[PSI_R_A], x[PSI_R_B]
+        if self._gamma:
+            isa, isb, ira, irb, ima, imb, I, psi, m = self._currents_gamma(psa, psb, pra, prb)
+            te = self._kappa * (psa * isb - psb * isa)
+            return PlantOutputs(isa, isb, ira, irb, ima, imb, I, psi, m, te)
         ima, imb, I, psi, m = self.magnetizing(psa, psb, pra, prb)
         isa = (psa - m * ima) * self._inv_ls
         isb = (psb - m * imb) * self._inv_ls

@@ -1,6 +1,7 @@
 /* ControllerUnit of satmotor/interface.py in C (see sm_controller.h). */
 #include "sm_controller.h"
 
+#include <float.h>
 #include <math.h>
 #include <stdio.h>
 #include <string.h>
@@ -107,41 +108,39 @@ int sm_controller_init(sm_controller *u, const sm_controller_params *v, const sm
         return st;
     }
     u->Ts = v->Ts;
+    u->stop_time = INFINITY;
     for (j = 0; j < SM_CONTROLLER_N_OUT; ++j) {
         u->out[j] = 0.0;
     }
     return SM_CORE_OK;
 }
 
-int sm_controller_step(sm_controller *u, double t, double dt, const double in[SM_CONTROLLER_N_IN], char *msg,
-                       size_t msg_len)
+long sm_controller_samples(const sm_controller *u, double t, double dt)
 {
-    double sum = 0.0;
+    const double x = dt / u->Ts + 0.5;
+    double n, tol;
+    if (dt == u->Ts) { /* the common step: the rule below gives 1 too */
+        return 1;
+    }
+    if (!(x >= 0.0 && x < SM_MAX_SAMPLES + 1.0)) { /* also NaN */
+        return -1;
+    }
+    n = floor(x); /* the nearest whole number of samples */
+    tol = SM_STEP_ULPS * DBL_EPSILON * fmax(n * u->Ts, fmax(fabs(t), fabs(t + dt)));
+    if (n >= 1.0 && fabs(dt - n * u->Ts) <= tol) {
+        return (long)n;
+    }
+    if (n == 0.0 && dt <= SM_STOP_REMAINDER * u->Ts && fabs(t + dt - u->stop_time) <= tol) {
+        return 0;
+    }
+    return -1;
+}
+
+/* one sample from the inputs in; the outputs in u->out */
+static int sample(sm_controller *u, const double in[SM_CONTROLLER_N_IN], char *msg, size_t msg_len)
+{
     sm_drive_output d;
-    int st, j;
-    (void)t;
-    if (!(fabs(dt - u->Ts) <= 1e-9 * u->Ts)) {
-        char reason[96], repr[32], drepr[32];
-        (void)snprintf(reason, sizeof reason, "must equal the sample period Ts = %s s",
-                       sm_repr_double(u->Ts, repr, sizeof repr));
-        return sm_param_error(msg, msg_len, NULL, "communicationStepSize", sm_repr_double(dt, drepr, sizeof drepr),
-                              reason);
-    }
-    for (j = 0; j < SM_CONTROLLER_N_IN; ++j) {
-        if (j != SM_CONTROLLER_IN_omega_m || !u->drive.dc.speed_estimated) { /* estimated: omega_m is not read */
-            sum += in[j];
-        }
-    }
-    if (!isfinite(sum)) {
-        for (j = 0; j < SM_CONTROLLER_N_IN; ++j) {
-            if (j == SM_CONTROLLER_IN_omega_m && u->drive.dc.speed_estimated) {
-                continue;
-            }
-            if ((st = sm_require_number(SM_CONTROLLER_INPUT_NAMES[j], in[j], 0, 0.0, 0, msg, msg_len))) {
-                return st;
-            }
-        }
-    }
+    int st;
     /* the first SM_MEAS_LEN inputs are the drive's measurement vector, in its order */
     if ((st = sm_drive_step(&u->drive, in, in[SM_CONTROLLER_IN_omega_ref], in[SM_CONTROLLER_IN_psi_ref],
                             in[SM_CONTROLLER_IN_T_load], &d, msg, msg_len))) {
@@ -166,5 +165,49 @@ int sm_controller_step(sm_controller *u, double t, double dt, const double in[SM
     u->out[16] = (double)d.current_limited;
     u->out[17] = (double)d.singular_limited;
     u->out[18] = d.omega_m_hat;
+    return SM_CORE_OK;
+}
+
+int sm_controller_step(sm_controller *u, double t, double dt, const double in[SM_CONTROLLER_N_IN], char *msg,
+                       size_t msg_len)
+{
+    double sum = 0.0;
+    long n, k;
+    int st, j;
+    n = sm_controller_samples(u, t, dt);
+    if (n < 0) {
+        char reason[112], repr[32], drepr[32];
+        (void)snprintf(reason, sizeof reason, "must be a whole multiple of the sample period Ts = %s s",
+                       sm_repr_double(u->Ts, repr, sizeof repr));
+        return sm_param_error(msg, msg_len, NULL, "communicationStepSize", sm_repr_double(dt, drepr, sizeof drepr),
+                              reason);
+    }
+    for (j = 0; j < SM_CONTROLLER_N_IN; ++j) {
+        if (j != SM_CONTROLLER_IN_omega_m || !u->drive.dc.speed_estimated) { /* estimated: omega_m is not read */
+            sum += in[j];
+        }
+    }
+    if (!isfinite(sum)) {
+        for (j = 0; j < SM_CONTROLLER_N_IN; ++j) {
+            if (j == SM_CONTROLLER_IN_omega_m && u->drive.dc.speed_estimated) {
+                continue;
+            }
+            if ((st = sm_require_number(SM_CONTROLLER_INPUT_NAMES[j], in[j], 0, 0.0, 0, msg, msg_len))) {
+                return st;
+            }
+        }
+    }
+    if (n == 1) {
+        return sample(u, in, msg, msg_len); /* changes nothing when it fails */
+    }
+    if (n > 1) {
+        sm_controller before = *u; /* a failed sample leaves the controller as it was before the step */
+        for (k = 0; k < n; ++k) {
+            if ((st = sample(u, in, msg, msg_len))) {
+                *u = before;
+                return st;
+            }
+        }
+    }
     return SM_CORE_OK;
 }

@@ -970,11 +970,7 @@ int sm_curve_init(sm_curve *c, const char *name, double L_m0, double L_m_inf, do
     if (strcmp(name, "polynomial") == 0) {
         if (sm_require_number("L_m0", L_m0, 1, 0.0, 0, msg, msg_len)) return SM_ERR_PARAM;
         if (sm_require_number("poly_b", poly_b, 1, 0.0, 1, msg, msg_len)) return SM_ERR_PARAM;
-        if (sm_require_integer("poly_n", poly_n, 3, msg, msg_len)) return SM_ERR_PARAM;
-        if (poly_n % 2 != 1) {
-            snprintf(v, sizeof v, "%d", poly_n);
-            return sm_param_error(msg, msg_len, NULL, "poly_n", v, "must be an odd integer >= 3");
-        }
+        if (sm_require_integer("poly_n", poly_n, 2, msg, msg_len)) return SM_ERR_PARAM;
         memset(c, 0, sizeof *c);
         c->kind = SM_CURVE_POLYNOMIAL;
         c->L_m0 = L_m0;

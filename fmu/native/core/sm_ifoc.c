@@ -30,7 +30,8 @@ int sm_ifoc_init(sm_ifoc *c, double R_s, double R_r, double l_s, double l_r, dou
         return bad(msg, msg_len, "ifoc", 0.0, "NULL argument");
     }
     if (positive(msg, msg_len, "R_s", R_s) || positive(msg, msg_len, "R_r", R_r) ||
-        positive(msg, msg_len, "l_s", l_s) || positive(msg, msg_len, "l_r", l_r) ||
+        (!(isfinite(l_s) && l_s >= 0.0) && bad(msg, msg_len, "l_s", l_s, "must be a finite number >= 0")) ||
+        positive(msg, msg_len, "l_r", l_r) ||
         positive(msg, msg_len, "k", k) || positive(msg, msg_len, "J", J) ||
         positive(msg, msg_len, "w_c", g->w_c) || positive(msg, msg_len, "w_speed", g->w_speed) ||
         positive(msg, msg_len, "I_max", g->I_max) || positive(msg, msg_len, "V_dc", g->V_dc) ||

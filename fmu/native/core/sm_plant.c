@@ -42,8 +42,8 @@ int sm_motor_init(sm_motor *p, const sm_motor_params *m, const sm_plant_params *
     vals[2] = m->l_s;
     vals[3] = m->l_r;
     vals[4] = m->k;
-    for (i = 0; i < 5; ++i)
-        if (sm_require_number(names[i], vals[i], 1, 0.0, 0, msg, msg_len)) return SM_ERR_PARAM;
+    for (i = 0; i < 5; ++i) /* l_s = 0 (i == 2): the Gamma-equivalent model */
+        if (sm_require_number(names[i], vals[i], 1, 0.0, i == 2, msg, msg_len)) return SM_ERR_PARAM;
     if (sm_require_number("J", m->J, 1, 0.0, 0, msg, msg_len)) return SM_ERR_PARAM;
     if (sm_require_integer("n_p", m->n_p, 1, msg, msg_len)) return SM_ERR_PARAM;
     if (sm_require_number("B", m->B, 1, 0.0, 1, msg, msg_len)) return SM_ERR_PARAM;
@@ -62,9 +62,10 @@ int sm_motor_init(sm_motor *p, const sm_motor_params *m, const sm_plant_params *
     q.B = m->B;
     q.B_2 = pp->B_2;
     /* Plant.__init__ */
-    q.inv_ls = 1.0 / q.l_s;
+    q.gamma = q.l_s == 0.0;
+    q.inv_ls = q.gamma ? 0.0 : 1.0 / q.l_s;
     q.k_lr = q.k / q.l_r;
-    q.le = 1.0 / (1.0 / q.l_s + q.k * q.k / q.l_r); /* MotorParams.l_e */
+    q.le = q.gamma ? 0.0 : 1.0 / (1.0 / q.l_s + q.k * q.k / q.l_r); /* MotorParams.l_e */
     q.kappa = 1.5 * (double)q.n_p;
     q.inv_J = 1.0 / q.J;
     q.m0 = q.curve.m0;
@@ -81,15 +82,51 @@ int sm_motor_init(sm_motor *p, const sm_motor_params *m, const sm_plant_params *
     return SM_CORE_OK;
 }
 
+/* Plant._magnetizing_gamma (l_s = 0): i_mu along psi_s, psi_m(I) = |psi_s| */
+static int magnetizing_gamma(const sm_motor *p, double psa, double psb, double *ima, double *imb, double *I_out,
+                             double *psi_out, double *m_out)
+{
+    double pn = sm_hypot(psa, psb), I, psi, s;
+    int st = sm_curve_solve(&p->curve, 0.0, pn, &I, &psi);
+    if (st) return st;
+    if (I == 0.0) {
+        *ima = 0.0;
+        *imb = 0.0;
+        *I_out = 0.0;
+        *psi_out = 0.0;
+        *m_out = p->m0;
+        return SM_CORE_OK;
+    }
+    s = I / pn;
+    *ima = s * psa;
+    *imb = s * psb;
+    *I_out = I;
+    *psi_out = psi;
+    *m_out = psi / I;
+    return SM_CORE_OK;
+}
+
+/* Plant._currents_gamma: i_r = (psi_r - k psi_s) / l_r, i_s = i_mu - k i_r */
+static void currents_gamma(const sm_motor *p, double psa, double psb, double pra, double prb, double ima,
+                           double imb, double *isa, double *isb, double *ira, double *irb)
+{
+    *ira = (pra - p->k * psa) / p->l_r;
+    *irb = (prb - p->k * psb) / p->l_r;
+    *isa = ima - p->k * *ira;
+    *isb = imb - p->k * *irb;
+}
+
 /* Plant.magnetizing: (i_mu_alpha, i_mu_beta, I, psi_m, m) */
 static int magnetizing(const sm_motor *p, double psa, double psb, double pra, double prb, double *ima,
                        double *imb, double *I_out, double *psi_out, double *m_out)
 {
-    double ua = psa * p->inv_ls + p->k_lr * pra;
-    double ub = psb * p->inv_ls + p->k_lr * prb;
-    double un = sm_hypot(ua, ub);
-    double le = p->le, I, psi, s;
-    int st = sm_curve_solve(&p->curve, le, le * un, &I, &psi);
+    double ua, ub, un, le = p->le, I, psi, s;
+    int st;
+    if (p->gamma) return magnetizing_gamma(p, psa, psb, ima, imb, I_out, psi_out, m_out);
+    ua = psa * p->inv_ls + p->k_lr * pra;
+    ub = psb * p->inv_ls + p->k_lr * prb;
+    un = sm_hypot(ua, ub);
+    st = sm_curve_solve(&p->curve, le, le * un, &I, &psi);
     if (st) return st;
     if (I == 0.0) {
         *ima = 0.0;
@@ -128,11 +165,15 @@ int sm_plant_derivatives(const sm_motor *p, const double x[6], double v_a, doubl
         for (i = 0; i < 6; ++i) dx[i] = NAN;
         return st;
     }
-    isa = (psa - m * ima) * p->inv_ls;
-    isb = (psb - m * imb) * p->inv_ls;
-    km = p->k * m;
-    ira = (pra - km * ima) / p->l_r;
-    irb = (prb - km * imb) / p->l_r;
+    if (p->gamma) {
+        currents_gamma(p, psa, psb, pra, prb, ima, imb, &isa, &isb, &ira, &irb);
+    } else {
+        isa = (psa - m * ima) * p->inv_ls;
+        isb = (psb - m * imb) * p->inv_ls;
+        km = p->k * m;
+        ira = (pra - km * ima) / p->l_r;
+        irb = (prb - km * imb) / p->l_r;
+    }
     we = (double)p->n_p * w;
     te = p->kappa * (psa * isb - psb * isa);
     dx[0] = v_a - p->R_s * isa;
@@ -164,13 +205,17 @@ int sm_plant_outputs_of(const sm_motor *p, const double x[6], sm_plant_outputs *
         o->i_mu_alpha = o->i_mu_beta = o->i_mu = o->psi_m = o->m = o->T_e = NAN;
         return st;
     }
-    isa = (psa - m * ima) * p->inv_ls;
-    isb = (psb - m * imb) * p->inv_ls;
-    km = p->k * m;
+    if (p->gamma) {
+        currents_gamma(p, psa, psb, pra, prb, ima, imb, &isa, &isb, &o->i_r_alpha, &o->i_r_beta);
+    } else {
+        isa = (psa - m * ima) * p->inv_ls;
+        isb = (psb - m * imb) * p->inv_ls;
+        km = p->k * m;
+        o->i_r_alpha = (pra - km * ima) / p->l_r;
+        o->i_r_beta = (prb - km * imb) / p->l_r;
+    }
     o->i_s_alpha = isa;
     o->i_s_beta = isb;
-    o->i_r_alpha = (pra - km * ima) / p->l_r;
-    o->i_r_beta = (prb - km * imb) / p->l_r;
     o->i_mu_alpha = ima;
     o->i_mu_beta = imb;
     o->i_mu = I;

@@ -20,6 +20,7 @@ typedef struct {
     sm_curve curve;
     /* derived constants, as Plant.__init__ precomputes them */
     double inv_ls, k_lr, le, kappa, inv_J, m0;
+    int gamma; /* l_s == 0: the Gamma-equivalent model (Plant._gamma) */
     /* PlantUnit parameters */
     double omega_m0, psi_r0, h_int;
     double x0[SM_N_STATES]; /* initial_state(params, omega_m0, psi_r_alpha = psi_r0) */

@@ -101,12 +101,15 @@ void fg_instance_reset(fg_instance *inst)
 {
     memset(inst->data, 0, FG_MODEL_DATA_SIZE);
     inst->phase = FG_PHASE_INSTANTIATED;
+    inst->me_continuous = 0;
     inst->time = 0.0;
+    inst->stop_time = INFINITY;
     fg_model_start(inst, inst->data);
 }
 
 const char *fg_instance_name(const fg_instance *inst) { return inst ? inst->name : NULL; }
 const char *fg_resource_path(const fg_instance *inst) { return inst ? inst->resource_path : NULL; }
+double fg_stop_time(const fg_instance *inst) { return inst ? inst->stop_time : INFINITY; }
 
 void fg_log(fg_instance *inst, fg_status status, const char *category, const char *fmt, ...)
 {

@@ -6,6 +6,11 @@
 
 #include "fg_model.h"
 
+/* a source-code FMU carries its identity in fg_identity.h beside the sources (written by the build),
+ * so that `cc -shared *.c` needs no -D; the build itself passes both with -D */
+#if !defined(MODEL_IDENTIFIER) && !defined(INSTANTIATION_TOKEN)
+#include "fg_identity.h"
+#endif
 #if !defined(MODEL_IDENTIFIER) || !defined(INSTANTIATION_TOKEN)
 #error "compile with -DMODEL_IDENTIFIER=<id> -DINSTANTIATION_TOKEN=\"{guid}\""
 #endif
@@ -36,7 +41,9 @@ struct fg_instance {
     fg_emit_fn emit;
     int logging_on;
     fg_phase phase;
+    int me_continuous;          /* model exchange in FG_PHASE_STEP: 1 continuous-time mode, 0 event mode */
     double time;
+    double stop_time;           /* the host's stop time, +inf when it gave none */
     void *data;                 /* FG_MODEL_DATA_SIZE bytes */
 };
 

@@ -56,6 +56,8 @@ void fg_log(fg_instance *inst, fg_status status, const char *category, const cha
     ;
 const char *fg_instance_name(const fg_instance *inst);
 const char *fg_resource_path(const fg_instance *inst);  /* a directory path ending in '/', or NULL */
+/* the host's stop time [s] (fmi2SetupExperiment / fmi3EnterInitializationMode), +inf if it gave none */
+double fg_stop_time(const fg_instance *inst);
 
 /* ---- implemented by the model ---- */
 extern const fg_variable FG_MODEL_VARIABLES[];

@@ -1,4 +1,5 @@
 /* fmi2_glue.c - FMI 2.0 co-simulation functions over fg_instance (model agnostic) */
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -7,6 +8,11 @@
 #include "fg_instance.h"
 
 #define INST ((fg_instance *)c)
+#ifdef FG_MODEL_EXCHANGE
+#define FG_FMI2_TYPE fmi2ModelExchange
+#else
+#define FG_FMI2_TYPE fmi2CoSimulation
+#endif
 
 /* the message of the FMI 2 logger is a printf format (importers, fmpy's proxy among them, format it
  * with the variadic arguments): pass the already formatted text with every '%' doubled */
@@ -54,9 +60,9 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2Str
         fg_log(&tmp, FG_ERROR, NULL, "fmi2Instantiate: missing instance name");
         return NULL;
     }
-    if (fmuType != fmi2CoSimulation) {
-        fg_log(&tmp, FG_ERROR, NULL, "fmi2Instantiate: %s supports co-simulation only",
-               FG_MODEL_IDENTIFIER_STRING);
+    if (fmuType != FG_FMI2_TYPE) { /* -DFG_MODEL_EXCHANGE: the model-exchange build (fmi2_me_glue.c) */
+        fg_log(&tmp, FG_ERROR, NULL, "fmi2Instantiate: %s supports %s only", FG_MODEL_IDENTIFIER_STRING,
+               FG_FMI2_TYPE == fmi2CoSimulation ? "co-simulation" : "model exchange");
         return NULL;
     }
     if (fmuGUID == NULL || strcmp(fmuGUID, INSTANTIATION_TOKEN) != 0) {
@@ -77,10 +83,9 @@ fmi2Status fmi2SetupExperiment(fmi2Component c, fmi2Boolean toleranceDefined, fm
 {
     (void)toleranceDefined;
     (void)tolerance;
-    (void)stopTimeDefined;
-    (void)stopTime;
     if (!fg_allowed(INST, "fmi2SetupExperiment", FG_PHASE_INSTANTIATED)) return fmi2Error;
     INST->time = startTime;
+    INST->stop_time = stopTimeDefined ? stopTime : INFINITY;
     return fmi2OK;
 }
 

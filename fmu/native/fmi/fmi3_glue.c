@@ -1,6 +1,7 @@
 /* fmi3_glue.c - FMI 3.0 co-simulation functions over fg_instance (model agnostic).
  * Supported: Float64, Int32, Boolean, String variables; FMU state; co-simulation without event mode.
  * All other functions of fmi3Functions.h are defined and return fmi3Error with a logged message. */
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -42,6 +43,7 @@ static void refuse(fmi3String name, fmi3InstanceEnvironment env, fmi3LogMessageC
     fg_log(&tmp, FG_ERROR, NULL, "%s%s", message, detail);
 }
 
+#ifndef FG_MODEL_EXCHANGE /* the model-exchange build has its own: fmi3_me_glue.c */
 fmi3Instance fmi3InstantiateCoSimulation(fmi3String instanceName, fmi3String instantiationToken,
                                          fmi3String resourcePath, fmi3Boolean visible, fmi3Boolean loggingOn,
                                          fmi3Boolean eventModeUsed, fmi3Boolean earlyReturnAllowed,
@@ -92,6 +94,7 @@ fmi3Instance fmi3InstantiateModelExchange(fmi3String instanceName, fmi3String in
            "model exchange is not supported");
     return NULL;
 }
+#endif
 
 fmi3Instance fmi3InstantiateScheduledExecution(fmi3String instanceName, fmi3String instantiationToken,
                                                fmi3String resourcePath, fmi3Boolean visible,
@@ -113,7 +116,10 @@ void fmi3FreeInstance(fmi3Instance instance) { fg_instance_free(INST); }
 fmi3Status fmi3EnterInitializationMode(fmi3Instance instance, fmi3Boolean toleranceDefined, fmi3Float64 tolerance,
                                        fmi3Float64 startTime, fmi3Boolean stopTimeDefined, fmi3Float64 stopTime)
 {
-    (void)toleranceDefined; (void)tolerance; (void)stopTimeDefined; (void)stopTime;
+    (void)toleranceDefined; (void)tolerance;
+    if (instance != NULL && INST->phase == FG_PHASE_INSTANTIATED) {
+        INST->stop_time = stopTimeDefined ? stopTime : INFINITY;
+    }
     return (fmi3Status)fg_enter_initialization(INST, "fmi3EnterInitializationMode", startTime);
 }
 
@@ -122,7 +128,9 @@ fmi3Status fmi3ExitInitializationMode(fmi3Instance instance)
     return (fmi3Status)fg_exit_initialization(INST, "fmi3ExitInitializationMode");
 }
 
+#ifndef FG_MODEL_EXCHANGE
 fmi3Status fmi3EnterEventMode(fmi3Instance instance) { UNSUPPORTED(fmi3EnterEventMode); }
+#endif
 
 fmi3Status fmi3Terminate(fmi3Instance instance)
 {
@@ -409,6 +417,7 @@ fmi3Status fmi3SetShiftFraction(fmi3Instance instance, const fmi3ValueReference 
     UNSUPPORTED(fmi3SetShiftFraction);
 }
 
+#ifndef FG_MODEL_EXCHANGE /* the model-exchange functions of fmi3_me_glue.c */
 fmi3Status fmi3EvaluateDiscreteStates(fmi3Instance instance) { UNSUPPORTED(fmi3EvaluateDiscreteStates); }
 
 fmi3Status fmi3UpdateDiscreteStates(fmi3Instance instance, fmi3Boolean *discreteStatesNeedUpdate,
@@ -459,6 +468,7 @@ fmi3Status fmi3GetNumberOfContinuousStates(fmi3Instance instance, size_t *nConti
     (void)nContinuousStates;
     UNSUPPORTED(fmi3GetNumberOfContinuousStates);
 }
+#endif
 
 fmi3Status fmi3EnterStepMode(fmi3Instance instance) { UNSUPPORTED(fmi3EnterStepMode); }
 
