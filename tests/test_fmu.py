@@ -50,19 +50,21 @@ CTRL_IN = ("i_s_alpha", "i_s_beta", "psi_r_alpha", "psi_r_beta", "psi_s_alpha", 
            "omega_ref", "psi_ref", "T_load")
 CTRL_OUT = ("v_s_alpha", "v_s_beta", "v_sd", "v_sq", "e1", "e2", "z1", "z2", "W", "T_load_est",
             "psi_r_hat_alpha", "psi_r_hat_beta", "omega_ref_shaped", "psi_ref_shaped", "phase",
-            "voltage_limited", "current_limited", "singular_limited")
+            "voltage_limited", "current_limited", "singular_limited", "omega_m_hat")
 CONTRACT = {
     "SaturatedInductionMotor": {"input": PLANT_IN, "output": PLANT_OUT,
                                 "parameter": MOTOR + ("B_2", "omega_m0", "psi_r0", "h_int")},
     "BacksteppingController": {"input": CTRL_IN, "output": CTRL_OUT, "parameter": (
         "c1", "c2", "d1", "d2", "Ts", "mode", "load_mode", "V_dc", "ref_bandwidth", "g_theta", "theta_max",
-        "I_max", "use_stator_flux", "c0", "d0", "flux_source", "delay_samples") + MOTOR},
+        "I_max", "use_stator_flux", "c0", "d0", "flux_source", "delay_samples", "observer",
+        "speed_source") + MOTOR},
 }
 UNITS = {"V": "v_s_alpha v_s_beta v_sd v_sq V_dc", "A": "i_s_alpha i_s_beta i_mu I_par I_max",
          "Wb": "psi_s_alpha psi_s_beta psi_r_alpha psi_r_beta psi_ref psi_r0 e1 psi_r_hat_alpha "
                "psi_r_hat_beta "
                "psi_ref_shaped", "Wb/s": "e2",
-         "rad/s": "omega_m omega_ref omega_m0 z1 ref_bandwidth omega_ref_shaped", "rad": "theta_m",
+         "rad/s": "omega_m omega_ref omega_m0 z1 ref_bandwidth omega_ref_shaped omega_m_hat",
+         "rad": "theta_m",
          "rad/s2": "z2 theta_max",
          "N m": "T_load T_e T_load_est", "Ohm": "R_s R_r", "H": "l_s l_r L_m0 L_m_inf",
          "1": "k W delay_samples",
@@ -80,7 +82,8 @@ def _defaults():
     ctrl = motor | {n: getattr(g, n) for n in ("c1", "c2", "d1", "d2", "c0", "d0")} | {
         n: getattr(c, n) for n in ("Ts", "V_dc", "load_mode", "g_theta", "theta_max")} | {
         "ref_bandwidth": d.ref_bandwidth, "I_max": d.I_max, "mode": "saturated",
-        "use_stator_flux": c.use_stator_flux, "flux_source": d.flux_source, "delay_samples": d.delay_samples}
+        "use_stator_flux": c.use_stator_flux, "flux_source": d.flux_source, "delay_samples": d.delay_samples,
+        "observer": d.observer, "speed_source": d.speed_source}
     # at rest, unmagnetized (closed_loop's x0); one RK4 step per sample (closed_loop's n_sub = 1)
     plant = motor | {"B_2": 0.0, "omega_m0": 0.0, "psi_r0": 0.0, "h_int": c.Ts}
     return {"SaturatedInductionMotor": plant, "BacksteppingController": ctrl}
