@@ -103,6 +103,9 @@ PLANT_PARAMETERS = MOTOR_PARAMETERS + _in_struct("plant", (
 ))
 
 _G, _C, _D = BacksteppingGains(), ControllerConfig(), DriveConfig()
+# the controller's Real parameters that go into DriveConfig as they are (the start-up tolerances)
+_DRIVE_REALS = ("fw_voltage_ratio", "premag_fraction", "premag_min_fraction", "premag_speed_tol",
+                "premag_time_max", "premag_boost", "premag_gain")
 CONTROLLER_MODES = ("saturated", "constant_m", "pi")
 CONTROLLER_INPUTS = (
     _v("i_s_alpha", "input", 0.0, "A", "measured stator current, alpha axis"),
@@ -175,6 +178,24 @@ CONTROLLER_PARAMETERS = _in_struct("controller", (
     _v("speed_source", "parameter", _D.speed_source, "", "mechanical speed: measured (the omega_m input) or "
        "estimated (speed-adaptive closed-loop observer, the omega_m input is not read; needs flux_source = "
        "observer, observer = closed_loop)", "String"),
+    _v("field_weakening", "parameter", _D.field_weakening, "", "automatic field weakening: psi_ref is the "
+       "nominal flux, lowered (on the magnetizing curve) where the steady stator voltage at the present "
+       "torque and speed would exceed fw_voltage_ratio V_dc/sqrt(3); false: psi_ref as it is", "Boolean"),
+    _v("fw_voltage_ratio", "parameter", _D.fw_voltage_ratio, "1", "share of V_dc/sqrt(3) a steady state "
+       "may use under field weakening, in (0, 1]; the rest is the law's margin"),
+    _v("premag_fraction", "parameter", _D.premag_fraction, "1", "pre-magnetization: the law takes over at "
+       "this fraction of psi_ref, in (0, 1]"),
+    _v("premag_min_fraction", "parameter", _D.premag_min_fraction, "1", "pre-magnetization: the law takes "
+       "over from this fraction of psi_ref on (<= premag_fraction) when the rotor turns faster than "
+       "premag_speed_tol or premag_time_max has passed"),
+    _v("premag_speed_tol", "parameter", _D.premag_speed_tol, "rad/s", "pre-magnetization: |omega_m| above "
+       "which a load is taken to turn the rotor (the flux current goes to 0.9 I_max), > 0"),
+    _v("premag_time_max", "parameter", _D.premag_time_max, "s", "pre-magnetization: time after which the "
+       "law takes over from premag_min_fraction on, > 0"),
+    _v("premag_boost", "parameter", _D.premag_boost, "1", "pre-magnetization current as a multiple of the "
+       "steady magnetizing current of psi_ref (bounded by I_max), >= 1"),
+    _v("premag_gain", "parameter", _D.premag_gain, "Ohm", "proportional gain of the pre-magnetization "
+       "current loop, > 0"),
 )) + MOTOR_PARAMETERS
 
 
@@ -323,7 +344,8 @@ class ControllerUnit:
                                  "observer")
         dcfg = DriveConfig(ref_bandwidth=f["ref_bandwidth"], I_max=f["I_max"], flux_source=f["flux_source"],
                            delay_samples=f["delay_samples"], observer=f["observer"],
-                           speed_source=f["speed_source"])
+                           speed_source=f["speed_source"], field_weakening=f["field_weakening"],
+                           **{n: f[n] for n in _DRIVE_REALS})
         if mode == "pi":
             gains = dataclasses.replace(IFOCGains(), V_dc=f["V_dc"], I_max=f["I_max"])
             self.drive = IFOCDrive(p, gains, f["Ts"], drive_cfg=dcfg)

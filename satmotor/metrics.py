@@ -18,7 +18,11 @@ run phase
 ``ss_speed``, ``ss_flux`` [1]
     Largest ``|omega_m - omega_ref|`` (``||psi_r| - psi_ref|``) against the *raw* set-points over
     the steady-state window, divided by ``|set-point|`` at the window's last sample, at least
-    1 rad/s (1 mWb).  Window: ``[t_from, t_to]`` [s], both ends included; default the last 10 %
+    1 rad/s (1 mWb).  The flux set-point is the one the drive works to when it is given
+    (``psi_set``: the controller's ``psi_ref_shaped``): under field weakening the drive lowers the
+    nominal ``psi_ref`` above base speed, and the flux is judged against what the drive set, not
+    against the nominal value; below base speed, in the window, the two are the same.
+    Window: ``[t_from, t_to]`` [s], both ends included; default the last 10 %
     of the record, ``t >= t[0] + 0.9 (t[-1] - t[0])``; nan if no sample falls in it.
 ``overshoot_speed`` [1]
     Peak excursion of omega_m beyond the final set-point ``omega_ref[-1]``, in the direction of
@@ -137,13 +141,14 @@ def settling_time(t, y, final, band=SETTLING_BAND):
 
 def closed_loop_metrics(*, t, omega_m, omega_ref, psi_r_alpha, psi_r_beta, psi_ref, z1, e1,
                         i_s_alpha, i_s_beta, v_s_alpha, v_s_beta, W, run, ss_window=None,
-                        voltage_limited=None, current_limited=None):
+                        voltage_limited=None, current_limited=None, psi_set=None):
     """The figures of the module docstring from the recorded series (1-D arrays of one length).
 
     ``omega_ref``, ``psi_ref`` the raw set-points; ``z1``, ``e1`` the controller's tracking errors;
     ``run`` the run-phase mask (``phase == RUN``), extended to the end of the record;
-    ``ss_window = (t_from, t_to)`` [s] or None; the limiter flags optional.  ``{}`` for an empty
-    record.
+    ``ss_window = (t_from, t_to)`` [s] or None; the limiter flags optional; ``psi_set`` the flux
+    set-point the drive works to (its ``psi_ref_shaped``), optional: ``ss_flux`` against it when
+    given, else against ``psi_ref``.  ``{}`` for an empty record.
     """
     t = np.asarray(t, dtype=float)
     if t.size == 0:
@@ -158,7 +163,8 @@ def closed_loop_metrics(*, t, omega_m, omega_ref, psi_r_alpha, psi_r_beta, psi_r
         "iae_speed": iae(t[run], np.asarray(z1)[run]) if running else math.nan,
         "iae_flux": iae(t[run], np.asarray(e1)[run]) if running else math.nan,
         "ss_speed": steady_state_error(w, omega_ref, ss, SS_SPEED_FLOOR),
-        "ss_flux": steady_state_error(np.hypot(psi_r_alpha, psi_r_beta), psi_ref, ss, SS_FLUX_FLOOR),
+        "ss_flux": steady_state_error(np.hypot(psi_r_alpha, psi_r_beta),
+                                      psi_ref if psi_set is None else psi_set, ss, SS_FLUX_FLOOR),
         "overshoot_speed": overshoot(w, w_final, float(w[0])),
         "settling_time_speed": settling_time(t, w, w_final),
         "peak_current": float(np.max(np.hypot(i_s_alpha, i_s_beta))),
@@ -210,7 +216,7 @@ def run_metrics(res, ss_window=None):
     the drive's ``phase``; the limiter fractions from its flags)."""
     return closed_loop_metrics(**{k: res[k] for k in SERIES}, run=np.asarray(res["phase"]) == RUN,
                                ss_window=ss_window, voltage_limited=res["voltage_limited"],
-                               current_limited=res.get("current_limited"))
+                               current_limited=res.get("current_limited"), psi_set=res.get("psi_ref_shaped"))
 
 
 def acceptance(metrics, bounds):

@@ -51,24 +51,27 @@ CTRL_IN = ("i_s_alpha", "i_s_beta", "psi_r_alpha", "psi_r_beta", "psi_s_alpha", 
 CTRL_OUT = ("v_s_alpha", "v_s_beta", "v_sd", "v_sq", "e1", "e2", "z1", "z2", "W", "T_load_est",
             "psi_r_hat_alpha", "psi_r_hat_beta", "omega_ref_shaped", "psi_ref_shaped", "phase",
             "voltage_limited", "current_limited", "singular_limited", "omega_m_hat")
+PREMAG_PARAMS = ("premag_fraction", "premag_min_fraction", "premag_speed_tol", "premag_time_max",
+                 "premag_boost", "premag_gain")
 CONTRACT = {
     "SaturatedInductionMotor": {"input": PLANT_IN, "output": PLANT_OUT,
                                 "parameter": MOTOR + ("B_2", "omega_m0", "psi_r0", "h_int")},
     "BacksteppingController": {"input": CTRL_IN, "output": CTRL_OUT, "parameter": (
         "c1", "c2", "d1", "d2", "Ts", "mode", "load_mode", "V_dc", "ref_bandwidth", "g_theta", "theta_max",
         "I_max", "use_stator_flux", "c0", "d0", "flux_source", "delay_samples", "observer",
-        "speed_source") + MOTOR},
+        "speed_source", "field_weakening", "fw_voltage_ratio") + PREMAG_PARAMS + MOTOR},
 }
 UNITS = {"V": "v_s_alpha v_s_beta v_sd v_sq V_dc", "A": "i_s_alpha i_s_beta i_mu I_par I_max",
          "Wb": "psi_s_alpha psi_s_beta psi_r_alpha psi_r_beta psi_ref psi_r0 e1 psi_r_hat_alpha "
                "psi_r_hat_beta "
                "psi_ref_shaped", "Wb/s": "e2",
-         "rad/s": "omega_m omega_ref omega_m0 z1 ref_bandwidth omega_ref_shaped omega_m_hat",
+         "rad/s": "omega_m omega_ref omega_m0 z1 ref_bandwidth omega_ref_shaped omega_m_hat premag_speed_tol",
          "rad": "theta_m",
          "rad/s2": "z2 theta_max",
-         "N m": "T_load T_e T_load_est", "Ohm": "R_s R_r", "H": "l_s l_r L_m0 L_m_inf",
-         "1": "k W delay_samples",
-         "kg m2": "J", "N m s": "B", "A/Wb^n": "poly_b", "s": "h_int Ts", "1/s": "c1 c2 d1 d2",
+         "N m": "T_load T_e T_load_est", "Ohm": "R_s R_r premag_gain", "H": "l_s l_r L_m0 L_m_inf",
+         "1": "k W delay_samples fw_voltage_ratio premag_fraction premag_min_fraction premag_boost",
+         "kg m2": "J", "N m s": "B", "A/Wb^n": "poly_b", "s": "h_int Ts premag_time_max",
+         "1/s": "c1 c2 d1 d2",
          "1/s2": "g_theta c0 d0", "N m s2/rad2": "B_2"}
 UNIT_OF = {name: unit for unit, names in UNITS.items() for name in names.split()}
 
@@ -83,7 +86,9 @@ def _defaults():
         n: getattr(c, n) for n in ("Ts", "V_dc", "load_mode", "g_theta", "theta_max")} | {
         "ref_bandwidth": d.ref_bandwidth, "I_max": d.I_max, "mode": "saturated",
         "use_stator_flux": c.use_stator_flux, "flux_source": d.flux_source, "delay_samples": d.delay_samples,
-        "observer": d.observer, "speed_source": d.speed_source}
+        "observer": d.observer, "speed_source": d.speed_source,
+        "field_weakening": d.field_weakening} | {
+        n: getattr(d, n) for n in ("fw_voltage_ratio",) + PREMAG_PARAMS}
     # at rest, unmagnetized (closed_loop's x0); one RK4 step per sample (closed_loop's n_sub = 1)
     plant = motor | {"B_2": 0.0, "omega_m0": 0.0, "psi_r0": 0.0, "h_int": c.Ts}
     return {"SaturatedInductionMotor": plant, "BacksteppingController": ctrl}
@@ -214,7 +219,8 @@ def test_model_description_matches_the_contract(fmus, name):
             assert _typed(v, v.start) == DEFAULTS[name][v.name], v.name
     integers = {"n_p", "poly_n"} | ({"delay_samples", "phase"} if name == "BacksteppingController" else set())
     assert {v.name for v in md.modelVariables if v.type == "Integer"} == integers
-    booleans = {"use_stator_flux", "voltage_limited", "current_limited", "singular_limited"}
+    booleans = {"use_stator_flux", "voltage_limited", "current_limited", "singular_limited",
+                "field_weakening"}
     assert {v.name for v in md.modelVariables if v.type == "Boolean"} == (
         booleans if name == "BacksteppingController" else set())
     cs = md.coSimulation
@@ -224,10 +230,11 @@ def test_model_description_matches_the_contract(fmus, name):
 
 @pytest.mark.slow
 def test_two_builds_are_byte_identical(fmus, fmu_dir, tmp_path):
-    """Every FMU of a second build (pythonfmu, native FMI 2.0 and 3.0, for this machine, as the session's)
-    has the same bytes as the first build's.  (The cross-compiles: tests/test_native_glue.py.)"""
+    """Every FMU of a second build (pythonfmu, native FMI 2.0 and 3.0 co-simulation, the model-exchange
+    plant in both versions, for this machine, as the session's) has the same bytes as the first
+    build's.  (The cross-compiles: tests/test_native_glue.py.)"""
     built = build_fmus.build_all(tmp_path / "again")
-    assert len(built) == 6
+    assert len(built) == 8
     for p in built:
         first = Path(fmu_dir) / p.relative_to(tmp_path / "again")
         with zipfile.ZipFile(p) as a, zipfile.ZipFile(first) as b:

@@ -87,6 +87,14 @@ CASES = {
     "stator flux (H1)": ({"use_stator_flux": True}, {}),
     "current limit binding": ({"I_max": 12.0, "ref_bandwidth": 400.0}, {}),
     "exponential curve, k = 0.9": (EXP, EXP),
+    "field weakening active (V_dc 250 V)": ({"V_dc": 250.0}, {}),
+    "field weakening, observer and delay": ({"V_dc": 250.0, "flux_source": "observer", "delay_samples": 1},
+                                            {}),
+    "field weakening, constant m": ({"V_dc": 250.0, "mode": "constant_m", "fw_voltage_ratio": 0.8}, {}),
+    "field weakening, IFOC PI": ({"V_dc": 250.0, "mode": "pi"}, {}),
+    "field weakening off": ({"V_dc": 250.0, "field_weakening": False}, {}),
+    "start-up tolerances": ({"premag_fraction": 0.8, "premag_min_fraction": 0.3, "premag_speed_tol": 0.5,
+                             "premag_time_max": 0.05, "premag_boost": 2.0, "premag_gain": 30.0}, {}),
 }
 
 
@@ -118,7 +126,11 @@ BAD = [({"mode": "fuzzy"}, "mode"), ({"flux_source": "estimated"}, "flux_source"
        ({"observer": "luenberger"}, "observer"), ({"speed_source": "guessed"}, "speed_source"),
        ({"speed_source": "estimated"}, "speed_source"),
        ({"flux_source": "observer", "observer": "current_model", "speed_source": "estimated"},
-        "speed_source")]
+        "speed_source"),
+       ({"fw_voltage_ratio": 1.5}, "fw_voltage_ratio"), ({"fw_voltage_ratio": 0.0}, "fw_voltage_ratio"),
+       ({"premag_fraction": 0.0}, "premag_fraction"), ({"premag_min_fraction": 0.95}, "premag_min_fraction"),
+       ({"premag_speed_tol": 0.0}, "premag_speed_tol"), ({"premag_time_max": -1.0}, "premag_time_max"),
+       ({"premag_boost": 0.5}, "premag_boost"), ({"premag_gain": math.inf}, "premag_gain")]
 
 
 @pytest.mark.parametrize("values, field", BAD)

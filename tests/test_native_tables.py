@@ -67,7 +67,9 @@ class _DriveConfig(ctypes.Structure):  # sm_drive.h
                                                                        ("delay_samples", ctypes.c_int),
                                                                        ("closed_loop", ctypes.c_int),
                                                                        ("speed_estimated", ctypes.c_int),
-                                                                       ("speed_bandwidth", ctypes.c_double)]
+                                                                       ("speed_bandwidth", ctypes.c_double),
+                                                                       ("field_weakening", ctypes.c_int),
+                                                                       ("fw_voltage_ratio", ctypes.c_double)]
 
 
 class _IFOCGains(ctypes.Structure):  # sm_ifoc.h

@@ -504,11 +504,16 @@ def test_absurd_inputs_are_noted_and_ordinary_ones_are_not(tmp_path):
     rated_torque = 4000.0 / rated_speed  # [N m]
     assert f"{400 / rated_torque:.3g} x the motor's rated torque" in by_field["profiles.T_load"]
     # the speed beyond what the voltage allows at the flux set-point: V_dc/sqrt(3) = n_p omega psi, n_p = 2
+    # (with a fixed set-point: field_weakening false)
     omega_v = 540.0 / 3 ** 0.5 / (2 * 0.9)
-    below, above = (_notes(tmp_path, "profiles:\n" + psi + f"  omega_ref: {{type: step, time: 0.1, value: "
-                           f"{k * omega_v!r}}}\n") for k in (1.9, 2.1))
+    fixed = "controller: {field_weakening: false}\n"
+    below, above = (_notes(tmp_path, fixed + "profiles:\n" + psi + f"  omega_ref: {{type: step, time: 0.1, "
+                           f"value: {k * omega_v!r}}}\n") for k in (1.9, 2.1))
     assert below == [] and [n.field for n in above] == ["profiles.omega_ref"]
     assert f"{omega_v:.4g} rad/s, the speed at which" in str(above[0])
+    # with the field weakening (the default) the drive lowers the flux, down to 0.1 psi_ref: not noted
+    assert _notes(tmp_path, "profiles:\n" + psi + f"  omega_ref: {{type: step, time: 0.1, value: "
+                  f"{2.1 * omega_v!r}}}\n") == []
     for f in sorted((ROOT / "scenarios").glob("*.yaml")):  # the library's scenarios: nothing absurd
         from orchestration.scenario.load import load_scenario
 

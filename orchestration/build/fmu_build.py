@@ -132,9 +132,10 @@ def build_all(out_dir="build/fmus", native=True, cross=False):
                         "--out", str(out)], check=True)
         paths.append(out / f"{name}.fmu")
     if native:
-        from orchestration.build.native_fmus import build_all as build_native
+        from orchestration.build import native_fmus, native_me
 
-        for p in build_native(out, cross):
+        cross = native_fmus.zig_available() if cross is None else cross
+        for p in [*native_fmus.build_all(out, cross), *native_me.build_all(out, cross)]:
             print(f"built {p}")
             paths.append(p)
     return paths

@@ -105,13 +105,11 @@ def documentation(name, xml, fmi_version):
 
 
 def build_all(out_dir, cross=False):
-    """Both native FMUs in both FMI versions and the model-exchange plant
-    (:mod:`orchestration.build.native_me`); returns the paths.  For this machine (Linux x86_64) by
-    default; ``cross``: also Windows and macOS (:data:`ALL`, cross-compiled with zig cc, which the
-    ``ziglang`` wheel provides; on a fresh machine zig first compiles its MinGW and macOS C runtimes:
-    minutes).  ``cross=None``: cross when zig is installed."""
-    from orchestration.build import native_me  # the plant as model exchange, both versions
-
+    """Both native co-simulation FMUs in both FMI versions (the model-exchange plant is
+    :func:`orchestration.build.native_me.build_all`); returns the paths.  For this machine (Linux
+    x86_64) by default; ``cross``: also Windows and macOS (:data:`ALL`, cross-compiled with zig cc,
+    which the ``ziglang`` wheel provides; on a fresh machine zig first compiles its MinGW and macOS C
+    runtimes: minutes).  ``cross=None``: cross when zig is installed."""
     cross = zig_available() if cross is None else cross
-    return [*(build(name, out_dir, version, (ALL if cross else LINUX)[version])
-              for version in DIRS for name in NAMES), *native_me.build_all(out_dir, cross)]
+    return [build(name, out_dir, version, (ALL if cross else LINUX)[version])
+            for version in DIRS for name in NAMES]

@@ -26,16 +26,13 @@ Exit: 1 if any check FAILs, else 0 (usage errors, 2, are found by the caller bef
 
 from __future__ import annotations
 
-import json
-import subprocess
-import sys
 import tempfile
 import time
 import zipfile
 from pathlib import Path
 from xml.etree import ElementTree as ET
 
-from orchestration.process.interrupts import signal_name
+from orchestration.check.children import TIMEOUT, died, reference_dir, run_probe_lines  # noqa: F401
 
 CHECKS = ("validate", "fmutool", "instantiate", "wrong-guid", "cycles", "state", "foreign-state", "reset",
           "bad-parameter", "non-finite-input", "steps", "source-build", "reference")
@@ -57,7 +54,6 @@ def _reference_dir():
 
 REFERENCE_DIR = _reference_dir()
 REFERENCE_BAND = 1e-9  # of each column's largest |value|
-TIMEOUT = 300.0  # [s] per probe
 
 
 def usage_problem(path):
@@ -123,32 +119,12 @@ def check_fmutool(path):
     return "FAIL", f"fmu-manipulation-toolbox check_fmu: {report}"[:500]
 
 
-def run_probe_lines(mode, path, *extra, module="orchestration.check.probes"):
-    """``(returncode, [JSON objects printed, in order], stderr tail)`` of one child probe."""
-    cmd = [sys.executable, "-m", module, mode, str(path), *map(str, extra)]
-    try:
-        proc = subprocess.run(cmd, capture_output=True, text=True, timeout=TIMEOUT)
-    except subprocess.TimeoutExpired as exc:
-        out = exc.stdout.decode("utf-8", "replace") if isinstance(exc.stdout, bytes) else exc.stdout or ""
-        return None, _json_lines(out), f"timed out after {TIMEOUT:g} s"
-    return proc.returncode, _json_lines(proc.stdout), proc.stderr.strip()[-300:]
-
-
-def _json_lines(text):
-    objects = []
-    for line in text.splitlines():
-        try:
-            obj = json.loads(line)
-        except ValueError:
-            continue
-        if isinstance(obj, dict):
-            objects.append(obj)
-    return objects
-
-
 def run_probe(mode, path, *extra):
     """``(returncode, result dict or None, stderr tail)`` of one child probe."""
-    code, objects, tail = run_probe_lines(mode, path, *extra)
+    from orchestration.check.user_probes import PROBES as USER_PROBES
+
+    module = "orchestration.check.user_probes" if mode in USER_PROBES else "orchestration.check.probes"
+    code, objects, tail = run_probe_lines(mode, path, *extra, module=module)
     return code, (objects[-1] if objects else None), tail
 
 
@@ -176,18 +152,6 @@ def run_items(mode, path, *extra):
             return None, died(code, tail) if code != 0 else f"no result from the probe: {tail}"
         items[trying["label"]] = {"crash": died(code, tail)}
         start = trying["trying"] + 1
-
-
-def died(code, tail):
-    """The FAIL detail for a probe that did not exit with 0."""
-    if code is None:
-        return tail
-    if code < 0 or code > 128:
-        num = -code if code < 0 else code - 128
-        how = f"killed by {signal_name(num)}" + (f" (exit status {code})" if code > 0 else "")
-    else:
-        how = f"exit status {code}"
-    return f"the child process {how}" + (f": {tail}" if tail else "")
 
 
 def judge(check, result):
@@ -340,15 +304,6 @@ def judge_foreign_state(result):
         detail += (" (pythonfmu returns fmi2OK from fmi2DeSerializeFMUstate and fmi2SetFMUstate whatever the "
                    "Python slave does: known limitation)")
     return verdict, detail
-
-
-def reference_dir(md_root, references):
-    name = md_root.get("modelName", "")
-    for base in references:
-        d = Path(base) / name
-        if base is not None and (d / f"{name}_ref.csv").is_file():
-            return d
-    return None
 
 
 def check_fmu(path, references=(REFERENCE_DIR,), foreign=()):

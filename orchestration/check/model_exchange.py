@@ -41,6 +41,8 @@ from fmpy.fmi2 import (
 )
 from fmpy.fmi3 import FMU3Model
 
+from orchestration.check.children import died, reference_dir, run_probe_lines
+
 CHECKS = ("me-instantiate", "me-states", "me-events", "me-reference")
 BAND = 1e-6  # me-reference: of each column's largest |value| (an integrator's error, not the last bits)
 MAX_EVENT_ITERATIONS = 100
@@ -51,8 +53,6 @@ MAX_EVENT_ITERATIONS = 100
 def check_model_exchange(path, root, references):
     """``[(check, verdict, detail, seconds)]`` of the model-exchange checks of the FMU ``path``
     (``root``: its model description)."""
-    from orchestration.check.checker import died, reference_dir, run_probe_lines
-
     out = []
     ref = reference_dir(root, references)
     for check in CHECKS:

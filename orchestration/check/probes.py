@@ -438,7 +438,9 @@ PROBES = {"instantiate": probe_instantiate, "wrong-guid": probe_wrong_guid, "cyc
           "foreign-state": probe_foreign_state}
 
 
-def main(argv):
+def main(argv, more=None):
+    """Run the probe ``argv[0]`` on the FMU ``argv[1]`` and print its JSON result; ``more``: further
+    probes by mode (:data:`orchestration.check.user_probes.PROBES` runs through here too)."""
     mode, path = argv[0], argv[1]
     p = Probe(path)
     try:
@@ -448,8 +450,7 @@ def main(argv):
             elif mode in ("non-finite-input", "foreign-state"):
                 out = PROBES[mode](p, int(argv[2]) if len(argv) > 2 else 0, *argv[3:])
             else:
-                from orchestration.check import user_probes  # what hosts do: steps, source build
-                out = {**PROBES, **user_probes.PROBES}[mode](p, *argv[2:])
+                out = {**PROBES, **(more or {})}[mode](p, *argv[2:])
         except Exception as exc:  # an FMI call failed: the probe reports it, the exit code stays 0
             out = {"ok": False, "detail": f"{exc}" + (f" (log: {p.errors()})" if p.errors() else "")}
     finally:

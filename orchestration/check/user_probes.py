@@ -15,7 +15,7 @@ from pathlib import Path
 
 from fmpy import platform, platform_tuple
 
-from orchestration.check.probes import Probe, alive, status_of
+from orchestration.check.probes import Probe, alive, main, status_of
 
 RUN_STEPS = 20  # steps compared between the shipped binary and the one built from the sources
 BUILD_BAND = 1e-9  # a binary built from the sources: its outputs within this of the shipped one's (relative)
@@ -129,3 +129,9 @@ def probe_source_build(p):
 
 
 PROBES = {"steps": probe_steps, "source-build": probe_source_build}
+
+
+if __name__ == "__main__":  # a child process of the checker, as the probes of orchestration.check.probes
+    import sys
+
+    main(sys.argv[1:], PROBES)

@@ -49,7 +49,9 @@ def compute_metrics(df, scenario):
                                run=np.asarray(df["controller.phase"]) == RUN,
                                ss_window=acc.ss_window if acc is not None and acc.ss_window else None,
                                voltage_limited=np.asarray(df["controller.voltage_limited"]),
-                               current_limited=np.asarray(df["controller.current_limited"]))
+                               current_limited=np.asarray(df["controller.current_limited"]),
+                               psi_set=(np.asarray(df["controller.psi_ref_shaped"])
+                                        if "controller.psi_ref_shaped" in df else None))
 
 
 def check_acceptance(metrics, scenario):

@@ -6,7 +6,9 @@ allowed (a note is not a problem), but it does not pass silently: :func:`plausib
 :class:`~orchestration.scenario.problems.Note` per such input, said by ``validate``, ``run`` and
 ``batch`` with the other notes.  The references are the default motor's name plate
 (:class:`satmotor.machine.params.RatedData`) and, for the speed, what the scenario's own voltage
-limit allows at its own flux set-point; a value :data:`FAR` times beyond them is noted.
+limit allows at its own flux set-point (with the controller's field weakening on, the default, at the
+least flux it sets, :data:`satmotor.control.field_weakening.FLOOR` times ``psi_ref``); a value
+:data:`FAR` times beyond them is noted.
 """
 
 from __future__ import annotations
@@ -48,14 +50,20 @@ def plausibility_notes(sc, plant, ctrl, file):
                 f"the motor's rated speed {rated.omega_n:.4g} rad/s ({rated.n_n:g} rpm): far outside its "
                 "range")))
         elif plant is not None and ctrl is not None and psi is not None:
+            from satmotor.control.field_weakening import FLOOR
+
             psi_lo = psi.bounds(0.0, stop)[0]
+            weakened = ctrl.drive.dcfg.field_weakening  # the drive lowers the flux down to FLOOR psi_ref
+            if weakened:
+                psi_lo *= FLOOR
             if psi_lo > 0:
                 omega_v = ctrl.drive.V_max / (plant.params.n_p * psi_lo)  # [rad/s] mechanical
                 if peak > FAR_VOLTAGE * omega_v:
                     notes.append(Note(file, "profiles.omega_ref", peak, (
                         f"the speed set-point's peak |omega_ref| = {peak:.4g} rad/s is "
-                        f"{peak / omega_v:.3g} x {omega_v:.4g} rad/s, the speed at which the flux "
-                        f"set-point's back EMF alone (n_p |omega_m| |psi_r|, psi_ref >= {psi_lo:.4g} Wb) "
+                        f"{peak / omega_v:.3g} x {omega_v:.4g} rad/s, the speed at which the "
+                        f"{'least weakened flux' if weakened else 'flux set-point'}'s back EMF alone "
+                        f"(n_p |omega_m| |psi_r|, |psi_r| >= {psi_lo:.4g} Wb) "
                         f"takes the whole voltage V_dc/sqrt(3) = {ctrl.drive.V_max:.4g} V: the speed "
                         "cannot follow it")))
     if load is not None:

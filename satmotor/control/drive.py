@@ -19,7 +19,10 @@ Start from standstill (the backstepping law is singular at Phi_rd = 0):
    speed shaper at ``(omega_m, 0, 0)``, so that ``e1 = e2 = z1 = 0`` at the switch: the law
    takes over without a jump.
 
-3. *Run*: references from the shapers (third-order, exact derivatives), the control law, and
+3. *Run*: with ``field_weakening`` the flux shaper's input is the set-point of
+   :class:`satmotor.control.field_weakening.FieldWeakening` (``psi_ref`` itself while the steady
+   voltage at ``psi_ref`` fits in ``fw_voltage_ratio V_dc/sqrt(3)``; lower above base speed); references
+   from the shapers (third-order, exact derivatives), the control law, and
    in the estimated-load mode ``theta_hat <- clip(theta_hat + Ts theta_hat', +-theta_max)``
    (forward Euler over the hold).  In the known-load mode the load torque input is taken as
    piecewise constant (dT_L/dt = 0: a difference quotient would turn a load step into a
@@ -35,6 +38,7 @@ from typing import NamedTuple
 from satmotor.control.backstepping import D_SHARE, BacksteppingGains, ControllerConfig, control
 from satmotor.control.delay import N_STATE as N_DELAY_STATE
 from satmotor.control.delay import DelayCompensator
+from satmotor.control.field_weakening import FieldWeakening
 from satmotor.control.flux_observer import ClosedLoopObserver
 from satmotor.control.fo_model import flux_rate, model_constants
 from satmotor.control.ifoc import IFOCController, IFOCGains
@@ -47,7 +51,7 @@ from satmotor.control.measurements import (
     from_rotor_flux,
 )
 from satmotor.control.observer import RotorFluxObserver
-from satmotor.control.references import REF_VALUE, ReferenceShaper
+from satmotor.control.references import REF_RATE, REF_VALUE, ReferenceShaper
 from satmotor.errors import ParameterError, require_number
 
 PREMAG, RUN = 0, 1
@@ -75,7 +79,9 @@ class DriveConfig:
     speed_source 'measured' (the omega_m input) or 'estimated' (the closed-loop observer's speed
     estimate; the omega_m input is not read; needs flux_source 'observer', observer 'closed_loop');
     speed_bandwidth [rad/s] of the speed estimate's adaptation; delay_samples 0 or 1
-    (:mod:`satmotor.control.delay`).
+    (:mod:`satmotor.control.delay`); field_weakening: the flux set-point psi_ref is the nominal flux,
+    lowered where the steady stator voltage would exceed fw_voltage_ratio [1] of V_dc/sqrt(3)
+    (:mod:`satmotor.control.field_weakening`); False: psi_ref as it is (the drive before it).
     """
 
     ref_bandwidth: float = 40.0
@@ -91,6 +97,8 @@ class DriveConfig:
     observer: str = "closed_loop"
     speed_source: str = "measured"
     speed_bandwidth: float = 200.0
+    field_weakening: bool = True
+    fw_voltage_ratio: float = 0.95
 
     def __post_init__(self):
         require_number("ref_bandwidth", self.ref_bandwidth, 0)
@@ -115,6 +123,9 @@ class DriveConfig:
         if self.speed_source == "estimated" and not closed_loop:
             raise ParameterError("speed_source", self.speed_source, "needs flux_source = observer and "
                                  "observer = closed_loop (the speed estimate is the closed-loop observer's)")
+        if not isinstance(self.field_weakening, bool):
+            raise ParameterError("field_weakening", self.field_weakening, "must be a bool")
+        require_number("fw_voltage_ratio", self.fw_voltage_ratio, 0, upper=1)
 
 
 class DriveOutput(NamedTuple):
@@ -166,6 +177,9 @@ class _Drive:
                 self._observer = RotorFluxObserver(params, Ts)
         self._w_used = 0.0  # [rad/s] the speed of the last sample (not a state: set by every step)
         self._delay = DelayCompensator(params, Ts) if drive_cfg.delay_samples else None
+        self._fw = (FieldWeakening(params, self._V_max, drive_cfg.fw_voltage_ratio, drive_cfg.ref_bandwidth)
+                    if drive_cfg.field_weakening else None)
+        self._i_lim = drive_cfg.I_max  # [A] the law's current bound this sample (lower beyond breakdown)
         self.reset()
 
     @property
@@ -235,6 +249,10 @@ class _Drive:
                 self._n += 1
                 return self._delayed(self._premag(meas, I_set, phi, psi_ref))
             self._switch(meas)
+        self._i_lim = self.dcfg.I_max
+        if self._fw is not None:  # the nominal flux, or lower where the voltage does not suffice
+            psi_ref, self._i_lim = self._fw.flux_reference(meas, self._speed.value[REF_RATE], psi_ref,
+                                                           self._i_lim)
         if self._delay is None:
             out = self._run(meas, self._flux.value, self._speed.value, T_load)
             self._flux.step(psi_ref, self.Ts)
@@ -372,7 +390,7 @@ class BacksteppingDrive(_Drive):
     def _run(self, meas, psi_ref_shaped, omega_ref_shaped, T_load):
         cfg, p = self.cfg, self.params
         o = control(meas, psi_ref_shaped + omega_ref_shaped, (T_load, 0.0), p, self.gains, cfg,
-                    self._theta_hat, (self._e0, self._z0), self.dcfg.I_max)
+                    self._theta_hat, (self._e0, self._z0), self._i_lim)
         if cfg.load_mode == "estimated":
             t_load = self._theta_hat * p.J
             th = self._theta_hat + cfg.Ts * o.theta_hat_dot

@@ -81,6 +81,14 @@ int sm_controller_init(sm_controller *u, const sm_controller_params *v, const sm
     dc.ref_bandwidth = v->ref_bandwidth;
     dc.I_max = v->I_max;
     dc.delay_samples = v->delay_samples;
+    dc.field_weakening = v->field_weakening ? 1 : 0;
+    dc.fw_voltage_ratio = v->fw_voltage_ratio;
+    dc.premag_fraction = v->premag_fraction;
+    dc.premag_min_fraction = v->premag_min_fraction;
+    dc.premag_speed_tol = v->premag_speed_tol;
+    dc.premag_time_max = v->premag_time_max;
+    dc.premag_boost = v->premag_boost;
+    dc.premag_gain = v->premag_gain;
     sm_gains_default(&g);
     g.c1 = v->c1;
     g.c2 = v->c2;

@@ -65,6 +65,12 @@ static int check_config(const sm_drive_config *c, char *msg, size_t len)
         return sm_param_error(msg, len, NULL, "speed_source", "'estimated'", "needs flux_source = observer and "
                               "observer = closed_loop (the speed estimate is the closed-loop observer's)");
     }
+    if (c->field_weakening != 0 && c->field_weakening != 1) {
+        return range_error(msg, len, "field_weakening", (double)c->field_weakening, "must be a bool");
+    }
+    if (!(c->fw_voltage_ratio > 0.0 && c->fw_voltage_ratio <= 1.0)) {
+        return range_error(msg, len, "fw_voltage_ratio", c->fw_voltage_ratio, "must be a finite number > 0 and <= 1");
+    }
     return SM_CORE_OK;
 }
 
@@ -128,6 +134,9 @@ int sm_drive_init(sm_drive *d, sm_mode mode, const sm_motor *p, const sm_gains *
     }
     if (dc->delay_samples && (st = sm_delay_init(&d->delay, d->Ts, SM_DELAY_BIAS_GAIN, msg, msg_len))) {
         return st;
+    }
+    if (dc->field_weakening) {
+        sm_fw_init(&d->fw, &d->p, d->V_max, dc->fw_voltage_ratio, dc->ref_bandwidth);
     }
     sm_drive_reset(d);
     return SM_CORE_OK;
@@ -301,7 +310,7 @@ static int run(sm_drive *d, const double meas[SM_MEAS_LEN], const double psi_ref
         load[1] = 0.0;
         integ[0] = d->e0;
         integ[1] = d->z0;
-        st = sm_control(meas, ref, load, &d->p, &d->g, &d->cfg, d->theta_hat, integ, d->dc.I_max, &c);
+        st = sm_control(meas, ref, load, &d->p, &d->g, &d->cfg, d->theta_hat, integ, d->i_lim, &c);
         if (st != SM_CORE_OK && st != SM_ERR_NONFINITE) {
             return st;
         }
@@ -412,6 +421,14 @@ static int step(sm_drive *d, const double meas_in[SM_MEAS_LEN], double omega_ref
             return SM_CORE_OK;
         }
         if ((st = do_switch(d, meas))) {
+            return st;
+        }
+    }
+    d->i_lim = d->dc.I_max;
+    if (d->dc.field_weakening) { /* the nominal flux, or lower where the voltage does not suffice */
+        double z[3];
+        sm_shaper_get_state(&d->speed, z);
+        if ((st = sm_fw_flux_reference(&d->fw, &d->p, meas, z[1], psi_ref, d->i_lim, &psi_ref, &d->i_lim))) {
             return st;
         }
     }

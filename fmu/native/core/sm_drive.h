@@ -9,6 +9,7 @@
 
 #include "sm_delay.h"
 #include "sm_flux_observer.h"
+#include "sm_fieldweak.h"
 #include "sm_ifoc.h"
 #include "sm_law.h"
 #include "sm_observer.h"
@@ -26,6 +27,8 @@ typedef struct {
     int closed_loop;     /* observer: 1 closed_loop, 0 current_model */
     int speed_estimated; /* speed_source: 0 measured, 1 estimated */
     double speed_bandwidth; /* [rad/s] the speed estimate's adaptation */
+    int field_weakening;     /* 0/1: the flux set-point of sm_fieldweak.h, or psi_ref as it is */
+    double fw_voltage_ratio; /* [1] in (0, 1] */
 } sm_drive_config;
 
 /* The Python defaults, DriveConfig() (defined in the generated sm_params.c). */
@@ -56,6 +59,8 @@ typedef struct {
     sm_observer obs;
     sm_cl_observer clo; /* the closed-loop observer (dc.observer && dc.closed_loop) */
     sm_delay delay;
+    sm_fieldweak fw;
+    double i_lim; /* [A] the law's current bound this sample (below I_max beyond the breakdown torque) */
     /* state */
     int phase;
     long n;
