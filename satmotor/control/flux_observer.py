@@ -41,9 +41,9 @@ Speed adaptation (``speed_source = estimated``).  Over one sample, both models s
 same estimate; their difference ``d = psi_v - psi_i`` holds ``Ts j n_p (omega_m - omega_hat)
 psi_hat`` plus the flux error's own terms.  The speed error seen in one sample is
 ``eps = Im(d conj(psi_hat)) / (n_p Ts |psi_hat|^2)`` [rad/s], and ``omega_hat <- omega_hat + Ts
-alpha_w eps`` (an integral law of bandwidth ``alpha_w`` [rad/s]); below ``PSI_ADAPT_MIN`` (0.3 Wb)
+alpha_w eps`` (an integral law of bandwidth ``alpha_w`` [rad/s]); below ``PSI_ADAPT_MIN`` (0.2 Wb)
 of estimated flux the estimate is held: there the current noise, divided by the small flux,
-swamps eps (with 0.12 A of noise it tripped the pre-magnetization's "rotor moves" test).
+swamps eps (at 0.1 Wb, 0.12 A of noise tripped the pre-magnetization's "rotor moves" test).
 The speed estimate then drives both the current model's rotation and the gain G.  The speed
 error and the flux error are coupled (a flux error turns into a speed error and back); with b = a
 that mode rings for about a second (period about 0.1 s), so with the speed estimated the pole
@@ -73,7 +73,7 @@ from satmotor.errors import ParameterError, require_number
 
 POLE_FACTOR_MEASURED = 1.0  # [1] b/a with the speed measured: the current model alone at standstill
 POLE_FACTOR_ESTIMATED = 3.0  # [1] b/a with the speed estimated: the speed loop's damping (see the docstring)
-PSI_ADAPT_MIN = 0.3  # [Wb] below this estimated flux the speed estimate is held (no speed information)
+PSI_ADAPT_MIN = 0.2  # [Wb] below this estimated flux the speed estimate is held (no speed information)
 N_STATE = 10  # get_state's length
 
 

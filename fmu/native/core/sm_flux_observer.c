@@ -5,7 +5,7 @@
 
 #include "sm_common.h"
 
-static const double PSI_ADAPT_MIN = 0.3;         /* flux_observer.PSI_ADAPT_MIN [Wb] */
+static const double PSI_ADAPT_MIN = 0.2;         /* flux_observer.PSI_ADAPT_MIN [Wb] */
 static const double POLE_FACTOR_MEASURED = 1.0;  /* flux_observer.POLE_FACTOR_MEASURED [1] */
 static const double POLE_FACTOR_ESTIMATED = 3.0; /* flux_observer.POLE_FACTOR_ESTIMATED [1] */
 
