@@ -32,7 +32,8 @@ UNITS = {"t": "s", "v_s_alpha": "V", "v_s_beta": "V", "v_sd": "V", "v_sq": "V", 
          "psi_r_beta": "Wb", "omega_m": "rad/s", "theta_m": "rad", "T_e": "N m", "i_mu": "A",
          "psi_r_mag": "Wb", "e1": "Wb", "e2": "Wb/s", "z1": "rad/s", "z2": "rad/s^2", "V": "1",
          "W": "1", "T_load_est": "N m", "phase": "1", "voltage_limited": "1", "singular_limited": "1",
-         "current_limited": "1", "psi_r_hat_alpha": "Wb", "psi_r_hat_beta": "Wb"}
+         "current_limited": "1", "psi_r_hat_alpha": "Wb", "psi_r_hat_beta": "Wb",
+         "omega_m_hat": "rad/s"}
 
 
 def plot(r, path, title):

@@ -17,7 +17,7 @@ from typing import NamedTuple
 from satmotor.control.backstepping import BacksteppingGains, ControllerConfig
 from satmotor.control.drive import BacksteppingDrive, DriveConfig, IFOCDrive
 from satmotor.control.ifoc import IFOCGains
-from satmotor.control.measurements import MEAS_LEN
+from satmotor.control.measurements import MEAS_LEN, MEAS_OMEGA_M
 from satmotor.errors import ParameterError, require_integer, require_number
 from satmotor.machine.magnetics import ArctanCurve, LinearCurve, PolynomialCurve
 from satmotor.machine.params import CURVE_NAMES, MotorParams, make_curve
@@ -163,6 +163,8 @@ CONTROLLER_OUTPUTS = (
        "was bounded by I_max", "Boolean"),
     _v("singular_limited", "output", False, "", "the law's singularity guard was active "
        "(flux below phi_min or det Lambda floored)", "Boolean"),
+    _v("omega_m_hat", "output", 0.0, "rad/s", "mechanical speed the drive uses: the observer's estimate "
+       "(speed_source = estimated) or the omega_m input (measured)"),
 )
 CONTROLLER_PARAMETERS = _in_struct("controller", (
     _v("c1", "parameter", _G.c1, "1/s", "flux error gain"),
@@ -188,6 +190,12 @@ CONTROLLER_PARAMETERS = _in_struct("controller", (
        "the sample) or 1 (applied one sample later, compensated by prediction)", "Integer"),
     _v("use_stator_flux", "parameter", _C.use_stator_flux, "", "magnetizing state from the measured "
        "stator flux too (seed H1, eqs 18-19) instead of the curve alone", "Boolean"),
+    _v("observer", "parameter", _D.observer, "", "flux observer with flux_source = observer: closed_loop "
+       "(current and voltage models blended by a speed-dependent gain, the curve inside) or current_model "
+       "(open loop, from i_s and omega_m)", "String"),
+    _v("speed_source", "parameter", _D.speed_source, "", "mechanical speed: measured (the omega_m input) or "
+       "estimated (speed-adaptive closed-loop observer, the omega_m input is not read; needs flux_source = "
+       "observer, observer = closed_loop)", "String"),
     _v("field_weakening", "parameter", _D.field_weakening, "", "automatic field weakening: psi_ref is the "
        "nominal flux, lowered (on the magnetizing curve) where the steady stator voltage at the present "
        "torque and speed would exceed fw_voltage_ratio V_dc/sqrt(3); false: psi_ref as it is", "Boolean"),
@@ -396,7 +404,8 @@ class ControllerUnit:
             raise ParameterError("use_stator_flux", True, "needs measured fluxes: not with flux_source = "
                                  "observer")
         dcfg = DriveConfig(ref_bandwidth=f["ref_bandwidth"], I_max=f["I_max"], flux_source=f["flux_source"],
-                           delay_samples=f["delay_samples"], field_weakening=f["field_weakening"],
+                           delay_samples=f["delay_samples"], observer=f["observer"],
+                           speed_source=f["speed_source"], field_weakening=f["field_weakening"],
                            **{n: f[n] for n in _DRIVE_REALS})
         if mode == "pi":
             gains = dataclasses.replace(IFOCGains(), V_dc=f["V_dc"], I_max=f["I_max"])
@@ -410,6 +419,7 @@ class ControllerUnit:
                                    use_stator_flux=f["use_stator_flux"])
             self.drive = BacksteppingDrive(p, gains, cfg, dcfg)
         self.Ts = f["Ts"]
+        self._speed_estimated = f["speed_source"] == "estimated"
         self.stop_time = math.inf
         self._out = tuple(v.start for v in CONTROLLER_OUTPUTS)
 
@@ -442,6 +452,8 @@ class ControllerUnit:
         if n < 0:
             raise ParameterError("communicationStepSize", dt,
                                  f"must be a whole multiple of the sample period Ts = {self.Ts!r} s")
+        if self._speed_estimated:  # the omega_m input is not read: whatever it holds
+            inputs = (*inputs[:MEAS_OMEGA_M], 0.0, *inputs[MEAS_OMEGA_M + 1:])
         if not math.isfinite(sum(inputs)):  # per-step fast path, as in PlantUnit.step
             _finite_inputs(self.INPUTS, inputs)
         if n == 1:
@@ -461,7 +473,7 @@ class ControllerUnit:
         d = self.drive.step(inputs[:MEAS_LEN], omega_ref, psi_ref, T_load)
         self._out = (d.v_s_alpha, d.v_s_beta, d.v_sd, d.v_sq, d.e1, d.e2, d.z1, d.z2, d.W, d.T_load_est,
                      d.psi_r_hat_alpha, d.psi_r_hat_beta, d.omega_ref_shaped, d.psi_ref_shaped, d.phase,
-                     d.voltage_limited, d.current_limited, d.singular_limited)
+                     d.voltage_limited, d.current_limited, d.singular_limited, self.drive.omega_m_hat)
 
     def outputs(self):
         """Output values in the order of :attr:`OUTPUTS` (zeros before the first sample)."""

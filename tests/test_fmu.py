@@ -50,7 +50,7 @@ CTRL_IN = ("i_s_alpha", "i_s_beta", "psi_r_alpha", "psi_r_beta", "psi_s_alpha", 
            "omega_ref", "psi_ref", "T_load")
 CTRL_OUT = ("v_s_alpha", "v_s_beta", "v_sd", "v_sq", "e1", "e2", "z1", "z2", "W", "T_load_est",
             "psi_r_hat_alpha", "psi_r_hat_beta", "omega_ref_shaped", "psi_ref_shaped", "phase",
-            "voltage_limited", "current_limited", "singular_limited")
+            "voltage_limited", "current_limited", "singular_limited", "omega_m_hat")
 PREMAG_PARAMS = ("premag_fraction", "premag_min_fraction", "premag_speed_tol", "premag_time_max",
                  "premag_boost", "premag_gain")
 CONTRACT = {
@@ -59,14 +59,15 @@ CONTRACT = {
                                                       "v_warn", "i_warn", "omega_warn")},
     "BacksteppingController": {"input": CTRL_IN, "output": CTRL_OUT, "parameter": (
         "c1", "c2", "d1", "d2", "Ts", "mode", "load_mode", "V_dc", "ref_bandwidth", "g_theta", "theta_max",
-        "I_max", "use_stator_flux", "c0", "d0", "flux_source", "delay_samples", "field_weakening",
-        "fw_voltage_ratio") + PREMAG_PARAMS + MOTOR},
+        "I_max", "use_stator_flux", "c0", "d0", "flux_source", "delay_samples", "observer",
+        "speed_source", "field_weakening", "fw_voltage_ratio") + PREMAG_PARAMS + MOTOR},
 }
 UNITS = {"V": "v_s_alpha v_s_beta v_sd v_sq V_dc v_warn", "A": "i_s_alpha i_s_beta i_mu I_par I_max i_warn",
          "Wb": "psi_s_alpha psi_s_beta psi_r_alpha psi_r_beta psi_ref psi_r0 e1 psi_r_hat_alpha "
                "psi_r_hat_beta "
                "psi_ref_shaped", "Wb/s": "e2",
-         "rad/s": "omega_m omega_ref omega_m0 z1 ref_bandwidth omega_ref_shaped premag_speed_tol omega_warn",
+         "rad/s": "omega_m omega_ref omega_m0 z1 ref_bandwidth omega_ref_shaped omega_m_hat premag_speed_tol "
+                  "omega_warn",
          "rad": "theta_m",
          "rad/s2": "z2 theta_max",
          "N m": "T_load T_e T_load_est", "Ohm": "R_s R_r premag_gain", "H": "l_s l_r L_m0 L_m_inf",
@@ -87,6 +88,7 @@ def _defaults():
         n: getattr(c, n) for n in ("Ts", "V_dc", "load_mode", "g_theta", "theta_max")} | {
         "ref_bandwidth": d.ref_bandwidth, "I_max": d.I_max, "mode": "saturated",
         "use_stator_flux": c.use_stator_flux, "flux_source": d.flux_source, "delay_samples": d.delay_samples,
+        "observer": d.observer, "speed_source": d.speed_source,
         "field_weakening": d.field_weakening} | {
         n: getattr(d, n) for n in ("fw_voltage_ratio",) + PREMAG_PARAMS}
     # at rest, unmagnetized (closed_loop's x0); one RK4 step per sample (closed_loop's n_sub = 1)

@@ -1,6 +1,6 @@
 """The controller unit in C (fmu/native/core/sm_controller.c, sm_drive.c, sm_delay.c, ...) against
 satmotor.interface.ControllerUnit: a plain-Python closed loop (PlantUnit + ControllerUnit) runs a
-scenario; the C controller receives the same inputs at every sample and must give the same 18
+scenario; the C controller receives the same inputs at every sample and must give the same 19
 outputs.  Every mode and option of the drive: the Python is the specification."""
 
 import ctypes
@@ -78,6 +78,12 @@ CASES = {
     "observer": ({"flux_source": "observer"}, {}),
     "delay, integral action, mismatch": ({"delay_samples": 1, "c0": 1e4, "d0": 2500.0}, {"R_s": 1.8}),
     "observer and delay": ({"flux_source": "observer", "delay_samples": 1}, {}),
+    "current-model observer": ({"flux_source": "observer", "observer": "current_model"}, {}),
+    "closed-loop observer, R_r +50 %, integral action": ({"flux_source": "observer", "c0": 1e4, "d0": 2500.0},
+                                                         {"R_r": 2.0925}),
+    "sensorless": ({"flux_source": "observer", "speed_source": "estimated"}, {}),
+    "sensorless, delay, estimated load": ({"flux_source": "observer", "speed_source": "estimated",
+                                           "delay_samples": 1, "load_mode": "estimated"}, {}),
     "stator flux (H1)": ({"use_stator_flux": True}, {}),
     "current limit binding": ({"I_max": 12.0, "ref_bandwidth": 400.0}, {}),
     "exponential curve, k = 0.9": (EXP, EXP),
@@ -117,6 +123,10 @@ BAD = [({"mode": "fuzzy"}, "mode"), ({"flux_source": "estimated"}, "flux_source"
        ({"J": 0.0}, "J"),
        ({"flux_source": "observer", "use_stator_flux": True}, "use_stator_flux"),
        ({"load_mode": "guess"}, "load_mode"), ({"curve": "spline"}, "curve"),
+       ({"observer": "luenberger"}, "observer"), ({"speed_source": "guessed"}, "speed_source"),
+       ({"speed_source": "estimated"}, "speed_source"),
+       ({"flux_source": "observer", "observer": "current_model", "speed_source": "estimated"},
+        "speed_source"),
        ({"fw_voltage_ratio": 1.5}, "fw_voltage_ratio"), ({"fw_voltage_ratio": 0.0}, "fw_voltage_ratio"),
        ({"premag_fraction": 0.0}, "premag_fraction"), ({"premag_min_fraction": 0.95}, "premag_min_fraction"),
        ({"premag_speed_tol": 0.0}, "premag_speed_tol"), ({"premag_time_max": -1.0}, "premag_time_max"),
@@ -154,3 +164,26 @@ def test_c_controller_refuses_bad_inputs_and_steps_and_changes_nothing(lib):
     assert msg.value.decode() == str(exc.value)
     assert bytes(buf) == before
     assert np.isfinite(_out(buf, lib)).all()
+
+
+@pytest.mark.parametrize("garbage", [math.nan, math.inf, 1e300, -77.0])
+def test_sensorless_controller_does_not_read_omega_m(lib, garbage):
+    """speed_source = estimated: the omega_m input may hold anything (NaN included); the C and the Python
+    controllers give the outputs they give with the true speed, sample by sample."""
+    values = {"flux_source": "observer", "speed_source": "estimated"}
+    buf, status, msg = _c_controller(lib, values)
+    assert status == 0, msg
+    py = ControllerUnit(values)
+    msgbuf = ctypes.create_string_buffer(256)
+    n = 0
+    for t, inputs, want in _closed_loop(values, {}, 0.3, _ramp, lambda t: 0.95, _load):
+        bad = inputs[:6] + (garbage,) + inputs[7:]
+        py.step(t, 1e-4, bad)
+        arr = (ctypes.c_double * 10)(*bad)
+        assert lib.sm_controller_step(buf, t, 1e-4, arr, msgbuf, 256) == 0, msgbuf.value
+        assert list(py.outputs()) == list(want)  # bit for bit: omega_m was not read
+        got = _out(buf, lib)
+        scale = 1.0 + max(abs(float(w)) for w in want)
+        assert max(abs(g - float(w)) for g, w in zip(got, want)) <= 1e-12 * scale
+        n += 1
+    assert n > 2000

@@ -67,6 +67,9 @@ class _DriveConfig(ctypes.Structure):  # sm_drive.h
                                                "premag_gain", "premag_time_max", "premag_min_fraction",
                                                "premag_speed_tol")] + [("observer", ctypes.c_int),
                                                                        ("delay_samples", ctypes.c_int),
+                                                                       ("closed_loop", ctypes.c_int),
+                                                                       ("speed_estimated", ctypes.c_int),
+                                                                       ("speed_bandwidth", ctypes.c_double),
                                                                        ("field_weakening", ctypes.c_int),
                                                                        ("fw_voltage_ratio", ctypes.c_double)]
 
@@ -87,7 +90,9 @@ def test_the_c_defaults_of_the_settings_structs_are_the_python_dataclass_default
         if "load_mode" in want:
             want["load_estimated"] = int(want.pop("load_mode") == "estimated")
         if "flux_source" in want:
+            want["closed_loop"] = int(want.pop("observer") == "closed_loop")
             want["observer"] = int(want.pop("flux_source") == "observer")
+            want["speed_estimated"] = int(want.pop("speed_source") == "estimated")
         got = {n: getattr(c, n) for n, _ in struct._fields_}
         assert got == {k: (int(v) if isinstance(v, bool) else v) for k, v in want.items()}, fn
 

@@ -58,7 +58,9 @@ DATACLASS_STRUCTS = {
     "gains": (BacksteppingGains, {}),
     "law_config": (ControllerConfig, {"load_mode": ("load_estimated", lambda v: v == "estimated"),
                                       "true_i_mu": None}),  # a design-comparison setting of the Python loop
-    "drive_config": (DriveConfig, {"flux_source": ("observer", lambda v: v == "observer")}),
+    "drive_config": (DriveConfig, {"flux_source": ("observer", lambda v: v == "observer"),
+                                   "observer": ("closed_loop", lambda v: v == "closed_loop"),
+                                   "speed_source": ("speed_estimated", lambda v: v == "estimated")}),
     "ifoc_gains": (IFOCGains, {}),
 }
 

@@ -39,6 +39,7 @@ from satmotor.control.backstepping import D_SHARE, BacksteppingGains, Controller
 from satmotor.control.delay import N_STATE as N_DELAY_STATE
 from satmotor.control.delay import DelayCompensator
 from satmotor.control.field_weakening import FieldWeakening
+from satmotor.control.flux_observer import ClosedLoopObserver
 from satmotor.control.fo_model import flux_rate, model_constants
 from satmotor.control.ifoc import IFOCController, IFOCGains
 from satmotor.control.measurements import (
@@ -55,6 +56,8 @@ from satmotor.errors import ParameterError, require_number
 
 PREMAG, RUN = 0, 1
 FLUX_SOURCES = ("measured", "observer")
+OBSERVERS = ("closed_loop", "current_model")
+SPEED_SOURCES = ("measured", "estimated")
 _SQRT3 = math.sqrt(3.0)
 _FRAME_MIN = 1e-3  # [1] below this fraction of the set-point the premag current stays on alpha
 
@@ -70,7 +73,12 @@ class DriveConfig:
     than premag_speed_tol [rad/s] or premag_time_max [s] has passed, never below it;
     premag_boost [1]; premag_gain [Ohm] K_pm of the pre-magnetization current loop;
     flux_source 'measured' (the psi_r inputs, the seed's assumption) or 'observer'
-    (:class:`satmotor.control.observer.RotorFluxObserver` from i_s and omega_m); delay_samples 0 or 1
+    (from i_s, omega_m and the applied v_s); observer 'closed_loop'
+    (:class:`satmotor.control.flux_observer.ClosedLoopObserver`, current and voltage models blended) or
+    'current_model' (:class:`satmotor.control.observer.RotorFluxObserver`, open loop);
+    speed_source 'measured' (the omega_m input) or 'estimated' (the closed-loop observer's speed
+    estimate; the omega_m input is not read; needs flux_source 'observer', observer 'closed_loop');
+    speed_bandwidth [rad/s] of the speed estimate's adaptation; delay_samples 0 or 1
     (:mod:`satmotor.control.delay`); field_weakening: the flux set-point psi_ref is the nominal flux,
     lowered where the steady stator voltage would exceed fw_voltage_ratio [1] of V_dc/sqrt(3)
     (:mod:`satmotor.control.field_weakening`); False: psi_ref as it is (the drive before it).
@@ -86,6 +94,9 @@ class DriveConfig:
     premag_speed_tol: float = 2.0
     flux_source: str = "measured"
     delay_samples: int = 0
+    observer: str = "closed_loop"
+    speed_source: str = "measured"
+    speed_bandwidth: float = 200.0
     field_weakening: bool = True
     fw_voltage_ratio: float = 0.95
 
@@ -102,6 +113,16 @@ class DriveConfig:
             raise ParameterError("flux_source", self.flux_source, f"must be one of {', '.join(FLUX_SOURCES)}")
         if self.delay_samples not in (0, 1) or isinstance(self.delay_samples, bool):
             raise ParameterError("delay_samples", self.delay_samples, "must be 0 or 1")
+        require_number("speed_bandwidth", self.speed_bandwidth, 0)
+        if self.observer not in OBSERVERS:
+            raise ParameterError("observer", self.observer, f"must be one of {', '.join(OBSERVERS)}")
+        if self.speed_source not in SPEED_SOURCES:
+            raise ParameterError("speed_source", self.speed_source,
+                                 f"must be one of {', '.join(SPEED_SOURCES)}")
+        closed_loop = self.flux_source == "observer" and self.observer == "closed_loop"
+        if self.speed_source == "estimated" and not closed_loop:
+            raise ParameterError("speed_source", self.speed_source, "needs flux_source = observer and "
+                                 "observer = closed_loop (the speed estimate is the closed-loop observer's)")
         if not isinstance(self.field_weakening, bool):
             raise ParameterError("field_weakening", self.field_weakening, "must be a bool")
         require_number("fw_voltage_ratio", self.fw_voltage_ratio, 0, upper=1)
@@ -146,7 +167,15 @@ class _Drive:
         self._speed = ReferenceShaper(drive_cfg.ref_bandwidth)
         self._checked = (None, 0.0)  # last flux set-point checked, its magnetizing current
         self._n_switch = round(drive_cfg.premag_time_max / Ts)
-        self._observer = (RotorFluxObserver(params, Ts) if drive_cfg.flux_source == "observer" else None)
+        self._observer = self._cl = None
+        if drive_cfg.flux_source == "observer":
+            if drive_cfg.observer == "closed_loop":
+                sensorless = drive_cfg.speed_source == "estimated"
+                self._cl = ClosedLoopObserver(params, Ts, sensorless, drive_cfg.speed_bandwidth)
+                self._observer = self._cl
+            else:
+                self._observer = RotorFluxObserver(params, Ts)
+        self._w_used = 0.0  # [rad/s] the speed of the last sample (not a state: set by every step)
         self._delay = DelayCompensator(params, Ts) if drive_cfg.delay_samples else None
         self._fw = (FieldWeakening(params, self._V_max, drive_cfg.fw_voltage_ratio, drive_cfg.ref_bandwidth)
                     if drive_cfg.field_weakening else None)
@@ -187,6 +216,19 @@ class _Drive:
         return I
 
     def step(self, meas, omega_ref, psi_ref, T_load):
+        """One sample (see :meth:`_step`); the closed-loop observer learns the voltage applied next."""
+        out = self._step(meas, omega_ref, psi_ref, T_load)
+        if self._cl is not None:
+            self._cl.applied(out.v_s_alpha, out.v_s_beta)
+        return out
+
+    @property
+    def omega_m_hat(self):
+        """The speed [rad/s] the last sample used: the observer's estimate (speed_source estimated) or
+        the omega_m measurement (C: ``sm_drive_output.omega_m_hat``)."""
+        return self._w_used
+
+    def _step(self, meas, omega_ref, psi_ref, T_load):
         """One sample: ``meas`` the measurement tuple of :mod:`satmotor.control.measurements`
         [A, A, Wb, Wb, Wb, Wb, rad/s] (the controller unit's input order); the raw set-points
         ``omega_ref`` [rad/s], ``psi_ref`` [Wb] (shaped inside: ``omega_ref_shaped``,
@@ -194,9 +236,13 @@ class _Drive:
         Returns a :class:`DriveOutput`."""
         I_set = self.magnetizing_current(psi_ref)
         require_number("omega_ref", omega_ref)
-        if self._observer is not None:  # the psi inputs are ignored: the estimate replaces them
+        if self._cl is not None:  # the psi inputs (and with speed_source estimated omega_m) are ignored
+            pa, pb, w = self._cl.update(meas[MEAS_I_S_A], meas[MEAS_I_S_B], meas[MEAS_OMEGA_M])
+            meas = (meas[MEAS_I_S_A], meas[MEAS_I_S_B], pa, pb, 0.0, 0.0, w)  # MEAS_* order
+        elif self._observer is not None:  # the psi inputs are ignored: the estimate replaces them
             pa, pb = self._observer.update(meas[MEAS_I_S_A], meas[MEAS_I_S_B], meas[MEAS_OMEGA_M])
             meas = (meas[MEAS_I_S_A], meas[MEAS_I_S_B], pa, pb, 0.0, 0.0, meas[MEAS_OMEGA_M])  # MEAS_* order
+        self._w_used = meas[MEAS_OMEGA_M]
         if self._phase == PREMAG:
             phi = math.hypot(meas[MEAS_PSI_R_A], meas[MEAS_PSI_R_B])
             if not self._switch_now(phi, psi_ref, meas[MEAS_OMEGA_M]):

@@ -108,6 +108,13 @@ class RotorFluxObserver:
         self._pa, self._pb, self._isa, self._isb, self._w = pa, pb, isa, isb, w
         self._has_prev = flag != 0.0
 
+    def restart(self, psi_r_alpha, psi_r_beta, i_s_alpha, i_s_beta, omega_m):
+        """Set the estimate [Wb] and the previous sample (i_s [A], omega_m [rad/s]) unchecked (per-sample
+        path of :class:`satmotor.control.flux_observer.ClosedLoopObserver`)."""
+        self._pa, self._pb, self._isa, self._isb = psi_r_alpha, psi_r_beta, i_s_alpha, i_s_beta
+        self._w = omega_m
+        self._has_prev = True
+
     def _rhs(self, c, s, fa, fb, isa, isb):
         """phi' = R(-theta)(-R_r i_r) at phi = (fa, fb), cos/sin theta = (c, s), i_s = (isa, isb)."""
         pa = c * fa - s * fb

@@ -55,6 +55,20 @@ int sm_controller_init(sm_controller *u, const sm_controller_params *v, const sm
     } else if (strcmp(v->flux_source, "measured") != 0) {
         return str_error(msg, msg_len, "flux_source", v->flux_source, "must be one of measured, observer");
     }
+    if (strcmp(v->observer, "closed_loop") == 0) {
+        dc.closed_loop = 1;
+    } else if (strcmp(v->observer, "current_model") == 0) {
+        dc.closed_loop = 0;
+    } else {
+        return str_error(msg, msg_len, "observer", v->observer, "must be one of closed_loop, current_model");
+    }
+    if (strcmp(v->speed_source, "estimated") == 0) {
+        dc.speed_estimated = 1;
+    } else if (strcmp(v->speed_source, "measured") == 0) {
+        dc.speed_estimated = 0;
+    } else {
+        return str_error(msg, msg_len, "speed_source", v->speed_source, "must be one of measured, estimated");
+    }
     if (dc.observer && v->use_stator_flux) {
         return sm_param_error(msg, msg_len, NULL, "use_stator_flux", "True",
                               "needs measured fluxes: not with flux_source = observer");
@@ -158,6 +172,7 @@ static int sample(sm_controller *u, const double in[SM_CONTROLLER_N_IN], char *m
     u->out[15] = (double)d.voltage_limited;
     u->out[16] = (double)d.current_limited;
     u->out[17] = (double)d.singular_limited;
+    u->out[18] = d.omega_m_hat;
     return SM_CORE_OK;
 }
 
@@ -203,10 +218,15 @@ static int step_samples(sm_controller *u, double t, double dt, const double in[S
                               reason);
     }
     for (j = 0; j < SM_CONTROLLER_N_IN; ++j) {
-        sum += in[j];
+        if (j != SM_CONTROLLER_IN_omega_m || !u->drive.dc.speed_estimated) { /* estimated: omega_m is not read */
+            sum += in[j];
+        }
     }
     if (!isfinite(sum)) {
         for (j = 0; j < SM_CONTROLLER_N_IN; ++j) {
+            if (j == SM_CONTROLLER_IN_omega_m && u->drive.dc.speed_estimated) {
+                continue;
+            }
             if ((st = sm_require_number(SM_CONTROLLER_INPUT_NAMES[j], in[j], 0, 0.0, 0, msg, msg_len))) {
                 return st;
             }

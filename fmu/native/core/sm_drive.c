@@ -50,7 +50,8 @@ static int check_config(const sm_drive_config *c, char *msg, size_t len)
     if (sm_require_number("premag_boost", c->premag_boost, 1, 1.0, 1, msg, len) ||
         sm_require_number("premag_gain", c->premag_gain, 1, 0.0, 0, msg, len) ||
         sm_require_number("premag_time_max", c->premag_time_max, 1, 0.0, 0, msg, len) ||
-        sm_require_number("premag_speed_tol", c->premag_speed_tol, 1, 0.0, 0, msg, len)) {
+        sm_require_number("premag_speed_tol", c->premag_speed_tol, 1, 0.0, 0, msg, len) ||
+        sm_require_number("speed_bandwidth", c->speed_bandwidth, 1, 0.0, 0, msg, len)) {
         return SM_ERR_PARAM;
     }
     if (c->observer != 0 && c->observer != 1) {
@@ -59,6 +60,10 @@ static int check_config(const sm_drive_config *c, char *msg, size_t len)
     if (c->delay_samples != 0 && c->delay_samples != 1) {
         (void)snprintf(repr, sizeof repr, "%d", c->delay_samples);
         return sm_param_error(msg, len, NULL, "delay_samples", repr, "must be 0 or 1");
+    }
+    if (c->speed_estimated && !(c->observer && c->closed_loop)) {
+        return sm_param_error(msg, len, NULL, "speed_source", "'estimated'", "needs flux_source = observer and "
+                              "observer = closed_loop (the speed estimate is the closed-loop observer's)");
     }
     if (c->field_weakening != 0 && c->field_weakening != 1) {
         return range_error(msg, len, "field_weakening", (double)c->field_weakening, "must be a bool");
@@ -118,7 +123,12 @@ int sm_drive_init(sm_drive *d, sm_mode mode, const sm_motor *p, const sm_gains *
         return st;
     }
     d->n_switch = (long)nearbyint(dc->premag_time_max / d->Ts); /* Python round(): half to even */
-    if (dc->observer &&
+    if (dc->observer && dc->closed_loop &&
+        (st = sm_cl_observer_init(&d->clo, d->p.R_s, d->p.R_r, d->p.l_s, d->p.l_r, d->p.k, d->p.n_p, d->Ts,
+                                  dc->speed_estimated, dc->speed_bandwidth, msg, msg_len))) {
+        return st;
+    }
+    if (dc->observer && !dc->closed_loop &&
         (st = sm_observer_init(&d->obs, d->p.R_r, d->p.l_r, d->p.k, d->p.n_p, d->Ts, 1, msg, msg_len))) {
         return st;
     }
@@ -138,7 +148,9 @@ void sm_drive_reset(sm_drive *d)
     d->n = 0;
     (void)sm_shaper_reset(&d->flux, 0.0, NULL, 0);
     (void)sm_shaper_reset(&d->speed, 0.0, NULL, 0);
-    if (d->dc.observer) {
+    if (d->dc.observer && d->dc.closed_loop) {
+        (void)sm_cl_observer_reset(&d->clo, 0.0, 0.0, 0.0, NULL, 0);
+    } else if (d->dc.observer) {
         (void)sm_observer_reset(&d->obs, 0.0, 0.0, NULL, 0);
     }
     if (d->dc.delay_samples) {
@@ -345,14 +357,33 @@ static void delayed(sm_drive *d, sm_drive_output *o)
     }
 }
 
+static int step(sm_drive *d, const double meas_in[SM_MEAS_LEN], double omega_ref, double psi_ref, double T_load,
+                sm_drive_output *out, double *w_used, char *msg, size_t msg_len);
+
 int sm_drive_step(sm_drive *d, const double meas_in[SM_MEAS_LEN], double omega_ref, double psi_ref, double T_load,
                   sm_drive_output *out, char *msg, size_t msg_len)
 {
-    double I_set, meas[SM_MEAS_LEN], psi_ref_shaped[3], omega_ref_shaped[3];
-    int st, j;
+    double w_used = 0.0;
+    int st;
     if (d == NULL || meas_in == NULL || out == NULL) {
         return SM_ERR_ARG;
     }
+    if ((st = step(d, meas_in, omega_ref, psi_ref, T_load, out, &w_used, msg, msg_len))) {
+        return st;
+    }
+    if (d->dc.observer && d->dc.closed_loop) { /* the voltage applied next, for the voltage model */
+        sm_cl_observer_applied(&d->clo, out->v_s_alpha, out->v_s_beta);
+    }
+    out->omega_m_hat = w_used;
+    return SM_CORE_OK;
+}
+
+/* _Drive._step */
+static int step(sm_drive *d, const double meas_in[SM_MEAS_LEN], double omega_ref, double psi_ref, double T_load,
+                sm_drive_output *out, double *w_used, char *msg, size_t msg_len)
+{
+    double I_set, meas[SM_MEAS_LEN], psi_ref_shaped[3], omega_ref_shaped[3];
+    int st, j;
     if ((st = magnetizing_current(d, psi_ref, &I_set, msg, msg_len)) ||
         (st = sm_require_number("omega_ref", omega_ref, 0, 0.0, 0, msg, msg_len))) {
         return st;
@@ -360,7 +391,17 @@ int sm_drive_step(sm_drive *d, const double meas_in[SM_MEAS_LEN], double omega_r
     for (j = 0; j < SM_MEAS_LEN; ++j) {
         meas[j] = meas_in[j];
     }
-    if (d->dc.observer) { /* the psi inputs are ignored: the estimate replaces them */
+    if (d->dc.observer && d->dc.closed_loop) { /* the psi inputs (speed estimated: omega_m too) are ignored */
+        double pa, pb, w;
+        if ((st = sm_cl_observer_update(&d->clo, &d->p.curve, meas[SM_MEAS_I_S_A], meas[SM_MEAS_I_S_B],
+                                        meas[SM_MEAS_OMEGA_M], &pa, &pb, &w))) {
+            return st;
+        }
+        meas[SM_MEAS_PSI_R_A] = pa;
+        meas[SM_MEAS_PSI_R_B] = pb;
+        meas[SM_MEAS_PSI_S_A] = meas[SM_MEAS_PSI_S_B] = 0.0;
+        meas[SM_MEAS_OMEGA_M] = w;
+    } else if (d->dc.observer) { /* the psi inputs are ignored: the estimate replaces them */
         double pa, pb;
         if ((st = sm_observer_update(&d->obs, &d->p.curve, meas[SM_MEAS_I_S_A], meas[SM_MEAS_I_S_B],
                                      meas[SM_MEAS_OMEGA_M], &pa, &pb))) {
@@ -370,6 +411,7 @@ int sm_drive_step(sm_drive *d, const double meas_in[SM_MEAS_LEN], double omega_r
         meas[SM_MEAS_PSI_R_B] = pb;
         meas[SM_MEAS_PSI_S_A] = meas[SM_MEAS_PSI_S_B] = 0.0;
     }
+    *w_used = meas[SM_MEAS_OMEGA_M];
     if (d->phase == SM_PREMAG) {
         double phi = sm_hypot(meas[SM_MEAS_PSI_R_A], meas[SM_MEAS_PSI_R_B]);
         if (!switch_now(d, phi, psi_ref, meas[SM_MEAS_OMEGA_M])) {

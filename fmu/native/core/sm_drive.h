@@ -8,6 +8,7 @@
 #include <stddef.h>
 
 #include "sm_delay.h"
+#include "sm_flux_observer.h"
 #include "sm_fieldweak.h"
 #include "sm_ifoc.h"
 #include "sm_law.h"
@@ -23,6 +24,9 @@ typedef struct {
     double premag_min_fraction, premag_speed_tol;
     int observer;      /* flux_source: 0 measured, 1 observer */
     int delay_samples; /* 0 or 1 */
+    int closed_loop;     /* observer: 1 closed_loop, 0 current_model */
+    int speed_estimated; /* speed_source: 0 measured, 1 estimated */
+    double speed_bandwidth; /* [rad/s] the speed estimate's adaptation */
     int field_weakening;     /* 0/1: the flux set-point of sm_fieldweak.h, or psi_ref as it is */
     double fw_voltage_ratio; /* [1] in (0, 1] */
 } sm_drive_config;
@@ -36,6 +40,8 @@ typedef struct {
     double omega_ref_shaped, psi_ref_shaped; /* the shaped references (pre-magnetization: the shapers at rest) */
     int phase, voltage_limited, singular_limited, current_limited;
     double psi_r_hat_alpha, psi_r_hat_beta;
+    double omega_m_hat; /* [rad/s] the speed the drive used (the estimate, or the measurement); Python:
+                         * the drive's property omega_m_hat */
 } sm_drive_output;
 
 typedef struct {
@@ -51,6 +57,7 @@ typedef struct {
     double checked_psi, checked_I;
     sm_shaper flux, speed;
     sm_observer obs;
+    sm_cl_observer clo; /* the closed-loop observer (dc.observer && dc.closed_loop) */
     sm_delay delay;
     sm_fieldweak fw;
     double i_lim; /* [A] the law's current bound this sample (below I_max beyond the breakdown torque) */
