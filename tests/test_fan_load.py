@@ -6,7 +6,7 @@ import random
 
 import pytest
 
-from orchestration.scenario.load import validate_scenario_file
+from orchestration.scenario.validate import validate_scenario_file
 from satmotor.errors import ParameterError
 from satmotor.interface import PLANT_PARAMETERS, PlantUnit
 from satmotor.machine.integrate import rk4

@@ -15,8 +15,9 @@ import pytest
 from orchestration.cli.commands import main as cli_main
 from orchestration.run.measurement_noise import MeasurementNoise
 from orchestration.run.reference import COLUMNS, plain_reference
-from orchestration.scenario.load import load_scenario, validate_scenario_file
+from orchestration.scenario.load import load_scenario
 from orchestration.scenario.system import MEASUREMENTS, Measurements
+from orchestration.scenario.validate import validate_scenario_file
 from satmotor.interface import ControllerUnit, PlantUnit
 from satmotor.simulate import closed_loop
 

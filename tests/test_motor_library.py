@@ -21,7 +21,8 @@ import pytest
 
 from orchestration.build import fmus
 from orchestration.run.fmu_instance import FMUInstance
-from orchestration.scenario.load import check_scenario_file, load_scenario
+from orchestration.scenario.load import load_scenario
+from orchestration.scenario.validate import check_scenario_file
 from satmotor.errors import ParameterError
 from satmotor.machine.library import MOTORS, preset
 

@@ -161,7 +161,7 @@ def test_each_level_leaves_what_it_says_on_disk(levels):
 
 
 def test_record_levels_are_checked(tmp_path):
-    from orchestration.scenario.load import validate_scenario_file
+    from orchestration.scenario.validate import validate_scenario_file
 
     for record, field, words in (("{level: all}", "record.level", "must be one of"),
                                  ("{level: full, every: 3}", "record.every", "decimated only"),

@@ -13,10 +13,8 @@ from orchestration.cli.commands import main as cli_main
 from orchestration.scenario.load import (
     Scenario,
     ScenarioError,
-    check_scenario_file,
     interface_variables,
     load_scenario,
-    validate_scenario_file,
 )
 from orchestration.scenario.problems import Problem
 from orchestration.scenario.profiles import (
@@ -29,6 +27,7 @@ from orchestration.scenario.profiles import (
     Table,
     parse_profile,
 )
+from orchestration.scenario.validate import check_scenario_file, validate_scenario_file
 from satmotor.control.backstepping import ControllerConfig
 from satmotor.machine.params import RatedData
 from satmotor.simulate import RampScenario

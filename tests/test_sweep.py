@@ -9,8 +9,9 @@ import numpy as np
 import pytest
 import yaml
 
-from orchestration.scenario.load import ScenarioError, check_scenario_file, load_scenario
+from orchestration.scenario.load import ScenarioError, load_scenario
 from orchestration.scenario.sweep import expand
+from orchestration.scenario.validate import check_scenario_file
 from orchestration.scenario.variants import load_sweep, load_variant
 
 BASE = {"name": "s", "stop_time": 0.2, "motor": {"J": 0.02}, "controller": {"d1": 100.0},

@@ -82,7 +82,7 @@ def cmd_build(args):
 def cmd_validate(args):
     """Every problem of each file (exit 2 if any), and the notes of the valid ones (plant/controller
     mismatch, a load beyond the current limit's torque: said on stderr, exit 0)."""
-    from orchestration.scenario.load import check_scenario_file
+    from orchestration.scenario.validate import check_scenario_file
 
     worst = OK
     for path in args.scenario:

@@ -2,9 +2,10 @@
 
 * :mod:`~orchestration.scenario.problems` -- :class:`Problem` (file, field, value, what is wrong),
   :class:`Note` (allowed, but said), the :class:`Checker` that collects them, :class:`ProblemError`.
-* :mod:`~orchestration.scenario.load` -- the scenario schema: :func:`load_scenario`,
-  :func:`check_scenario_file`, :func:`validate_scenario_file`, :class:`Scenario`,
+* :mod:`~orchestration.scenario.load` -- the scenario schema: :func:`load_scenario`, :class:`Scenario`,
   :class:`ScenarioError`.
+* :mod:`~orchestration.scenario.validate` -- :func:`check_scenario_file`, :func:`validate_scenario_file`:
+  every problem of a file and of its sweep's variants, never raising.
 * :mod:`~orchestration.scenario.profiles` -- the time profiles of the set-points and the load.
 * :mod:`~orchestration.scenario.sweep` -- the ``sweep:`` section: a grid or Monte Carlo draws of
   variants, expanded before anything runs; :mod:`~orchestration.scenario.variants` -- a sweep file

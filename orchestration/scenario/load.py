@@ -37,9 +37,10 @@ and the controller (one line per parameter, unless ``mismatch: true``), ``mismat
 difference, and a load whose peak exceeds the torque the controller's current limit allows
 (:func:`orchestration.scenario.feasibility.physics_check`).
 
-:func:`validate_scenario_file` returns every problem and never raises (:func:`check_scenario_file`
-also the notes); :func:`load_scenario` raises one :class:`ScenarioError` listing all of them, and
-the scenario it returns carries its notes (``Scenario.notes``).  Numbers are ints or floats; YAML 1.1
+:func:`orchestration.scenario.validate.validate_scenario_file` returns every problem and never
+raises (``check_scenario_file`` also the notes); :func:`load_scenario` raises one
+:class:`ScenarioError` listing all of them, and the scenario it returns carries its notes
+(``Scenario.notes``).  Numbers are ints or floats; YAML 1.1
 reads ``1e-4`` (no dot) as a string, which is reported with the spelling to use (``1.0e-4``).
 """
 
@@ -59,7 +60,7 @@ from orchestration.scenario.profiles import Constant, parse_profile
 from orchestration.scenario.system import Measurements
 
 __all__ = ["Problem", "Note", "ScenarioError", "Acceptance", "Record", "Scenario", "Measurements",
-           "load_scenario", "validate_scenario_file", "check_scenario_file",
+           "load_scenario",
            "interface_variables", "motor_variables", "ALGORITHMS", "PROFILE_NAMES"]
 
 ALGORITHMS = ("gauss-seidel", "jacobi")
@@ -441,37 +442,10 @@ def _read(path):
         return None, [Problem(file, "(yaml syntax)", where, f"invalid YAML: {what}")]
 
 
-def check_scenario_file(path, variables=None):
-    """``(problems, notes)`` of the scenario file ``path``: every :class:`Problem` (empty: valid)
-    and, for a valid file, its :class:`Note` lines; with a ``sweep:`` section, every variant's
-    problems too.  Never raises.
-
-    ``variables``: ``{"plant": {name: (causality, type)}, "controller": {...}}`` of the FMUs
-    (e.g. from fmpy's model descriptions); None: :func:`interface_variables`.
-    """
-    try:
-        data, problems = _read(path)
-        if problems:
-            return problems, []
-        sc, problems = _check(data, str(path), variables)
-        if isinstance(data, dict) and "sweep" in data:  # every variant checked too
-            from orchestration.scenario.variants import check_sweep
-
-            problems = problems + check_sweep(data, str(path), variables, problems)[2]
-        return problems, list(sc.notes) if sc is not None and not problems else []
-    except Exception as exc:  # noqa: BLE001 - a validator reports, it does not crash
-        return [Problem(str(path), "(internal)", None, f"validation failed: {exc!r}")], []
-
-
-def validate_scenario_file(path, variables=None):
-    """Every problem of the scenario file ``path`` (empty list: valid).  Never raises.
-    ``variables`` as for :func:`check_scenario_file`."""
-    return check_scenario_file(path, variables)[0]
-
-
 def load_scenario(path, variables=None):
     """The :class:`Scenario` of the YAML file ``path``; raises :class:`ScenarioError` listing every
-    problem.  ``variables`` as for :func:`validate_scenario_file`."""
+    problem.  ``variables``: ``{"plant": {name: (causality, type)}, "controller": {...}}`` of the
+    FMUs (e.g. from fmpy's model descriptions); None: :func:`interface_variables`."""
     data, problems = _read(path)
     if not problems:
         sc, problems = _check(data, str(path), variables)

@@ -1,0 +1,38 @@
+"""The validator of scenario files: every problem of a file, and of each variant of its ``sweep:``
+section, at once (:mod:`orchestration.scenario.load` reads one scenario,
+:mod:`orchestration.scenario.variants` the variants of a sweep; this module uses both, so neither
+imports the other's caller)."""
+
+from __future__ import annotations
+
+from orchestration.scenario.load import _check, _read
+from orchestration.scenario.problems import Problem
+from orchestration.scenario.variants import check_sweep
+
+__all__ = ["check_scenario_file", "validate_scenario_file"]
+
+
+def check_scenario_file(path, variables=None):
+    """``(problems, notes)`` of the scenario file ``path``: every :class:`Problem` (empty: valid)
+    and, for a valid file, its :class:`Note` lines; with a ``sweep:`` section, every variant's
+    problems too.  Never raises.
+
+    ``variables``: ``{"plant": {name: (causality, type)}, "controller": {...}}`` of the FMUs
+    (e.g. from fmpy's model descriptions); None: :func:`interface_variables`.
+    """
+    try:
+        data, problems = _read(path)
+        if problems:
+            return problems, []
+        sc, problems = _check(data, str(path), variables)
+        if isinstance(data, dict) and "sweep" in data:  # every variant checked too
+            problems = problems + check_sweep(data, str(path), variables, problems)[2]
+        return problems, list(sc.notes) if sc is not None and not problems else []
+    except Exception as exc:  # noqa: BLE001 - a validator reports, it does not crash
+        return [Problem(str(path), "(internal)", None, f"validation failed: {exc!r}")], []
+
+
+def validate_scenario_file(path, variables=None):
+    """Every problem of the scenario file ``path`` (empty list: valid).  Never raises.
+    ``variables`` as for :func:`check_scenario_file`."""
+    return check_scenario_file(path, variables)[0]
