@@ -51,11 +51,16 @@ system-packages:
 bench: $(STAMP)
 	$(PY) -m pip install --quiet -e ".[dev,bench]"
 	$(PY) bench/bench_plant.py
-	$(PY) bench/bench_controller.py
+	$(PY) bench/bench_controller_step.py
+	$(PY) bench/bench_observer.py
+	$(PY) bench/bench_floor.py
+	$(PY) bench/bench_forms.py
 	$(PY) bench/bench_cosim.py
 	$(PY) bench/bench_native.py
 	$(PY) bench/bench_libcosim.py
 	$(PY) bench/bench_batch.py
+	$(PY) bench/bench_sweep.py
+	$(PY) bench/bench_memory.py
 	$(PY) bench/bench_peers.py
 
 clean:

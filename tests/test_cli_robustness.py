@@ -394,3 +394,21 @@ def test_a_reader_that_goes_away_ends_the_command_quietly():
     stderr = p.stderr.read().decode()
     assert p.wait(timeout=120) == 141, stderr
     assert "Traceback" not in stderr and "BrokenPipe" not in stderr
+
+
+def test_a_batch_runs_where_tmpdir_is_too_deep_for_a_unix_socket(tmp_path, fmu_dir):
+    """multiprocessing's forkserver (the warm children) listens on a Unix socket in TMPDIR, whose path
+    may hold 107 bytes: below a deeper TMPDIR the batch runs its scenarios in fresh interpreters
+    (before: every row 'failed: cannot start the child process: AF_UNIX path too long')."""
+    d = tmp_path / "scenarios"
+    d.mkdir()
+    _scenario(d, "quick", stop_time=0.05)
+    deep = tmp_path / ("t" * 60) / ("u" * 60)
+    deep.mkdir(parents=True)
+    out = tmp_path / "out"
+    r = subprocess.run([sys.executable, "-m", "orchestration", "batch", str(d), "--out", str(out), "--fmus",
+                        str(fmu_dir)], capture_output=True, text=True, timeout=600,
+                       env={**os.environ, "TMPDIR": str(deep)})
+    assert r.returncode == 0, r.stderr
+    summary = pd.read_csv(out / "summary.csv")
+    assert list(summary["status"]) == ["ok"]

@@ -18,7 +18,7 @@ from orchestration.run.reference import COLUMNS, plain_reference
 from orchestration.scenario.load import load_scenario
 from orchestration.scenario.system import MEASUREMENTS, Measurements
 from orchestration.scenario.validate import validate_scenario_file
-from satmotor.interface import ControllerUnit, PlantUnit
+from satmotor.interface import CONTROLLER_OUTPUTS, ControllerUnit, PlantUnit
 from satmotor.simulate import closed_loop
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -244,8 +244,11 @@ def test_without_a_section_the_master_records_the_same_columns_and_numbers(tmp_p
     sc = _scenario(tmp_path, BASE.replace("stop_time: 0.5", "stop_time: 0.2"))
     none = _cosim(sc, fmu_dir).frame
     idle = _cosim(dataclasses.replace(sc, measurements=Measurements(9, (("omega_m", 0.0),))), fmu_dir).frame
-    assert list(none.columns) == recorded_columns(PlantUnit.OUTPUTS, ControllerUnit.OUTPUTS,
-                                                  sorted(sc.profiles))
+    # the master reads the controller's Reals, then its Integers and Booleans (each in table order)
+    ctrl = [v.name for v in CONTROLLER_OUTPUTS if v.type == "Real"] + \
+        [v.name for v in CONTROLLER_OUTPUTS if v.type != "Real"]
+    assert sorted(ctrl) == sorted(ControllerUnit.OUTPUTS)
+    assert list(none.columns) == recorded_columns(PlantUnit.OUTPUTS, ctrl, sorted(sc.profiles))
     assert none.equals(idle)
     ref = plain_reference(sc)
     for c in ["time", *COLUMNS]:

@@ -199,7 +199,10 @@ def run_variants(path, out, fmu_dir, algorithm=None, names=(), indexes=None, sho
         if warm:
             from orchestration.cli.warm_children import WarmChild, preload
 
-            child = WarmChild(warm, argv, tmpdir, tmpdir, preload(plot, variant == "python"))
+            try:
+                child = WarmChild(warm, argv, tmpdir, tmpdir, preload(plot, variant == "python"))
+            except OSError:  # no warm server here (e.g. "AF_UNIX path too long": a deep TMPDIR holds
+                child = _FreshChild(argv, tmpdir)  # multiprocessing's socket): a fresh interpreter
         else:
             child = _FreshChild(argv, tmpdir)
     except OSError as exc:
