@@ -110,6 +110,33 @@ def test_the_table_says_why_a_variant_has_no_metrics(tmp_path):
     assert list(pd.read_parquet(tmp_path / "sweep.parquet")["motor.J"]) == [0.01, 0.02, 0.03]
 
 
+
+def test_a_sweep_table_that_cannot_be_written_leaves_nothing_half_written(tmp_path, monkeypatch):
+    """A disk that fills while the Parquet table is written: the CSV is whole, no sweep.parquet and no
+    temporary file are left (orchestration.results.atomic), the error goes on to the batch."""
+    import errno
+
+    import pandas
+
+    from orchestration.results.sweep_table import write_sweep
+    from orchestration.scenario.sweep import expand
+
+    sweep, _ = expand({"name": "s", "stop_time": 0.1,
+                       "profiles": {"psi_ref": {"type": "constant", "value": 0.9}},
+                       "sweep": {"parameters": {"motor.J": [0.01, 0.02]}}}, "s.yaml")
+    rows = [{"file": "s.yaml", "scenario": f"s-{i}", "status": "failed", "exit_code": 1, "message": "x"}
+            for i in range(2)]
+
+    def full(self, f, *args, **kwargs):
+        f.write(b"PAR1")  # a first block, then the disk is full
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(pandas.DataFrame, "to_parquet", full)
+    with pytest.raises(OSError, match="No space left"):
+        write_sweep(sweep, rows, tmp_path, plot=False, file="s.yaml")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["sweep.csv"]
+    assert len(pd.read_csv(tmp_path / "sweep.csv")) == 2
+
 # --- robustness: a killed child, an interrupted batch ------------------------------------------------
 
 def _ps(marker):

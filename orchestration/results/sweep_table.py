@@ -14,9 +14,10 @@ from __future__ import annotations
 
 import json
 import math
-import os
 import textwrap
 from pathlib import Path
+
+from orchestration.results import atomic
 
 __all__ = ["FILES", "sweep_frame", "write_sweep", "figure"]
 
@@ -67,13 +68,10 @@ def sweep_frame(sweep, rows, directory, file=None):
 
 
 def _replace(path, write):
-    path = Path(path)
-    tmp = path.with_name(f".{path.name}.tmp{os.getpid()}")
-    try:
-        write(tmp)
-        os.replace(tmp, path)
-    finally:
-        tmp.unlink(missing_ok=True)
+    """``write(file object)`` into a temporary file renamed onto ``path`` when complete
+    (:func:`orchestration.results.atomic.atomic_file`: nothing half-written is ever at ``path``)."""
+    with atomic.atomic_file(path, "wb") as f:
+        write(f)
 
 
 def write_sweep(sweep, rows, directory, plot=True, file=None):
@@ -83,8 +81,8 @@ def write_sweep(sweep, rows, directory, plot=True, file=None):
     d.mkdir(parents=True, exist_ok=True)
     df = sweep_frame(sweep, rows, d, file)
     paths = [d / FILES[0], d / FILES[1]]
-    _replace(paths[0], lambda p: df.to_csv(p, index=False))
-    _replace(paths[1], lambda p: df.to_parquet(p, index=False))
+    _replace(paths[0], lambda f: df.to_csv(f, index=False))
+    _replace(paths[1], lambda f: df.to_parquet(f, index=False))
     for stale in (d / FILES[2],):
         stale.unlink(missing_ok=True)
     if plot and figure(df, sweep, d / FILES[2]):
@@ -148,6 +146,6 @@ def figure(df, sweep, path):
         fig.suptitle(f"{sweep_name(df)}: {len(df)} variants, each metric against each varied parameter{said}",
                      fontsize=10)
     fig.tight_layout(rect=(0, 0, 1, 1 - (0.3 + 0.17 * said.count(chr(10))) / fig.get_figheight()))
-    _replace(path, lambda p: fig.savefig(p, dpi=90, format="png"))
+    _replace(path, lambda f: fig.savefig(f, dpi=90, format="png"))
     plt.close(fig)
     return True
