@@ -5,6 +5,7 @@ co-simulation checks (:mod:`orchestration.check.checker`) and the model-exchange
 from __future__ import annotations
 
 import json
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -56,3 +57,18 @@ def reference_dir(md_root, references):
         if base is not None and (d / f"{name}_ref.csv").is_file():
             return d
     return None
+
+
+def report(unit, probe):
+    """The child's side: print the JSON result of ``probe()`` on ``unit`` (an extracted FMU with
+    ``errors()`` and ``unzip``); an FMI call that fails is a ``{"ok": false}`` result with the FMU's
+    log, the exit code stays 0; the extracted copy is removed whatever happens."""
+    try:
+        try:
+            out = probe()
+        except Exception as exc:  # noqa: BLE001 - an FMI call failed: the probe reports it
+            out = {"ok": False, "detail": f"{exc}" + (f" (log: {unit.errors()})" if unit.errors() else "")}
+    finally:
+        shutil.rmtree(unit.unzip, ignore_errors=True)
+    print(json.dumps(out))
+    sys.stdout.flush()

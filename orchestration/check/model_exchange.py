@@ -23,9 +23,7 @@ Verdicts PASS / FAIL / SKIP as for the co-simulation checks; a crash of the FMU 
 
 from __future__ import annotations
 
-import json
 import math
-import shutil
 import sys
 import tempfile
 import time
@@ -41,7 +39,7 @@ from fmpy.fmi2 import (
 )
 from fmpy.fmi3 import FMU3Model
 
-from orchestration.check.children import died, reference_dir, run_probe_lines
+from orchestration.check.children import died, reference_dir, report, run_probe_lines
 
 CHECKS = ("me-instantiate", "me-states", "me-events", "me-reference")
 BAND = 1e-6  # me-reference: of each column's largest |value| (an integrator's error, not the last bits)
@@ -269,20 +267,15 @@ PROBES = {"me-instantiate": probe_instantiate, "me-states": probe_states, "me-ev
 def main(argv):
     mode, path = argv[0], argv[1]
     m = Model(path)
-    try:
-        try:
-            if m.nx == 0:
-                out = {"skip": "no continuous states"}
-            elif mode == "me-reference":
-                out = probe_reference(m, path, argv[2])
-            else:
-                out = PROBES[mode](m)
-        except Exception as exc:  # an FMI call failed: reported, the exit code stays 0
-            out = {"ok": False, "detail": f"{exc}" + (f" (log: {m.errors()})" if m.errors() else "")}
-    finally:
-        shutil.rmtree(m.unzip, ignore_errors=True)
-    print(json.dumps(out))
-    sys.stdout.flush()
+
+    def probe():
+        if m.nx == 0:
+            return {"skip": "no continuous states"}
+        if mode == "me-reference":
+            return probe_reference(m, path, argv[2])
+        return PROBES[mode](m)
+
+    report(m, probe)
 
 
 if __name__ == "__main__":

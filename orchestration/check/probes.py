@@ -18,7 +18,6 @@ from __future__ import annotations
 
 import json
 import math
-import shutil
 import sys
 import tempfile
 import uuid
@@ -33,6 +32,8 @@ from fmpy.fmi2 import (
     fmi2CallbackLoggerTYPE,
 )
 from fmpy.fmi3 import FMU3Slave
+
+from orchestration.check.children import report
 
 STEPS = 5  # steps before a state is taken, and steps replayed
 CYCLES = 20
@@ -443,20 +444,15 @@ def main(argv, more=None):
     probes by mode (:data:`orchestration.check.user_probes.PROBES` runs through here too)."""
     mode, path = argv[0], argv[1]
     p = Probe(path)
-    try:
-        try:
-            if mode == "reference":
-                out = probe_reference(p, path, argv[2])
-            elif mode in ("non-finite-input", "foreign-state"):
-                out = PROBES[mode](p, int(argv[2]) if len(argv) > 2 else 0, *argv[3:])
-            else:
-                out = {**PROBES, **(more or {})}[mode](p, *argv[2:])
-        except Exception as exc:  # an FMI call failed: the probe reports it, the exit code stays 0
-            out = {"ok": False, "detail": f"{exc}" + (f" (log: {p.errors()})" if p.errors() else "")}
-    finally:
-        shutil.rmtree(p.unzip, ignore_errors=True)
-    print(json.dumps(out))
-    sys.stdout.flush()
+
+    def probe():
+        if mode == "reference":
+            return probe_reference(p, path, argv[2])
+        if mode in ("non-finite-input", "foreign-state"):
+            return PROBES[mode](p, int(argv[2]) if len(argv) > 2 else 0, *argv[3:])
+        return {**PROBES, **(more or {})}[mode](p, *argv[2:])
+
+    report(p, probe)
 
 
 if __name__ == "__main__":

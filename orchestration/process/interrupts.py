@@ -105,14 +105,15 @@ def die_with(pid):
         if fd is not None:
             select.select([fd], [], [])
         else:
-            while _exists(pid):
+            while pid_exists(pid):
                 time.sleep(1.0)
         terminate()
 
     threading.Thread(target=watch, name=f"{WATCHER}{pid}", daemon=True).start()
 
 
-def _exists(pid):
+def pid_exists(pid):
+    """Whether a process ``pid`` exists (one we may not signal counts as existing)."""
     try:
         os.kill(pid, 0)
     except ProcessLookupError:

@@ -25,6 +25,8 @@ import time
 from contextlib import contextmanager
 from pathlib import Path
 
+from orchestration.process.interrupts import pid_exists
+
 PARTIAL_SUFFIX = ".part"
 PARTIAL_GLOB = ".*" + PARTIAL_SUFFIX
 
@@ -164,13 +166,7 @@ def writer_alive(status):
         return status.get("pid_start") in (None, ticks)
     if Path("/proc/self/stat").exists():  # /proc works and has no such process
         return False
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except PermissionError:
-        return True
-    return True
+    return pid_exists(pid)
 
 
 def stale_reason(status):

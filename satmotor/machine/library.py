@@ -32,13 +32,13 @@ from types import MappingProxyType
 from satmotor.errors import ParameterError
 from satmotor.machine.forms import GammaForm, polynomial_from_inductance
 from satmotor.machine.magnetics import ArctanCurve, PolynomialCurve
-from satmotor.machine.params import MotorParams, make_curve
+from satmotor.machine.params import MotorParams, SupplyMixin, make_curve
 
 __all__ = ["Nameplate", "NamedMotor", "MOTORS", "preset", "preset_names"]
 
 
 @dataclass(frozen=True)
-class Nameplate:
+class Nameplate(SupplyMixin):
     """Rated data: P_n [W] shaft power, V_n [V] line-to-line rms, I_n [A] line rms, f_n [Hz],
     n_n [rpm] rated speed, T_n [N m] rated torque, n_p pole pairs."""
 
@@ -49,16 +49,6 @@ class Nameplate:
     n_n: float
     T_n: float
     n_p: int
-
-    @property
-    def V_phase_peak(self):
-        """Phase voltage amplitude [V] = V_n sqrt(2/3) (space-vector magnitude)."""
-        return self.V_n * math.sqrt(2.0 / 3.0)
-
-    @property
-    def omega_e(self):
-        """Supply angular frequency [rad/s]."""
-        return 2.0 * math.pi * self.f_n
 
     @property
     def I_peak(self):

@@ -102,15 +102,9 @@ class MotorParams:
         return 1.5 * self.n_p
 
 
-@dataclass(frozen=True)
-class RatedData:
-    """Name-plate data of the default motor (SI)."""
-
-    P_n: float = 4000.0  # [W] rated shaft power
-    V_n: float = 400.0  # [V] line-to-line rms
-    f_n: float = 50.0  # [Hz]
-    n_n: float = 1430.0  # [rpm]
-    I_mu_n: float = 5.7  # [A] peak rated magnetizing current (design point of the curve)
+class SupplyMixin:
+    """What a name plate's ``V_n`` [V] line-to-line rms and ``f_n`` [Hz] give (shared by
+    :class:`RatedData` and :class:`satmotor.machine.library.Nameplate`)."""
 
     @property
     def V_phase_peak(self):
@@ -121,6 +115,17 @@ class RatedData:
     def omega_e(self):
         """Supply angular frequency [rad/s]."""
         return 2.0 * math.pi * self.f_n
+
+
+@dataclass(frozen=True)
+class RatedData(SupplyMixin):
+    """Name-plate data of the default motor (SI)."""
+
+    P_n: float = 4000.0  # [W] rated shaft power
+    V_n: float = 400.0  # [V] line-to-line rms
+    f_n: float = 50.0  # [Hz]
+    n_n: float = 1430.0  # [rpm]
+    I_mu_n: float = 5.7  # [A] peak rated magnetizing current (design point of the curve)
 
     @property
     def omega_n(self):
