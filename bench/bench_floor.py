@@ -144,7 +144,7 @@ def main(argv=None):
     (fc, fw), (mc, mw) = us["floor"], us["master"]
     rows = [f"| C floor master (native FMI 2.0, nothing recorded; the loop only) | {fc:.2f} | {fw:.2f} | 1 |",
             f"| project master (fmpy, native FMI 2.0, every step recorded; the whole `run`) | {mc:.2f} | "
-            f"{mw:.2f} | **{ratio_cpu:.2f}** (wall {ratio_wall:.2f}) |"]
+            f"{mw:.2f} | **{ratio_cpu:.2f}x** (wall {ratio_wall:.2f}x) |"]
     lat_rows = [f"| {u} | " + " | ".join(f"{lat[u][q]:.0f}" for q in ("median", "p99", "p9999", "max")) + " |"
                 for u in ("controller", "plant")]
     text = f"""## The C floor and the HIL latency
