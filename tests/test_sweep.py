@@ -196,3 +196,13 @@ def test_the_library_sweeps_are_valid_and_small():
         base, sweep, variants = load_sweep(root / f"{name}.yaml")
         assert sweep.kind == kind and len(variants) == count and base.stop_time <= 1.0
         assert check_scenario_file(root / f"{name}.yaml") == ([], [])
+
+
+def test_a_tolerance_on_a_preset_motor_is_around_the_preset_value():
+    """The 2.2-kW preset's R_r is 2.5 Ohm (Qu et al. 2012, the table in satmotor/machine/library.py),
+    not the default motor's: a 10 % tolerance draws within [2.25, 2.75]."""
+    base = {**BASE, "motor": {"preset": "qu2012_2kw2"}}
+    sw, problems = _expand({"samples": 100, "seed": 1, "parameters": {"motor.R_r": {"tolerance": 0.1}}}, base)
+    assert problems == []
+    r = [v.values[0][1] for v in sw.variants]
+    assert 2.25 <= min(r) and max(r) <= 2.75 and max(r) - min(r) > 0.4

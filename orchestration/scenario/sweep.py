@@ -22,10 +22,10 @@ section; :data:`satmotor.interface.MOTOR_PARAMETERS` for ``motor``), or ``profil
 (``profiles.PROFILE[i].KEY`` for the i-th part of a summed profile) for a key of a profile the
 scenario defines.  The nominal value of a ``tolerance`` is the one the file writes (for
 ``plant.NAME`` / ``controller.NAME`` of a motor parameter, the unit's own value, else its
-``motor:`` value), else the FMU's default.  Range values are ``start + i * step`` (or ``start + i
-(stop - start) / (num - 1)``), rounded to 12 significant digits so that ``0.1 * 3`` reads 0.3;
-integer ends and step give integers.  Draws: one ``numpy.random.default_rng(seed)``, ``samples``
-values per parameter in the order the file lists them.
+``motor:`` value, a ``motor: {preset: ...}`` included), else the FMU's default.  Range values are
+``start + i * step`` (or ``start + i (stop - start) / (num - 1)``), rounded to 12 significant
+digits so that ``0.1 * 3`` reads 0.3; integer ends and step give integers.  Draws: one
+``numpy.random.default_rng(seed)``, ``samples`` values per parameter in the order the file lists them.
 
 Variant ``i`` (from 0) is named ``NAME-iii`` (zero-padded to the width of the count); the grid
 varies the last parameter fastest.  A variant is the file's mapping with the sweep removed, its
@@ -41,6 +41,7 @@ import math
 import re
 from dataclasses import dataclass
 
+from orchestration.scenario import presets
 from orchestration.scenario.problems import MISSING, Checker
 
 __all__ = ["Sweep", "Variant", "expand", "parse_sweep", "MAX_VARIANTS", "SECTIONS"]
@@ -170,6 +171,15 @@ def _distribution(chk, spec, where, nominal):
     return kind, a, b
 
 
+def _with_preset(data):
+    """The file's ``(motor, controller)`` sections with a ``motor: {preset: ...}`` applied (the nominal
+    values a tolerance is drawn around); an unknown preset is the loader's problem, not this one's."""
+    motor = data.get("motor") if isinstance(data.get("motor"), dict) else {}
+    controller = data.get("controller") if isinstance(data.get("controller"), dict) else {}
+    motor, controller = presets.expand(Checker("-"), motor, controller)
+    return (motor if isinstance(motor, dict) else {}), (controller if isinstance(controller, dict) else {})
+
+
 def _locate(chk, data, path, tables, spec=None):
     """``(setter, nominal)`` of ``path`` in ``data`` (a function writing a value into a copy of the
     mapping, and the value there now), or None after recording why the path is refused (the
@@ -184,8 +194,9 @@ def _locate(chk, data, path, tables, spec=None):
         if section == "controller" and rest == "Ts":
             chk.add(f"sweep.parameters.{path}", spec, "Ts is step * controller_every: vary those instead")
             return None
-        own = data.get(section) if isinstance(data.get(section), dict) else {}
-        motor = data.get("motor") if isinstance(data.get("motor"), dict) else {}
+        motor, controller = _with_preset(data)
+        own = {"motor": motor, "controller": controller}.get(section, data.get(section))
+        own = own if isinstance(own, dict) else {}
         fallback = motor.get(rest, table[rest]) if rest in tables.get("motor", {}) else table[rest]
         nominal = own.get(rest, fallback)
 
