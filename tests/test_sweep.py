@@ -183,6 +183,9 @@ def test_load_sweep_gives_the_base_and_each_variant_as_a_scenario(tmp_path):
     assert [sc.plant["B_2"] for _, sc in variants] == [0.0, 1e-3, 0.0, 1e-3]
     assert all(sc.record.level == "metrics" for _, sc in variants)
     assert load_variant(f, 3) == variants[3][1]
+    r = subprocess.run([sys.executable, "-m", "orchestration", "validate", str(f)], capture_output=True,
+                       text=True, timeout=120)
+    assert r.returncode == 0 and r.stdout.strip() == f"{f}: valid (4 variants, every one checked)"
     assert load_scenario(f) == base  # the file's own scenario: the sweep ignored
     with pytest.raises(ScenarioError, match="no variant 4: the file has 4"):
         load_variant(f, 4)

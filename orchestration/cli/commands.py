@@ -82,15 +82,18 @@ def cmd_build(args):
 def cmd_validate(args):
     """Every problem of each file (exit 2 if any), and the notes of the valid ones (plant/controller
     mismatch, a load beyond the current limit's torque: said on stderr, exit 0)."""
-    from orchestration.scenario.validate import check_scenario_file
+    from orchestration.scenario.validate import check_scenario_file, variant_count
 
     worst = OK
     for path in args.scenario:
         problems, notes = check_scenario_file(path, model_variables(args.fmus))
         for p in [*problems, *notes]:
             print(p, file=sys.stderr)
+        n = None if problems else variant_count(path)
+        said = ([f"{n} variants, every one checked"] if n is not None else []) + (
+            [f"{len(notes)} note(s)"] if notes else [])
         status = f"{len(problems)} problem(s)" if problems else "valid" + (
-            f" ({len(notes)} note(s))" if notes else "")
+            f" ({', '.join(said)})" if said else "")
         print(f"{path}: {status}")
         worst = max(worst, INVALID if problems else OK)
     return worst

@@ -7,9 +7,10 @@ from __future__ import annotations
 
 from orchestration.scenario.load import _check, _read
 from orchestration.scenario.problems import Problem
+from orchestration.scenario.sweep import expand
 from orchestration.scenario.variants import check_sweep
 
-__all__ = ["check_scenario_file", "validate_scenario_file"]
+__all__ = ["check_scenario_file", "validate_scenario_file", "variant_count"]
 
 
 def check_scenario_file(path, variables=None):
@@ -36,3 +37,16 @@ def validate_scenario_file(path, variables=None):
     """Every problem of the scenario file ``path`` (empty list: valid).  Never raises.
     ``variables`` as for :func:`check_scenario_file`."""
     return check_scenario_file(path, variables)[0]
+
+
+def variant_count(path):
+    """How many variants the ``sweep:`` section of the scenario file ``path`` expands to (None: no
+    sweep, or a file that cannot be read or expanded).  Never raises."""
+    try:
+        data, problems = _read(path)
+        if problems or not isinstance(data, dict) or "sweep" not in data:
+            return None
+        sweep = expand(data, str(path))[0]
+        return None if sweep is None else len(sweep.variants)
+    except Exception:  # noqa: BLE001 - a count for a status line, never a crash
+        return None
