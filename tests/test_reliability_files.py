@@ -521,6 +521,17 @@ def test_absurd_inputs_are_noted_and_ordinary_ones_are_not(tmp_path):
         assert not [n for n in said if "far outside" in n or "cannot follow" in n], f
 
 
+def test_a_preset_motor_is_judged_by_its_own_name_plate(tmp_path):
+    """The 2.2-kW preset is rated 14.6 N m (Qu et al. 2012): a 160 N m load is 11 x that (noted),
+    though only 6 x the default 4-kW motor's 26.7 N m (which would not be noted).  (I_max raised so
+    that the torque-limit note, which supersedes this one on the same field, does not fire.)"""
+    notes = _notes(tmp_path, "motor: {preset: qu2012_2kw2}\ncontroller: {I_max: 200.0}\nprofiles:\n"
+                   "  psi_ref: {type: constant, value: 0.8}\n"
+                   "  T_load: {type: step, time: 0.2, value: 160.0}\n")
+    (note,) = [str(n) for n in notes if n.field == "profiles.T_load" and "rated torque" in str(n)]
+    assert f"{160 / 14.6:.3g} x the motor's rated torque 14.6 N m" in note
+
+
 def test_an_absurd_input_is_said_by_validate_and_run(tmp_path, fmu_dir):
     f = tmp_path / "absurd.yaml"
     f.write_text("name: absurd\nstop_time: 0.05\ncontroller: {V_dc: 1.0e+12}\n" + PROFILES)

@@ -127,6 +127,7 @@ class Scenario:
     motor: MappingProxyType = field(default_factory=lambda: MappingProxyType({}))
     mismatch: bool = False  # the scenario says a plant/controller motor mismatch is intended
     notes: tuple = ()  # Note: what is allowed but said (mismatch, load beyond the torque limit)
+    preset: str = ""  # ``motor: {preset: NAME}``: the library motor the scenario starts from ("": none)
 
     @property
     def Ts(self):
@@ -391,13 +392,22 @@ def _check(data, file, variables):
                   every or 1, algorithm, MappingProxyType({**motor, **plant}),
                   MappingProxyType({**motor, **controller}),
                   MappingProxyType({k: profiles[k] for k in PROFILE_NAMES if k in profiles}),
-                  record, acceptance, measurements, MappingProxyType(motor), mismatch)
+                  record, acceptance, measurements, MappingProxyType(motor), mismatch,
+                  preset=_preset_name(data.get("motor")))
     problems, notes = physics_check(sc, fields_of)
     problems = chk.problems + [p for p in problems if p not in chk.problems]
     if problems:
         return None, problems
     notes = _mismatch_notes(sc, plant, controller, str(file)) + notes
     return replace(sc, notes=tuple(notes)), []
+
+
+def _preset_name(raw_motor):
+    """The ``preset`` of a ``motor:`` section if it names a library motor, else ""."""
+    from satmotor.machine.library import MOTORS
+
+    name = raw_motor.get("preset") if isinstance(raw_motor, dict) else None
+    return name if isinstance(name, str) and name in MOTORS else ""
 
 
 def _mismatch_notes(sc, plant_over, ctrl_over, file):

@@ -4,8 +4,9 @@ A scenario may ask for anything the FMUs accept; some values are then most likel
 mistake (a DC link of 1e12 V, a speed set-point a hundred times the rated speed).  The run is
 allowed (a note is not a problem), but it does not pass silently: :func:`plausibility_notes` gives one
 :class:`~orchestration.scenario.problems.Note` per such input, said by ``validate``, ``run`` and
-``batch`` with the other notes.  The references are the default motor's name plate
-(:class:`satmotor.machine.params.RatedData`) and, for the speed, what the scenario's own voltage
+``batch`` with the other notes.  The references are the motor's name plate (the preset's,
+:attr:`satmotor.machine.library.NamedMotor.nameplate`, for ``motor: {preset: NAME}``, else the default
+motor's, :class:`satmotor.machine.params.RatedData`) and, for the speed, what the scenario's own voltage
 limit allows at its own flux set-point (with the controller's field weakening on, the default, at the
 least flux it sets, :data:`satmotor.control.field_weakening.FLOOR` times ``psi_ref``); a value
 :data:`FAR` times beyond them is noted.
@@ -14,6 +15,7 @@ least flux it sets, :data:`satmotor.control.field_weakening.FLOOR` times ``psi_r
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 from orchestration.scenario.problems import Note
 
@@ -23,12 +25,32 @@ FAR = 10.0  # [1] a value this many times beyond its reference is noted
 FAR_VOLTAGE = 2.0
 
 
+class _Plate(NamedTuple):
+    """The name-plate figures the notes compare with: V_n [V] line-to-line rms, n_n [rpm], T_n [N m]."""
+
+    V_n: float
+    n_n: float
+    T_n: float
+
+    @property
+    def omega_n(self):
+        """Rated mechanical speed [rad/s]."""
+        return self.n_n * math.pi / 30.0
+
+    @classmethod
+    def of(cls, sc):
+        """The plate of the scenario's preset motor, else of the default motor."""
+        from satmotor.machine.library import MOTORS
+        from satmotor.machine.params import RatedData
+
+        plate = MOTORS[sc.preset].nameplate if getattr(sc, "preset", "") in MOTORS else RatedData()
+        return cls(plate.V_n, plate.n_n, plate.T_n)
+
+
 def plausibility_notes(sc, plant, ctrl, file):
     """Notes about the inputs of scenario ``sc`` far beyond the motor (its plant and controller
     units, built from the scenario, None when refused: then nothing is said about them)."""
-    from satmotor.machine.params import RatedData
-
-    rated = RatedData()
+    rated = _Plate.of(sc)
     notes = []
     if ctrl is not None:
         V_dc = ctrl.drive.V_max * math.sqrt(3.0)
