@@ -9,17 +9,22 @@ their types and units); the ``Connections`` of
 :data:`orchestration.scenario.system.DEFAULT_CONNECTIONS` (``profile.X`` is ``signals.X``); a
 ``ParameterBinding`` per FMU with an inline ``ssv:ParameterSet`` holding the values the master sets:
 the scenario's ``plant:`` and ``controller:`` overrides and the controller's
-``Ts = step * controller_every``; ``Units``; ``DefaultExperiment`` with the start (0) and stop time.
+``Ts = step * controller_every`` (every parameter, a String one only where the scenario sets it);
+``Units``; ``DefaultExperiment`` with the start (0) and stop time.
 
 SSP 1.0 has no step size.  The Open Simulation Platform's annotations (type
 ``com.opensimulationplatform``, namespace :data:`OSP_NS`), which libcosim reads, give it: an
 ``osp:FixedStepAlgorithm`` with ``baseStepSize`` = the plant step ``h`` in the default experiment,
-and an ``osp:StepSizeHint`` per component (``h`` for the plant and the signals, ``Ts`` for the
-controller), each written so that libcosim reads back the intended whole nanoseconds
-(:func:`seconds_text`), and ``numWorkerThreads`` = :data:`WORKER_THREADS` (0).  A fixed-step
-engine steps every due unit from the values of the last communication
-point, which is the master's ``jacobi`` algorithm; an annotation of type :data:`SATMOTOR_TYPE`
-records that, with the scenario's own algorithm and the steps.
+and an ``osp:StepSizeHint`` on a component stepped slower than ``h`` (the controller when
+``Ts > h``; libcosim steps a component without one at the base step), each written so that libcosim
+reads back the intended whole nanoseconds (:func:`seconds_text`), and ``numWorkerThreads`` =
+:data:`WORKER_THREADS` (0).  OMSimulator reads only its own annotations (type :data:`OMS_TYPE`): the
+System's first annotation gives its fixed-step master (``oms-ma``) and step ``h``; it refuses a
+Component with ``Annotations`` (so a multi-rate package does not load there), an ``Annotations``
+element at the root and ``ssv:String`` values (logged, the FMU's start value kept).  A fixed-step
+engine steps every due unit from the values of the last communication point, which is the master's
+``jacobi`` algorithm; an annotation of type :data:`SATMOTOR_TYPE` on the System records that, with
+the scenario's own algorithm and the steps.
 """
 
 from __future__ import annotations
@@ -183,7 +188,9 @@ def ssd_xml(scenario, model_descriptions, connections=DEFAULT_CONNECTIONS, renam
             for pname, value in overrides[comp].items():
                 if pname not in types:
                     raise NotExpressible(file, f"{comp}.{pname}", value, f"not a parameter of {md.modelName}")
-            values = {v.name: overrides[comp].get(v.name, _start(v)) for v in params}
+            # a String only where the scenario sets it: OMSimulator 3.0 reads no ssv:String (an error each)
+            values = {v.name: overrides[comp].get(v.name, _start(v)) for v in params
+                      if v.type != "String" or v.name in overrides[comp]}
             bindings = ET.SubElement(el, _q(SSD_NS, "ParameterBindings"))
             pv = ET.SubElement(ET.SubElement(bindings, _q(SSD_NS, "ParameterBinding")),
                                _q(SSD_NS, "ParameterValues"))
