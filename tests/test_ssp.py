@@ -32,7 +32,7 @@ from orchestration.tools import ssp
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENARIOS = sorted((ROOT / "scenarios").glob("*.yaml"))
-NS = {"ssd": ssd.SSD_NS, "ssc": ssd.SSC_NS, "ssv": ssd.SSV_NS, "osp": ssd.OSP_NS}
+NS = {"ssd": ssd.SSD_NS, "ssc": ssd.SSC_NS, "ssv": ssd.SSV_NS, "osp": ssd.OSP_NS, "oms": ssd.OMS_NS}
 REFUSED = {"noisy_measurements", "real_drive"}  # measurements: sections
 DEFAULT = ROOT / "scenarios" / "ramp_rated_load.yaml"
 
@@ -97,21 +97,57 @@ def test_the_ssd_validates_against_the_ssp_1_0_schemas_of_fmpy(default_ssp):
         assert schema.validate(etree.ElementTree(ps)), schema.error_log
 
 
-def test_libcosim_reads_the_prefixed_names_it_matches(default_ssp):
-    """libcosim (boost property_tree) matches 'ssd:System', 'osp:Algorithm' etc. literally."""
+def test_libcosim_and_omsimulator_read_the_prefixed_names_they_match(default_ssp, fmu_dir, signals_md):
+    """libcosim (boost property_tree) and OMSimulator (pugixml) match 'ssd:System', 'osp:Algorithm',
+    'oms:FixedStepMaster' etc. literally; the step-size hint of a controller slower than the base step
+    (deep_saturation: h = 50 us, Ts = 100 us) too."""
     with zipfile.ZipFile(default_ssp) as z:
         text = z.read("SystemStructure.ssd").decode()
     for literal in ("<ssd:SystemStructureDescription", "<ssd:System ", "<ssd:Component ", "<ssd:Connector ",
                     "<ssv:ParameterSet ", '<ssc:Annotation type="com.opensimulationplatform">',
-                    '<osp:FixedStepAlgorithm baseStepSize="0.0001"', '<osp:StepSizeHint value="0.0001"'):
+                    '<osp:FixedStepAlgorithm baseStepSize="0.0001"',
+                    '<ssc:Annotation type="org.openmodelica">', "<oms:Annotations>",
+                    "<oms:SimulationInformation>",
+                    '<oms:FixedStepMaster description="oms-ma" stepSize="0.0001"'):
         assert literal in text, literal
+    sc = load_scenario(ROOT / "scenarios" / "deep_saturation.yaml")
+    text = ssd.ssd_xml(sc, model_descriptions(fmu_dir, signals_md)).decode()
+    assert text.count("<osp:StepSizeHint ") == 1 and '<osp:StepSizeHint value="0.0001"' in text
+
+
+def omsimulator_reading(root):
+    """What OMSimulator 3.0's SSP import (src/OMSimulatorLib, Model.cpp and System.cpp) takes from an
+    .ssd, with its rules written out here: the root holds only System, Units, Enumerations and
+    DefaultExperiment ("wrong xml schema detected" otherwise); the System's kind comes from the FIRST
+    ssc:Annotation of its Annotations, which must be of type org.openmodelica and hold
+    oms:Annotations/oms:SimulationInformation with a solver (none: "[NewSystem] internal error"); a
+    Component holds only Connectors, ElementGeometry and ParameterBindings (anything else, an
+    Annotations element too: "wrong xml schema").  Returns (solver, step size) or raises AssertionError
+    naming what it would refuse."""
+    allowed = {f"{{{ssd.SSD_NS}}}{t}" for t in ("System", "Units", "Enumerations", "DefaultExperiment")}
+    assert all(el.tag in allowed for el in root), [el.tag for el in root if el.tag not in allowed]
+    system = root.find("ssd:System", NS)
+    first = system.find("ssd:Annotations/ssc:Annotation", NS)  # pugixml's child(): the first one
+    assert first is not None and first.get("type") == "org.openmodelica", "[NewSystem] internal error"
+    master = first.find("oms:Annotations/oms:SimulationInformation/oms:FixedStepMaster", NS)
+    assert master is not None and master.get("description") == "oms-ma", "[NewSystem] internal error"
+    kept = {f"{{{ssd.SSD_NS}}}{t}" for t in ("Connectors", "ElementGeometry", "ParameterBindings")}
+    for c in system.findall("ssd:Elements/ssd:Component", NS):
+        assert all(el.tag in kept for el in c), (c.get("name"), "wrong xml schema")
+    return master.get("description"), float(master.get("stepSize"))
+
+
+def test_omsimulator_can_read_the_default_package(default_ssp):
+    assert omsimulator_reading(ssd_root(default_ssp)) == ("oms-ma", 1e-4)
 
 
 @pytest.mark.parametrize("path", SCENARIOS, ids=lambda p: p.stem)
 def test_parameters_connections_steps_of_every_scenario(path, fmu_dir, signals_md):
-    """The .ssd of each scenario, read back with ElementTree: every parameter of both FMUs, the
-    scenario's value where it sets one (Ts = step * controller_every), else the FMU's start value;
-    the connections; the step sizes; the stop time.  The scenarios with measurements are refused."""
+    """The .ssd of each scenario, read back with ElementTree: every parameter of both FMUs (a String
+    one only where the scenario sets it), the scenario's value where it sets one (Ts = step *
+    controller_every), else the FMU's start value; the connections; the step sizes (no hint for a unit
+    at the base step); the stop time; OMSimulator's reading of single-rate packages.  The scenarios
+    with measurements are refused."""
     sc = load_scenario(path)
     if path.stem in REFUSED:
         with pytest.raises(ssp.NotExpressible, match=rf"^{path}: measurements\.(noise|quantization)\."):
@@ -124,7 +160,8 @@ def test_parameters_connections_steps_of_every_scenario(path, fmu_dir, signals_m
     want = {"plant": dict(sc.plant), "controller": {**sc.controller, "Ts": sc.step * sc.controller_every}}
     for comp, overrides in want.items():
         got = {p.get("name"): typed_value(p[0]) for p in comps[comp].findall(".//ssv:Parameter", NS)}
-        params = [v for v in mds[comp].modelVariables if v.causality == "parameter"]
+        params = [v for v in mds[comp].modelVariables if v.causality == "parameter"
+                  and (v.type != "String" or v.name in overrides)]  # a String only where the scenario sets it
         assert set(got) == {v.name for v in params}
         for v in params:
             vtype, value = got[v.name]
@@ -142,14 +179,22 @@ def test_parameters_connections_steps_of_every_scenario(path, fmu_dir, signals_m
         (su, sv), (tu, tv) = c.source.split("."), c.target.split(".")
         expected.append(("signals" if su == "profile" else su, sv, tu, tv))
     assert conns == expected
-    hints = {n: float(c.find("ssd:Annotations/ssc:Annotation/osp:StepSizeHint", NS).get("value"))
-             for n, c in comps.items()}
-    assert hints == {"plant": sc.step, "controller": sc.Ts, "signals": sc.step}
+    hints = {n: c.find("ssd:Annotations/ssc:Annotation/osp:StepSizeHint", NS) for n, c in comps.items()}
+    # a unit at the base step carries no hint (libcosim's default; OMSimulator refuses the element)
+    assert {n: sc.step if h is None else float(h.get("value")) for n, h in hints.items()} == {
+        "plant": sc.step, "controller": sc.Ts, "signals": sc.step}
+    assert hints["plant"] is None and hints["signals"] is None
+    assert (hints["controller"] is None) == (sc.Ts == sc.step)
     de = root.find("ssd:DefaultExperiment", NS)
     assert (float(de.get("startTime")), float(de.get("stopTime"))) == (0.0, sc.stop_time)
     base = de.find("ssd:Annotations/ssc:Annotation/osp:Algorithm/osp:FixedStepAlgorithm", NS)
     assert float(base.get("baseStepSize")) == sc.step
     assert base.get("numWorkerThreads") == "0"  # libcosim steps the units in its calling thread
+    if sc.Ts == sc.step:  # OMSimulator's fixed-step master steps every unit at one step size
+        assert omsimulator_reading(root) == ("oms-ma", sc.step)
+    else:
+        with pytest.raises(AssertionError, match="wrong xml schema"):
+            omsimulator_reading(root)
 
 
 def test_connectors_carry_the_fmus_types_and_units(default_ssp, tmp_path):
@@ -281,7 +326,8 @@ class FixedStepEngine:
         self.base_ns = round(float(algo.get("baseStepSize")) * 1e9)
         self.units = {}
         for c in root.findall("ssd:System/ssd:Elements/ssd:Component", NS):
-            hint = float(c.find("ssd:Annotations/ssc:Annotation/osp:StepSizeHint", NS).get("value"))
+            hint_el = c.find("ssd:Annotations/ssc:Annotation/osp:StepSizeHint", NS)  # none: the base step
+            hint = self.base_ns / 1e9 if hint_el is None else float(hint_el.get("value"))
             src = workdir / c.get("source")
             md = read_model_description(str(src))
             fmu = FMU2Slave(guid=md.guid, unzipDirectory=extract(str(src)), instanceName=c.get("name"),

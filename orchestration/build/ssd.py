@@ -9,17 +9,22 @@ their types and units); the ``Connections`` of
 :data:`orchestration.scenario.system.DEFAULT_CONNECTIONS` (``profile.X`` is ``signals.X``); a
 ``ParameterBinding`` per FMU with an inline ``ssv:ParameterSet`` holding the values the master sets:
 the scenario's ``plant:`` and ``controller:`` overrides and the controller's
-``Ts = step * controller_every``; ``Units``; ``DefaultExperiment`` with the start (0) and stop time.
+``Ts = step * controller_every`` (every parameter, a String one only where the scenario sets it);
+``Units``; ``DefaultExperiment`` with the start (0) and stop time.
 
 SSP 1.0 has no step size.  The Open Simulation Platform's annotations (type
 ``com.opensimulationplatform``, namespace :data:`OSP_NS`), which libcosim reads, give it: an
 ``osp:FixedStepAlgorithm`` with ``baseStepSize`` = the plant step ``h`` in the default experiment,
-and an ``osp:StepSizeHint`` per component (``h`` for the plant and the signals, ``Ts`` for the
-controller), each written so that libcosim reads back the intended whole nanoseconds
-(:func:`seconds_text`), and ``numWorkerThreads`` = :data:`WORKER_THREADS` (0).  A fixed-step
-engine steps every due unit from the values of the last communication
-point, which is the master's ``jacobi`` algorithm; an annotation of type :data:`SATMOTOR_TYPE`
-records that, with the scenario's own algorithm and the steps.
+and an ``osp:StepSizeHint`` on a component stepped slower than ``h`` (the controller when
+``Ts > h``; libcosim steps a component without one at the base step), each written so that libcosim
+reads back the intended whole nanoseconds (:func:`seconds_text`), and ``numWorkerThreads`` =
+:data:`WORKER_THREADS` (0).  OMSimulator reads only its own annotations (type :data:`OMS_TYPE`): the
+System's first annotation gives its fixed-step master (``oms-ma``) and step ``h``; it refuses a
+Component with ``Annotations`` (so a multi-rate package does not load there), an ``Annotations``
+element at the root and ``ssv:String`` values (logged, the FMU's start value kept).  A fixed-step
+engine steps every due unit from the values of the last communication point, which is the master's
+``jacobi`` algorithm; an annotation of type :data:`SATMOTOR_TYPE` on the System records that, with
+the scenario's own algorithm and the steps.
 """
 
 from __future__ import annotations
@@ -31,7 +36,7 @@ from orchestration.build.fmu_model_description import SI_UNITS
 from orchestration.scenario.problems import ProblemError
 from orchestration.scenario.system import CONTROLLER, DEFAULT_CONNECTIONS, PLANT, PROFILE
 
-__all__ = ["NotExpressible", "ssd_xml", "seconds_text", "SSD_NS", "SSC_NS", "SSV_NS", "OSP_NS",
+__all__ = ["NotExpressible", "ssd_xml", "seconds_text", "SSD_NS", "SSC_NS", "SSV_NS", "OSP_NS", "OMS_NS",
            "SIGNALS_UNIT", "COMPONENTS", "RESOURCES", "WORKER_THREADS"]
 
 SSD_NS = "http://ssp-standard.org/SSP1/SystemStructureDescription"
@@ -39,7 +44,10 @@ SSC_NS = "http://ssp-standard.org/SSP1/SystemStructureCommon"
 SSV_NS = "http://ssp-standard.org/SSP1/SystemStructureParameterValues"
 OSP_NS = "http://opensimulationplatform.com/SSP/OSPAnnotations"
 SATMOTOR_NS = "https://github.com/satmotor/satmotor/ssp"
+OMS_NS = "https://raw.githubusercontent.com/OpenModelica/OMSimulator/master/schema/oms.xsd"
 OSP_TYPE = "com.opensimulationplatform"
+OMS_TYPE = "org.openmodelica"  # OMSimulator's vendor annotations
+OMS_SOLVER = "oms-ma"  # OMSimulator's fixed-step master for co-simulation FMUs
 SATMOTOR_TYPE = "org.satmotor.cosim"
 SIGNALS_UNIT = "signals"  # the component of the ScenarioSignals FMU (the master's "profile" source)
 COMPONENTS = (PLANT, CONTROLLER, SIGNALS_UNIT)
@@ -48,7 +56,7 @@ RESOURCES = {PLANT: "resources/SaturatedInductionMotor.fmu",
              SIGNALS_UNIT: "resources/ScenarioSignals.fmu"}
 
 # libcosim matches the prefixed names (ssd:System, osp:Algorithm): these exact prefixes are written
-PREFIXES = {"ssd": SSD_NS, "ssc": SSC_NS, "ssv": SSV_NS, "osp": OSP_NS, "sm": SATMOTOR_NS}
+PREFIXES = {"ssd": SSD_NS, "ssc": SSC_NS, "ssv": SSV_NS, "osp": OSP_NS, "oms": OMS_NS, "sm": SATMOTOR_NS}
 for _prefix, _uri in PREFIXES.items():
     ET.register_namespace(_prefix, _uri)
 
@@ -126,6 +134,24 @@ def _annotation(parent, type_, ns, child_tag, attrs):
     return ET.SubElement(ann, _q(ns, child_tag), attrs)
 
 
+def _system_annotations(system, scenario, h, Ts):
+    """The System's ``Annotations``: first OMSimulator's (it reads only the first ``ssc:Annotation``
+    there, and takes a System without its ``oms:SimulationInformation`` for no kind of system at all:
+    ``[NewSystem] internal error``): its fixed-step master at the base step ``h``; then ours."""
+    anns = ET.SubElement(system, _q(SSD_NS, "Annotations"))
+    oms = ET.SubElement(ET.SubElement(anns, _q(SSC_NS, "Annotation"), {"type": OMS_TYPE}),
+                        _q(OMS_NS, "Annotations"))
+    info = ET.SubElement(oms, _q(OMS_NS, "SimulationInformation"))
+    ET.SubElement(info, _q(OMS_NS, "FixedStepMaster"), {"description": OMS_SOLVER, "stepSize": _num(h),
+                                                        "relativeTolerance": "0.0001"})
+    ET.SubElement(ET.SubElement(anns, _q(SSC_NS, "Annotation"), {"type": SATMOTOR_TYPE}),
+                  _q(SATMOTOR_NS, "CoSimulation"), {
+        "algorithm": "jacobi", "scenarioAlgorithm": scenario.algorithm, "step": _num(h), "Ts": _num(Ts),
+        "controllerEvery": str(scenario.controller_every),
+        "note": "a fixed-step engine (libcosim, Ecos, OMSimulator) steps every due unit from the values of "
+                "the last communication point: satmotor-cosim run --algorithm jacobi"})
+
+
 def ssd_xml(scenario, model_descriptions, connections=DEFAULT_CONNECTIONS, renamed=None, sources=None,
             worker_threads=WORKER_THREADS):
     """``SystemStructure.ssd`` (bytes) of ``scenario``; ``model_descriptions``: {component: fmpy
@@ -162,12 +188,15 @@ def ssd_xml(scenario, model_descriptions, connections=DEFAULT_CONNECTIONS, renam
             for pname, value in overrides[comp].items():
                 if pname not in types:
                     raise NotExpressible(file, f"{comp}.{pname}", value, f"not a parameter of {md.modelName}")
-            values = {v.name: overrides[comp].get(v.name, _start(v)) for v in params}
+            # a String only where the scenario sets it: OMSimulator 3.0 reads no ssv:String (an error each)
+            values = {v.name: overrides[comp].get(v.name, _start(v)) for v in params
+                      if v.type != "String" or v.name in overrides[comp]}
             bindings = ET.SubElement(el, _q(SSD_NS, "ParameterBindings"))
             pv = ET.SubElement(ET.SubElement(bindings, _q(SSD_NS, "ParameterBinding")),
                                _q(SSD_NS, "ParameterValues"))
             pv.append(_parameter_set(values, types, f"{scenario.name}.{comp}"))
-        _annotation(el, OSP_TYPE, OSP_NS, "StepSizeHint", {"value": seconds_text(step_hint[comp])})
+        if step_hint[comp] != h:  # libcosim's default is the base step; OMSimulator refuses the element
+            _annotation(el, OSP_TYPE, OSP_NS, "StepSizeHint", {"value": seconds_text(step_hint[comp])})
 
     cons_el = ET.SubElement(system, _q(SSD_NS, "Connections"))
     known = {(c, name): kind for c in COMPONENTS for name, kind, _, _ in connectors[c]}
@@ -181,6 +210,7 @@ def ssd_xml(scenario, model_descriptions, connections=DEFAULT_CONNECTIONS, renam
         ET.SubElement(cons_el, _q(SSD_NS, "Connection"), {
             "startElement": su, "startConnector": sv, "endElement": tu, "endConnector": tv})
 
+    _system_annotations(system, scenario, h, Ts)
     units = ET.SubElement(root, _q(SSD_NS, "Units"))
     for u in used_units:
         if SI_UNITS.get(u) is None:
@@ -193,11 +223,6 @@ def ssd_xml(scenario, model_descriptions, connections=DEFAULT_CONNECTIONS, renam
     algo = _annotation(de, OSP_TYPE, OSP_NS, "Algorithm", {})
     threads = {} if worker_threads is None else {"numWorkerThreads": str(worker_threads)}
     ET.SubElement(algo, _q(OSP_NS, "FixedStepAlgorithm"), {"baseStepSize": seconds_text(h), **threads})
-    _annotation(root, SATMOTOR_TYPE, SATMOTOR_NS, "CoSimulation", {
-        "algorithm": "jacobi", "scenarioAlgorithm": scenario.algorithm, "step": _num(h), "Ts": _num(Ts),
-        "controllerEvery": str(scenario.controller_every),
-        "note": "a fixed-step engine (libcosim) steps every due unit from the values of the last "
-                "communication point: satmotor-cosim run --algorithm jacobi"})
     ET.indent(root, space="  ")
     return ET.tostring(root, encoding="UTF-8", xml_declaration=True).replace(
         b"<?xml version='1.0' encoding='UTF-8'?>", b'<?xml version="1.0" encoding="UTF-8"?>', 1) + b"\n"
