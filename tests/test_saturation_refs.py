@@ -242,3 +242,21 @@ def test_every_design_stays_within_the_limits_and_ifoc_holds_its_flux(comparison
     # the IFOC baseline at its nominal flux below base speed: L_m is its own machine's (on qu2012_2kw2
     # the 4-kW machine's 5.7 A left it 10 % high)
     assert abs(rows[preset, 0.5, "pi"]["flux_err"]) < 1e-2
+
+
+def test_the_polynomial_curve_settles_where_newton_cycles_between_two_floats():
+    """Found by the comparison (pythonfmu, qu2012_2kw2 at 2.5 x base speed): at I = 1.1068596558489188 A
+    Newton's iterates for psi(I) alternate between two neighbouring floats with steps of 4.003e-16
+    relative, just above the 4e-16 tolerance, forever: Python raised (the FMU discarded), C returned
+    NaN (the field weakening took it as 'no steady state').  Both now return the smaller of the two;
+    the root lies between them."""
+    from native_core import load, new_curve
+
+    c = MOTORS["qu2012_2kw2"].params().curve
+    I = 1.1068596558489188
+    y = c.psi(I)
+    assert c.current(y) <= I <= c.current(math.nextafter(math.nextafter(y, 1.0), 1.0))
+    lib = load()
+    buf = new_curve(lib)
+    assert lib.sm_curve_init(buf, b"polynomial", c.L_m0, 0.0, 1.0, c.poly_b, c.poly_n, b"", None, 0) == 0
+    assert lib.sm_curve_psi(buf, I) == y
