@@ -35,7 +35,7 @@ def _current(curve, psi):
     lo, hi = 0.0, 1.0
     while curve.psi(hi) < psi:
         hi *= 2.0
-    for _ in range(200):
+    for _ in range(64):  # hi / 2^64: below an ulp of the current
         mid = 0.5 * (lo + hi)
         lo, hi = (mid, hi) if curve.psi(mid) < psi else (lo, mid)
     return 0.5 * (lo + hi)
@@ -55,7 +55,7 @@ def phasor_steady(p, curve, Phi, T, omega_m):
         return 1.5 * p.n_p * (psi_s.real * i_s.imag - psi_s.imag * i_s.real), i_s, psi_s, I
 
     lo, hi = -2000.0, 2000.0
-    for _ in range(200):
+    for _ in range(72):  # 4000 rad/s / 2^72: below an ulp of the slip
         mid = 0.5 * (lo + hi)
         lo, hi = (mid, hi) if at(mid)[0] < T else (lo, mid)
     w2 = 0.5 * (lo + hi)
@@ -68,7 +68,7 @@ def _fitting_flux(p, curve, T, omega_m, V):
     """The largest rotor flux [Wb] below 0.95 whose steady state needs at most V [V] (bisection on the
     phasor model; the voltage rises with the flux above the breakdown point)."""
     lo, hi = 0.05, 0.95
-    for _ in range(60):
+    for _ in range(40):  # 0.9 Wb / 2^40 = 8e-13 Wb
         mid = 0.5 * (lo + hi)
         lo, hi = (mid, hi) if phasor_steady(p, curve, mid, T, omega_m)[0] <= V else (lo, mid)
     return 0.5 * (lo + hi)
