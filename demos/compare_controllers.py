@@ -84,7 +84,7 @@ def designs(p):
         "constant m = m(rated i_mu), i_mu via the controller's curve": lambda: BacksteppingDrive(
             p_rated, cfg=curve_i_mu),
         "constant m = m(rated i_mu), true i_mu": lambda: BacksteppingDrive(p_rated, cfg=true_i_mu),
-        "IFOC PI (L_m = m at rated flux)": lambda: IFOCDrive(p),
+        "IFOC PI (L_m = m at rated flux)": lambda: IFOCDrive(p, L_m=p.curve.m(RatedData().I_mu_n)),
     }
 
 

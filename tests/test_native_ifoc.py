@@ -114,3 +114,41 @@ def test_c_ifoc_refuses_a_bad_flux_reference_and_changes_nothing(lib):
                                 256) != 0
         assert msg.value.decode().startswith("psi_ref_shaped = ")
     assert bytes(buf) == before
+
+
+def test_c_set_inductance_equals_the_python_and_refuses_a_bad_one(lib):
+    """IFOCController.set_inductance and sm_ifoc_set_inductance: the loops designed again for another L_m
+    (the drive's switch), then the same samples as a controller built with that L_m from the start."""
+    lib.sm_ifoc_set_inductance.argtypes = [ctypes.c_void_p, ctypes.c_double, ctypes.c_char_p, ctypes.c_size_t]
+    p, g, Ts = MotorParams(), IFOCGains(), 1e-4
+    py = IFOCController(p, g, Ts, p.curve.m(RatedData().I_mu_n))
+    buf, status, msg = _c_ifoc(lib, p, g, Ts, p.curve.m(RatedData().I_mu_n))
+    assert status == 0, msg
+    L_m = 0.95 / p.curve.current(0.95)
+    py.set_inductance(L_m)
+    assert lib.sm_ifoc_set_inductance(buf, L_m, None, 0) == 0
+    fresh = IFOCController(p, g, Ts, L_m)
+    assert (py.sigL, py.R_eq, py.tau_r, py.Kp_i, py.Ki_i) == (fresh.sigL, fresh.R_eq, fresh.tau_r, fresh.Kp_i,
+                                                              fresh.Ki_i)
+    for c in (py, fresh):
+        c.reset(0.3, 0.9)
+    assert lib.sm_ifoc_reset(buf, 0.3, 0.9, None, 0) == 0
+    va, vb = ctypes.c_double(), ctypes.c_double()
+    rng = np.random.default_rng(11)
+    for _ in range(500):
+        i_a, i_b = (float(v) for v in rng.normal(0.0, 8.0, 2))
+        w = float(rng.uniform(-100.0, 100.0))
+        a, b = py(i_a, i_b, w, w + 3.0, 0.95), fresh(i_a, i_b, w, w + 3.0, 0.95)
+        assert a[:2] == b[:2]
+        assert lib.sm_ifoc_step(buf, i_a, i_b, w, w + 3.0, 0.95, ctypes.byref(va), ctypes.byref(vb), None,
+                                None, 0) == 0
+        assert va.value == pytest.approx(a[0], rel=1e-12, abs=1e-12)
+        assert vb.value == pytest.approx(a[1], rel=1e-12, abs=1e-12)
+    before = bytes(buf)
+    err = ctypes.create_string_buffer(256)
+    for bad in (0.0, -0.1, math.nan, math.inf):
+        assert lib.sm_ifoc_set_inductance(buf, bad, err, 256) != 0
+        assert err.value.decode().startswith("L_m = ")
+        with pytest.raises(ValueError, match="L_m"):
+            py.set_inductance(bad)
+    assert bytes(buf) == before

@@ -407,23 +407,34 @@ class BacksteppingDrive(_Drive):
 
 class IFOCDrive(_Drive):
     """The indirect field-oriented PI baseline (:mod:`satmotor.control.ifoc`) in the same drive frame:
-    same pre-magnetization and shaped references; the PI loops see only currents and speed."""
+    same pre-magnetization and shaped references; the PI loops see only currents and speed.
+
+    ``L_m`` [H]: the loops' constant magnetizing inductance; None (the controller FMU's ``mode: pi``)
+    takes, at each switch to the loops, the secant inductance of the controller's curve at the raw
+    flux set-point of that sample, ``(psi_ref / k) / curve.current(psi_ref / k)`` (the nominal flux:
+    the field weakening only moves the shaper's input), and holds it."""
 
     def __init__(self, params, gains=None, Ts=1e-4, L_m=None, drive_cfg=None):
         self.ifoc = IFOCController(params, IFOCGains() if gains is None else gains, Ts, L_m)
+        self._L_m_auto = L_m is None
         super().__init__(params, Ts, self.ifoc.gains.V_dc, drive_cfg)
 
     def _reset_law(self):
         self.ifoc.reset()
 
     def _on_switch(self, ms):
+        if self._L_m_auto:  # _checked: the raw set-point of this sample and its magnetizing current
+            psi_n, I_n = self._checked
+            self.ifoc.set_inductance(psi_n / self.params.k / I_n)
         self.ifoc.reset(theta_f=ms.rho, phi_r=ms.Phi_rd)
 
     def _law_state(self):
-        return self.ifoc.get_state()
+        return self.ifoc.get_state() + (self.ifoc.L_m,)
 
     def _set_law_state(self, s):
-        self.ifoc.set_state(s)
+        if s[5] != self.ifoc.L_m:
+            self.ifoc.set_inductance(s[5])
+        self.ifoc.set_state(s[:5])
 
     def _run(self, meas, psi_ref_shaped, omega_ref_shaped, T_load):
         # the shaped references' values only (the PI loops use no derivatives)

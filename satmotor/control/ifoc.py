@@ -3,9 +3,16 @@
 Drives the stationary alpha-beta plant of :mod:`satmotor.machine.plant` (same conventions:
 amplitude-invariant Clarke, mechanical speed ``omega_m`` [rad/s], rotor quantities
 on the rotor side with the turns ratio ``k``).  The controller's model is the
-*unsaturated* machine with a constant magnetizing inductance ``L_m`` [H] (default:
-``params.curve.m`` at the rated magnetizing current ``RatedData.I_mu_n``, i.e. at
-the rated flux), so ``psi_s = L_s i_s + k L_m i_r``, ``psi_r = k L_m i_s + L_ra i_r``.
+*unsaturated* machine with a constant magnetizing inductance ``L_m`` [H], so
+``psi_s = L_s i_s + k L_m i_r``, ``psi_r = k L_m i_s + L_ra i_r``.  Which ``L_m``: in the drive
+(:class:`satmotor.control.drive.IFOCDrive`, the controller FMU's ``mode: pi``) the secant inductance of
+the controller's curve at the nominal flux set-point, taken at the switch to the loops:
+``L_m = (psi_ref / k) / I``, ``I = curve.current(psi_ref / k)`` (the no-load magnetizing point of that
+flux, as a no-load test at rated voltage would give it), held whatever the flux set-point does later
+(a constant ``L_m`` is what this baseline is).  :class:`IFOCController` alone defaults to
+``params.curve.m`` at the default motor's rated magnetizing current ``RatedData.I_mu_n`` (5.7 A):
+on another machine (``qu2012_2kw2``: deep in its saturation) that default missed a 0.95 Wb set-point
+by 10 % (issue 20, item 4).
 
 Model constants (rotor side; stator-referred: ``L_r' = L_ra / k^2 = l_r/k^2 + L_m``)::
 
@@ -140,17 +147,9 @@ class IFOCController:
         self.Ts = Ts = require_number("Ts", Ts, 0)
         if L_m is None:
             L_m = params.curve.m(RatedData().I_mu_n)
-        self.L_m = L_m = require_number("L_m", L_m, 0)
-        k = params.k
-        self.L_ra = L_ra = params.l_r + k * k * L_m
-        kLm = k * L_m
-        self.sigL = params.l_s + L_m - kLm * kLm / L_ra
-        self.R_eq = params.R_s + params.R_r * (kLm / L_ra) ** 2
-        self.tau_r = L_ra / params.R_r
+        L_m = require_number("L_m", L_m, 0)
         if gains.w_c * Ts > 1.0:
             raise ParameterError("w_c", gains.w_c, f"w_c Ts must be <= 1 (Ts = {Ts!r} s)")
-        self.Kp_i = self.sigL * gains.w_c
-        self.Ki_i = self.R_eq * gains.w_c
         self.T_sigma = 1.0 / gains.w_c + Ts
         self.a_so = 1.0 / (gains.w_speed * self.T_sigma)
         if self.a_so < 2.0:
@@ -162,20 +161,37 @@ class IFOCController:
         self.Ki_w = self.Kp_w / (self.a_so * self.a_so * self.T_sigma)
         self.V_max = gains.V_dc / math.sqrt(3.0)
         self._V_max2 = self.V_max * self.V_max
+        self._np = params.n_p
+        self._I_max = gains.I_max
+        self._I_max2 = gains.I_max * gains.I_max
+        self._kiT_w = self.Ki_w * Ts
+        self._k_aw = min(1.0, gains.w_c * Ts)
+        self._half_Ts = 0.5 * Ts
+        self.set_inductance(L_m)
+        self.reset()
+
+    def set_inductance(self, L_m):
+        """Take the constant magnetizing inductance ``L_m`` [H] (> 0): every model constant and current-loop
+        gain that depends on it is derived again (the tuning rule of the module docstring); the loops'
+        states are left as they are.  The drive (:class:`satmotor.control.drive.IFOCDrive`) calls it
+        at the switch to the loops with the secant inductance of the nominal flux set-point."""
+        self.L_m = L_m = require_number("L_m", L_m, 0)
+        params, gains, Ts = self.params, self.gains, self.Ts
+        k = params.k
+        self.L_ra = L_ra = params.l_r + k * k * L_m
+        kLm = k * L_m
+        self.sigL = params.l_s + L_m - kLm * kLm / L_ra
+        self.R_eq = params.R_s + params.R_r * (kLm / L_ra) ** 2
+        self.tau_r = L_ra / params.R_r
+        self.Kp_i = self.sigL * gains.w_c
+        self.Ki_i = self.R_eq * gains.w_c
         self._kLm = kLm
         self._inv_kLm = 1.0 / kLm
         self._kT = 1.5 * params.n_p * kLm / L_ra  # T_e = _kT Phi i_sq
         self._c_fd = kLm * params.R_r / (L_ra * L_ra)
         self._c_fq = params.n_p * kLm / L_ra
-        self._np = params.n_p
-        self._I_max = gains.I_max
-        self._I_max2 = gains.I_max * gains.I_max
         self._kiT_i = self.Ki_i * Ts
-        self._kiT_w = self.Ki_w * Ts
-        self._k_aw = min(1.0, gains.w_c * Ts)
         self._phi_gain = -math.expm1(-Ts / self.tau_r)
-        self._half_Ts = 0.5 * Ts
-        self.reset()
 
     def reset(self, theta_f=0.0, phi_r=0.0):
         """Zero the speed integrator and q integrator; start the flux model at ``phi_r`` [Wb]

@@ -160,7 +160,7 @@ static int table_locate(const sm_curve *c, double I)
 /* PolynomialCurve._psi_of_current; NaN if no convergence */
 static double poly_psi_of_current(const sm_curve *c, double I)
 {
-    double inv_l, b, y, yn1, step;
+    double inv_l, b, y, yn1, step, prev, older = NAN;
     int n, it;
     if (I <= 0.0) return 0.0;
     if (!isfinite(I)) return NAN;
@@ -171,8 +171,11 @@ static double poly_psi_of_current(const sm_curve *c, double I)
     for (it = 0; it < SM_MAX_ITER; ++it) {
         yn1 = pow(y, (double)(n - 1));
         step = (y * inv_l + b * yn1 * y - I) / (inv_l + (double)n * b * yn1);
+        prev = y;
         y -= step;
         if (fabs(step) <= SM_REL_TOL * y) return y;
+        if (y == older) return fmin(y, prev); /* a two-cycle of the rounding (the Python's comment) */
+        older = prev;
     }
     return NAN;
 }
@@ -369,7 +372,7 @@ static int generic_solve(const sm_curve *c, double a, double cc, double *I, doub
 /* PolynomialCurve._flux: root psi of a I(psi) + psi = c (Newton from above) */
 static int poly_flux(const sm_curve *c, double a, double cc, double *y_out)
 {
-    double inv_l = 1.0 / c->L_m0, b = c->poly_b, y, yn1, h, step;
+    double inv_l = 1.0 / c->L_m0, b = c->poly_b, y, yn1, h, step, prev, older = NAN;
     int n = c->poly_n, it;
     if (cc <= 0.0) {
         *y_out = 0.0;
@@ -380,11 +383,17 @@ static int poly_flux(const sm_curve *c, double a, double cc, double *y_out)
         yn1 = pow(y, (double)(n - 1));
         h = a * (y * inv_l + b * yn1 * y) + y - cc;
         step = h / (a * (inv_l + (double)n * b * yn1) + 1.0);
+        prev = y;
         y -= step;
         if (fabs(step) <= SM_REL_TOL * y) {
             *y_out = y;
             return SM_CORE_OK;
         }
+        if (y == older) { /* a two-cycle of the rounding (poly_psi_of_current) */
+            *y_out = fmin(y, prev);
+            return SM_CORE_OK;
+        }
+        older = prev;
     }
     *y_out = NAN;
     return SM_ERR_NOCONV;

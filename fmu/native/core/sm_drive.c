@@ -95,7 +95,7 @@ int sm_drive_init(sm_drive *d, sm_mode mode, const sm_motor *p, const sm_gains *
         d->p.m0 = d->p.curve.m0;
     }
     if (mode == SM_MODE_PI) {
-        double L_m = sm_curve_m(&p->curve, 5.7); /* RatedData().I_mu_n */
+        double L_m = sm_curve_m(&p->curve, 5.7); /* RatedData().I_mu_n, until the switch (IFOCDrive) */
         if ((st = sm_ifoc_init(&d->ifoc, p->R_s, p->R_r, p->l_s, p->l_r, p->k, p->n_p, p->J, ig, cfg->Ts, L_m,
                                msg, msg_len))) {
             return SM_ERR_PARAM;
@@ -260,7 +260,10 @@ static int do_switch(sm_drive *d, const double meas[SM_MEAS_LEN])
         return st;
     }
     d->phase = SM_RUN;
-    if (d->mode == SM_MODE_PI) {
+    if (d->mode == SM_MODE_PI) { /* IFOCDrive._on_switch: L_m at the raw set-point of this sample */
+        if (sm_ifoc_set_inductance(&d->ifoc, d->checked_psi / d->p.k / d->checked_I, NULL, 0)) {
+            return SM_ERR_PARAM;
+        }
         return sm_ifoc_reset(&d->ifoc, ms.rho, ms.Phi_rd, NULL, 0);
     }
     return SM_CORE_OK;

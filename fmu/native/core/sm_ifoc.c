@@ -22,10 +22,36 @@ static int positive(char *msg, size_t len, const char *name, double value)
     return 0;
 }
 
+int sm_ifoc_set_inductance(sm_ifoc *c, double L_m, char *msg, size_t msg_len)
+{
+    double kLm, L_ra;
+    if (c == NULL) {
+        return bad(msg, msg_len, "ifoc", 0.0, "NULL argument");
+    }
+    if (positive(msg, msg_len, "L_m", L_m)) {
+        return 1;
+    }
+    c->L_m = L_m;
+    c->L_ra = L_ra = c->l_r + c->k * c->k * L_m;
+    kLm = c->k * L_m;
+    c->sigL = c->l_s + L_m - kLm * kLm / L_ra;
+    c->R_eq = c->R_s + c->R_r * pow(kLm / L_ra, 2.0);
+    c->tau_r = L_ra / c->R_r;
+    c->Kp_i = c->sigL * c->w_c;
+    c->Ki_i = c->R_eq * c->w_c;
+    c->kLm = kLm;
+    c->inv_kLm = 1.0 / kLm;
+    c->kT = 1.5 * (double)c->n_p * kLm / L_ra;
+    c->c_fd = kLm * c->R_r / (L_ra * L_ra);
+    c->c_fq = (double)c->n_p * kLm / L_ra;
+    c->kiT_i = c->Ki_i * c->Ts;
+    c->phi_gain = -expm1(-c->Ts / c->tau_r);
+    return 0;
+}
+
 int sm_ifoc_init(sm_ifoc *c, double R_s, double R_r, double l_s, double l_r, double k, int n_p, double J,
                  const sm_ifoc_gains *g, double Ts, double L_m, char *msg, size_t msg_len)
 {
-    double kLm;
     if (c == NULL || g == NULL) {
         return bad(msg, msg_len, "ifoc", 0.0, "NULL argument");
     }
@@ -42,19 +68,18 @@ int sm_ifoc_init(sm_ifoc *c, double R_s, double R_r, double l_s, double l_r, dou
         return bad(msg, msg_len, "n_p", (double)n_p, "must be an integer >= 1");
     }
     c->Ts = Ts;
-    c->L_m = L_m;
-    c->L_ra = l_r + k * k * L_m;
-    kLm = k * L_m;
-    c->sigL = l_s + L_m - kLm * kLm / c->L_ra;
-    c->R_eq = R_s + R_r * pow(kLm / c->L_ra, 2.0);
-    c->tau_r = c->L_ra / R_r;
+    c->R_s = R_s;
+    c->R_r = R_r;
+    c->l_s = l_s;
+    c->l_r = l_r;
+    c->k = k;
+    c->n_p = n_p;
     if (g->w_c * Ts > 1.0) {
         char what[96];
         (void)snprintf(what, sizeof what, "w_c Ts must be <= 1 (Ts = %.17g s)", Ts);
         return bad(msg, msg_len, "w_c", g->w_c, what);
     }
-    c->Kp_i = c->sigL * g->w_c;
-    c->Ki_i = c->R_eq * g->w_c;
+    c->w_c = g->w_c;
     c->T_sigma = 1.0 / g->w_c + Ts;
     c->a_so = 1.0 / (g->w_speed * c->T_sigma);
     if (c->a_so < 2.0) {
@@ -67,19 +92,14 @@ int sm_ifoc_init(sm_ifoc *c, double R_s, double R_r, double l_s, double l_r, dou
     c->Ki_w = c->Kp_w / (c->a_so * c->a_so * c->T_sigma);
     c->V_max = g->V_dc / sqrt(3.0);
     c->V_max2 = c->V_max * c->V_max;
-    c->kLm = kLm;
-    c->inv_kLm = 1.0 / kLm;
-    c->kT = 1.5 * (double)n_p * kLm / c->L_ra;
-    c->c_fd = kLm * R_r / (c->L_ra * c->L_ra);
-    c->c_fq = (double)n_p * kLm / c->L_ra;
-    c->n_p = n_p;
     c->I_max = g->I_max;
     c->I_max2 = g->I_max * g->I_max;
-    c->kiT_i = c->Ki_i * Ts;
     c->kiT_w = c->Ki_w * Ts;
     c->k_aw = fmin(1.0, g->w_c * Ts);
-    c->phi_gain = -expm1(-Ts / c->tau_r);
     c->half_Ts = 0.5 * Ts;
+    if (sm_ifoc_set_inductance(c, L_m, msg, msg_len)) {
+        return 1;
+    }
     return sm_ifoc_reset(c, 0.0, 0.0, msg, msg_len);
 }
 

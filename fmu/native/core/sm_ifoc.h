@@ -23,6 +23,7 @@ typedef struct {
     /* design constants (set by sm_ifoc_init) */
     double Ts, L_m, L_ra, sigL, R_eq, tau_r, Kp_i, Ki_i, T_sigma, a_so, Kp_w, Ki_w, V_max, V_max2;
     double kLm, inv_kLm, kT, c_fd, c_fq, I_max, I_max2, kiT_i, kiT_w, k_aw, phi_gain, half_Ts;
+    double R_s, R_r, l_s, l_r, k, w_c; /* the design's inputs (sm_ifoc_set_inductance) */
     int n_p;
     /* state */
     double x_w, x_d, x_q, theta, phi;
@@ -37,6 +38,9 @@ typedef struct {
  * gains, the sample period Ts [s] and L_m [H].  0, or nonzero with a message naming the value. */
 int sm_ifoc_init(sm_ifoc *c, double R_s, double R_r, double l_s, double l_r, double k, int n_p, double J,
                  const sm_ifoc_gains *g, double Ts, double L_m, char *msg, size_t msg_len);
+/* Take the constant magnetizing inductance L_m [H] > 0: every constant and current-loop gain that depends
+ * on it derived again (IFOCController.set_inductance), the states unchanged.  0, or nonzero with a message. */
+int sm_ifoc_set_inductance(sm_ifoc *c, double L_m, char *msg, size_t msg_len);
 /* Zero the integrators; the flux model at phi_r [Wb] >= 0 and the frame at theta_f [rad]. */
 int sm_ifoc_reset(sm_ifoc *c, double theta_f, double phi_r, char *msg, size_t msg_len);
 /* One sample: measured currents [A], speed [rad/s], speed reference [rad/s], flux reference
