@@ -61,18 +61,10 @@ import time
 import zipfile
 from pathlib import Path
 
-import numpy as np
-
-from orchestration.process.interrupts import signal_name
-from orchestration.run.libcosim_readers import (
-    FAILED,
-    BoolFile,
-    CapturedLog,
-    Lib,
-    Series,
-    file_observer,
-    positions,
-)
+from orchestration.run import row_recorder
+from orchestration.run.libcosim_observed import ObservedExecution
+from orchestration.run.libcosim_readers import FAILED, CapturedLog
+from orchestration.run.libcosim_rows import RowsExecution
 from orchestration.run.recorder import Recorder
 from orchestration.run.result import RunResult, failure_message
 from orchestration.scenario.problems import Problem
@@ -88,6 +80,8 @@ SIGNALS = "signals"  # instance name of the profiles FMU
 CHUNK_TIME = 0.02  # [s] simulated time stepped in C++ between two looks at the stop flag
 NS = 1_000_000_000  # libcosim's time unit: integer nanoseconds
 ENGINE_NOTE = "libcosim fixed-step algorithm: Jacobi coupling"  # the message of a run that completed
+# where run() builds the RowRecorder FMU once when neither recorder_cache nor signals_cache is given
+RECORDER_CACHE = Path(tempfile.gettempdir()) / f"satmotor-{os.getuid()}" / "recorder"
 
 
 class _NoStop:
@@ -172,11 +166,13 @@ def signals_fmu_for(scenario, cache_dir):
 
 
 def run(scenario, plant_fmu, controller_fmu, recorder=None, stop=None, algorithm=None,
-        signals_fmu=None, chunk_time=CHUNK_TIME, signals_cache=None):
+        signals_fmu=None, chunk_time=CHUNK_TIME, signals_cache=None, recorder_cache=None):
     """Run ``scenario`` with libcosim; returns a :class:`orchestration.run.master.RunResult`.
 
     ``signals_fmu``: the profiles FMU (None: built with :func:`orchestration.build.signals_fmu.build`, into
-    ``signals_cache`` when given (:func:`signals_fmu_for`), else for this run only); ``recorder``:
+    ``signals_cache`` when given (:func:`signals_fmu_for`), else for this run only); ``recorder_cache``:
+    where the RowRecorder FMU is built once (:func:`orchestration.build.recorder_fmu.recorder_fmu_for`;
+    default: next to ``signals_cache``, else :data:`RECORDER_CACHE`); ``recorder``:
     ``columns -> Recorder`` (default in memory); ``stop``: ``.signum`` non-zero stops the run at the
     next chunk; ``algorithm``: None or "jacobi" (anything else is refused: see :func:`problems`).
     Raises ValueError for a scenario :func:`problems` refuses; never raises for an FMU failure."""
@@ -186,7 +182,8 @@ def run(scenario, plant_fmu, controller_fmu, recorder=None, stop=None, algorithm
                 SIGNALS: signals_fmu or signals_fmu_for(scenario, signals_cache or work / "signals")}
         return fmus, lambda outputs: system_structure(scenario, fmus, outputs, work)
 
-    return _run(scenario, system, recorder, stop, algorithm, chunk_time)
+    cache = recorder_cache or (Path(signals_cache).parent / "recorder" if signals_cache else RECORDER_CACHE)
+    return _run(scenario, system, recorder, stop, algorithm, chunk_time, rows_cache=cache)
 
 
 def run_package(scenario, package, recorder=None, stop=None, chunk_time=CHUNK_TIME):
@@ -205,9 +202,11 @@ def run_package(scenario, package, recorder=None, stop=None, chunk_time=CHUNK_TI
     return _run(scenario, system, recorder, stop, None, chunk_time)
 
 
-def _run(scenario, system, recorder, stop, algorithm, chunk_time):
+def _run(scenario, system, recorder, stop, algorithm, chunk_time, rows_cache=None):
     """The run of :func:`run` and :func:`run_package`: ``system(work directory)`` gives ``({unit:
-    FMU path}, outputs -> the system file libcosim loads)``."""
+    FMU path}, outputs -> the system file libcosim loads)``.  ``rows_cache``: record through the
+    RowRecorder FMU built there (:mod:`orchestration.run.libcosim_rows`); None: libcosim's
+    observers (an SSP package run as it is)."""
     found = problems(scenario, algorithm)
     if found:
         raise ValueError("\n".join(map(str, found)))
@@ -217,23 +216,36 @@ def _run(scenario, system, recorder, stop, algorithm, chunk_time):
     rec, status, message, t_reached, unit = None, "ok", "", 0.0, ""
     note = ENGINE_NOTE + ("" if scenario.algorithm == "jacobi" else
                           f"; the scenario's {scenario.algorithm} is not available in this engine")
+    fmus = None
     try:
         fmus, structure_of = system(work)
-        failed = _preflight(scenario, fmus[PLANT], fmus[CONTROLLER])
-        if failed:
-            raise _Failed(*failed)
+        if rows_cache is None:  # else only after a failure (below): it costs more than the stepping saves
+            failed = _preflight(scenario, fmus[PLANT], fmus[CONTROLLER])
+            if failed:
+                raise _Failed(*failed)
         outputs = {name: _Outputs(path) for name, path in fmus.items()}
         structure = structure_of(outputs)
-        columns = recorded_columns([n for n, _ in outputs[PLANT].real],
-                                   [n for n, _ in outputs[CONTROLLER].real + outputs[CONTROLLER].integer
-                                    + outputs[CONTROLLER].boolean], sorted(scenario.profiles))
+        if rows_cache is not None:
+            columns, sources = row_recorder.columns_for(
+                scenario, {u: [(n, o.types[n]) for n, _ in o.real + o.integer + o.boolean]
+                           for u, o in outputs.items()}, SIGNALS)
+            with_rows = _with_recorder(scenario, structure, sources, rows_cache, work, chunk_time)
+            structure = (structure, with_rows)
+        else:
+            sources, columns = None, _all_columns(scenario, outputs)
         rec = recorder(columns) if recorder else Recorder(columns)
         status, message, t_reached, unit = _simulate(scenario, structure, outputs, rec, stop, chunk_time,
-                                                     work)
+                                                     work, sources, columns)
+        if rows_cache is not None and status in FAILED and t_reached == 0:
+            failed = _preflight(scenario, fmus[PLANT], fmus[CONTROLLER])
+            status, message, unit = failed or (status, message, unit)
     except _Failed as exc:
         status, message, unit = exc.args
     except Exception as exc:  # noqa: BLE001 - libcosimpy raises AssertionError for a bad structure
         status, message = "setup", f"libcosim: {exc}"
+        failed = rows_cache and fmus and _preflight(scenario, fmus[PLANT], fmus[CONTROLLER])
+        if failed:
+            status, message, unit = failed
     finally:
         shutil.rmtree(work, ignore_errors=True)
     if rec is None:
@@ -279,136 +291,71 @@ def _preflight(scenario, plant_fmu, controller_fmu):
     return None
 
 
-def _simulate(sc, structure, outputs, rec, stop, chunk_time, work):
+def _chunk_steps(sc, chunk_time):
+    """Base steps stepped between two looks at the stop flag: a multiple of the controller's."""
+    N = sc.controller_every
+    return max(N, round(chunk_time / sc.step) // N * N)
+
+
+def _with_recorder(sc, structure, sources, cache, work, chunk_time):
+    """The system file ``structure`` with the RowRecorder (built in ``cache``) recording ``sources``
+    into ``work/rows.bin``, a block per chunk; returns its path."""
+    from orchestration.build.recorder_fmu import recorder_fmu_for
+
+    fmu = recorder_fmu_for(cache)
+    path = work / "SystemStructureRows.ssd"
+    text = row_recorder.add_to_ssd(Path(structure).read_bytes(), sc, sources, fmu.resolve().as_uri(),
+                                   work / row_recorder.ROWS_FILE, _chunk_steps(sc, chunk_time))
+    path.write_bytes(text)
+    return path
+
+
+class _Selected:
+    """``append(row)`` of ``columns``' rows into ``rec``, which records ``wanted`` of them."""
+
+    def __init__(self, rec, columns, wanted):
+        self.rec, self.index = rec, [columns.index(c) for c in wanted]
+
+    def append(self, row):
+        self.rec.append(row[self.index])
+
+
+def _all_columns(sc, outputs):
+    """Every column of a row, as the master records them (all outputs, the profiles)."""
+    return recorded_columns([n for n, _ in outputs[PLANT].real],
+                            [n for n, _ in outputs[CONTROLLER].real + outputs[CONTROLLER].integer
+                             + outputs[CONTROLLER].boolean], sorted(sc.profiles))
+
+
+def _simulate(sc, structure, outputs, rec, stop, chunk_time, work, sources=None, rec_columns=None):
     """Step libcosim chunk by chunk, recording every complete row; returns (status, message, t_end,
-    failed unit)."""
+    failed unit).  ``sources``: recorded by the RowRecorder, ``structure`` is then ``(the system
+    without it, with it)``; None: by observers.  A failed run through the recorder, which has written
+    the rows up to its last chunk only, is run again with the observers for the rows after those:
+    a failure costs two runs, and keeps every row as before."""
     with CapturedLog(work / "libcosim.log") as log:
-        run = _Execution(sc, structure, outputs, work, chunk_time)
-        try:
-            status, message, t_end, unit = run.simulate(rec, stop)
-        finally:
-            run.close(rec)
+        if sources is not None:
+            run = RowsExecution(sc, structure[1], sources, work / row_recorder.ROWS_FILE,
+                                _chunk_steps(sc, chunk_time))
+            try:
+                status, message, t_end, unit = run.simulate(rec, stop, list(outputs))
+            finally:
+                run.close()
+            if status in FAILED:
+                again = ObservedExecution(sc, structure[0], outputs, work, chunk_time)
+                again.next_row = run.rows.next_row  # the rows before it are recorded
+                tail = _Selected(rec, _all_columns(sc, outputs), rec_columns)
+                try:
+                    status, message, t_end, unit = again.simulate(tail, stop)
+                finally:
+                    again.close(tail)
+        else:
+            run = ObservedExecution(sc, structure, outputs, work, chunk_time)
+            try:
+                status, message, t_end, unit = run.simulate(rec, stop)
+            finally:
+                run.close(rec)
     if status in FAILED:
         first = log.first_fmu_error()
         message += f" -- {first}" if first else ""
     return status, message, t_end, unit
-
-
-class _Execution:
-    """One libcosim execution of the system and its observers, and the rows taken from them."""
-
-    def __init__(self, sc, structure, outputs, work, chunk_time=CHUNK_TIME):
-        from libcosimpy.CosimEnums import CosimVariableType
-        from libcosimpy.CosimExecution import CosimExecution
-        from libcosimpy.CosimObserver import CosimObserver
-
-        self.sc, self.outputs, self.lib = sc, outputs, Lib()
-        self.h, self.N = sc.step, sc.controller_every
-        self.n = round(sc.stop_time / self.h)
-        self.every = max(1, round(sc.record.interval / self.h))
-        self.last_step = self.N * (self.n // self.N + 1)  # completes the last row's controller values
-        self.pending = []  # row tables waiting for the Booleans of their controller samples
-        self.next_row = 0
-        self.file_obs = None
-        try:
-            self.ex = CosimExecution.from_ssp_file(str(structure))  # a package (.ssp) or a .ssd
-        except AssertionError as exc:
-            raise RuntimeError(str(exc)) from None
-        self.index = {name: self.ex.slave_index_from_instance_name(name) for name in outputs}
-        self.chunk = max(self.N, round(chunk_time / self.h) // self.N * self.N)  # base steps, a multiple of N
-        # samples kept per variable: the rows of a chunk and the controller sample of the last one.  No
-        # more: libcosim 0.11 copies the observer's whole time map at every sample read
-        self.observer = CosimObserver.create_time_series(self.chunk + 2 * self.N + 8)
-        self.ex.add_observer(self.observer)
-        for name, o in outputs.items():
-            for _, ref in o.real:
-                self.observer.start_time_series(self.index[name], ref, CosimVariableType.REAL)
-            for _, ref in o.integer:
-                self.observer.start_time_series(self.index[name], ref, CosimVariableType.INTEGER)
-        bools = outputs[CONTROLLER].boolean
-        self.bools = BoolFile(work / "observer" / f"{CONTROLLER}.csv", len(bools))
-        if bools:
-            self.file_obs = file_observer([b for b, _ in bools], CONTROLLER, work)
-            self.ex.add_observer(self.file_obs)
-        self.series = Series(self.lib, self.observer.ptr())
-        profiles = sorted(sc.profiles)
-        self.sig_refs = [dict(outputs[SIGNALS].real)[p] for p in profiles]
-        self.p_refs = [r for _, r in outputs[PLANT].real]
-        self.c_real = [r for _, r in outputs[CONTROLLER].real]
-        self.c_int = [r for _, r in outputs[CONTROLLER].integer]
-
-    def simulate(self, rec, stop):
-        h, chunk = self.h, self.chunk
-        reached = 0  # the base step libcosim has reached
-        while reached < self.last_step:
-            if stop.signum:
-                return "interrupted", f"stopped by {signal_name(stop.signum)} at t = {reached * h:.6g} s", \
-                    reached * h, ""
-            target = min(reached + chunk, self.last_step)
-            ok = self.ex.step(target - reached)
-            if not ok:
-                text = self.lib.error().strip()
-                now = self.ex.status().current_time // round(h * NS)
-                self._take(now, rec)
-                unit = next((u for u in self.outputs if f"{u}: " in text), "")
-                kind = "discard" if "Step not complete" in text else "error"
-                return kind, f"{unit or 'libcosim'}: libcosim: {text}", now * h, unit
-            reached = target
-            self._take(reached, rec)
-        return "ok", "", self.n * h, ""
-
-    def close(self, rec):
-        """End the execution (the file observer closes its CSV) and record the rows still waiting
-        for their Booleans."""
-        self.ex = self.observer = self.file_obs = None  # libcosim objects freed here (refcounts)
-        self.bools.update()
-        self._emit(rec)
-
-    def _take(self, reached, rec):
-        """Read the rows ``next_row..`` complete once libcosim has reached base step ``reached``
-        (row k needs the plant and profile samples of step k and the controller sample of step
-        ``N * (k // N + 1)``) and record those whose Booleans are on disk."""
-        N, n = self.N, self.n
-        last = n if reached >= self.last_step else min(n, (reached // N) * N - 1)
-        rows = [k for k in range(self.next_row, last + 1) if k % self.every == 0]
-        self.next_row = max(self.next_row, last + 1)
-        if rows:
-            self.pending.append(self._table(np.array(rows)))
-        self.bools.update()
-        self._emit(rec)
-
-    def _table(self, ks):
-        N, ix = self.N, self.index
-        k0, count = int(ks[0]), int(ks[-1] - ks[0] + 1)
-        cs = N * (ks // N + 1)  # the controller sample of each row
-        p_steps, pv = self.series.read(ix[PLANT], self.p_refs, "real", k0, count)
-        c0, c_count = int(cs[0]), int(cs[-1] - cs[0] + 1)
-        c_steps, cv = self.series.read(ix[CONTROLLER], self.c_real, "real", c0, c_count)
-        parts = [cv]
-        if self.c_int:
-            parts.append(self.series.read(ix[CONTROLLER], self.c_int, "int", c0, c_count)[1])
-        cols = [ks * self.h, pv[:, positions(p_steps, ks)], np.vstack(parts)[:, positions(c_steps, cs)]]
-        if self.bools.n:
-            cols.append(np.full((self.bools.n, len(ks)), np.nan))  # filled by _emit
-        s_steps, sv = self.series.read(ix[SIGNALS], self.sig_refs, "real", k0, count)
-        cols.append(sv[:, positions(s_steps, ks)])
-        return cs, np.vstack(cols).T
-
-    def _emit(self, rec):
-        """Record the pending rows, in order, up to the first whose Booleans are not on disk yet."""
-        nb = self.bools.n
-        while self.pending:
-            cs, table = self.pending[0]
-            upto = len(cs)
-            if nb:
-                upto, flags = self.bools.take(cs)
-                if upto == 0:
-                    return
-                nc = table.shape[1] - nb - len(self.sig_refs)  # first Boolean column
-                table[:upto, nc:nc + nb] = flags
-            for row in table[:upto]:  # rows of the float64 table: the recorder stacks them per chunk
-                rec.append(row)
-            if upto == len(cs):
-                self.pending.pop(0)
-            else:
-                self.pending[0] = (cs[upto:], table[upto:])
