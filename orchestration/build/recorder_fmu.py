@@ -29,11 +29,12 @@ from orchestration.build.native_build import GLUE_DIR, build_native_fmu
 from orchestration.build.native_fmus import LINUX
 from orchestration.build.native_tables import model_files
 
-__all__ = ["MODEL_NAME", "N_REAL", "N_INTEGER", "N_BOOLEAN", "VARIABLES", "VR", "build", "recorder_fmu_for",
-           "model_description"]
+__all__ = ["MODEL_NAME", "N_REAL", "N_INTEGER", "N_BOOLEAN", "BLOCK", "VARIABLES", "VR", "build",
+           "recorder_fmu_for", "model_description"]
 
 MODEL_NAME = "RowRecorder"
 N_REAL, N_INTEGER, N_BOOLEAN = 64, 8, 8  # RR_REAL, RR_INTEGER, RR_BOOLEAN of the C model
+BLOCK = 32768  # RR_BLOCK of the C model: the doubles it holds before a write (block_rows * row width)
 SOURCE = GLUE_DIR.parents[1] / "recorder" / "native_model.c"
 DATE = "2026-01-01T00:00:00Z"  # fixed: reproducible builds
 

@@ -71,13 +71,16 @@ from orchestration.scenario.problems import Problem
 from orchestration.scenario.recording import recorded_columns
 from orchestration.scenario.system import CONTROLLER, PLANT
 
-__all__ = ["run", "run_package", "signals_fmu_for", "problems", "system_structure", "CHUNK_TIME", "SIGNALS",
-           "NS", "VARIANTS"]
+__all__ = ["run", "run_package", "signals_fmu_for", "problems", "system_structure", "CHUNK_TIME",
+           "ROWS_CHUNK_TIME", "SIGNALS", "NS", "VARIANTS"]
 
 VARIANTS = ("native", "python")  # the FMU variants it runs (FMI 2.0: libcosim 0.11 has no FMI 3.0)
 
 SIGNALS = "signals"  # instance name of the profiles FMU
-CHUNK_TIME = 0.02  # [s] simulated time stepped in C++ between two looks at the stop flag
+CHUNK_TIME = 0.02  # [s] simulated time stepped in C++ between two looks at the stop flag (observers)
+# [s] the same with the RowRecorder (run): its rows are read and folded into the metrics per chunk, and
+# larger chunks cost less per row (the running metrics' numpy calls per chunk)
+ROWS_CHUNK_TIME = 0.1
 NS = 1_000_000_000  # libcosim's time unit: integer nanoseconds
 ENGINE_NOTE = "libcosim fixed-step algorithm: Jacobi coupling"  # the message of a run that completed
 # where run() builds the RowRecorder FMU once when neither recorder_cache nor signals_cache is given
@@ -166,23 +169,29 @@ def signals_fmu_for(scenario, cache_dir):
 
 
 def run(scenario, plant_fmu, controller_fmu, recorder=None, stop=None, algorithm=None,
-        signals_fmu=None, chunk_time=CHUNK_TIME, signals_cache=None, recorder_cache=None):
+        signals_fmu=None, chunk_time=ROWS_CHUNK_TIME, signals_cache=None, recorder_cache=None):
     """Run ``scenario`` with libcosim; returns a :class:`orchestration.run.master.RunResult`.
 
     ``signals_fmu``: the profiles FMU (None: built with :func:`orchestration.build.signals_fmu.build`, into
     ``signals_cache`` when given (:func:`signals_fmu_for`), else for this run only); ``recorder_cache``:
-    where the RowRecorder FMU is built once (:func:`orchestration.build.recorder_fmu.recorder_fmu_for`;
+    where the RowRecorder FMU is built once (:func:`orchestration.build.recorder_fmu.recorder_fmu_for`)
+    and the lean copies of the four FMUs libcosim loads are kept (:mod:`orchestration.build.lean_fmu`;
     default: next to ``signals_cache``, else :data:`RECORDER_CACHE`); ``recorder``:
     ``columns -> Recorder`` (default in memory); ``stop``: ``.signum`` non-zero stops the run at the
     next chunk; ``algorithm``: None or "jacobi" (anything else is refused: see :func:`problems`).
     Raises ValueError for a scenario :func:`problems` refuses; never raises for an FMU failure."""
 
+    from orchestration.build.lean_fmu import lean_fmu
+
+    cache = Path(recorder_cache or (Path(signals_cache).parent / "recorder" if signals_cache
+                                    else RECORDER_CACHE))
+
     def system(work):
         fmus = {PLANT: plant_fmu, CONTROLLER: controller_fmu,
                 SIGNALS: signals_fmu or signals_fmu_for(scenario, signals_cache or work / "signals")}
+        fmus = {unit: lean_fmu(path, cache / "lean") for unit, path in fmus.items()}
         return fmus, lambda outputs: system_structure(scenario, fmus, outputs, work)
 
-    cache = recorder_cache or (Path(signals_cache).parent / "recorder" if signals_cache else RECORDER_CACHE)
     return _run(scenario, system, recorder, stop, algorithm, chunk_time, rows_cache=cache)
 
 
@@ -300,12 +309,14 @@ def _chunk_steps(sc, chunk_time):
 def _with_recorder(sc, structure, sources, cache, work, chunk_time):
     """The system file ``structure`` with the RowRecorder (built in ``cache``) recording ``sources``
     into ``work/rows.bin``, a block per chunk; returns its path."""
+    from orchestration.build.lean_fmu import lean_fmu
     from orchestration.build.recorder_fmu import recorder_fmu_for
 
-    fmu = recorder_fmu_for(cache)
+    fmu = lean_fmu(recorder_fmu_for(cache), cache / "lean")
     path = work / "SystemStructureRows.ssd"
     text = row_recorder.add_to_ssd(Path(structure).read_bytes(), sc, sources, fmu.resolve().as_uri(),
-                                   work / row_recorder.ROWS_FILE, _chunk_steps(sc, chunk_time))
+                                   work / row_recorder.ROWS_FILE,
+                                   min(_chunk_steps(sc, chunk_time), row_recorder.max_block_rows(sources)))
     path.write_bytes(text)
     return path
 

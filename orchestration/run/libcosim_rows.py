@@ -56,9 +56,7 @@ class RowsExecution:
         return "ok", "", n * h, ""
 
     def _take(self, rec):
-        append = rec.append
-        for row in self.rows.table():  # the float64 rows: the recorder stacks them per chunk
-            append(row)
+        rec.append_rows(self.rows.table())
 
     def close(self):
         self.ex = None  # libcosim's execution freed here (refcount): the FMUs are freed

@@ -23,6 +23,7 @@ metrics read (:mod:`orchestration.results.running`), else every output and profi
 
 from __future__ import annotations
 
+import re
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
@@ -34,7 +35,8 @@ from orchestration.results.running import FLAG_COLUMNS, METRIC_COLUMNS, PHASE_CO
 from orchestration.scenario.recording import recorded_columns
 from orchestration.scenario.system import CONTROLLER, PLANT, PROFILE
 
-__all__ = ["NS", "UNIT", "ROWS_FILE", "columns_for", "add_to_ssd", "steps_needed", "Rows", "metrics_only"]
+__all__ = ["NS", "UNIT", "ROWS_FILE", "columns_for", "max_block_rows", "add_to_ssd", "steps_needed", "Rows",
+           "metrics_only"]
 
 UNIT = "recorder"  # the component's name in the system
 ROWS_FILE = "rows.bin"
@@ -87,6 +89,11 @@ def _inputs(sources):
     return out, count
 
 
+def max_block_rows(sources):
+    """The most rows the RowRecorder holds before a write, recording ``sources``."""
+    return recorder_fmu.BLOCK // (1 + len(sources))
+
+
 def _q(ns, tag):
     return f"{{{ns}}}{tag}"
 
@@ -97,9 +104,7 @@ def add_to_ssd(ssd_bytes, scenario, sources, recorder_source, rows_file, block_r
     ``sources`` (of :func:`columns_for`), writing ``rows_file`` every ``block_rows`` rows;
     returns bytes."""
     inputs, count = _inputs(sources)
-    root = ET.fromstring(ssd_bytes)
-    system = root.find(_q(SSD_NS, "System"))
-    el = ET.SubElement(system.find(_q(SSD_NS, "Elements")), _q(SSD_NS, "Component"), {
+    el = ET.Element(_q(SSD_NS, "Component"), {
         "name": UNIT, "type": "application/x-fmu-sharedlibrary", "source": recorder_source})
     cons = ET.SubElement(el, _q(SSD_NS, "Connectors"))
     for _, _, inp in inputs:
@@ -118,13 +123,25 @@ def add_to_ssd(ssd_bytes, scenario, sources, recorder_source, rows_file, block_r
     anns = ET.SubElement(el, _q(SSD_NS, "Annotations"))
     ann = ET.SubElement(anns, _q(SSC_NS, "Annotation"), {"type": OSP_TYPE})
     ET.SubElement(ann, _q(OSP_NS, "StepSizeHint"), {"value": seconds_text(scenario.step)})
-    connections = system.find(_q(SSD_NS, "Connections"))
-    for unit, name, inp in inputs:
-        ET.SubElement(connections, _q(SSD_NS, "Connection"), {
-            "startElement": unit, "startConnector": name, "endElement": UNIT, "endConnector": inp})
-    ET.indent(root, space="  ")
-    return ET.tostring(root, encoding="UTF-8", xml_declaration=True).replace(
-        b"<?xml version='1.0' encoding='UTF-8'?>", b'<?xml version="1.0" encoding="UTF-8"?>', 1) + b"\n"
+    links = [ET.Element(_q(SSD_NS, "Connection"), {"startElement": unit, "startConnector": name,
+                                                     "endElement": UNIT, "endConnector": inp})
+             for unit, name, inp in inputs]
+    # inserted as text before the ends of Elements and Connections (the prefixes ssd_xml writes): a
+    # parse and a new serialization of the whole description would cost more than the rest
+    out = ssd_bytes
+    for end, items in ((b"</ssd:Elements>", [el]), (b"</ssd:Connections>", links)):
+        at = out.rindex(end)
+        text = b"".join(_fragment(x) for x in items)
+        out = out[:at] + text + out[at:]
+    return out
+
+
+def _fragment(element):
+    """``element`` as XML text with the prefixes of :mod:`orchestration.build.ssd` (registered
+    there), without namespace declarations (the description's root has them)."""
+    ET.indent(element, space="  ")
+    text = ET.tostring(element, encoding="unicode")
+    return re.sub(r' xmlns:\w+="[^"]*"', "", text).encode() + b"\n"
 
 
 class Rows:
@@ -173,10 +190,10 @@ class Rows:
         plant_rows = ks - self._first
         ctrl_rows = N * (ks // N + 1) - self._first
         r = self._rows
-        t_rec = r[plant_rows, 0]
-        if not np.allclose(t_rec, ks * self.h, rtol=0, atol=1e-6 * self.h):
-            raise RuntimeError(f"the recorder's rows are not at the steps expected: row {int(ks[0])} at t = "
-                               f"{t_rec[0]!r} s, expected {ks[0] * self.h!r} s")
+        for k, row in ((ks[0], plant_rows[0]), (ks[-1], plant_rows[-1])):  # the engine's time of the rows
+            if abs(r[row, 0] - k * self.h) > 1e-6 * self.h:
+                raise RuntimeError(f"the recorder's rows are not at the steps expected: row {int(k)} at t = "
+                                   f"{r[row, 0]!r} s, expected {k * self.h!r} s")
         out = np.empty((len(ks), 1 + len(self.index)))
         out[:, 0] = ks * self.h
         out[:, 1:] = np.where(self.from_controller[None, :], r[ctrl_rows][:, self.index],
