@@ -300,10 +300,13 @@ def _preflight(scenario, plant_fmu, controller_fmu):
     return None
 
 
-def _chunk_steps(sc, chunk_time):
-    """Base steps stepped between two looks at the stop flag: a multiple of the controller's."""
+def _chunk_steps(sc, chunk_time, sources=None):
+    """Base steps stepped between two looks at the stop flag: a multiple of the controller's; with
+    the RowRecorder recording ``sources``, no more than it holds in a block (one write per chunk)."""
     N = sc.controller_every
-    return max(N, round(chunk_time / sc.step) // N * N)
+    most = row_recorder.max_block_rows(sources) if sources else None
+    steps = round(chunk_time / sc.step) if most is None else min(round(chunk_time / sc.step), most)
+    return max(N, steps // N * N)
 
 
 def _with_recorder(sc, structure, sources, cache, work, chunk_time):
@@ -315,8 +318,7 @@ def _with_recorder(sc, structure, sources, cache, work, chunk_time):
     fmu = lean_fmu(recorder_fmu_for(cache), cache / "lean")
     path = work / "SystemStructureRows.ssd"
     text = row_recorder.add_to_ssd(Path(structure).read_bytes(), sc, sources, fmu.resolve().as_uri(),
-                                   work / row_recorder.ROWS_FILE,
-                                   min(_chunk_steps(sc, chunk_time), row_recorder.max_block_rows(sources)))
+                                   work / row_recorder.ROWS_FILE, _chunk_steps(sc, chunk_time, sources))
     path.write_bytes(text)
     return path
 
@@ -347,7 +349,7 @@ def _simulate(sc, structure, outputs, rec, stop, chunk_time, work, sources=None,
     with CapturedLog(work / "libcosim.log") as log:
         if sources is not None:
             run = RowsExecution(sc, structure[1], sources, work / row_recorder.ROWS_FILE,
-                                _chunk_steps(sc, chunk_time))
+                                _chunk_steps(sc, chunk_time, sources))
             try:
                 status, message, t_end, unit = run.simulate(rec, stop, list(outputs))
             finally:
