@@ -15,11 +15,13 @@ average before and after:
   beforehand (cached by the engine);
 * the same run with libcosim's observers instead of the RowRecorder (how the engine recorded
   before; every output);
-* libcosim's parts: loading the system (``CosimExecution.from_ssp_file``) and freeing it; stepping
-  the three units only; stepping with the RowRecorder (nothing read);
-* Ecos (``ecospy``; its extra and Debian's ``libtbb12``): stepping the three units of the exported
-  ``.ssp`` only; with the RowRecorder; the whole run (loading the package, stepping, the rows read,
-  the metrics).  Ecos runs the package's units with a TBB ``parallel_for`` per step;
+* libcosim's parts, on the lean copies the engine loads (:mod:`orchestration.build.lean_fmu`):
+  loading the system (``CosimExecution.from_ssp_file``) and freeing it; stepping the three units
+  only; stepping with the RowRecorder (nothing read);
+* Ecos (``ecospy``; its extra and Debian's ``libtbb12``), on packages of the same lean copies:
+  stepping the three units only; with the RowRecorder; the whole run (loading the package,
+  stepping, the rows read, the metrics).  Ecos steps the units with a TBB ``parallel_for`` per
+  step (its ``ecos::simulation::Impl::step``), which its C API cannot turn off;
 * the C floor (``bench/floor_master.c`` of ``bench/bench_floor.py``, built here with cc): the native
   plant and controller stepped Gauss-Seidel in C with constant set-points, nothing recorded.
 
@@ -49,6 +51,7 @@ from bench_floor import build_floor, floor_args, run_floor, unit  # noqa: E402
 from bench_plant import cpu_model, git_head, write_section  # noqa: E402
 
 from orchestration.build import fmus  # noqa: E402
+from orchestration.build.lean_fmu import lean_fmu  # noqa: E402
 from orchestration.build.recorder_fmu import recorder_fmu_for  # noqa: E402
 from orchestration.build.ssd import RESOURCES, ssd_xml  # noqa: E402
 from orchestration.results.running import MetricsObserver  # noqa: E402
@@ -69,6 +72,12 @@ def timed(f):
     return time.process_time() - c0, time.perf_counter() - w0, value
 
 
+def lean_system(native, signals, work):
+    """{unit: lean copy} of the plant, controller and signals FMUs, as the libcosim engine loads them."""
+    units = ("plant", "controller", "signals")
+    return {u: lean_fmu(p, work / "lean") for u, p in zip(units, (*native, signals))}
+
+
 def metrics_of(result):
     return result.recorder.metrics_observer.metrics.result()
 
@@ -82,7 +91,8 @@ class Ecos:
 
         ecospy.EcosLib.set_log_level("warn")
         self.eco, self.sc, self.work = ecospy, sc, work
-        fm = {"plant": native[0], "controller": native[1], "signals": signals}
+        fm = lean_system(native, signals, work)
+        recorder = lean_fmu(recorder, work / "lean")
         outs = {u: libcosim_engine._Outputs(p) for u, p in fm.items()}
         outputs = {u: [(n, o.types[n]) for n, _ in o.real + o.integer + o.boolean] for u, o in outs.items()}
         self.columns, self.sources = row_recorder.columns_for(sc, outputs, "signals")
@@ -133,7 +143,8 @@ def libcosim_parts(sc, native, signals, recorder, work):
     from libcosimpy.CosimLogging import CosimLogLevel, log_output_level
 
     log_output_level(CosimLogLevel.ERROR)
-    fm = {"plant": native[0], "controller": native[1], "signals": signals}
+    fm = lean_system(native, signals, work)
+    recorder = lean_fmu(recorder, work / "lean")
     outs = {u: libcosim_engine._Outputs(p) for u, p in fm.items()}
     outputs = {u: [(n, o.types[n]) for n, _ in o.real + o.integer + o.boolean] for u, o in outs.items()}
     _, sources = row_recorder.columns_for(sc, outputs, "signals")

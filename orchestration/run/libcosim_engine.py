@@ -137,7 +137,9 @@ class _Outputs:
     def __init__(self, path):
         from fmpy import read_model_description
 
-        md = self.md = read_model_description(str(path))
+        # not validated against the schema (7 of its 10 ms): libcosim parses the description itself
+        # and refuses a broken one
+        md = self.md = read_model_description(str(path), validate=False)
         self.types = {v.name: v.type for v in md.modelVariables}
         fmi3 = md.fmiVersion.startswith("3")
         names = {"Real": "Float64" if fmi3 else "Real", "Integer": "Int32" if fmi3 else "Integer",

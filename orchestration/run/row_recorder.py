@@ -159,7 +159,8 @@ class Rows:
         offset = {"x": 1, "k": 1 + count["Real"], "b": 1 + count["Real"] + count["Integer"]}
         self.width = 1 + sum(count.values())
         self.index = np.array([offset[inp[0]] + int(inp[1:]) for _, _, inp in inputs], dtype=np.intp)
-        self.from_controller = np.array([u == CONTROLLER for u, _, _ in sources], dtype=bool)
+        from_controller = np.array([u == CONTROLLER for u, _, _ in sources], dtype=bool)
+        self._plant_cols, self._ctrl_cols = np.flatnonzero(~from_controller), np.flatnonzero(from_controller)
         self._pos = 0  # bytes read
         self._rows = np.empty((0, self.width))  # recorder rows read and not yet used, from row self._first
         self._first = 0
@@ -172,8 +173,8 @@ class Rows:
         usable = len(data) // (8 * self.width) * 8 * self.width
         self._pos += usable
         if usable:
-            new = np.frombuffer(data[:usable], dtype=np.float64).reshape(-1, self.width)
-            self._rows = np.concatenate([self._rows, new]) if len(self._rows) else new.copy()
+            new = np.frombuffer(data, dtype=np.float64, count=usable // 8).reshape(-1, self.width)
+            self._rows = np.concatenate([self._rows, new]) if len(self._rows) else new
 
     def table(self):
         """The master's rows ``next_row..`` whose recorder rows are on disk (every ``every``-th, as
@@ -196,8 +197,9 @@ class Rows:
                                    f"{r[row, 0]!r} s, expected {k * self.h!r} s")
         out = np.empty((len(ks), 1 + len(self.index)))
         out[:, 0] = ks * self.h
-        out[:, 1:] = np.where(self.from_controller[None, :], r[ctrl_rows][:, self.index],
-                              r[plant_rows][:, self.index])
+        pc, cc = self._plant_cols, self._ctrl_cols
+        out[:, 1 + pc] = r[np.ix_(plant_rows, self.index[pc])]
+        out[:, 1 + cc] = r[np.ix_(ctrl_rows, self.index[cc])]
         self.next_row = last + 1
         drop = min(len(r), self.next_row - self._first)  # the rows of later ones are at next_row or after
         if drop > 0:
