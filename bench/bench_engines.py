@@ -15,7 +15,7 @@ average before and after:
   beforehand (cached by the engine);
 * the same run with libcosim's observers instead of the RowRecorder (how the engine recorded
   before; every output);
-* libcosim's parts, on the lean copies the engine loads (:mod:`orchestration.build.lean_fmu`):
+* libcosim's parts, on the lean copies the engine loads (:mod:`orchestration.run.lean_fmu`):
   loading the system (``CosimExecution.from_ssp_file``) and freeing it; stepping the three units
   only; stepping with the RowRecorder (nothing read);
 * Ecos (``ecospy``; its extra and Debian's ``libtbb12``), on packages of the same lean copies:
@@ -51,12 +51,12 @@ from bench_floor import build_floor, floor_args, run_floor, unit  # noqa: E402
 from bench_plant import cpu_model, git_head, write_section  # noqa: E402
 
 from orchestration.build import fmus  # noqa: E402
-from orchestration.build.lean_fmu import lean_fmu  # noqa: E402
 from orchestration.build.recorder_fmu import recorder_fmu_for  # noqa: E402
 from orchestration.build.ssd import RESOURCES, ssd_xml  # noqa: E402
 from orchestration.results.running import MetricsObserver  # noqa: E402
 from orchestration.results.writer import streaming_recorder  # noqa: E402
 from orchestration.run import libcosim_engine, row_recorder  # noqa: E402
+from orchestration.run.lean_fmu import lean_fmu  # noqa: E402
 from orchestration.run.master import run as master_run  # noqa: E402
 from orchestration.run.recorder import MetricsOnly  # noqa: E402
 from orchestration.scenario.load import load_scenario  # noqa: E402

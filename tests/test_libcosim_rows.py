@@ -19,11 +19,11 @@ import pytest
 from fmu_helpers import Slave, open_fmu
 
 from orchestration.build import fmus
-from orchestration.build.lean_fmu import lean_fmu
 from orchestration.build.recorder_fmu import BLOCK, VR, recorder_fmu_for
 from orchestration.results.running import FLAG_COLUMNS, METRIC_COLUMNS, PHASE_COLUMN, PSI_SET_COLUMN
 from orchestration.results.writer import streaming_recorder
 from orchestration.run import row_recorder
+from orchestration.run.lean_fmu import lean_fmu
 from orchestration.run.master import run as master_run
 from orchestration.scenario.load import load_scenario
 from orchestration.scenario.recording import record_steps

@@ -10,7 +10,7 @@ the FMUs by absolute ``file:`` URI, in the engine's temporary directory, and loa
 SSP annotation sets libcosim's worker threads (``numWorkerThreads``): 0 here, the units stepped one
 after the other in the calling thread.  libcosim's default pool of (hardware threads - 1) workers
 costs two or more thread switches per step, several times what these small units cost to step
-(``bench/RESULTS.md``, section libcosim).
+(``bench/RESULTS.md``, section engines).
 
 Coupling.  libcosim's fixed-step algorithm (``src/cosim/algorithm/fixed_step_algorithm.cpp``) steps
 every due simulator from ``t_k`` with the inputs set at the last transfer, then copies every
@@ -26,10 +26,14 @@ section (noise applied between the FMUs is the fmpy master's feature, not a libc
 
 Rows.  Row ``k`` holds, as the master's, the plant outputs at ``t_k``, the controller outputs
 computed at its sample ``t_j = controller_every * floor(k / controller_every) * h`` and the profiles
-at ``t_k``.  libcosim's observers see a controller output once its step is complete, at
-``t_j + Ts``: the engine takes it from there, and runs up to one controller step beyond
-``stop_time`` for the last row.  Reals and Integers come from a time-series observer, exact doubles;
-the controller's Booleans, which that observer cannot read, from a file observer's CSV (0 / 1).
+at ``t_k``.  :func:`run` records them through a fourth unit, the RowRecorder FMU, connected to the
+outputs recorded (only the metrics' columns at ``record: metrics``), which writes them as binary
+rows read per chunk (:mod:`orchestration.run.row_recorder`, :mod:`orchestration.run.libcosim_rows`);
+the FMUs are loaded as lean copies (:mod:`orchestration.run.lean_fmu`).  :func:`run_package`, which
+runs a package as it is, records through libcosim's observers
+(:mod:`orchestration.run.libcosim_observed`).  Either way a controller output is seen once its step
+is complete, at ``t_j + Ts``, and the engine runs up to one controller step beyond ``stop_time``
+for the last row (with the RowRecorder, one base step more, for it to take that row).
 
 Agreement.  libcosim counts time in integer nanoseconds and hands the FMUs
 ``dt = double(t + h) - double(t)``, which differs from ``h`` by up to one unit in the last place of
@@ -37,11 +41,13 @@ Agreement.  libcosim counts time in integer nanoseconds and hands the FMUs
 binary, and within about 1e-12 of each column's scale otherwise (``tests/test_libcosim.py``).
 
 Interrupts and failures.  libcosim steps in C++; the engine advances in chunks of
-:data:`CHUNK_TIME` of simulated time, records each chunk and checks ``stop.signum`` between
-chunks, so an interrupted run keeps every row up to the last chunk.  An FMU failure ends the run
-with a :class:`orchestration.run.master.RunResult` as the master's (status ``error``, ``discard`` or
-``fatal``, the unit, the time, the FMU's own message) and the rows up to the last completed step;
-nothing raises.  The plant and the controller are first initialized once with fmpy
+:data:`ROWS_CHUNK_TIME` (RowRecorder) or :data:`CHUNK_TIME` (observers) of simulated time, records
+each chunk and checks ``stop.signum`` between chunks, so an interrupted run keeps every row up to
+the last chunk.  An FMU failure ends the run with a :class:`orchestration.run.master.RunResult` as
+the master's (status ``error``, ``discard`` or ``fatal``, the unit, the time, the FMU's own message)
+and the rows up to the last completed step (those after the RowRecorder's last block from a second
+run with the observers); nothing raises.  A run that fails before its first step (and every
+:func:`run_package`, first) initializes the plant and the controller once with fmpy
 (:func:`_preflight`), so an FMU refusing its parameters is reported as the master reports it, with
 the unit and its status (with libcosim's default worker threads such a failure would even end the
 process: the exception escapes a worker thread).  The FMUs' messages reach only libcosim's console
@@ -177,13 +183,13 @@ def run(scenario, plant_fmu, controller_fmu, recorder=None, stop=None, algorithm
     ``signals_fmu``: the profiles FMU (None: built with :func:`orchestration.build.signals_fmu.build`, into
     ``signals_cache`` when given (:func:`signals_fmu_for`), else for this run only); ``recorder_cache``:
     where the RowRecorder FMU is built once (:func:`orchestration.build.recorder_fmu.recorder_fmu_for`)
-    and the lean copies of the four FMUs libcosim loads are kept (:mod:`orchestration.build.lean_fmu`;
+    and the lean copies of the four FMUs libcosim loads are kept (:mod:`orchestration.run.lean_fmu`;
     default: next to ``signals_cache``, else :data:`RECORDER_CACHE`); ``recorder``:
     ``columns -> Recorder`` (default in memory); ``stop``: ``.signum`` non-zero stops the run at the
     next chunk; ``algorithm``: None or "jacobi" (anything else is refused: see :func:`problems`).
     Raises ValueError for a scenario :func:`problems` refuses; never raises for an FMU failure."""
 
-    from orchestration.build.lean_fmu import lean_fmu
+    from orchestration.run.lean_fmu import lean_fmu
 
     cache = Path(recorder_cache or (Path(signals_cache).parent / "recorder" if signals_cache
                                     else RECORDER_CACHE))
@@ -314,8 +320,8 @@ def _chunk_steps(sc, chunk_time, sources=None):
 def _with_recorder(sc, structure, sources, cache, work, chunk_time):
     """The system file ``structure`` with the RowRecorder (built in ``cache``) recording ``sources``
     into ``work/rows.bin``, a block per chunk; returns its path."""
-    from orchestration.build.lean_fmu import lean_fmu
     from orchestration.build.recorder_fmu import recorder_fmu_for
+    from orchestration.run.lean_fmu import lean_fmu
 
     fmu = lean_fmu(recorder_fmu_for(cache), cache / "lean")
     path = work / "SystemStructureRows.ssd"
