@@ -16,8 +16,6 @@ into a cache directory keyed by its sources.
 
 from __future__ import annotations
 
-import hashlib
-import os
 import tempfile
 import xml.etree.ElementTree as ET
 from pathlib import Path
@@ -106,16 +104,6 @@ def recorder_fmu_for(cache_dir):
     """The RowRecorder FMU, built once into ``cache_dir/<key>/`` and reused while its C sources and
     this module are unchanged (the key: a SHA-256 over them); a build is a C compile (about a
     second)."""
-    from orchestration.build import native_build, native_tables
+    from orchestration.build.native_build import build_once
 
-    h = hashlib.sha256()
-    for f in (*sources(), *sorted(GLUE_DIR.glob("*.[ch]")), Path(__file__), Path(native_build.__file__),
-              Path(native_tables.__file__)):
-        h.update(Path(f).name.encode() + b"\0" + Path(f).read_bytes() + b"\0")
-    d = Path(cache_dir) / h.hexdigest()[:24]
-    fmu = d / f"{MODEL_NAME}.fmu"
-    if not fmu.is_file():
-        d.mkdir(parents=True, exist_ok=True)
-        with tempfile.TemporaryDirectory(dir=d) as tmp:  # built aside, then renamed: never half-written
-            os.replace(build(tmp), fmu)
-    return fmu
+    return build_once(cache_dir, f"{MODEL_NAME}.fmu", [*sources(), Path(__file__)], build)

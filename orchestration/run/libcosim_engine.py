@@ -59,7 +59,6 @@ log on stdout, which is captured while libcosim runs
 
 from __future__ import annotations
 
-import hashlib
 import os
 import shutil
 import tempfile
@@ -161,19 +160,13 @@ def signals_fmu_for(scenario, cache_dir):
     """The ScenarioSignals FMU of ``scenario``'s profiles, built once into ``cache_dir/<key>/`` and
     reused while the profiles and the C sources it is built from are unchanged (the key is a SHA-256
     over both); the build takes about a second (a C compile), the reuse nothing."""
-    from orchestration.build import native_build, native_tables, signals_fmu
+    from orchestration.build import signals_fmu
+    from orchestration.build.native_build import build_once
 
-    h = hashlib.sha256(signals_fmu.profiles_text(scenario).encode())
-    for f in (*signals_fmu.sources(), *sorted(native_build.GLUE_DIR.glob("*.[ch]")),
-              Path(signals_fmu.__file__), Path(native_build.__file__), Path(native_tables.__file__)):
-        h.update(Path(f).name.encode() + b"\0" + Path(f).read_bytes() + b"\0")
-    d = Path(cache_dir) / h.hexdigest()[:24]
-    fmu = d / f"{signals_fmu.MODEL_NAME}.fmu"
-    if not fmu.is_file():
-        d.mkdir(parents=True, exist_ok=True)
-        with tempfile.TemporaryDirectory(dir=d) as tmp:  # built aside, then renamed: never half-written
-            os.replace(signals_fmu.build(scenario, tmp), fmu)
-    return fmu
+    inputs = [*signals_fmu.sources(), Path(signals_fmu.__file__)]
+    return build_once(cache_dir, f"{signals_fmu.MODEL_NAME}.fmu", inputs,
+                      lambda directory: signals_fmu.build(scenario, directory),
+                      signals_fmu.profiles_text(scenario))
 
 
 def run(scenario, plant_fmu, controller_fmu, recorder=None, stop=None, algorithm=None,
