@@ -23,7 +23,9 @@ average before and after:
   stepping, the rows read, the metrics).  Ecos steps the units with a TBB ``parallel_for`` per
   step (its ``ecos::simulation::Impl::step``), which its C API cannot turn off;
 * the C floor (``bench/floor_master.c`` of ``bench/bench_floor.py``, built here with cc): the native
-  plant and controller stepped Gauss-Seidel in C with constant set-points, nothing recorded.
+  plant and controller stepped Gauss-Seidel in C with constant set-points, nothing recorded;
+* the whole ``run`` command, a process of its own (start-up, imports, the run, ``metrics.json``;
+  ``--no-plot``), with the default engine and with ``--engine libcosim``: CPU of the child process.
 
 The metrics of every engine run are compared with the Jacobi master's, printed as ``run`` prints
 them (``%.6g``).
@@ -38,6 +40,8 @@ import math
 import os
 import platform
 import re
+import resource
+import subprocess
 import sys
 import tempfile
 import time
@@ -181,6 +185,21 @@ def observed_run(sc, native, signals, work):
     return time.process_time() - c0, res.wall_time
 
 
+def command(yaml, out, fmu_dir, *extra):
+    """(CPU, wall) [s] of one whole ``run`` command (a new process: start-up, imports, the run, the
+    files), CPU of the child from ``getrusage``."""
+    args = [sys.executable, "-m", "orchestration", "run", str(yaml), "--out", str(out),
+            "--fmus", str(fmu_dir), "--no-build", "--no-plot", *extra]
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    w0 = time.perf_counter()
+    done = subprocess.run(args, cwd=ROOT, capture_output=True, text=True)
+    wall = time.perf_counter() - w0
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    if done.returncode not in (0, 3):  # 3: acceptance missed, still a complete run
+        raise SystemExit(f"run {' '.join(extra)} failed ({done.returncode}): {done.stderr}")
+    return (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime), wall
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--rounds", type=int, default=5)
@@ -205,6 +224,8 @@ def main(argv=None):
                 eco = Ecos(sc, native, signals, recorder, work)
             except (ImportError, OSError) as exc:
                 print(f"Ecos left out: {exc}")
+        yaml = work / f"{sc.name}.yaml"  # the default scenario at record: metrics, for the run command
+        yaml.write_text(SCENARIO.read_text().replace("record:", "record:\n  level: metrics", 1))
         cpu, wall = {}, {}
         got = {}
 
@@ -235,6 +256,8 @@ def main(argv=None):
                 got["ecos"] = m
             _, c, w = run_floor(floor_args(floor_exe, *floor_units, n, "floor"))
             keep("floor", c, w)
+            keep("command_fmpy", *command(yaml, work / "out", a.fmus, "--variant", "native"))
+            keep("command_libcosim", *command(yaml, work / "out", a.fmus, "--engine", "libcosim"))
     load1 = os.getloadavg()
     us = {k: v / n * 1e6 for k, v in cpu.items()}
     uw = {k: (v / n * 1e6 if math.isfinite(v) else math.nan) for k, v in wall.items()}
@@ -248,7 +271,9 @@ def main(argv=None):
             ("libcosim_step_rows", "libcosim: stepping 3 units + the RowRecorder, nothing read"),
             ("ecos", "Ecos, whole run (RowRecorder)"),
             ("ecos_step_bare", "Ecos: stepping 3 units only"),
-            ("ecos_step_rows", "Ecos: stepping 3 units + the RowRecorder, nothing read")]
+            ("ecos_step_rows", "Ecos: stepping 3 units + the RowRecorder, nothing read"),
+            ("command_fmpy", "`run --variant native` command, whole process, fmpy master (Gauss-Seidel)"),
+            ("command_libcosim", "`run --engine libcosim` command, whole process")]
     f = us["floor"]
     table = ["| run | CPU per step [us] | wall per step [us] | CPU / floor | fmpy GS / this (CPU) "
              "| fmpy Jacobi / this (CPU) |", "|---|---|---|---|---|---|"]
