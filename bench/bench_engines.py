@@ -20,8 +20,10 @@ average before and after:
   only; stepping with the RowRecorder (nothing read);
 * Ecos (``ecospy``; its extra and Debian's ``libtbb12``), on packages of the same lean copies:
   stepping the three units only; with the RowRecorder; the whole run (loading the package,
-  stepping, the rows read, the metrics).  Ecos steps the units with a TBB ``parallel_for`` per
-  step (its ``ecos::simulation::Impl::step``), which its C API cannot turn off;
+  stepping, the rows read, the metrics); and stepping the three units with a Python listener that
+  reads the recorded outputs by name after every step (ecospy's only way to see values as the run
+  goes).  Ecos steps the units with a TBB ``parallel_for`` per step (its
+  ``ecos::simulation::Impl::step``), which its C API cannot turn off;
 * the C floor (``bench/floor_master.c`` of ``bench/bench_floor.py``, built here with cc): the native
   plant and controller stepped Gauss-Seidel in C with constant set-points, nothing recorded;
 * the whole ``run`` command, a process of its own (start-up, imports, the run, ``metrics.json``;
@@ -119,6 +121,27 @@ class Ecos:
     def stepping(self, package):
         """CPU [s] of stepping the whole run (loading and initialization excluded)."""
         with self.eco.EcosSimulation(ssp_path=str(package), step_size=self.sc.step) as sim:
+            assert sim.init(parameter_set="scenario")
+            c0 = time.process_time()
+            sim.step(self.steps)
+            return time.process_time() - c0
+
+    def listener_stepping(self):
+        """CPU [s] of stepping the three units with a Python listener (ecospy's ``SimulationListener``,
+        a ctypes callback after every step) reading the recorded outputs one by one by name, as the
+        Python API offers them (what the RowRecorder replaces); the values are dropped."""
+        eco = self.eco
+        getters = []
+        with eco.EcosSimulation(ssp_path=str(self.bare), step_size=self.sc.step) as sim:
+            kinds = {"Real": sim.get_real, "Integer": sim.get_integer, "Boolean": sim.get_bool}
+            getters = [(kinds[t], f"{u}::{n}") for u, n, t in self.sources]
+
+            class Reader(eco.SimulationListener):
+                def post(self, info):
+                    for get, name in getters:
+                        get(name)
+
+            sim.add_listener("reader", Reader())
             assert sim.init(parameter_set="scenario")
             c0 = time.process_time()
             sim.step(self.steps)
@@ -251,6 +274,7 @@ def main(argv=None):
             if eco is not None:
                 keep("ecos_step_bare", eco.stepping(eco.bare), math.inf)
                 keep("ecos_step_rows", eco.stepping(eco.package), math.inf)
+                keep("ecos_step_listener", eco.listener_stepping(), math.inf)
                 c, w, m = timed(eco.run)
                 keep("ecos", c, w)
                 got["ecos"] = m
@@ -272,6 +296,7 @@ def main(argv=None):
             ("ecos", "Ecos, whole run (RowRecorder)"),
             ("ecos_step_bare", "Ecos: stepping 3 units only"),
             ("ecos_step_rows", "Ecos: stepping 3 units + the RowRecorder, nothing read"),
+            ("ecos_step_listener", "Ecos: stepping 3 units, a Python listener reading those outputs by name"),
             ("command_fmpy", "`run --variant native` command, whole process, fmpy master (Gauss-Seidel)"),
             ("command_libcosim", "`run --engine libcosim` command, whole process")]
     f = us["floor"]
