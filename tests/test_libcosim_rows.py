@@ -19,7 +19,7 @@ import pytest
 from fmu_helpers import Slave, open_fmu
 
 from orchestration.build import fmus
-from orchestration.build.recorder_fmu import BLOCK, VR, recorder_fmu_for
+from orchestration.build.recorder_fmu import BLOCK, N_BOOLEAN, N_INTEGER, N_REAL, VR, recorder_fmu_for
 from orchestration.results.running import FLAG_COLUMNS, METRIC_COLUMNS, PHASE_COLUMN, PSI_SET_COLUMN
 from orchestration.results.writer import streaming_recorder
 from orchestration.run import row_recorder
@@ -73,7 +73,9 @@ def test_the_recorder_writes_the_inputs_set_at_each_step_start_as_rows_of_double
 
 
 @pytest.mark.parametrize("params, words", [
-    ({"n_real": 65}, "n_real = 65 is invalid"),
+    ({"n_real": N_REAL + 1}, f"n_real = {N_REAL + 1} is invalid: must be in 0 .. {N_REAL}"),
+    ({"n_boolean": N_BOOLEAN + 1}, f"n_boolean = {N_BOOLEAN + 1} is invalid: must be in 0 .. {N_BOOLEAN}"),
+    ({"n_integer": N_INTEGER + 1}, f"n_integer = {N_INTEGER + 1} is invalid: must be in 0 .. {N_INTEGER}"),
     ({"n_boolean": -1}, "n_boolean = -1 is invalid"),
     ({"n_real": 0}, "nothing to record"),
     ({"rows": 0}, "rows = 0 is invalid"),

@@ -2,7 +2,7 @@
 compiled engine (libcosim, Ecos) that steps it with the units it observes
 (:mod:`orchestration.run.row_recorder`).
 
-Inputs ``x0`` .. ``x63`` (Real), ``k0`` .. ``k7`` (Integer), ``b0`` .. ``b7`` (Boolean); fixed
+Inputs ``x0`` .. ``x63`` (Real), ``k0`` .. ``k7`` (Integer), ``b0`` .. ``b15`` (Boolean); fixed
 parameters ``rows_file`` (String: the file the rows go to), ``n_real``, ``n_integer``, ``n_boolean``
 (Integer: how many inputs of each type are recorded, the first ones) and ``rows`` (Integer: how
 many rows), ``block_rows`` (Integer: rows per write).  At each ``doStep(t, h)`` it takes the row
@@ -31,7 +31,7 @@ __all__ = ["MODEL_NAME", "N_REAL", "N_INTEGER", "N_BOOLEAN", "BLOCK", "VARIABLES
            "recorder_fmu_for", "model_description"]
 
 MODEL_NAME = "RowRecorder"
-N_REAL, N_INTEGER, N_BOOLEAN = 64, 8, 8  # RR_REAL, RR_INTEGER, RR_BOOLEAN of the C model
+N_REAL, N_INTEGER, N_BOOLEAN = 64, 8, 16  # RR_REAL, RR_INTEGER, RR_BOOLEAN of the C model
 BLOCK = 32768  # RR_BLOCK of the C model: the doubles it holds before a write (block_rows * row width)
 SOURCE = GLUE_DIR.parents[1] / "recorder" / "native_model.c"
 DATE = "2026-01-01T00:00:00Z"  # fixed: reproducible builds
