@@ -89,7 +89,8 @@ ROWS_CHUNK_TIME = 0.1
 NS = 1_000_000_000  # libcosim's time unit: integer nanoseconds
 ENGINE_NOTE = "libcosim fixed-step algorithm: Jacobi coupling"  # the message of a run that completed
 # where run() builds the RowRecorder FMU once when neither recorder_cache nor signals_cache is given
-RECORDER_CACHE = Path(tempfile.gettempdir()) / f"satmotor-{os.getuid()}" / "recorder"
+_USER = getattr(os, "getuid", lambda: "user")()  # one cache per user (os.getuid: POSIX only)
+RECORDER_CACHE = Path(tempfile.gettempdir()) / f"satmotor-{_USER}" / "recorder"
 
 
 class _NoStop:
