@@ -32,20 +32,15 @@ import numpy as np
 from orchestration.build import recorder_fmu
 from orchestration.build.ssd import NS, OSP_NS, OSP_TYPE, SSC_NS, SSD_NS, SSV_NS, seconds_text
 from orchestration.results.running import FLAG_COLUMNS, METRIC_COLUMNS, PHASE_COLUMN, PSI_SET_COLUMN
+from orchestration.results.writer import level
 from orchestration.scenario.recording import recorded_columns
 from orchestration.scenario.system import CONTROLLER, PLANT, PROFILE
 
-__all__ = ["NS", "UNIT", "ROWS_FILE", "columns_for", "max_block_rows", "add_to_ssd", "steps_needed", "Rows",
-           "metrics_only"]
+__all__ = ["NS", "UNIT", "ROWS_FILE", "columns_for", "max_block_rows", "add_to_ssd", "steps_needed", "Rows"]
 
 UNIT = "recorder"  # the component's name in the system
 ROWS_FILE = "rows.bin"
 _TYPE_INPUT = {"Real": "x", "Integer": "k", "Boolean": "b"}
-
-
-def metrics_only(scenario):
-    """True when ``scenario`` records at level ``metrics`` (no time series kept)."""
-    return scenario.record is not None and getattr(scenario.record, "level", "full") == "metrics"
 
 
 def columns_for(scenario, outputs, signals_unit):
@@ -55,7 +50,7 @@ def columns_for(scenario, outputs, signals_unit):
     (``signals_unit``) in model-description order; types ``Real``, ``Integer``, ``Boolean``."""
     profiles = sorted(scenario.profiles)
     columns = recorded_columns([n for n, _ in outputs[PLANT]], [n for n, _ in outputs[CONTROLLER]], profiles)
-    if metrics_only(scenario):
+    if level(scenario) == "metrics":  # no time series kept
         wanted = {*METRIC_COLUMNS.values(), *FLAG_COLUMNS.values(), PHASE_COLUMN, PSI_SET_COLUMN}
         columns = [c for c in columns if c == "time" or c in wanted]
     types = {f"{u}.{n}": t for u in (PLANT, CONTROLLER) for n, t in outputs[u]}
