@@ -57,7 +57,7 @@ bench: $(STAMP)
 	$(PY) bench/bench_forms.py
 	$(PY) bench/bench_cosim.py
 	$(PY) bench/bench_native.py
-	$(PY) bench/bench_libcosim.py
+	$(PY) bench/bench_engines.py
 	$(PY) bench/bench_batch.py
 	$(PY) bench/bench_sweep.py
 	$(PY) bench/bench_memory.py

@@ -215,14 +215,19 @@ class _StopAt:
         from orchestration.run.recorder import Recorder
 
         rec = Recorder(columns)
-        append = rec.append
+        append, append_rows = rec.append, rec.append_rows
 
         def app(row):
             append(row)
             if row[0] >= self.t:
                 self.signum = 2
 
-        rec.append = app
+        def app_rows(rows):  # the engine hands a chunk's rows over at once
+            append_rows(rows)
+            if len(rows) and rows[-1][0] >= self.t:
+                self.signum = 2
+
+        rec.append, rec.append_rows = app, app_rows
         return rec
 
 
@@ -299,7 +304,7 @@ def test_libcosim_runs_the_exported_ssp_package_as_the_engine_runs_the_scenario(
 
 @pytest.mark.parametrize("sig, code", [(signal.SIGINT, 130), (signal.SIGTERM, 143)])
 def test_run_with_libcosim_stops_on_a_signal_and_writes_what_it_has(sig, code, tmp_path, fmu_dir):
-    # libcosim steps in C++: the handler runs between two chunks of CHUNK_TIME simulated seconds
+    # libcosim steps in C++: the handler runs between two chunks of ROWS_CHUNK_TIME simulated seconds
     f = tmp_path / "long.yaml"
     f.write_text("name: long\nstop_time: 30.0\nprofiles:\n  psi_ref: {type: constant, value: 0.9}\n"
                  "  omega_ref: {type: step, time: 0.15, value: 50.0}\n")
@@ -321,7 +326,8 @@ def test_run_with_libcosim_stops_on_a_signal_and_writes_what_it_has(sig, code, t
     assert m["status"] == "interrupted" and signal.Signals(sig).name in m["message"]
     assert "Traceback" not in stderr
     rows = pd.read_csv(csv)
-    # at least the first chunk on disk (STREAM_CHUNK_ROWS = 2000 rows) when the signal came
-    assert len(rows) == m["rows"] >= 2000 and rows["time"].iloc[-1] <= m["t_end"] < 30.0
+    # at least the first chunk on disk when the signal came (the engine's chunk: ROWS_CHUNK_TIME =
+    # 0.1 s, at most one RowRecorder block, about 990 rows of every output; its rows are one write)
+    assert len(rows) == m["rows"] >= 900 and rows["time"].iloc[-1] <= m["t_end"] < 30.0
     assert np.array_equal(rows["time"].to_numpy(), np.arange(len(rows)) * 1e-4)  # no gap
     assert len(pd.read_parquet(out / "long" / "timeseries.parquet")) == m["rows"]

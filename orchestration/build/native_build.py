@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import hashlib
 import importlib.util
+import os
 import re
 import shutil
 import subprocess
@@ -289,3 +290,22 @@ def build_native_fmu(model_identifier: str, sources: Iterable[str | Path], model
     out_path = Path(out_path)
     write_reproducible_zip(files, out_path)
     return out_path, token
+
+
+def build_once(cache_dir, name, inputs, build, text=""):
+    """``cache_dir/<key>/<name>``: a native FMU built once by ``build(directory)`` (which returns
+    the path of what it built there) and reused while its ``inputs`` (files: the C sources, the
+    modules that generate it) and ``text`` (e.g. a profiles file) are unchanged; the key is a
+    SHA-256 over them and the glue.  Built aside, then renamed: never half-written."""
+    from orchestration.build import native_tables
+
+    h = hashlib.sha256(text.encode())
+    for f in (*inputs, *sorted(GLUE_DIR.glob("*.[ch]")), Path(__file__), Path(native_tables.__file__)):
+        h.update(Path(f).name.encode() + b"\0" + Path(f).read_bytes() + b"\0")
+    d = Path(cache_dir) / h.hexdigest()[:24]
+    fmu = d / name
+    if not fmu.is_file():
+        d.mkdir(parents=True, exist_ok=True)
+        with tempfile.TemporaryDirectory(dir=d) as tmp:
+            os.replace(build(tmp), fmu)
+    return fmu

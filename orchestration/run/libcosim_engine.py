@@ -10,7 +10,7 @@ the FMUs by absolute ``file:`` URI, in the engine's temporary directory, and loa
 SSP annotation sets libcosim's worker threads (``numWorkerThreads``): 0 here, the units stepped one
 after the other in the calling thread.  libcosim's default pool of (hardware threads - 1) workers
 costs two or more thread switches per step, several times what these small units cost to step
-(``bench/RESULTS.md``, section libcosim).
+(``bench/RESULTS.md``, section engines).
 
 Coupling.  libcosim's fixed-step algorithm (``src/cosim/algorithm/fixed_step_algorithm.cpp``) steps
 every due simulator from ``t_k`` with the inputs set at the last transfer, then copies every
@@ -26,10 +26,14 @@ section (noise applied between the FMUs is the fmpy master's feature, not a libc
 
 Rows.  Row ``k`` holds, as the master's, the plant outputs at ``t_k``, the controller outputs
 computed at its sample ``t_j = controller_every * floor(k / controller_every) * h`` and the profiles
-at ``t_k``.  libcosim's observers see a controller output once its step is complete, at
-``t_j + Ts``: the engine takes it from there, and runs up to one controller step beyond
-``stop_time`` for the last row.  Reals and Integers come from a time-series observer, exact doubles;
-the controller's Booleans, which that observer cannot read, from a file observer's CSV (0 / 1).
+at ``t_k``.  :func:`run` records them through a fourth unit, the RowRecorder FMU, connected to the
+outputs recorded (only the metrics' columns at ``record: metrics``), which writes them as binary
+rows read per chunk (:mod:`orchestration.run.row_recorder`, :mod:`orchestration.run.libcosim_rows`);
+the FMUs are loaded as lean copies (:mod:`orchestration.run.lean_fmu`).  :func:`run_package`, which
+runs a package as it is, records through libcosim's observers
+(:mod:`orchestration.run.libcosim_observed`).  Either way a controller output is seen once its step
+is complete, at ``t_j + Ts``, and the engine runs up to one controller step beyond ``stop_time``
+for the last row (with the RowRecorder, one base step more, for it to take that row).
 
 Agreement.  libcosim counts time in integer nanoseconds and hands the FMUs
 ``dt = double(t + h) - double(t)``, which differs from ``h`` by up to one unit in the last place of
@@ -37,11 +41,13 @@ Agreement.  libcosim counts time in integer nanoseconds and hands the FMUs
 binary, and within about 1e-12 of each column's scale otherwise (``tests/test_libcosim.py``).
 
 Interrupts and failures.  libcosim steps in C++; the engine advances in chunks of
-:data:`CHUNK_TIME` of simulated time, records each chunk and checks ``stop.signum`` between
-chunks, so an interrupted run keeps every row up to the last chunk.  An FMU failure ends the run
-with a :class:`orchestration.run.master.RunResult` as the master's (status ``error``, ``discard`` or
-``fatal``, the unit, the time, the FMU's own message) and the rows up to the last completed step;
-nothing raises.  The plant and the controller are first initialized once with fmpy
+:data:`ROWS_CHUNK_TIME` (RowRecorder) or :data:`CHUNK_TIME` (observers) of simulated time, records
+each chunk and checks ``stop.signum`` between chunks, so an interrupted run keeps every row up to
+the last chunk.  An FMU failure ends the run with a :class:`orchestration.run.master.RunResult` as
+the master's (status ``error``, ``discard`` or ``fatal``, the unit, the time, the FMU's own message)
+and the rows up to the last completed step (those after the RowRecorder's last block from a second
+run with the observers); nothing raises.  A run that fails before its first step (and every
+:func:`run_package`, first) initializes the plant and the controller once with fmpy
 (:func:`_preflight`), so an FMU refusing its parameters is reported as the master reports it, with
 the unit and its status (with libcosim's default worker threads such a failure would even end the
 process: the exception escapes a worker thread).  The FMUs' messages reach only libcosim's console
@@ -53,7 +59,6 @@ log on stdout, which is captured while libcosim runs
 
 from __future__ import annotations
 
-import hashlib
 import os
 import shutil
 import tempfile
@@ -61,33 +66,31 @@ import time
 import zipfile
 from pathlib import Path
 
-import numpy as np
-
-from orchestration.process.interrupts import signal_name
-from orchestration.run.libcosim_readers import (
-    FAILED,
-    BoolFile,
-    CapturedLog,
-    Lib,
-    Series,
-    file_observer,
-    positions,
-)
+from orchestration.run import row_recorder
+from orchestration.run.libcosim_observed import ObservedExecution
+from orchestration.run.libcosim_readers import FAILED, CapturedLog
+from orchestration.run.libcosim_rows import RowsExecution
 from orchestration.run.recorder import Recorder
 from orchestration.run.result import RunResult, failure_message
 from orchestration.scenario.problems import Problem
 from orchestration.scenario.recording import recorded_columns
 from orchestration.scenario.system import CONTROLLER, PLANT
 
-__all__ = ["run", "run_package", "signals_fmu_for", "problems", "system_structure", "CHUNK_TIME", "SIGNALS",
-           "NS", "VARIANTS"]
+__all__ = ["run", "run_package", "signals_fmu_for", "problems", "system_structure", "CHUNK_TIME",
+           "ROWS_CHUNK_TIME", "SIGNALS", "NS", "VARIANTS"]
 
 VARIANTS = ("native", "python")  # the FMU variants it runs (FMI 2.0: libcosim 0.11 has no FMI 3.0)
 
 SIGNALS = "signals"  # instance name of the profiles FMU
-CHUNK_TIME = 0.02  # [s] simulated time stepped in C++ between two looks at the stop flag
+CHUNK_TIME = 0.02  # [s] simulated time stepped in C++ between two looks at the stop flag (observers)
+# [s] the same with the RowRecorder (run): its rows are read and folded into the metrics per chunk, and
+# larger chunks cost less per row (the running metrics' numpy calls per chunk)
+ROWS_CHUNK_TIME = 0.1
 NS = 1_000_000_000  # libcosim's time unit: integer nanoseconds
 ENGINE_NOTE = "libcosim fixed-step algorithm: Jacobi coupling"  # the message of a run that completed
+# where run() builds the RowRecorder FMU once when neither recorder_cache nor signals_cache is given
+_USER = getattr(os, "getuid", lambda: "user")()  # one cache per user (os.getuid: POSIX only)
+RECORDER_CACHE = Path(tempfile.gettempdir()) / f"satmotor-{_USER}" / "recorder"
 
 
 class _NoStop:
@@ -140,7 +143,9 @@ class _Outputs:
     def __init__(self, path):
         from fmpy import read_model_description
 
-        md = self.md = read_model_description(str(path))
+        # not validated against the schema (7 of its 10 ms): libcosim parses the description itself
+        # and refuses a broken one
+        md = self.md = read_model_description(str(path), validate=False)
         self.types = {v.name: v.type for v in md.modelVariables}
         fmi3 = md.fmiVersion.startswith("3")
         names = {"Real": "Float64" if fmi3 else "Real", "Integer": "Int32" if fmi3 else "Integer",
@@ -156,37 +161,40 @@ def signals_fmu_for(scenario, cache_dir):
     """The ScenarioSignals FMU of ``scenario``'s profiles, built once into ``cache_dir/<key>/`` and
     reused while the profiles and the C sources it is built from are unchanged (the key is a SHA-256
     over both); the build takes about a second (a C compile), the reuse nothing."""
-    from orchestration.build import native_build, native_tables, signals_fmu
+    from orchestration.build import signals_fmu
+    from orchestration.build.native_build import build_once
 
-    h = hashlib.sha256(signals_fmu.profiles_text(scenario).encode())
-    for f in (*signals_fmu.sources(), *sorted(native_build.GLUE_DIR.glob("*.[ch]")),
-              Path(signals_fmu.__file__), Path(native_build.__file__), Path(native_tables.__file__)):
-        h.update(Path(f).name.encode() + b"\0" + Path(f).read_bytes() + b"\0")
-    d = Path(cache_dir) / h.hexdigest()[:24]
-    fmu = d / f"{signals_fmu.MODEL_NAME}.fmu"
-    if not fmu.is_file():
-        d.mkdir(parents=True, exist_ok=True)
-        with tempfile.TemporaryDirectory(dir=d) as tmp:  # built aside, then renamed: never half-written
-            os.replace(signals_fmu.build(scenario, tmp), fmu)
-    return fmu
+    inputs = [*signals_fmu.sources(), Path(signals_fmu.__file__)]
+    return build_once(cache_dir, f"{signals_fmu.MODEL_NAME}.fmu", inputs,
+                      lambda directory: signals_fmu.build(scenario, directory),
+                      signals_fmu.profiles_text(scenario))
 
 
 def run(scenario, plant_fmu, controller_fmu, recorder=None, stop=None, algorithm=None,
-        signals_fmu=None, chunk_time=CHUNK_TIME, signals_cache=None):
+        signals_fmu=None, chunk_time=ROWS_CHUNK_TIME, signals_cache=None, recorder_cache=None):
     """Run ``scenario`` with libcosim; returns a :class:`orchestration.run.master.RunResult`.
 
     ``signals_fmu``: the profiles FMU (None: built with :func:`orchestration.build.signals_fmu.build`, into
-    ``signals_cache`` when given (:func:`signals_fmu_for`), else for this run only); ``recorder``:
+    ``signals_cache`` when given (:func:`signals_fmu_for`), else for this run only); ``recorder_cache``:
+    where the RowRecorder FMU is built once (:func:`orchestration.build.recorder_fmu.recorder_fmu_for`)
+    and the lean copies of the four FMUs libcosim loads are kept (:mod:`orchestration.run.lean_fmu`;
+    default: next to ``signals_cache``, else :data:`RECORDER_CACHE`); ``recorder``:
     ``columns -> Recorder`` (default in memory); ``stop``: ``.signum`` non-zero stops the run at the
     next chunk; ``algorithm``: None or "jacobi" (anything else is refused: see :func:`problems`).
     Raises ValueError for a scenario :func:`problems` refuses; never raises for an FMU failure."""
 
+    from orchestration.run.lean_fmu import lean_fmu
+
+    cache = Path(recorder_cache or (Path(signals_cache).parent / "recorder" if signals_cache
+                                    else RECORDER_CACHE))
+
     def system(work):
         fmus = {PLANT: plant_fmu, CONTROLLER: controller_fmu,
                 SIGNALS: signals_fmu or signals_fmu_for(scenario, signals_cache or work / "signals")}
+        fmus = {unit: lean_fmu(path, cache / "lean") for unit, path in fmus.items()}
         return fmus, lambda outputs: system_structure(scenario, fmus, outputs, work)
 
-    return _run(scenario, system, recorder, stop, algorithm, chunk_time)
+    return _run(scenario, system, recorder, stop, algorithm, chunk_time, rows_cache=cache)
 
 
 def run_package(scenario, package, recorder=None, stop=None, chunk_time=CHUNK_TIME):
@@ -205,9 +213,11 @@ def run_package(scenario, package, recorder=None, stop=None, chunk_time=CHUNK_TI
     return _run(scenario, system, recorder, stop, None, chunk_time)
 
 
-def _run(scenario, system, recorder, stop, algorithm, chunk_time):
+def _run(scenario, system, recorder, stop, algorithm, chunk_time, rows_cache=None):
     """The run of :func:`run` and :func:`run_package`: ``system(work directory)`` gives ``({unit:
-    FMU path}, outputs -> the system file libcosim loads)``."""
+    FMU path}, outputs -> the system file libcosim loads)``.  ``rows_cache``: record through the
+    RowRecorder FMU built there (:mod:`orchestration.run.libcosim_rows`); None: libcosim's
+    observers (an SSP package run as it is)."""
     found = problems(scenario, algorithm)
     if found:
         raise ValueError("\n".join(map(str, found)))
@@ -217,23 +227,36 @@ def _run(scenario, system, recorder, stop, algorithm, chunk_time):
     rec, status, message, t_reached, unit = None, "ok", "", 0.0, ""
     note = ENGINE_NOTE + ("" if scenario.algorithm == "jacobi" else
                           f"; the scenario's {scenario.algorithm} is not available in this engine")
+    fmus = None
     try:
         fmus, structure_of = system(work)
-        failed = _preflight(scenario, fmus[PLANT], fmus[CONTROLLER])
-        if failed:
-            raise _Failed(*failed)
+        if rows_cache is None:  # else only after a failure (below): it costs more than the stepping saves
+            failed = _preflight(scenario, fmus[PLANT], fmus[CONTROLLER])
+            if failed:
+                raise _Failed(*failed)
         outputs = {name: _Outputs(path) for name, path in fmus.items()}
         structure = structure_of(outputs)
-        columns = recorded_columns([n for n, _ in outputs[PLANT].real],
-                                   [n for n, _ in outputs[CONTROLLER].real + outputs[CONTROLLER].integer
-                                    + outputs[CONTROLLER].boolean], sorted(scenario.profiles))
+        if rows_cache is not None:
+            columns, sources = row_recorder.columns_for(
+                scenario, {u: [(n, o.types[n]) for n, _ in o.real + o.integer + o.boolean]
+                           for u, o in outputs.items()}, SIGNALS)
+            with_rows = _with_recorder(scenario, structure, sources, rows_cache, work, chunk_time)
+            structure = (structure, with_rows)
+        else:
+            sources, columns = None, _all_columns(scenario, outputs)
         rec = recorder(columns) if recorder else Recorder(columns)
         status, message, t_reached, unit = _simulate(scenario, structure, outputs, rec, stop, chunk_time,
-                                                     work)
+                                                     work, sources, columns)
+        if rows_cache is not None and status in FAILED and t_reached == 0:
+            failed = _preflight(scenario, fmus[PLANT], fmus[CONTROLLER])
+            status, message, unit = failed or (status, message, unit)
     except _Failed as exc:
         status, message, unit = exc.args
     except Exception as exc:  # noqa: BLE001 - libcosimpy raises AssertionError for a bad structure
         status, message = "setup", f"libcosim: {exc}"
+        failed = rows_cache and fmus and _preflight(scenario, fmus[PLANT], fmus[CONTROLLER])
+        if failed:
+            status, message, unit = failed
     finally:
         shutil.rmtree(work, ignore_errors=True)
     if rec is None:
@@ -279,136 +302,75 @@ def _preflight(scenario, plant_fmu, controller_fmu):
     return None
 
 
-def _simulate(sc, structure, outputs, rec, stop, chunk_time, work):
+def _chunk_steps(sc, chunk_time, sources=None):
+    """Base steps stepped between two looks at the stop flag: a multiple of the controller's; with
+    the RowRecorder recording ``sources``, no more than it holds in a block (one write per chunk)."""
+    N = sc.controller_every
+    most = row_recorder.max_block_rows(sources) if sources else None
+    steps = round(chunk_time / sc.step) if most is None else min(round(chunk_time / sc.step), most)
+    return max(N, steps // N * N)
+
+
+def _with_recorder(sc, structure, sources, cache, work, chunk_time):
+    """The system file ``structure`` with the RowRecorder (built in ``cache``) recording ``sources``
+    into ``work/rows.bin``, a block per chunk; returns its path."""
+    from orchestration.build.recorder_fmu import recorder_fmu_for
+    from orchestration.run.lean_fmu import lean_fmu
+
+    fmu = lean_fmu(recorder_fmu_for(cache), cache / "lean")
+    path = work / "SystemStructureRows.ssd"
+    text = row_recorder.add_to_ssd(Path(structure).read_bytes(), sc, sources, fmu.resolve().as_uri(),
+                                   work / row_recorder.ROWS_FILE, _chunk_steps(sc, chunk_time, sources))
+    path.write_bytes(text)
+    return path
+
+
+class _Selected:
+    """``append(row)`` of ``columns``' rows into ``rec``, which records ``wanted`` of them."""
+
+    def __init__(self, rec, columns, wanted):
+        self.rec, self.index = rec, [columns.index(c) for c in wanted]
+
+    def append(self, row):
+        self.rec.append(row[self.index])
+
+
+def _all_columns(sc, outputs):
+    """Every column of a row, as the master records them (all outputs, the profiles)."""
+    return recorded_columns([n for n, _ in outputs[PLANT].real],
+                            [n for n, _ in outputs[CONTROLLER].real + outputs[CONTROLLER].integer
+                             + outputs[CONTROLLER].boolean], sorted(sc.profiles))
+
+
+def _simulate(sc, structure, outputs, rec, stop, chunk_time, work, sources=None, rec_columns=None):
     """Step libcosim chunk by chunk, recording every complete row; returns (status, message, t_end,
-    failed unit)."""
+    failed unit).  ``sources``: recorded by the RowRecorder, ``structure`` is then ``(the system
+    without it, with it)``; None: by observers.  A failed run through the recorder, which has written
+    the rows up to its last chunk only, is run again with the observers for the rows after those:
+    a failure costs two runs, and keeps every row as before."""
     with CapturedLog(work / "libcosim.log") as log:
-        run = _Execution(sc, structure, outputs, work, chunk_time)
-        try:
-            status, message, t_end, unit = run.simulate(rec, stop)
-        finally:
-            run.close(rec)
+        if sources is not None:
+            run = RowsExecution(sc, structure[1], sources, work / row_recorder.ROWS_FILE,
+                                _chunk_steps(sc, chunk_time, sources))
+            try:
+                status, message, t_end, unit = run.simulate(rec, stop, list(outputs))
+            finally:
+                run.close()
+            if status in FAILED:
+                again = ObservedExecution(sc, structure[0], outputs, work, chunk_time)
+                again.next_row = run.rows.next_row  # the rows before it are recorded
+                tail = _Selected(rec, _all_columns(sc, outputs), rec_columns)
+                try:
+                    status, message, t_end, unit = again.simulate(tail, stop)
+                finally:
+                    again.close(tail)
+        else:
+            run = ObservedExecution(sc, structure, outputs, work, chunk_time)
+            try:
+                status, message, t_end, unit = run.simulate(rec, stop)
+            finally:
+                run.close(rec)
     if status in FAILED:
         first = log.first_fmu_error()
         message += f" -- {first}" if first else ""
     return status, message, t_end, unit
-
-
-class _Execution:
-    """One libcosim execution of the system and its observers, and the rows taken from them."""
-
-    def __init__(self, sc, structure, outputs, work, chunk_time=CHUNK_TIME):
-        from libcosimpy.CosimEnums import CosimVariableType
-        from libcosimpy.CosimExecution import CosimExecution
-        from libcosimpy.CosimObserver import CosimObserver
-
-        self.sc, self.outputs, self.lib = sc, outputs, Lib()
-        self.h, self.N = sc.step, sc.controller_every
-        self.n = round(sc.stop_time / self.h)
-        self.every = max(1, round(sc.record.interval / self.h))
-        self.last_step = self.N * (self.n // self.N + 1)  # completes the last row's controller values
-        self.pending = []  # row tables waiting for the Booleans of their controller samples
-        self.next_row = 0
-        self.file_obs = None
-        try:
-            self.ex = CosimExecution.from_ssp_file(str(structure))  # a package (.ssp) or a .ssd
-        except AssertionError as exc:
-            raise RuntimeError(str(exc)) from None
-        self.index = {name: self.ex.slave_index_from_instance_name(name) for name in outputs}
-        self.chunk = max(self.N, round(chunk_time / self.h) // self.N * self.N)  # base steps, a multiple of N
-        # samples kept per variable: the rows of a chunk and the controller sample of the last one.  No
-        # more: libcosim 0.11 copies the observer's whole time map at every sample read
-        self.observer = CosimObserver.create_time_series(self.chunk + 2 * self.N + 8)
-        self.ex.add_observer(self.observer)
-        for name, o in outputs.items():
-            for _, ref in o.real:
-                self.observer.start_time_series(self.index[name], ref, CosimVariableType.REAL)
-            for _, ref in o.integer:
-                self.observer.start_time_series(self.index[name], ref, CosimVariableType.INTEGER)
-        bools = outputs[CONTROLLER].boolean
-        self.bools = BoolFile(work / "observer" / f"{CONTROLLER}.csv", len(bools))
-        if bools:
-            self.file_obs = file_observer([b for b, _ in bools], CONTROLLER, work)
-            self.ex.add_observer(self.file_obs)
-        self.series = Series(self.lib, self.observer.ptr())
-        profiles = sorted(sc.profiles)
-        self.sig_refs = [dict(outputs[SIGNALS].real)[p] for p in profiles]
-        self.p_refs = [r for _, r in outputs[PLANT].real]
-        self.c_real = [r for _, r in outputs[CONTROLLER].real]
-        self.c_int = [r for _, r in outputs[CONTROLLER].integer]
-
-    def simulate(self, rec, stop):
-        h, chunk = self.h, self.chunk
-        reached = 0  # the base step libcosim has reached
-        while reached < self.last_step:
-            if stop.signum:
-                return "interrupted", f"stopped by {signal_name(stop.signum)} at t = {reached * h:.6g} s", \
-                    reached * h, ""
-            target = min(reached + chunk, self.last_step)
-            ok = self.ex.step(target - reached)
-            if not ok:
-                text = self.lib.error().strip()
-                now = self.ex.status().current_time // round(h * NS)
-                self._take(now, rec)
-                unit = next((u for u in self.outputs if f"{u}: " in text), "")
-                kind = "discard" if "Step not complete" in text else "error"
-                return kind, f"{unit or 'libcosim'}: libcosim: {text}", now * h, unit
-            reached = target
-            self._take(reached, rec)
-        return "ok", "", self.n * h, ""
-
-    def close(self, rec):
-        """End the execution (the file observer closes its CSV) and record the rows still waiting
-        for their Booleans."""
-        self.ex = self.observer = self.file_obs = None  # libcosim objects freed here (refcounts)
-        self.bools.update()
-        self._emit(rec)
-
-    def _take(self, reached, rec):
-        """Read the rows ``next_row..`` complete once libcosim has reached base step ``reached``
-        (row k needs the plant and profile samples of step k and the controller sample of step
-        ``N * (k // N + 1)``) and record those whose Booleans are on disk."""
-        N, n = self.N, self.n
-        last = n if reached >= self.last_step else min(n, (reached // N) * N - 1)
-        rows = [k for k in range(self.next_row, last + 1) if k % self.every == 0]
-        self.next_row = max(self.next_row, last + 1)
-        if rows:
-            self.pending.append(self._table(np.array(rows)))
-        self.bools.update()
-        self._emit(rec)
-
-    def _table(self, ks):
-        N, ix = self.N, self.index
-        k0, count = int(ks[0]), int(ks[-1] - ks[0] + 1)
-        cs = N * (ks // N + 1)  # the controller sample of each row
-        p_steps, pv = self.series.read(ix[PLANT], self.p_refs, "real", k0, count)
-        c0, c_count = int(cs[0]), int(cs[-1] - cs[0] + 1)
-        c_steps, cv = self.series.read(ix[CONTROLLER], self.c_real, "real", c0, c_count)
-        parts = [cv]
-        if self.c_int:
-            parts.append(self.series.read(ix[CONTROLLER], self.c_int, "int", c0, c_count)[1])
-        cols = [ks * self.h, pv[:, positions(p_steps, ks)], np.vstack(parts)[:, positions(c_steps, cs)]]
-        if self.bools.n:
-            cols.append(np.full((self.bools.n, len(ks)), np.nan))  # filled by _emit
-        s_steps, sv = self.series.read(ix[SIGNALS], self.sig_refs, "real", k0, count)
-        cols.append(sv[:, positions(s_steps, ks)])
-        return cs, np.vstack(cols).T
-
-    def _emit(self, rec):
-        """Record the pending rows, in order, up to the first whose Booleans are not on disk yet."""
-        nb = self.bools.n
-        while self.pending:
-            cs, table = self.pending[0]
-            upto = len(cs)
-            if nb:
-                upto, flags = self.bools.take(cs)
-                if upto == 0:
-                    return
-                nc = table.shape[1] - nb - len(self.sig_refs)  # first Boolean column
-                table[:upto, nc:nc + nb] = flags
-            for row in table[:upto]:  # rows of the float64 table: the recorder stacks them per chunk
-                rec.append(row)
-            if upto == len(cs):
-                self.pending.pop(0)
-            else:
-                self.pending[0] = (cs[upto:], table[upto:])

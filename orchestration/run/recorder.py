@@ -68,6 +68,21 @@ class Recorder:
             a = a[first::self.every]
         return a if self._keep is None else a[:, self._keep]
 
+    def append_rows(self, rows):
+        """Rows given as one float array (rows x columns), recorded as if appended one by one: the
+        rows pending are flushed first, then the array goes through as a chunk of its own (the
+        observer, ``every``, ``keep``).  For an engine that hands its rows over in blocks."""
+        self.flush()
+        if len(rows):
+            pending, self.rows = self.rows, rows  # _chunk_array reads self.rows
+            try:
+                chunk = self._chunk_array()
+            finally:
+                self.rows = pending
+            if len(chunk):
+                self._write(chunk)
+            self.n_rows += len(chunk)
+
     def flush(self):
         if self.rows:
             chunk = self._chunk_array()
