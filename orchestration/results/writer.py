@@ -61,7 +61,8 @@ def check_acceptance(metrics, scenario):
     acc = scenario.acceptance
     if acc is None or not metrics:
         return {}
-    keys = ("ss_speed", "ss_flux", "overshoot_speed", "peak_current", "peak_current_run")
+    keys = ("ss_speed", "ss_flux", "overshoot_speed", "peak_current", "peak_current_run",
+            "final_overshoot_speed")
     return acceptance(metrics, {key: getattr(acc, key) for key in keys})
 
 
