@@ -179,13 +179,13 @@ def _master(name, fmu_variant="native", algorithm=None, **controller):
 
 @pytest.mark.parametrize("field_weakening", [False, True])
 def test_the_regenerative_stop_brakes_when_commanded_and_does_not_cross_zero(field_weakening):
-    """Stop command at 1.5 s from the voltage limit (field weakening off, as in the issue) or from
+    """Stop command at 1.3 s from the voltage limit (field weakening off, as in the issue) or from
     150 rad/s under field weakening.  Before the freeze: the load estimate at its bound (655 N m),
-    82 ms of motoring, -25.7 rad/s (field weakening: 212 rad/s before the stop, -16.8 rad/s)."""
+    82 ms of motoring, -25.7 rad/s (field weakening: 184 rad/s before the stop, -26.5 rad/s)."""
     df, m, acc = _master("regenerative_stop_limits", field_weakening=field_weakening)
     t, w = df["time"].to_numpy(), df["plant.omega_m"].to_numpy()
     T_e, T_est = df["plant.T_e"].to_numpy(), df["controller.T_load_est"].to_numpy()
-    k0 = int(np.searchsorted(t, 1.5 - 1e-9))
+    k0 = int(np.searchsorted(t, 1.3 - 1e-9))
     braking = t[k0 + int(np.argmax(T_e[k0:] < 0.0))] - t[k0]
     print(f"T_e < 0 after {1e3 * braking:.1f} ms; lowest speed {w.min():.3g} rad/s; largest load estimate "
           f"{T_est.max():.2f} N m; speed before the stop {w[k0]:.2f} rad/s")
