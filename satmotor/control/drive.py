@@ -26,7 +26,10 @@ Start from standstill (the backstepping law is singular at Phi_rd = 0):
    in the estimated-load mode ``theta_hat <- clip(theta_hat + Ts theta_hat', +-theta_max)``
    (forward Euler over the hold).  In the known-load mode the load torque input is taken as
    piecewise constant (dT_L/dt = 0: a difference quotient would turn a load step into a
-   voltage spike).
+   voltage spike).  The law's current bound is I_max lowered by the measured-current limiter
+   (:mod:`satmotor.control.current_limit`); ``current_limited`` is also set while the measured |i_s|
+   exceeds I_max.  With a delay (``delay_samples``, the host's ``host_delay_samples``), the law works on
+   the state predicted n samples on and the references n samples ahead (:mod:`satmotor.control.delay`).
 """
 
 from __future__ import annotations
