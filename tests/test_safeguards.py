@@ -158,23 +158,47 @@ def test_the_warning_when_the_limit_cannot_be_held_is_logged_by_every_controller
         pytest.skip(f"no controller FMU under {fmus}")
 
 
+@pytest.mark.parametrize("variant", ["native", "native-fmi3", "python"])
+def test_a_current_the_drive_cannot_hold_is_said_by_the_run(variant, tmp_path):
+    """A machine coasting at 400 rad/s, magnetized (0.95 Wb), caught by the drive: its back-EMF (760 V)
+    is far beyond V_dc/sqrt(3) (312 V), so the current is not the drive's to bound (78 A peak).  The
+    controller logs that the limit cannot be held, the master's result carries it, the CLI's
+    metrics.json too; current_limited is set."""
+    from orchestration.results.writer import write_results
+    from orchestration.scenario.profiles import Constant
+
+    df, m, acc, res = _master("ramp_rated_load", fmu_variant=variant, full=True, stop_time=0.1,
+                              plant={"omega_m0": 400.0, "psi_r0": 0.95},
+                              profiles={"omega_ref": Constant(400.0), "T_load": Constant(0.0)})
+    warned = [text for unit, text in res.warnings if unit == "controller"]
+    assert len(warned) == 1 and "the current limit cannot be held" in warned[0], res.warnings
+    i_s = np.hypot(df["plant.i_s_alpha"], df["plant.i_s_beta"]).to_numpy()
+    assert i_s.max() > 1.05 * 30.0
+    assert df["controller.current_limited"].to_numpy()[1:][i_s[:-1] > 30.0].all()
+    summary = write_results(res, tmp_path, plot=False)
+    assert summary["warnings"] == [f"controller: {warned[0]}"]
+
+
 # --- the regenerative stop (scenarios/regenerative_stop_limits.yaml) through the master ----------------
 
-def _master(name, fmu_variant="native", algorithm=None, **controller):
+def _master(name, fmu_variant="native", algorithm=None, full=False, plant=None, profiles=None, stop_time=None,
+            **controller):
     from orchestration.build import fmus as fmu_paths
     from orchestration.results.writer import check_acceptance, compute_metrics
     from orchestration.run.master import run
     from orchestration.scenario.load import load_scenario
 
-    plant, ctrl = fmu_paths.paths(FMU_DIR, fmu_variant)
+    plant_fmu, ctrl = fmu_paths.paths(FMU_DIR, fmu_variant)
     if not ctrl.exists():
         pytest.skip(f"{ctrl} not built")
     sc = load_scenario(ROOT / "scenarios" / f"{name}.yaml")
-    sc = dataclasses.replace(sc, controller={**sc.controller, **controller})
-    res = run(sc, str(plant), str(ctrl), algorithm=algorithm)
+    sc = dataclasses.replace(sc, controller={**sc.controller, **controller},
+                             plant={**sc.plant, **(plant or {})}, stop_time=stop_time or sc.stop_time,
+                             profiles={**sc.profiles, **(profiles or {})})
+    res = run(sc, str(plant_fmu), str(ctrl), algorithm=algorithm)
     assert res.ok, res.message
     m = compute_metrics(res.frame, sc)
-    return res.frame, m, check_acceptance(m, sc)
+    return (res.frame, m, check_acceptance(m, sc)) + ((res,) if full else ())
 
 
 @pytest.mark.parametrize("field_weakening", [False, True])
