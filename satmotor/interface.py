@@ -15,7 +15,7 @@ import sys
 from typing import NamedTuple
 
 from satmotor.control.backstepping import BacksteppingGains, ControllerConfig
-from satmotor.control.drive import BacksteppingDrive, DriveConfig, IFOCDrive
+from satmotor.control.drive import HOST_DELAY_MAX, BacksteppingDrive, DriveConfig, IFOCDrive
 from satmotor.control.ifoc import IFOCGains
 from satmotor.control.measurements import MEAS_LEN, MEAS_OMEGA_M
 from satmotor.errors import ParameterError, require_integer, require_number
@@ -123,7 +123,7 @@ PLANT_PARAMETERS = MOTOR_PARAMETERS + _in_struct("plant", (
 
 # the controller's Real parameters that go into DriveConfig as they are (the start-up tolerances)
 _DRIVE_REALS = ("fw_voltage_ratio", "premag_fraction", "premag_min_fraction", "premag_speed_tol",
-                "premag_time_max", "premag_boost", "premag_gain")
+                "premag_time_max", "premag_boost", "premag_gain", "current_limit_gain")
 CONTROLLER_MODES = ("saturated", "constant_m", "pi")
 CONTROLLER_INPUTS = (
     _v("i_s_alpha", "input", 0.0, "A", "measured stator current, alpha axis"),
@@ -160,7 +160,8 @@ CONTROLLER_OUTPUTS = (
     _v("voltage_limited", "output", False, "", "the voltage vector was limited to V_dc/sqrt(3)",
        "Boolean"),
     _v("current_limited", "output", False, "", "a virtual control (or the pre-magnetization current) "
-       "was bounded by I_max", "Boolean"),
+       "was bounded by I_max (or the lowered bound of current_limit_gain), or the measured |i_s| exceeds "
+       "I_max", "Boolean"),
     _v("singular_limited", "output", False, "", "the law's singularity guard was active "
        "(flux below phi_min or det Lambda floored)", "Boolean"),
     _v("omega_m_hat", "output", 0.0, "rad/s", "mechanical speed the drive uses: the observer's estimate "
@@ -182,7 +183,7 @@ CONTROLLER_PARAMETERS = _in_struct("controller", (
     _v("g_theta", "parameter", _C.g_theta, "1/s2", "adaptation gain of the load estimate"),
     _v("theta_max", "parameter", _C.theta_max, "rad/s2", "bound of the estimate of T_load/J"),
     _v("I_max", "parameter", _D.I_max, "A", "stator current limit: pre-magnetization, flux set-points, "
-       "the law's virtual controls"),
+       "the law's virtual controls, the measured current (current_limit_gain)"),
     _v("flux_source", "parameter", _D.flux_source, "", "rotor flux: measured (the psi_r/psi_s inputs, "
        "the seed's assumption) or observer (estimated from i_s and omega_m; the psi inputs are ignored)",
        "String"),
@@ -214,7 +215,15 @@ CONTROLLER_PARAMETERS = _in_struct("controller", (
        "steady magnetizing current of psi_ref (bounded by I_max), >= 1"),
     _v("premag_gain", "parameter", _D.premag_gain, "Ohm", "proportional gain of the pre-magnetization "
        "current loop, > 0"),
-)) + MOTOR_PARAMETERS
+)) + MOTOR_PARAMETERS + _in_struct("controller", (
+    # last: the earlier variables keep their value references
+    _v("current_limit_gain", "parameter", _D.current_limit_gain, "1/s", "measured-current limiter: while the "
+       "measured |i_s| exceeds I_max the law's current bound is lowered by the integral of the excess times "
+       "this gain (unwound below I_max); >= 0, 0: off (the law's model currents alone are bounded)"),
+    _v("host_delay_samples", "parameter", _D.host_delay_samples, "1", "samples of coupling delay the host "
+       "adds between this output and the plant's input (a Jacobi master: 1; Gauss-Seidel: 0), 0 to "
+       f"{HOST_DELAY_MAX}; compensated with delay_samples by one prediction over both", "Integer"),
+))
 
 
 
@@ -404,7 +413,8 @@ class ControllerUnit:
             raise ParameterError("use_stator_flux", True, "needs measured fluxes: not with flux_source = "
                                  "observer")
         dcfg = DriveConfig(ref_bandwidth=f["ref_bandwidth"], I_max=f["I_max"], flux_source=f["flux_source"],
-                           delay_samples=f["delay_samples"], observer=f["observer"],
+                           delay_samples=f["delay_samples"], host_delay_samples=f["host_delay_samples"],
+                           observer=f["observer"],
                            speed_source=f["speed_source"], field_weakening=f["field_weakening"],
                            **{n: f[n] for n in _DRIVE_REALS})
         if mode == "pi":
@@ -418,6 +428,7 @@ class ControllerUnit:
                                    g_theta=f["g_theta"], theta_max=f["theta_max"],
                                    use_stator_flux=f["use_stator_flux"])
             self.drive = BacksteppingDrive(p, gains, cfg, dcfg)
+        self.warnings = []  # the drive's warnings, for the host's log (the FMU glue logs and removes them)
         self.Ts = f["Ts"]
         self._speed_estimated = f["speed_source"] == "estimated"
         self.stop_time = math.inf
@@ -471,6 +482,9 @@ class ControllerUnit:
         # the first MEAS_LEN inputs are the drive's measurement tuple, in its order (MEAS_*)
         omega_ref, psi_ref, T_load = inputs[MEAS_LEN:]
         d = self.drive.step(inputs[:MEAS_LEN], omega_ref, psi_ref, T_load)
+        if self.drive.warnings:  # the native FMU logs the same text
+            self.warnings.extend(f"BacksteppingController: {w}" for w in self.drive.warnings)
+            self.drive.warnings.clear()
         self._out = (d.v_s_alpha, d.v_s_beta, d.v_sd, d.v_sq, d.e1, d.e2, d.z1, d.z2, d.W, d.T_load_est,
                      d.psi_r_hat_alpha, d.psi_r_hat_beta, d.omega_ref_shaped, d.psi_ref_shaped, d.phase,
                      d.voltage_limited, d.current_limited, d.singular_limited, self.drive.omega_m_hat)

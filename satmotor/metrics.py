@@ -28,6 +28,10 @@ run phase
     Peak excursion of omega_m beyond the final set-point ``omega_ref[-1]``, in the direction of
     the change from ``omega_m[0]``, relative to ``|omega_ref[-1] - omega_m[0]|`` (>= 0), over the
     whole record; 0 when there is no change.
+``final_overshoot_speed`` [rad/s]
+    Peak excursion of omega_m beyond the final set-point ``omega_ref[-1]`` after the raw set-point
+    last differed from it, in the direction of that last change (absolute, >= 0; 0 when the
+    set-point never differs from its final value): a stop's undershoot through zero.
 ``settling_time_speed`` [s]
     Time of the last sample outside the band ``|omega_m - omega_ref[-1]| <= SETTLING_BAND
     |omega_ref[-1]|`` (``t[0]`` if none is outside, ``t[-1]`` if the last one is; nan if the
@@ -130,6 +134,18 @@ def overshoot(y, final, start):
     return float(max(peak, 0.0) / abs(step))
 
 
+def final_overshoot(y, y_ref):
+    """Peak excursion of ``y`` beyond ``y_ref[-1]`` after the last sample where ``y_ref`` differs from
+    it, in the direction of that change [unit of y] (>= 0; 0 when ``y_ref`` is constant)."""
+    y, y_ref = np.asarray(y, dtype=float), np.asarray(y_ref, dtype=float)
+    final = y_ref[-1]
+    changed = np.nonzero(y_ref != final)[0]
+    if changed.size == 0 or changed[-1] + 1 >= y.size:
+        return 0.0
+    j = changed[-1]
+    return float(max(float(np.max((y[j + 1:] - final) * np.sign(final - y_ref[j]))), 0.0))
+
+
 def settling_time(t, y, final, band=SETTLING_BAND):
     """Time [s] of the last sample with ``|y - final| > band |final|``; ``t[0]`` if there is none;
     nan if ``final == 0``."""
@@ -166,6 +182,7 @@ def closed_loop_metrics(*, t, omega_m, omega_ref, psi_r_alpha, psi_r_beta, psi_r
         "ss_flux": steady_state_error(np.hypot(psi_r_alpha, psi_r_beta),
                                       psi_ref if psi_set is None else psi_set, ss, SS_FLUX_FLOOR),
         "overshoot_speed": overshoot(w, w_final, float(w[0])),
+        "final_overshoot_speed": final_overshoot(w, omega_ref),
         "settling_time_speed": settling_time(t, w, w_final),
         "peak_current": float(np.max(np.hypot(i_s_alpha, i_s_beta))),
         "peak_voltage": float(np.max(np.hypot(v_s_alpha, v_s_beta))),
@@ -257,6 +274,7 @@ class RunningMetrics:
         self._ss = [-math.inf, -math.inf, math.nan, math.nan]
         self._w = [math.inf, -math.inf, math.nan]  # min, max of omega_m, omega_m[0]
         self._settle = math.nan  # time of the last sample outside the band
+        self._fo = [0.0, 0.0]  # direction of the set-point's last change (0: none yet), peak excursion
         self._peak = [-math.inf, -math.inf, -math.inf, math.inf]  # |i_s|, |v_s|, |i_s| run, min W run
         self._on = [0, 0, 0, 0, 0]  # voltage, current limited: all samples, in the window; window size
 
@@ -285,6 +303,14 @@ class RunningMetrics:
                 self._ss[i] = max(self._ss[i], float(np.max(np.abs(y - y_set))))
                 self._ss[2 + i] = float(y_set[-1])
         self._w[0], self._w[1] = min(self._w[0], float(np.min(w))), max(self._w[1], float(np.max(w)))
+        w_ref = np.asarray(omega_ref, dtype=float)
+        changed = np.nonzero(w_ref != self.w_final)[0]
+        after = 0
+        if changed.size:  # a (later) change: the excursion counts from it on
+            after = changed[-1] + 1
+            self._fo = [float(np.sign(self.w_final - w_ref[changed[-1]])), 0.0]
+        if self._fo[0] != 0.0 and after < w.size:
+            self._fo[1] = max(self._fo[1], float(np.max((w[after:] - self.w_final) * self._fo[0])))
         if self.w_final != 0:
             out = np.nonzero(np.abs(w - self.w_final) > SETTLING_BAND * abs(self.w_final))[0]
             if out.size:
@@ -344,6 +370,7 @@ class RunningMetrics:
             "ss_speed": math.nan if empty else self._ss[0] / max(abs(self._ss[2]), SS_SPEED_FLOOR),
             "ss_flux": math.nan if empty else self._ss[1] / max(abs(self._ss[3]), SS_FLUX_FLOOR),
             "overshoot_speed": over,
+            "final_overshoot_speed": self._fo[1],
             "settling_time_speed": settle,
             "peak_current": self._peak[0],
             "peak_voltage": self._peak[1],

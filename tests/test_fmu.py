@@ -60,7 +60,8 @@ CONTRACT = {
     "BacksteppingController": {"input": CTRL_IN, "output": CTRL_OUT, "parameter": (
         "c1", "c2", "d1", "d2", "Ts", "mode", "load_mode", "V_dc", "ref_bandwidth", "g_theta", "theta_max",
         "I_max", "use_stator_flux", "c0", "d0", "flux_source", "delay_samples", "observer",
-        "speed_source", "field_weakening", "fw_voltage_ratio") + PREMAG_PARAMS + MOTOR},
+        "speed_source", "field_weakening", "fw_voltage_ratio") + PREMAG_PARAMS + MOTOR
+        + ("current_limit_gain", "host_delay_samples")},
 }
 UNITS = {"V": "v_s_alpha v_s_beta v_sd v_sq V_dc v_warn", "A": "i_s_alpha i_s_beta i_mu I_par I_max i_warn",
          "Wb": "psi_s_alpha psi_s_beta psi_r_alpha psi_r_beta psi_ref psi_r0 e1 psi_r_hat_alpha "
@@ -71,9 +72,10 @@ UNITS = {"V": "v_s_alpha v_s_beta v_sd v_sq V_dc v_warn", "A": "i_s_alpha i_s_be
          "rad": "theta_m",
          "rad/s2": "z2 theta_max",
          "N m": "T_load T_e T_load_est", "Ohm": "R_s R_r premag_gain", "H": "l_s l_r L_m0 L_m_inf",
-         "1": "k W delay_samples fw_voltage_ratio premag_fraction premag_min_fraction premag_boost",
+         "1": "k W delay_samples fw_voltage_ratio premag_fraction premag_min_fraction premag_boost "
+              "host_delay_samples",
          "kg m2": "J", "N m s": "B", "A/Wb^n": "poly_b", "s": "h_int Ts premag_time_max",
-         "1/s": "c1 c2 d1 d2",
+         "1/s": "c1 c2 d1 d2 current_limit_gain",
          "1/s2": "g_theta c0 d0", "N m s2/rad2": "B_2"}
 UNIT_OF = {name: unit for unit, names in UNITS.items() for name in names.split()}
 
@@ -90,7 +92,8 @@ def _defaults():
         "use_stator_flux": c.use_stator_flux, "flux_source": d.flux_source, "delay_samples": d.delay_samples,
         "observer": d.observer, "speed_source": d.speed_source,
         "field_weakening": d.field_weakening} | {
-        n: getattr(d, n) for n in ("fw_voltage_ratio",) + PREMAG_PARAMS}
+        n: getattr(d, n) for n in ("fw_voltage_ratio", "current_limit_gain", "host_delay_samples")
+        + PREMAG_PARAMS}
     # at rest, unmagnetized (closed_loop's x0); one RK4 step per sample (closed_loop's n_sub = 1)
     plant = motor | {"B_2": 0.0, "omega_m0": 0.0, "psi_r0": 0.0, "h_int": c.Ts}
     # bounded work per doStep and the plausibility bounds: 4 V_dc, 10 I_max, about 10 x 157 rad/s
@@ -221,8 +224,8 @@ def test_model_description_matches_the_contract(fmus, name):
             assert v.description.endswith(f"[{UNIT_OF[v.name]}]"), (v.name, v.description)
         if v.causality == "parameter":
             assert _typed(v, v.start) == DEFAULTS[name][v.name], v.name
-    integers = {"n_p", "poly_n"} | ({"delay_samples", "phase"} if name == "BacksteppingController"
-                                    else {"max_substeps"})
+    integers = {"n_p", "poly_n"} | ({"delay_samples", "phase", "host_delay_samples"}
+                                    if name == "BacksteppingController" else {"max_substeps"})
     assert {v.name for v in md.modelVariables if v.type == "Integer"} == integers
     booleans = {"use_stator_flux", "voltage_limited", "current_limited", "singular_limited",
                 "field_weakening"}

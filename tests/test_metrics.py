@@ -17,8 +17,10 @@ from satmotor.metrics import (
     SERIES,
     SS_FLUX_MARGIN,
     SS_SPEED_MARGIN,
+    RunningMetrics,
     acceptance,
     closed_loop_metrics,
+    final_overshoot,
     iae,
     overshoot,
     run_metrics,
@@ -71,6 +73,26 @@ def test_overshoot_of_a_known_step_response():
     # a step down (speed reversal): beyond means below
     assert overshoot([100.0, 0.0, -55.0, -50.0], -50.0, 100.0) == pytest.approx(5.0 / 150.0, rel=1e-15)
     assert overshoot([20.0, 25.0, 20.0], 20.0, 20.0) == 0.0  # no change asked
+
+
+def test_final_overshoot_is_the_excursion_after_the_last_change_of_the_set_point():
+    """A run up to 150 rad/s (overshooting to 155 while the set-point is still 150: not counted), then a
+    stop commanded at sample 4 that undershoots to -3 rad/s: 3 rad/s; a set-point that never changes: 0."""
+    w_ref = np.array([0.0, 150.0, 150.0, 150.0, 150.0, 0.0, 0.0, 0.0, 0.0])
+    w = np.array([0.0, 100.0, 155.0, 150.0, 150.0, 80.0, -3.0, -1.0, 0.0])
+    assert final_overshoot(w, w_ref) == 3.0
+    assert final_overshoot(w, np.full(9, 0.0)) == 0.0
+    assert final_overshoot(-w, -w_ref) == 3.0  # a stop from -150 rad/s: the same excursion
+    assert final_overshoot(np.abs(w), w_ref) == 0.0  # no excursion below zero: 0
+    r = {k: np.resize(v, 9) for k, v in record().items()}
+    r["t"], r["omega_ref"], r["omega_m"] = np.arange(9.0), w_ref, w
+    whole = closed_loop_metrics(**r, run=np.ones(9, dtype=bool))
+    assert whole["final_overshoot_speed"] == 3.0
+    for cut in range(1, 9):  # chunk by chunk, wherever the chunks are cut
+        run = RunningMetrics(8.0, 0.0)
+        for lo, hi in ((0, cut), (cut, 9)):
+            run.update(**{k: v[lo:hi] for k, v in r.items()}, run=np.ones(hi - lo, dtype=bool))
+        assert run.result()["final_overshoot_speed"] == 3.0, cut
 
 
 def test_settling_time_is_the_last_sample_outside_the_2_percent_band():
@@ -205,7 +227,8 @@ def test_compute_metrics_is_the_same_figures_from_the_dataframe():
     assert m == closed_loop_metrics(**r, run=T >= 1.0, ss_window=(8.0, 10.0), voltage_limited=T >= 7.5,
                                     current_limited=np.zeros(N))
     assert list(m) == ["t_switch", "iae_speed", "iae_flux", "ss_speed", "ss_flux", "overshoot_speed",
-                       "settling_time_speed", "peak_current", "peak_voltage", "peak_current_run", "min_W",
+                       "final_overshoot_speed", "settling_time_speed", "peak_current", "peak_voltage",
+                       "peak_current_run", "min_W",
                        "voltage_limited_fraction", "ss_voltage_limited_fraction", "current_limited_fraction",
                        "ss_current_limited_fraction"]
     assert m["voltage_limited_fraction"] == pytest.approx(6 / 21, rel=1e-15)

@@ -93,6 +93,16 @@ CASES = {
     "field weakening, constant m": ({"V_dc": 250.0, "mode": "constant_m", "fw_voltage_ratio": 0.8}, {}),
     "field weakening, IFOC PI": ({"V_dc": 250.0, "mode": "pi"}, {}),
     "field weakening off": ({"V_dc": 250.0, "field_weakening": False}, {}),
+    "host delay (Jacobi)": ({"host_delay_samples": 1}, {}),
+    "host delay 2 and own delay, observer, estimated load": (
+        {"host_delay_samples": 2, "delay_samples": 1, "flux_source": "observer", "load_mode": "estimated"},
+        {}),
+    "sensorless, host delay": (
+        {"flux_source": "observer", "speed_source": "estimated", "host_delay_samples": 1}, {}),
+    "measured-current limiter at its floor": ({"I_max": 12.0, "c0": 1e4, "d0": 2500.0}, {"L_m0": 0.166}),
+    "measured-current limiter, IFOC PI": ({"I_max": 12.0, "mode": "pi"}, {"L_m0": 0.166}),
+    "estimated load at the voltage limit": (
+        {"V_dc": 250.0, "field_weakening": False, "load_mode": "estimated", "c0": 1e4, "d0": 2500.0}, {}),
     "start-up tolerances": ({"premag_fraction": 0.8, "premag_min_fraction": 0.3, "premag_speed_tol": 0.5,
                              "premag_time_max": 0.05, "premag_boost": 2.0, "premag_gain": 30.0}, {}),
 }
@@ -130,7 +140,10 @@ BAD = [({"mode": "fuzzy"}, "mode"), ({"flux_source": "estimated"}, "flux_source"
        ({"fw_voltage_ratio": 1.5}, "fw_voltage_ratio"), ({"fw_voltage_ratio": 0.0}, "fw_voltage_ratio"),
        ({"premag_fraction": 0.0}, "premag_fraction"), ({"premag_min_fraction": 0.95}, "premag_min_fraction"),
        ({"premag_speed_tol": 0.0}, "premag_speed_tol"), ({"premag_time_max": -1.0}, "premag_time_max"),
-       ({"premag_boost": 0.5}, "premag_boost"), ({"premag_gain": math.inf}, "premag_gain")]
+       ({"premag_boost": 0.5}, "premag_boost"), ({"premag_gain": math.inf}, "premag_gain"),
+       ({"host_delay_samples": 4}, "host_delay_samples"), ({"host_delay_samples": -1}, "host_delay_samples"),
+       ({"current_limit_gain": -1.0}, "current_limit_gain"), ({"current_limit_gain": math.nan},
+                                                               "current_limit_gain")]
 
 
 @pytest.mark.parametrize("values, field", BAD)

@@ -37,11 +37,11 @@ def _value(struct, name, type_):
 
 
 PLANT_OWN = [v for v in itf.PLANT_PARAMETERS if v.c_struct == "plant"]  # max_substeps has no struct
+CONTROLLER_OWN = [v for v in itf.CONTROLLER_PARAMETERS if v.c_struct == "controller"]  # in member order
 
 
 @pytest.mark.parametrize("struct, table", [(MotorParams, itf.MOTOR_PARAMETERS), (PlantParams, PLANT_OWN),
-                                           (ControllerParams,
-                                            itf.CONTROLLER_PARAMETERS[:-len(itf.MOTOR_PARAMETERS)])])
+                                           (ControllerParams, CONTROLLER_OWN)])
 def test_the_c_parameter_defaults_are_the_start_values_of_the_table(lib, struct, table):
     p = struct()
     getattr(lib, struct.__name__ + "_default")(ctypes.byref(p))
@@ -65,13 +65,11 @@ class _LawConfig(ctypes.Structure):  # sm_law.h
 class _DriveConfig(ctypes.Structure):  # sm_drive.h
     _fields_ = [(n, ctypes.c_double) for n in ("ref_bandwidth", "I_max", "premag_fraction", "premag_boost",
                                                "premag_gain", "premag_time_max", "premag_min_fraction",
-                                               "premag_speed_tol")] + [("observer", ctypes.c_int),
-                                                                       ("delay_samples", ctypes.c_int),
-                                                                       ("closed_loop", ctypes.c_int),
-                                                                       ("speed_estimated", ctypes.c_int),
-                                                                       ("speed_bandwidth", ctypes.c_double),
-                                                                       ("field_weakening", ctypes.c_int),
-                                                                       ("fw_voltage_ratio", ctypes.c_double)]
+                                               "premag_speed_tol")] + [
+        ("observer", ctypes.c_int), ("delay_samples", ctypes.c_int), ("closed_loop", ctypes.c_int),
+        ("speed_estimated", ctypes.c_int), ("speed_bandwidth", ctypes.c_double),
+        ("field_weakening", ctypes.c_int), ("fw_voltage_ratio", ctypes.c_double),
+        ("current_limit_gain", ctypes.c_double), ("host_delay_samples", ctypes.c_int)]
 
 
 class _IFOCGains(ctypes.Structure):  # sm_ifoc.h

@@ -65,5 +65,9 @@ fg_status fg_model_do_step(fg_instance *inst, void *data, double t, double h)
     }
     sm_vars_put_outputs(&d->v, d->u.out);
     d->v.r[SM_VR_time] = t + h;
+    if (d->u.has_warning) { /* the drive's warning, once per run (the pythonfmu FMU logs the same text) */
+        d->u.has_warning = 0;
+        fg_log(inst, FG_WARNING, "logStatusWarning", "BacksteppingController: %s", d->u.warning);
+    }
     return FG_OK;
 }

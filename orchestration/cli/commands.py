@@ -267,6 +267,8 @@ def _say(s, out):
         return
     for note in s.get("notes") or ():
         print(note, file=sys.stderr)
+    for warning in s.get("warnings") or ():  # what an FMU logged at warning level
+        print(f"warning: {warning}", file=sys.stderr)
     if s.get("metrics_written") is False:  # the one place left to say it (a batch shows this line)
         print(f"{s['scenario']}: failed: {s['message']}", file=sys.stderr)
     held = f", {s['setpoints']}" if s.get("holds_setpoints") is False else ""

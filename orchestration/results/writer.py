@@ -61,7 +61,8 @@ def check_acceptance(metrics, scenario):
     acc = scenario.acceptance
     if acc is None or not metrics:
         return {}
-    keys = ("ss_speed", "ss_flux", "overshoot_speed", "peak_current", "peak_current_run")
+    keys = ("ss_speed", "ss_flux", "overshoot_speed", "peak_current", "peak_current_run",
+            "final_overshoot_speed")
     return acceptance(metrics, {key: getattr(acc, key) for key in keys})
 
 
@@ -224,6 +225,7 @@ def write_results(result, out_dir, plot=True, draw=None, write_error=None, disca
         "accepted": all(v["pass"] for v in acceptance.values()) if acceptance else None,
         "holds_setpoints": holds, "setpoints": setpoints,
         "notes": [str(n) for n in getattr(sc, "notes", ())],
+        "warnings": [f"{unit}: {text}" for unit, text in getattr(result, "warnings", ())],
     }
     try:
         atomic.write_json(d / "metrics.json", summary)

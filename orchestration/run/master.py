@@ -122,6 +122,7 @@ def run(scenario, plant_fmu, controller_fmu, connections=DEFAULT_CONNECTIONS, al
         status = "setup"
         message = failure_message(current, exc, inst)
     finally:
+        logged = tuple((u.name, text) for u in units for level, text in u.messages if level == "warning")
         for u in units:
             u.close()
         for d in extracted:
@@ -133,7 +134,7 @@ def run(scenario, plant_fmu, controller_fmu, connections=DEFAULT_CONNECTIONS, al
             rec = Recorder(["time"])
     rec.close()
     return RunResult(scenario, rec, status, message, t_reached, time.perf_counter() - wall0,
-                     current if status not in ("ok", "interrupted") else "")
+                     current if status not in ("ok", "interrupted") else "", logged)
 
 
 def _loop(sc, jacobi, plant, ctrl, p_out, c_out, c_disc, connections, profiles, rec, stop, measure=None):

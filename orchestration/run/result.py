@@ -21,6 +21,7 @@ class RunResult:
     t_end: float  # [s] last communication point reached (where a failure happened)
     wall_time: float  # [s]
     failed_unit: str = ""  # "plant" or "controller" when an FMU failed
+    warnings: tuple = ()  # (unit, message) of what the FMUs logged at warning level (fmpy master)
 
     @property
     def ok(self):

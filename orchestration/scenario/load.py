@@ -21,7 +21,8 @@ a multiple of ``step``, default ``step``; ``outputs``: ``plant.NAME`` /
 :mod:`orchestration.scenario.sweep`, :mod:`orchestration.scenario.variants`),
 ``acceptance`` (bounds checked after the run: ``ss_speed``,
 ``ss_flux`` relative steady-state errors over ``ss_window: [t_from, t_to]`` [s],
-``overshoot_speed`` relative, ``peak_current``, ``peak_current_run`` [A]), ``measurements``
+``overshoot_speed`` relative, ``peak_current``, ``peak_current_run`` [A], ``final_overshoot_speed``
+[rad/s]), ``measurements``
 (noise and quantization the master applies to the plant outputs it passes to the controller:
 ``seed`` (integer >= 0, default 0), ``noise: {NAME: std}`` (Gaussian standard deviation >= 0) and
 ``quantization: {NAME: step}`` (step > 0), each in the signal's unit, NAME one of
@@ -69,7 +70,8 @@ UNITS = ("plant", "controller")
 TOP_KEYS = ("name", "description", "stop_time", "step", "controller_every", "algorithm", "motor", "plant",
             "controller", "mismatch", "profiles", "record", "acceptance", "measurements", "sweep")
 RECORD_LEVELS = ("full", "decimated", "metrics")  # what a run keeps: orchestration.run.recorder
-ACCEPTANCE_KEYS = ("ss_speed", "ss_flux", "ss_window", "overshoot_speed", "peak_current", "peak_current_run")
+ACCEPTANCE_KEYS = ("ss_speed", "ss_flux", "ss_window", "overshoot_speed", "peak_current", "peak_current_run",
+                   "final_overshoot_speed")
 _NAME = re.compile(r"[A-Za-z0-9_.-]+")
 _REL = 1e-9  # relative tolerance of "a multiple of step"
 #: libyaml's safe loader when PyYAML has it (the same documents, ten times faster: a sweep's variants
@@ -98,6 +100,7 @@ class Acceptance:
     overshoot_speed: float | None = None  # [1] relative to the total speed change
     peak_current: float | None = None  # [A] largest |i_s|
     peak_current_run: float | None = None  # [A] largest |i_s| once the law runs (the current limit)
+    final_overshoot_speed: float | None = None  # [rad/s] beyond the final set-point after its last change
 
 
 @dataclass(frozen=True)
@@ -282,7 +285,8 @@ def _acceptance(chk, raw, stop_time):
     if not chk.mapping(raw, "acceptance", (), ACCEPTANCE_KEYS):
         return None
     vals = {}
-    for key in ("ss_speed", "ss_flux", "overshoot_speed", "peak_current", "peak_current_run"):
+    for key in ("ss_speed", "ss_flux", "overshoot_speed", "peak_current", "peak_current_run",
+                "final_overshoot_speed"):
         if key in raw:
             vals[key] = chk.number(raw[key], f"acceptance.{key}", low=0.0, strict=True)
     if "ss_window" in raw:

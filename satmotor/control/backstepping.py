@@ -56,6 +56,13 @@ treated as constant: its gradient and time derivative drop out of beta and the L
 where they would push the virtual control further into its bound, and move where they pull it out
 (anti-windup without a lock-up).  Away from the bound the law is unchanged.
 
+Voltage limit: while the voltage vector is scaled to V_dc/sqrt(3), the law's Lyapunov decrease does
+not hold (the applied v is not the law's), and the tracking errors it leaves are not a load or a
+model error: the integral states and the load estimate are frozen (``e0_dot = z0_dot =
+theta_hat_dot = 0``).  Without the freeze of theta_hat, a regenerative stop from the voltage limit
+(``scenarios/regenerative_stop_limits.yaml`` with the freeze off) winds the estimate to its bound
+(655 N m for a 26.7 N m load), keeps motoring for 82 ms and undershoots to -25.7 rad/s.
+
 Singularity: W = 0 only where Phi_rd = 0.  Below ``phi_min`` the controller uses
 ``max(Phi_rd, phi_min)`` in Lambda's second row and in omega_s (never a division by ~0), and a
 W that is tiny relative to its terms is floored; both set ``singular_limited``.
@@ -354,7 +361,6 @@ def control(meas, ref, load, params, gains, cfg, theta_hat=0.0, integ=(0.0, 0.0)
     (e1, e2, z1, z2, _, _, _, _, beta1, beta2, ((L11, L12), (L21, L22)), W_true, ws, theta_dot,
      singular, d_lim, q_lim) = _core(params, gains, cfg.phi_min, ms.Phi_rd, ms.i_mu_d, ms.i_mu_q, w, ms.m,
                                      dm, I, ref, theta, theta_dot, adapt, integ[0], integ[1], i_max)
-    theta_hat_dot = 0.0 if adapt is None else theta_dot
     W = L11 * L22 - L12 * L21
     if singular:
         floor = max(_W_REL_FLOOR * (abs(L11 * L22) + abs(L12 * L21)), 1e-300)
@@ -379,6 +385,7 @@ def control(meas, ref, load, params, gains, cfg, theta_hat=0.0, integ=(0.0, 0.0)
     V = 0.5 * (e1 * e1 + e2 * e2 + z1 * z1 + z2 * z2 + gains.c0 * e0 * e0 + gains.d0 * z0 * z0)
     # anti-windup: an integral state stops while the voltage is limited, or while its virtual control
     # is bounded and integrating would push it further (e0, z0 enter alpha1, gamma1 with a minus sign)
+    theta_hat_dot = 0.0 if (adapt is None or vlim) else theta_dot  # anti-windup: frozen at the voltage limit
     e0_dot = 0.0 if (vlim or d_lim * e1 < 0.0) else e1
     z0_dot = 0.0 if (vlim or q_lim * z1 < 0.0) else z1
     return ControlOutput(c * vd - s * vq, s * vd + c * vq, vd, vq, e1, e2, z1, z2, V, W_true, ms.m, I,

@@ -26,7 +26,10 @@ Start from standstill (the backstepping law is singular at Phi_rd = 0):
    in the estimated-load mode ``theta_hat <- clip(theta_hat + Ts theta_hat', +-theta_max)``
    (forward Euler over the hold).  In the known-load mode the load torque input is taken as
    piecewise constant (dT_L/dt = 0: a difference quotient would turn a load step into a
-   voltage spike).
+   voltage spike).  The law's current bound is I_max lowered by the measured-current limiter
+   (:mod:`satmotor.control.current_limit`); ``current_limited`` is also set while the measured |i_s|
+   exceeds I_max.  With a delay (``delay_samples``, the host's ``host_delay_samples``), the law works on
+   the state predicted n samples on and the references n samples ahead (:mod:`satmotor.control.delay`).
 """
 
 from __future__ import annotations
@@ -36,7 +39,7 @@ from dataclasses import dataclass
 from typing import NamedTuple
 
 from satmotor.control.backstepping import D_SHARE, BacksteppingGains, ControllerConfig, control
-from satmotor.control.delay import N_STATE as N_DELAY_STATE
+from satmotor.control.current_limit import CurrentLimiter
 from satmotor.control.delay import DelayCompensator
 from satmotor.control.field_weakening import FieldWeakening
 from satmotor.control.flux_observer import ClosedLoopObserver
@@ -58,6 +61,7 @@ PREMAG, RUN = 0, 1
 FLUX_SOURCES = ("measured", "observer")
 OBSERVERS = ("closed_loop", "current_model")
 SPEED_SOURCES = ("measured", "estimated")
+HOST_DELAY_MAX = 3  # [samples] most coupling delay a host may add (a Jacobi master adds 1)
 _SQRT3 = math.sqrt(3.0)
 _FRAME_MIN = 1e-3  # [1] below this fraction of the set-point the premag current stays on alpha
 
@@ -79,7 +83,11 @@ class DriveConfig:
     speed_source 'measured' (the omega_m input) or 'estimated' (the closed-loop observer's speed
     estimate; the omega_m input is not read; needs flux_source 'observer', observer 'closed_loop');
     speed_bandwidth [rad/s] of the speed estimate's adaptation; delay_samples 0 or 1
-    (:mod:`satmotor.control.delay`); field_weakening: the flux set-point psi_ref is the nominal flux,
+    (:mod:`satmotor.control.delay`); host_delay_samples 0 to HOST_DELAY_MAX: the samples of coupling
+    delay the host adds between the controller's output and the plant's input (a Jacobi master: 1),
+    compensated with delay_samples by one prediction over both; current_limit_gain [1/s] of the
+    measured-current limiter (0: off, the law's model currents alone are bounded;
+    :mod:`satmotor.control.current_limit`); field_weakening: the flux set-point psi_ref is the nominal flux,
     lowered where the steady stator voltage would exceed fw_voltage_ratio [1] of V_dc/sqrt(3)
     (:mod:`satmotor.control.field_weakening`); False: psi_ref as it is (the drive before it).
     """
@@ -99,6 +107,8 @@ class DriveConfig:
     speed_bandwidth: float = 200.0
     field_weakening: bool = True
     fw_voltage_ratio: float = 0.95
+    current_limit_gain: float = 200.0
+    host_delay_samples: int = 0
 
     def __post_init__(self):
         require_number("ref_bandwidth", self.ref_bandwidth, 0)
@@ -126,6 +136,11 @@ class DriveConfig:
         if not isinstance(self.field_weakening, bool):
             raise ParameterError("field_weakening", self.field_weakening, "must be a bool")
         require_number("fw_voltage_ratio", self.fw_voltage_ratio, 0, upper=1)
+        require_number("current_limit_gain", self.current_limit_gain, 0, inclusive=True)
+        if (isinstance(self.host_delay_samples, bool) or not isinstance(self.host_delay_samples, int)
+                or not 0 <= self.host_delay_samples <= HOST_DELAY_MAX):
+            raise ParameterError("host_delay_samples", self.host_delay_samples,
+                                 f"must be an integer from 0 to {HOST_DELAY_MAX}")
 
 
 class DriveOutput(NamedTuple):
@@ -176,10 +191,13 @@ class _Drive:
             else:
                 self._observer = RotorFluxObserver(params, Ts)
         self._w_used = 0.0  # [rad/s] the speed of the last sample (not a state: set by every step)
-        self._delay = DelayCompensator(params, Ts) if drive_cfg.delay_samples else None
+        n_delay = drive_cfg.delay_samples + drive_cfg.host_delay_samples
+        self._delay = DelayCompensator(params, Ts, n_samples=n_delay) if n_delay else None
         self._fw = (FieldWeakening(params, self._V_max, drive_cfg.fw_voltage_ratio, drive_cfg.ref_bandwidth)
                     if drive_cfg.field_weakening else None)
         self._i_lim = drive_cfg.I_max  # [A] the law's current bound this sample (lower beyond breakdown)
+        self._limiter = CurrentLimiter(drive_cfg.I_max, drive_cfg.current_limit_gain, Ts)
+        self.warnings = self._limiter.warnings  # messages for the host's log (the FMU glue takes them)
         self.reset()
 
     @property
@@ -190,6 +208,7 @@ class _Drive:
     def reset(self):
         self._phase = PREMAG
         self._n = 0
+        self._limiter.reset()
         self._flux.reset(0.0)
         self._speed.reset(0.0)
         if self._observer is not None:
@@ -218,8 +237,9 @@ class _Drive:
     def step(self, meas, omega_ref, psi_ref, T_load):
         """One sample (see :meth:`_step`); the closed-loop observer learns the voltage applied next."""
         out = self._step(meas, omega_ref, psi_ref, T_load)
-        if self._cl is not None:
-            self._cl.applied(out.v_s_alpha, out.v_s_beta)
+        if self._cl is not None:  # the voltage over the coming sample: with a delay, the queue's first
+            v = (out.v_s_alpha, out.v_s_beta) if self._delay is None else self._delay.applied_now
+            self._cl.applied(*v)
         return out
 
     @property
@@ -249,7 +269,8 @@ class _Drive:
                 self._n += 1
                 return self._delayed(self._premag(meas, I_set, phi, psi_ref))
             self._switch(meas)
-        self._i_lim = self.dcfg.I_max
+        i_meas = math.hypot(meas[MEAS_I_S_A], meas[MEAS_I_S_B])  # the measured current (never predicted)
+        self._i_lim = self._limiter.bound(i_meas)
         if self._fw is not None:  # the nominal flux, or lower where the voltage does not suffice
             psi_ref, self._i_lim = self._fw.flux_reference(meas, self._speed.value[REF_RATE], psi_ref,
                                                            self._i_lim)
@@ -257,17 +278,33 @@ class _Drive:
             out = self._run(meas, self._flux.value, self._speed.value, T_load)
             self._flux.step(psi_ref, self.Ts)
             self._speed.step(omega_ref, self.Ts)
-            return out
-        # the command takes effect at the next sample: the state and the references there
-        pred = self._delay.predict(meas, self._model_load(T_load))
-        self._flux.step(psi_ref, self.Ts)
-        self._speed.step(omega_ref, self.Ts)
-        return self._delayed(self._run(pred, self._flux.value, self._speed.value, T_load))
+        else:  # the command takes effect n samples on: the state and the references there
+            pred = self._delay.predict(meas, self._model_load(T_load))
+            self._flux.step(psi_ref, self.Ts)
+            self._speed.step(omega_ref, self.Ts)
+            ref_flux, ref_speed = self._ahead(self._flux, psi_ref), self._ahead(self._speed, omega_ref)
+            out = self._delayed(self._run(pred, ref_flux, ref_speed, T_load))
+        if i_meas > self.dcfg.I_max and not out.current_limited:  # the measured current is over its limit
+            out = out._replace(current_limited=True)
+        return out
+
+    def _ahead(self, shaper, u):
+        """The shaper's ``(r, r', r'')`` n - 1 samples after its present state (the raw set-point ``u``
+        held), its state untouched: the references at the instant the command takes effect."""
+        n = self._delay.n
+        if n == 1:
+            return shaper.value
+        z = shaper.get_state()
+        for _ in range(n - 1):
+            shaper.step(u, self.Ts)
+        ahead = shaper.value
+        shaper.set_state(z)
+        return ahead
 
     def _delayed(self, out):
         if self._delay is None:
             return out
-        va, vb = self._delay.swap(out.v_s_alpha, out.v_s_beta)
+        va, vb = self._delay.push(out.v_s_alpha, out.v_s_beta, self.dcfg.delay_samples == 1)
         return out._replace(v_s_alpha=va, v_s_beta=vb)
 
     def _switch_now(self, phi, psi_ref, omega_m):
@@ -325,11 +362,13 @@ class _Drive:
     def get_state(self):
         """Every internal state as a flat tuple of floats: phase, pre-magnetization sample count,
         the flux and speed shapers' (r, r', r''), the observer's and the delay's states (when
-        configured), then the law's own states."""
+        configured), the law's own states, then the measured-current limiter's reduction [A] and whether
+        its warning was logged."""
         obs = () if self._observer is None else self._observer.get_state()
         dly = () if self._delay is None else self._delay.get_state()
         return (float(self._phase), float(self._n)) + self._flux.get_state() + \
-            self._speed.get_state() + tuple(obs) + tuple(dly) + self._law_state()
+            self._speed.get_state() + tuple(obs) + tuple(dly) + self._law_state() + \
+            self._limiter.get_state()
 
     def set_state(self, state):
         """Restore a tuple from :meth:`get_state`."""
@@ -343,9 +382,11 @@ class _Drive:
             self._observer.set_state(s[i:i + n])
             i += n
         if self._delay is not None:
-            self._delay.set_state(s[i:i + N_DELAY_STATE])
-            i += N_DELAY_STATE
-        self._set_law_state(s[i:])
+            n = self._delay.state_size()
+            self._delay.set_state(s[i:i + n])
+            i += n
+        self._set_law_state(s[i:-2])
+        self._limiter.set_state(s[-2:])
 
 
 class BacksteppingDrive(_Drive):

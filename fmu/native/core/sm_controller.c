@@ -81,6 +81,8 @@ int sm_controller_init(sm_controller *u, const sm_controller_params *v, const sm
     dc.ref_bandwidth = v->ref_bandwidth;
     dc.I_max = v->I_max;
     dc.delay_samples = v->delay_samples;
+    dc.host_delay_samples = v->host_delay_samples;
+    dc.current_limit_gain = v->current_limit_gain;
     dc.field_weakening = v->field_weakening ? 1 : 0;
     dc.fw_voltage_ratio = v->fw_voltage_ratio;
     dc.premag_fraction = v->premag_fraction;
@@ -173,6 +175,10 @@ static int sample(sm_controller *u, const double in[SM_CONTROLLER_N_IN], char *m
     u->out[16] = (double)d.current_limited;
     u->out[17] = (double)d.singular_limited;
     u->out[18] = d.omega_m_hat;
+    if (d.current_warning) { /* the drive's warning (Python: appended to ControllerUnit.warnings) */
+        sm_current_warning(u->warning, sizeof u->warning, d.i_s_meas, u->drive.dc.I_max);
+        u->has_warning = 1;
+    }
     return SM_CORE_OK;
 }
 

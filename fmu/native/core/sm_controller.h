@@ -19,8 +19,11 @@
 
 typedef struct {
     sm_drive drive;
+    int has_warning;  /* a warning for the host's log is in warning (the FMU logs it and clears the flag) */
+    char warning[256];
     double Ts;
-    double stop_time; /* the host's stop time [s], +inf when it gave none (set after sm_controller_init) */
+    double stop_time; /* the host's stop time [s], +inf when it gave none (set after sm_controller_init);
+                       * the tests find it just before out */
     double out[SM_CONTROLLER_N_OUT]; /* Integer and Boolean outputs as 0/1 values */
 } sm_controller;
 

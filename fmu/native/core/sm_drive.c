@@ -71,7 +71,21 @@ static int check_config(const sm_drive_config *c, char *msg, size_t len)
     if (!(c->fw_voltage_ratio > 0.0 && c->fw_voltage_ratio <= 1.0)) {
         return range_error(msg, len, "fw_voltage_ratio", c->fw_voltage_ratio, "must be a finite number > 0 and <= 1");
     }
+    if (sm_require_number("current_limit_gain", c->current_limit_gain, 1, 0.0, 1, msg, len)) {
+        return SM_ERR_PARAM;
+    }
+    if (c->host_delay_samples < 0 || c->host_delay_samples > SM_HOST_DELAY_MAX) {
+        (void)snprintf(repr, sizeof repr, "%d", c->host_delay_samples);
+        (void)snprintf(reason, sizeof reason, "must be an integer from 0 to %d", SM_HOST_DELAY_MAX);
+        return sm_param_error(msg, len, NULL, "host_delay_samples", repr, reason);
+    }
     return SM_CORE_OK;
+}
+
+/* the delay compensation is configured: the drive's own delay or the host's */
+static int has_delay(const sm_drive *d)
+{
+    return d->dc.delay_samples + d->dc.host_delay_samples > 0;
 }
 
 int sm_drive_init(sm_drive *d, sm_mode mode, const sm_motor *p, const sm_gains *g, const sm_law_config *cfg,
@@ -132,9 +146,11 @@ int sm_drive_init(sm_drive *d, sm_mode mode, const sm_motor *p, const sm_gains *
         (st = sm_observer_init(&d->obs, d->p.R_r, d->p.l_r, d->p.k, d->p.n_p, d->Ts, 1, msg, msg_len))) {
         return st;
     }
-    if (dc->delay_samples && (st = sm_delay_init(&d->delay, d->Ts, SM_DELAY_BIAS_GAIN, msg, msg_len))) {
+    if (has_delay(d) && (st = sm_delay_init(&d->delay, d->Ts, SM_DELAY_BIAS_GAIN,
+                                            dc->delay_samples + dc->host_delay_samples, msg, msg_len))) {
         return st;
     }
+    sm_current_limit_init(&d->limiter, dc->I_max, dc->current_limit_gain, d->Ts);
     if (dc->field_weakening) {
         sm_fw_init(&d->fw, &d->p, d->V_max, dc->fw_voltage_ratio, dc->ref_bandwidth);
     }
@@ -153,9 +169,10 @@ void sm_drive_reset(sm_drive *d)
     } else if (d->dc.observer) {
         (void)sm_observer_reset(&d->obs, 0.0, 0.0, NULL, 0);
     }
-    if (d->dc.delay_samples) {
+    if (has_delay(d)) {
         sm_delay_reset(&d->delay);
     }
+    sm_current_limit_reset(&d->limiter);
     d->theta_hat = d->e0 = d->z0 = 0.0;
     if (d->mode == SM_MODE_PI) {
         (void)sm_ifoc_reset(&d->ifoc, 0.0, 0.0, NULL, 0);
@@ -352,9 +369,9 @@ static int run(sm_drive *d, const double meas[SM_MEAS_LEN], const double psi_ref
 
 static void delayed(sm_drive *d, sm_drive_output *o)
 {
-    if (d->dc.delay_samples) {
+    if (has_delay(d)) {
         double va, vb;
-        sm_delay_swap(&d->delay, o->v_s_alpha, o->v_s_beta, &va, &vb);
+        sm_delay_push(&d->delay, o->v_s_alpha, o->v_s_beta, d->dc.delay_samples == 1, &va, &vb);
         o->v_s_alpha = va;
         o->v_s_beta = vb;
     }
@@ -362,6 +379,17 @@ static void delayed(sm_drive *d, sm_drive_output *o)
 
 static int step(sm_drive *d, const double meas_in[SM_MEAS_LEN], double omega_ref, double psi_ref, double T_load,
                 sm_drive_output *out, double *w_used, char *msg, size_t msg_len);
+
+/* _Drive._ahead: the shaper's (r, r', r'') n - 1 samples after its present state (u held), the shaper untouched */
+static void ahead(const sm_drive *d, const sm_shaper *s, double u, double z[3])
+{
+    sm_shaper copy = *s;
+    int k;
+    for (k = 1; k < d->delay.n; ++k) {
+        (void)sm_shaper_step(&copy, u, d->Ts, NULL, NULL, 0);
+    }
+    sm_shaper_get_state(&copy, z);
+}
 
 int sm_drive_step(sm_drive *d, const double meas_in[SM_MEAS_LEN], double omega_ref, double psi_ref, double T_load,
                   sm_drive_output *out, char *msg, size_t msg_len)
@@ -374,8 +402,12 @@ int sm_drive_step(sm_drive *d, const double meas_in[SM_MEAS_LEN], double omega_r
     if ((st = step(d, meas_in, omega_ref, psi_ref, T_load, out, &w_used, msg, msg_len))) {
         return st;
     }
-    if (d->dc.observer && d->dc.closed_loop) { /* the voltage applied next, for the voltage model */
-        sm_cl_observer_applied(&d->clo, out->v_s_alpha, out->v_s_beta);
+    if (d->dc.observer && d->dc.closed_loop) { /* the voltage over the coming sample (delay: the queue's first) */
+        if (has_delay(d)) {
+            sm_cl_observer_applied(&d->clo, d->delay.applied_now[0], d->delay.applied_now[1]);
+        } else {
+            sm_cl_observer_applied(&d->clo, out->v_s_alpha, out->v_s_beta);
+        }
     }
     out->omega_m_hat = w_used;
     return SM_CORE_OK;
@@ -385,8 +417,8 @@ int sm_drive_step(sm_drive *d, const double meas_in[SM_MEAS_LEN], double omega_r
 static int step(sm_drive *d, const double meas_in[SM_MEAS_LEN], double omega_ref, double psi_ref, double T_load,
                 sm_drive_output *out, double *w_used, char *msg, size_t msg_len)
 {
-    double I_set, meas[SM_MEAS_LEN], psi_ref_shaped[3], omega_ref_shaped[3];
-    int st, j;
+    double I_set, meas[SM_MEAS_LEN], psi_ref_shaped[3], omega_ref_shaped[3], i_meas;
+    int st, j, warn;
     if ((st = magnetizing_current(d, psi_ref, &I_set, msg, msg_len)) ||
         (st = sm_require_number("omega_ref", omega_ref, 0, 0.0, 0, msg, msg_len))) {
         return st;
@@ -427,7 +459,8 @@ static int step(sm_drive *d, const double meas_in[SM_MEAS_LEN], double omega_ref
             return st;
         }
     }
-    d->i_lim = d->dc.I_max;
+    i_meas = sm_hypot(meas[SM_MEAS_I_S_A], meas[SM_MEAS_I_S_B]); /* the measured current (never predicted) */
+    d->i_lim = sm_current_limit_bound(&d->limiter, i_meas, &warn);
     if (d->dc.field_weakening) { /* the nominal flux, or lower where the voltage does not suffice */
         double z[3];
         sm_shaper_get_state(&d->speed, z);
@@ -435,7 +468,7 @@ static int step(sm_drive *d, const double meas_in[SM_MEAS_LEN], double omega_ref
             return st;
         }
     }
-    if (!d->dc.delay_samples) {
+    if (!has_delay(d)) {
         sm_shaper_get_state(&d->flux, psi_ref_shaped);
         sm_shaper_get_state(&d->speed, omega_ref_shaped);
         if ((st = run(d, meas, psi_ref_shaped, omega_ref_shaped, T_load, out, msg, msg_len))) {
@@ -443,20 +476,24 @@ static int step(sm_drive *d, const double meas_in[SM_MEAS_LEN], double omega_ref
         }
         (void)sm_shaper_step(&d->flux, psi_ref, d->Ts, NULL, NULL, 0);
         (void)sm_shaper_step(&d->speed, omega_ref, d->Ts, NULL, NULL, 0);
-        return SM_CORE_OK;
-    } else { /* the command takes effect at the next sample: the state and the references there */
+    } else { /* the command takes effect n samples on: the state and the references there */
         double pred[SM_MEAS_LEN];
         if ((st = sm_delay_predict(&d->delay, &d->p, meas, model_load(d, T_load), pred))) {
             return st;
         }
         (void)sm_shaper_step(&d->flux, psi_ref, d->Ts, NULL, NULL, 0);
         (void)sm_shaper_step(&d->speed, omega_ref, d->Ts, NULL, NULL, 0);
-        sm_shaper_get_state(&d->flux, psi_ref_shaped);
-        sm_shaper_get_state(&d->speed, omega_ref_shaped);
+        ahead(d, &d->flux, psi_ref, psi_ref_shaped);
+        ahead(d, &d->speed, omega_ref, omega_ref_shaped);
         if ((st = run(d, pred, psi_ref_shaped, omega_ref_shaped, T_load, out, msg, msg_len))) {
             return st;
         }
         delayed(d, out);
-        return SM_CORE_OK;
     }
+    if (i_meas > d->dc.I_max) { /* the measured current is over its limit */
+        out->current_limited = 1;
+    }
+    out->current_warning = warn;
+    out->i_s_meas = i_meas;
+    return SM_CORE_OK;
 }

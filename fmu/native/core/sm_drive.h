@@ -7,6 +7,7 @@
 
 #include <stddef.h>
 
+#include "sm_current_limit.h"
 #include "sm_delay.h"
 #include "sm_flux_observer.h"
 #include "sm_fieldweak.h"
@@ -29,7 +30,11 @@ typedef struct {
     double speed_bandwidth; /* [rad/s] the speed estimate's adaptation */
     int field_weakening;     /* 0/1: the flux set-point of sm_fieldweak.h, or psi_ref as it is */
     double fw_voltage_ratio; /* [1] in (0, 1] */
+    double current_limit_gain; /* [1/s] of the measured-current limiter (sm_current_limit.h), >= 0; 0: off */
+    int host_delay_samples;    /* 0..SM_HOST_DELAY_MAX: the host's coupling delay, compensated with delay_samples */
 } sm_drive_config;
+
+#define SM_HOST_DELAY_MAX 3 /* drive.HOST_DELAY_MAX */
 
 /* The Python defaults, DriveConfig() (defined in the generated sm_params.c). */
 void sm_drive_config_default(sm_drive_config *dc);
@@ -42,6 +47,9 @@ typedef struct {
     double psi_r_hat_alpha, psi_r_hat_beta;
     double omega_m_hat; /* [rad/s] the speed the drive used (the estimate, or the measurement); Python:
                          * the drive's property omega_m_hat */
+    int current_warning; /* 1 at the sample the current limit is found not to be held (Python: the drive's
+                          * warnings list gets sm_current_warning's text, with i_s_meas) */
+    double i_s_meas;     /* [A] the measured |i_s| of the run phase (0 before the law runs) */
 } sm_drive_output;
 
 typedef struct {
@@ -58,8 +66,9 @@ typedef struct {
     sm_shaper flux, speed;
     sm_observer obs;
     sm_cl_observer clo; /* the closed-loop observer (dc.observer && dc.closed_loop) */
-    sm_delay delay;
+    sm_delay delay; /* dc.delay_samples + dc.host_delay_samples > 0 */
     sm_fieldweak fw;
+    sm_current_limit limiter;
     double i_lim; /* [A] the law's current bound this sample (below I_max beyond the breakdown torque) */
     /* state */
     int phase;

@@ -445,7 +445,7 @@ int sm_control(const double meas[SM_MEAS_LEN], const double ref[6], const double
     out->Phi_rd = ms.Phi_rd;
     out->rho = ms.rho;
     out->omega_s = es.omega_s;
-    out->theta_hat_dot = cfg->load_estimated ? es.theta_dot : 0.0;
+    out->theta_hat_dot = (cfg->load_estimated && !vlim) ? es.theta_dot : 0.0; /* frozen at the voltage limit */
     out->voltage_limited = vlim;
     out->singular_limited = es.singular_limited;
     /* anti-windup: an integral state stops while the voltage is limited, or while its virtual
