@@ -391,7 +391,7 @@ class PlantUnit:
 # the controller's communication step rule (ControllerUnit.samples; the same in sm_controller.h)
 STEP_ULPS = 8.0  # a step is n Ts when |dt - n Ts| <= STEP_ULPS eps max(n Ts, |t|, |t + dt|)
 MAX_SAMPLES = 1e9  # at most this many samples in one step
-STOP_REMAINDER = 1e-6  # zero samples: a step of at most this many Ts that ends at the host's stop time
+STOP_REMAINDER = 1e-6  # zero samples: a step of at most this many Ts ending at the stop time (or none given)
 _EPS = sys.float_info.epsilon
 
 
@@ -438,9 +438,11 @@ class ControllerUnit:
         """The number of samples a communication step from ``t`` of length ``dt`` [s] runs: ``n >= 1``
         when ``dt`` is ``n Ts`` to a few ulps (STEP_ULPS of the largest of ``n Ts``, ``|t|``,
         ``|t + dt|``: a host's time grid carries rounding of the size of its times); 0 for a remainder
-        of at most STOP_REMAINDER Ts that ends at :attr:`stop_time` (a host whose time accumulated in
-        floating point, clipping its last step to its stop time: the sample at the stop time would hold
-        its output beyond it, so none is taken, as a master on the exact grid takes none); -1 for any
+        of at most STOP_REMAINDER Ts that ends at :attr:`stop_time`, or anywhere when the host declared
+        no stop time (inf) (a host whose time accumulated in floating point, clipping its last step to
+        its stop time: the sample at the stop time would hold its output beyond it, so none is taken,
+        as a master on the exact grid takes none; OMSimulator declares no stop time; a host that goes
+        on after such a step has its samples shifted by that remainder, at most 1e-6 Ts); -1 for any
         other step (refused)."""
         if dt == self.Ts:  # the common step: the rule below gives 1 too
             return 1
@@ -451,7 +453,8 @@ class ControllerUnit:
         tol = STEP_ULPS * _EPS * max(n * self.Ts, abs(t), abs(t + dt))
         if n >= 1 and abs(dt - n * self.Ts) <= tol:
             return n
-        if n == 0 and dt <= STOP_REMAINDER * self.Ts and abs(t + dt - self.stop_time) <= tol:
+        if n == 0 and dt <= STOP_REMAINDER * self.Ts and (
+                self.stop_time == math.inf or abs(t + dt - self.stop_time) <= tol):
             return 0
         return -1
 

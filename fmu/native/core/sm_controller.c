@@ -140,7 +140,8 @@ long sm_controller_samples(const sm_controller *u, double t, double dt)
     if (n >= 1.0 && fabs(dt - n * u->Ts) <= tol) {
         return (long)n;
     }
-    if (n == 0.0 && dt <= SM_STOP_REMAINDER * u->Ts && fabs(t + dt - u->stop_time) <= tol) {
+    if (n == 0.0 && dt <= SM_STOP_REMAINDER * u->Ts &&
+        (isinf(u->stop_time) || fabs(t + dt - u->stop_time) <= tol)) { /* no stop time declared: any */
         return 0;
     }
     return -1;
