@@ -19,6 +19,16 @@ from satmotor.control.drive import BacksteppingDrive, DriveConfig, IFOCDrive
 from satmotor.control.ifoc import IFOCGains
 from satmotor.control.measurements import MEAS_LEN, MEAS_OMEGA_M
 from satmotor.errors import ParameterError, require_integer, require_number
+from satmotor.machine.dc_link import (
+    DC_LINK_MODES,
+    DC_SOURCES,
+    E_CHOP,
+    E_REGEN,
+    V_DC,
+    DCLink,
+    DCLinkParams,
+    over_voltage_message,
+)
 from satmotor.machine.magnetics import ArctanCurve, LinearCurve, PolynomialCurve
 from satmotor.machine.params import CURVE_NAMES, MotorParams, make_curve
 from satmotor.machine.plant import OMEGA_M, PSI_R_A, PSI_R_B, PSI_S_A, PSI_S_B, THETA_M, Plant, initial_state
@@ -59,7 +69,7 @@ CONTROLLER_DESCRIPTION = ("Backstepping speed and rotor-flux controller for the 
                           "estimate and the constant-m and IFOC PI baselines")
 AUTHOR = "satmotor"
 
-_M, _A, _P = MotorParams(), ArctanCurve(), PolynomialCurve()
+_M, _A, _P, _L = MotorParams(), ArctanCurve(), PolynomialCurve(), DCLinkParams()
 _G, _C, _D = BacksteppingGains(), ControllerConfig(), DriveConfig()
 OMEGA_WARN = 1500.0  # [rad/s] omega_warn's default: about 10 x the default motor's synchronous speed
 MOTOR_PARAMETERS = _in_struct("motor", (
@@ -97,6 +107,14 @@ PLANT_OUTPUTS = (
     _v("theta_m", "output", 0.0, "rad", "mechanical angle"),
     _v("T_e", "output", 0.0, "N m", "electromagnetic torque 3/2 n_p (psi_s x i_s)"),
     _v("i_mu", "output", 0.0, "A", "magnitude of the magnetizing current i_s + k i_r"),
+    # the DC link (satmotor.machine.dc_link), last
+    _v("v_dc", "output", _L.V_dc, "V", "DC-link voltage (dc_link = ideal: the parameter V_dc)"),
+    _v("E_regen", "output", 0.0, "J", "energy the motor returned into the DC link, int max(0, -3/2 v_s.i_s) "
+       "dt (dc_link = capacitor; ideal: 0)"),
+    _v("E_chop", "output", 0.0, "J", "energy dissipated in the brake chopper (dc_link = capacitor; "
+       "ideal: 0)"),
+    _v("dc_fault", "output", False, "", "DC-link over-voltage: v_dc exceeded V_dc_max (latched; logged once, "
+       "the physics goes on)", "Boolean"),
 )
 PLANT_PARAMETERS = MOTOR_PARAMETERS + _in_struct("plant", (
     _v("omega_m0", "parameter", 0.0, "rad/s", "initial mechanical speed"),
@@ -119,7 +137,26 @@ PLANT_PARAMETERS = MOTOR_PARAMETERS + _in_struct("plant", (
     _v("omega_warn", "parameter", OMEGA_WARN, "rad/s", "mechanical speed |omega_m| (after a step) above "
        "which a warning is logged, once per run (default about 10 x the default motor's synchronous speed, "
        "157 rad/s); 0: no check"),
-)
+) + _in_struct("dclink", (  # the DC link (satmotor.machine.dc_link.DCLinkParams), last
+    _v("dc_link", "parameter", _L.dc_link, "", "DC link: " + ", ".join(DC_LINK_MODES) + " (ideal: a constant "
+       "V_dc, the command applied as it is; capacitor: C_dc fed by dc_source, |v_s| bounded by v_dc/sqrt(3))",
+       "String"),
+    _v("V_dc", "parameter", _L.V_dc, "V", "DC-link voltage (ideal), or the capacitor's initial voltage and "
+       "the dc source's voltage (capacitor), > 0; default the controller's V_dc"),
+    _v("C_dc", "parameter", _L.C_dc, "F", "DC-link capacitance, > 0 (capacitor)"),
+    _v("dc_source", "parameter", _L.dc_source, "", "what feeds the capacitor through a diode and R_src: "
+       + ", ".join(DC_SOURCES) + " (dc: the voltage V_dc; rectifier: a six-pulse diode bridge on the grid "
+       "V_grid, f_grid)", "String"),
+    _v("R_src", "parameter", _L.R_src, "Ohm", "source resistance, > 0 (capacitor)"),
+    _v("V_grid", "parameter", _L.V_grid, "V", "grid voltage, line-to-line rms (dc_source = rectifier), > 0"),
+    _v("f_grid", "parameter", _L.f_grid, "Hz", "grid frequency (dc_source = rectifier), > 0"),
+    _v("V_chop_on", "parameter", _L.V_chop_on, "V", "brake chopper: switches on above this link voltage"),
+    _v("V_chop_off", "parameter", _L.V_chop_off, "V", "brake chopper: switches off below this link voltage "
+       "(< V_chop_on: the hysteresis)"),
+    _v("R_chop", "parameter", _L.R_chop, "Ohm", "brake chopper resistor, >= 0 (0: no chopper)"),
+    _v("V_dc_max", "parameter", _L.V_dc_max, "V", "over-voltage: v_dc above it sets dc_fault and logs a "
+       "warning once (the physics goes on), >= 0 (0: no check)"),
+))
 
 # the controller's Real parameters that go into DriveConfig as they are (the start-up tolerances)
 _DRIVE_REALS = ("fw_voltage_ratio", "premag_fraction", "premag_min_fraction", "premag_speed_tol",
@@ -307,6 +344,12 @@ def substeps_reason(n_sub, h_int, max_substeps):
             "take shorter communication steps or raise max_substeps")
 
 
+def dc_link(values):
+    """:class:`DCLinkParams` from the plant's flat values (the ``dclink`` parameters; missing names take
+    their defaults)."""
+    return DCLinkParams(**{v.name: _number(values, v) for v in PLANT_PARAMETERS if v.c_struct == "dclink"})
+
+
 class PlantUnit:
     """The plant as a co-simulation unit: inputs held over each communication step."""
 
@@ -327,6 +370,11 @@ class PlantUnit:
         # B_2 is the plant's alone: not in MotorParams, which is also the controller's model
         self.plant = Plant(self.params, f["B_2"])
         self.x0 = initial_state(self.params, omega_m=w0, psi_r_alpha=psi0)
+        self.link = dc_link(f)  # the DC link's parameters; a capacitor link integrates with the plant
+        self._link = DCLink(self.plant, self.link) if self.link.capacitor else None
+        if self._link is not None:
+            self.x0 = self._link.initial_state(self.x0)
+        self._chop, self._fault = False, False  # the chopper's state, the latched over-voltage fault
         self.x = self.x0
         self._dt, self._n_sub = None, 1  # the last step size and its sub-step count
 
@@ -346,9 +394,17 @@ class PlantUnit:
             self._dt = dt
         if self._warn[0] > 0.0 and not self._warned[0]:
             self._plausible(0, t, v_a, v_b)
-        x = self.plant.step(t, self.x, v_a, v_b, T_load, dt, self._n_sub)
+        if self._link is None:
+            x = self.plant.step(t, self.x, v_a, v_b, T_load, dt, self._n_sub)
+        else:
+            x, chop, fault, t_fault = self._link.step(t, self.x, v_a, v_b, T_load, dt, self._n_sub,
+                                                      self._chop, self._fault)
         if not math.isfinite(sum(x)) and not all(math.isfinite(v) for v in x):
             raise ArithmeticError(f"the plant state became non-finite over [{t}, {t + dt}] s: {x}")
+        if self._link is not None:
+            self._chop, self._fault = chop, fault
+            if t_fault is not None:
+                self.warnings.append(over_voltage_message(t_fault, x[V_DC], self.link.V_dc_max))
         self.x = x
         self._o = None
         if self._warn[1] > 0.0 and not self._warned[1]:
@@ -368,14 +424,23 @@ class PlantUnit:
     def outputs(self):
         """Output values in the order of :attr:`OUTPUTS`."""
         x, o = self.x, self._o if self._o is not None else self.plant.outputs(self.x)
+        if self._link is None:
+            link = (self.link.V_dc, 0.0, 0.0, False)
+        else:
+            link = (x[V_DC], x[E_REGEN], x[E_CHOP], self._fault)
         return (o.i_s_alpha, o.i_s_beta, x[PSI_S_A], x[PSI_S_B], x[PSI_R_A], x[PSI_R_B], x[OMEGA_M],
-                x[THETA_M], o.T_e, o.i_mu)
+                x[THETA_M], o.T_e, o.i_mu, *link)
 
     def get_state(self):
-        return tuple(self.x)
+        if self._link is None:
+            return tuple(self.x)
+        return (*self.x, float(self._chop), float(self._fault))  # the chopper and the fault last
 
     def set_state(self, state):
-        self.x = tuple(float(v) for v in state)
+        state = tuple(float(v) for v in state)
+        if self._link is not None:
+            state, self._chop, self._fault = state[:-2], bool(state[-2]), bool(state[-1])
+        self.x = state
         self._o = None
 
 
