@@ -113,8 +113,9 @@ PLANT_OUTPUTS = (
        "dt (dc_link = capacitor; ideal: 0)"),
     _v("E_chop", "output", 0.0, "J", "energy dissipated in the brake chopper (dc_link = capacitor; "
        "ideal: 0)"),
-    _v("dc_fault", "output", False, "", "DC-link over-voltage: v_dc exceeded V_dc_max (latched; logged once, "
-       "the physics goes on)", "Boolean"),
+    # a Real 0/1 (not a Boolean): the plant's output port is all Real (hosts, the master, the ME plant)
+    _v("dc_fault", "output", 0.0, "1", "DC-link over-voltage fault, 0 or 1: 1 once v_dc exceeded V_dc_max "
+       "(latched; a warning logged once, the physics goes on)"),
 )
 PLANT_PARAMETERS = MOTOR_PARAMETERS + _in_struct("plant", (
     _v("omega_m0", "parameter", 0.0, "rad/s", "initial mechanical speed"),
@@ -173,6 +174,10 @@ CONTROLLER_INPUTS = (
     _v("omega_ref", "input", 0.0, "rad/s", "speed set-point (shaped inside)"),
     _v("psi_ref", "input", 0.9, "Wb", "rotor flux set-point (shaped inside), > 0"),
     _v("T_load", "input", 0.0, "N m", "load torque, used in load_mode = known"),
+    # last: the plant's DC link
+    _v("v_dc", "input", 0.0, "V", "measured DC-link voltage (the plant's v_dc), >= 0: > 0 bounds |v_s| by "
+       "v_dc/sqrt(3) (pre-magnetization, law, field weakening); 0: not connected, the parameter V_dc is "
+       "used"),
 )
 CONTROLLER_OUTPUTS = (
     _v("v_s_alpha", "output", 0.0, "V", "stator voltage command, alpha axis (held over Ts)"),
@@ -425,9 +430,9 @@ class PlantUnit:
         """Output values in the order of :attr:`OUTPUTS`."""
         x, o = self.x, self._o if self._o is not None else self.plant.outputs(self.x)
         if self._link is None:
-            link = (self.link.V_dc, 0.0, 0.0, False)
+            link = (self.link.V_dc, 0.0, 0.0, 0.0)
         else:
-            link = (x[V_DC], x[E_REGEN], x[E_CHOP], self._fault)
+            link = (x[V_DC], x[E_REGEN], x[E_CHOP], 1.0 if self._fault else 0.0)
         return (o.i_s_alpha, o.i_s_beta, x[PSI_S_A], x[PSI_S_B], x[PSI_R_A], x[PSI_R_B], x[OMEGA_M],
                 x[THETA_M], o.T_e, o.i_mu, *link)
 
@@ -484,6 +489,7 @@ class ControllerUnit:
                                    use_stator_flux=f["use_stator_flux"])
             self.drive = BacksteppingDrive(p, gains, cfg, dcfg)
         self.Ts = f["Ts"]
+        self._V_dc = self._link = f["V_dc"]  # the parameter V_dc, the link voltage the drive now uses
         self._speed_estimated = f["speed_source"] == "estimated"
         self.stop_time = math.inf
         self._out = tuple(v.start for v in CONTROLLER_OUTPUTS)
@@ -521,6 +527,13 @@ class ControllerUnit:
             inputs = (*inputs[:MEAS_OMEGA_M], 0.0, *inputs[MEAS_OMEGA_M + 1:])
         if not math.isfinite(sum(inputs)):  # per-step fast path, as in PlantUnit.step
             _finite_inputs(self.INPUTS, inputs)
+        v_dc = inputs[-1]  # the link voltage: held over the step, so set once per step
+        if v_dc < 0.0:
+            raise ParameterError("v_dc", v_dc, "must be >= 0 (0: not connected, the parameter V_dc is used)")
+        link = v_dc if v_dc > 0.0 else self._V_dc
+        if link != self._link:
+            self.drive.set_link_voltage(link)
+            self._link = link
         if n == 1:
             self._sample(inputs)
         elif n > 1:
@@ -534,7 +547,7 @@ class ControllerUnit:
 
     def _sample(self, inputs):
         # the first MEAS_LEN inputs are the drive's measurement tuple, in its order (MEAS_*)
-        omega_ref, psi_ref, T_load = inputs[MEAS_LEN:]
+        omega_ref, psi_ref, T_load = inputs[MEAS_LEN:MEAS_LEN + 3]
         d = self.drive.step(inputs[:MEAS_LEN], omega_ref, psi_ref, T_load)
         self._out = (d.v_s_alpha, d.v_s_beta, d.v_sd, d.v_sq, d.e1, d.e2, d.z1, d.z2, d.W, d.T_load_est,
                      d.psi_r_hat_alpha, d.psi_r_hat_beta, d.omega_ref_shaped, d.psi_ref_shaped, d.phase,

@@ -56,7 +56,7 @@ def test_ideal_is_todays_plant_bit_for_bit():
         t += dt
         assert u.get_state() == x
     out = dict(zip(PlantUnit.OUTPUTS, u.outputs()))
-    assert (out["v_dc"], out["E_regen"], out["E_chop"], out["dc_fault"]) == (600.0, 0.0, 0.0, False)
+    assert (out["v_dc"], out["E_regen"], out["E_chop"], out["dc_fault"]) == (600.0, 0.0, 0.0, 0.0)
 
 
 @pytest.mark.parametrize("values, field", [
@@ -212,8 +212,9 @@ def test_over_voltage_fault_latched_and_logged_once():
         faults.append(dict(zip(PlantUnit.OUTPUTS, u.outputs()))["dc_fault"])
         logged += u.warnings
         u.warnings.clear()
-    first = faults.index(True)
-    assert all(faults[first:]) and len(logged) == 1 and "V_dc_max = 600.0 V" in logged[0]
+    first = faults.index(1.0)
+    assert faults[first] == 1.0 and set(faults[first:]) == {1.0} and set(faults[:first]) == {0.0}
+    assert len(logged) == 1 and "V_dc_max = 600.0 V" in logged[0]
     assert "DC-link over-voltage" in logged[0]
 
 

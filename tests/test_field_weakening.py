@@ -227,7 +227,7 @@ def _loop(values, w_set, T_set, t_end, ramp=(0.2, 1.2), t_load=1.3):
         w = min(max((t - ramp[0]) / (ramp[1] - ramp[0]), 0.0), 1.0) * w_set
         TL = T_set if t >= t_load else 0.0
         o = plant.outputs()
-        ctrl.step(t, Ts, (o[0], o[1], o[4], o[5], o[2], o[3], o[6], w, 0.95, TL))
+        ctrl.step(t, Ts, (o[0], o[1], o[4], o[5], o[2], o[3], o[6], w, 0.95, TL, 0.0))
         out = ctrl.outputs()
         plant.step(t, Ts, (out[0], out[1], TL))
         rows.append((t,) + tuple(plant.outputs()) + tuple(out))

@@ -62,7 +62,7 @@ static void publish(plant_me_data *d)
     r[SM_VR_v_dc] = d->V_dc; /* dc_link = ideal only (init refuses capacitor) */
     r[SM_VR_E_regen] = 0.0;
     r[SM_VR_E_chop] = 0.0;
-    d->v.b[SM_VR_dc_fault] = 0;
+    r[SM_VR_dc_fault] = 0.0;
     for (j = 0; j < SM_N_STATES; ++j) {
         r[STATE_VR[j]] = d->x[j];
     }

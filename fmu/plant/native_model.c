@@ -84,7 +84,7 @@ static void publish(plant_data *d)
         r[SM_VR_E_regen] = 0.0;
         r[SM_VR_E_chop] = 0.0;
     }
-    d->v.b[SM_VR_dc_fault] = d->fault;
+    r[SM_VR_dc_fault] = d->fault ? 1.0 : 0.0;
 }
 
 void fg_model_start(fg_instance *inst, void *data)
