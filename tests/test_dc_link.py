@@ -314,3 +314,86 @@ def test_c_parameter_errors_as_python(lib, values):
         PlantUnit(values)
     _, _, st, msg = _c_link(lib, values)
     assert st != 0 and msg == str(e.value)
+
+
+# --- the controller reads the link voltage ---------------------------------------------------------
+
+def _c_controller(lib, values):
+    lib.sm_controller_size.restype = ctypes.c_size_t
+    lib.sm_controller_init.argtypes = [ctypes.c_void_p, ctypes.POINTER(nc.ControllerParams),
+                                       ctypes.POINTER(nc.MotorParams), ctypes.c_char_p, ctypes.c_size_t]
+    lib.sm_controller_step.argtypes = [ctypes.c_void_p, ctypes.c_double, ctypes.c_double,
+                                       ctypes.POINTER(ctypes.c_double), ctypes.c_char_p, ctypes.c_size_t]
+    buf = ctypes.create_string_buffer(lib.sm_controller_size())
+    msg = ctypes.create_string_buffer(256)
+    st = lib.sm_controller_init(buf, nc.params(lib, nc.ControllerParams, values),
+                                nc.params(lib, nc.MotorParams, values), msg, 256)
+    assert st == 0, msg.value
+    return buf
+
+
+def _link_loop(ctrl_values, connected, c_check=None):
+    """A closed loop on a weak 300 V link (the controller's parameter V_dc, 540 V, is larger; the link
+    sags under the start, the chopper holds the stop); the controller's v_dc input is the plant's v_dc
+    (``connected``) or 0.  ``c_check(t, inputs, outputs)`` sees every sample.  Returns the largest
+    ``|v_s| sqrt(3) / v_dc`` of the commands against the link they were computed at."""
+    from satmotor.interface import ControllerUnit
+
+    plant = PlantUnit({"dc_link": "capacitor", "C_dc": 200e-6, "R_src": 1.0, "V_dc": 300.0, "R_chop": 20.0,
+                       "V_chop_on": 420.0, "V_chop_off": 400.0})
+    ctrl = ControllerUnit(ctrl_values)
+    Ts, worst = ctrl.Ts, 0.0
+    for k in range(6000):
+        t = k * Ts
+        o = dict(zip(PlantUnit.OUTPUTS, plant.outputs()))
+        w_ref = 150.0 if t < 0.35 else 0.0
+        inputs = (o["i_s_alpha"], o["i_s_beta"], o["psi_r_alpha"], o["psi_r_beta"], o["psi_s_alpha"],
+                  o["psi_s_beta"], o["omega_m"], w_ref, 0.9, 0.0, o["v_dc"] if connected else 0.0)
+        ctrl.step(t, Ts, inputs)
+        out = ctrl.outputs()
+        if c_check is not None:
+            c_check(t, inputs, out)
+        c = dict(zip(ctrl.OUTPUTS, out))
+        worst = max(worst, math.hypot(c["v_s_alpha"], c["v_s_beta"]) * SQRT3 / o["v_dc"])
+        plant.step(t, Ts, (c["v_s_alpha"], c["v_s_beta"], 0.0))
+    return worst
+
+
+@needs_gcc
+@pytest.mark.parametrize("ctrl_values", [{}, {"mode": "pi"}, {"field_weakening": False}],
+                         ids=["backstepping", "pi", "no field weakening"])
+def test_controller_reads_the_link_voltage_c_as_python(lib, ctrl_values):
+    """With the link voltage read, every command is within v_dc/sqrt(3) of the link it was computed at
+    (the field weakening and the limiter use it); not read, the commands ask for more than the link
+    gives; the C controller, given the same inputs, gives the Python's outputs bit for bit."""
+    from satmotor.interface import CONTROLLER_OUTPUTS
+
+    buf = _c_controller(lib, ctrl_values)
+    n_out = len(CONTROLLER_OUTPUTS)
+    msg = ctypes.create_string_buffer(256)
+    Ts = 1e-4
+
+    def c_check(t, inputs, want):
+        arr = (ctypes.c_double * len(inputs))(*inputs)
+        assert lib.sm_controller_step(buf, t, Ts, arr, msg, 256) == 0, msg.value
+        got = list((ctypes.c_double * n_out).from_buffer(buf, lib.sm_controller_size() - 8 * n_out))
+        assert got == [float(v) for v in want], t
+
+    read = _link_loop(ctrl_values, True, c_check)
+    unread = _link_loop(ctrl_values, False)
+    print(f"{ctrl_values}: largest |v_s| sqrt(3) / v_dc {read:.12f} reading the link, {unread:.4f} not")
+    assert read <= 1.0 + 1e-12 < 1.05 < unread
+
+
+def test_controller_v_dc_input_checked_and_zero_is_the_parameter():
+    from satmotor.interface import ControllerUnit
+
+    base = (1.0, 0.0, 0.5, 0.0, 0.55, 0.0, 0.0, 0.0, 0.9, 0.0)
+    a, b = ControllerUnit({"V_dc": 300.0}), ControllerUnit({"V_dc": 300.0})
+    for k in range(200):
+        a.step(k * 1e-4, 1e-4, (*base, 0.0))
+        b.step(k * 1e-4, 1e-4, (*base, 300.0))  # the same voltage read as an input
+        assert a.outputs() == b.outputs()
+    with pytest.raises(ParameterError) as e:
+        a.step(0.02, 1e-4, (*base, -1.0))
+    assert e.value.field == "v_dc"
