@@ -19,7 +19,7 @@ from satmotor.interface import motor_params
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENARIO = ROOT / "scenarios" / "regenerative_stop.yaml"
-T_BRAKE = 1.2  # [s] the stop's ramp starts (the scenario)
+T_BRAKE = 1.0  # [s] the stop's ramp starts (the scenario)
 
 
 def _cosim(fmu_dir, **plant):
@@ -128,3 +128,4 @@ def test_without_the_chopper_the_fault_is_reported(fmu_dir):
     assert m["dc_fault"] == 1.0 and m["E_chop"] == 0.0 and m["peak_v_dc"] > 1000.0
     assert (fault[first:] == 1.0).all() and (fault[:first] == 0.0).all() and v[first] > 800.0 >= v[first - 1]
     assert not check_acceptance(m, sc)["peak_v_dc"]["pass"]
+
