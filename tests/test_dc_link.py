@@ -397,3 +397,31 @@ def test_controller_v_dc_input_checked_and_zero_is_the_parameter():
     with pytest.raises(ParameterError) as e:
         a.step(0.02, 1e-4, (*base, -1.0))
     assert e.value.field == "v_dc"
+
+
+def test_link_metrics_running_equal_whole_record():
+    """E_regen, E_chop (last values), peak and least v_dc, dc_fault: chunk by chunk as over the whole
+    record, and only when asked for (the link on)."""
+    from satmotor.metrics import LINK_SERIES, SERIES, RunningMetrics, closed_loop_metrics
+
+    rng = np.random.default_rng(3)
+    n = 1000
+    t = np.arange(n) * 1e-3
+    series = {k: rng.normal(size=n) for k in SERIES if k != "t"}
+    series["t"] = t
+    series["omega_ref"] = np.full(n, 10.0)
+    link = {"v_dc": 540.0 + 200.0 * rng.random(n), "E_regen": np.cumsum(rng.random(n)),
+            "E_chop": np.cumsum(rng.random(n)), "dc_fault": (np.arange(n) > 700).astype(float)}
+    whole = closed_loop_metrics(**series, run=np.ones(n, bool), link=link)
+    assert set(LINK_SERIES) - {"v_dc"} <= set(whole) and "peak_v_dc" in whole
+    assert whole["E_regen"] == link["E_regen"][-1] and whole["dc_fault"] == 1.0
+    assert whole["peak_v_dc"] == link["v_dc"].max() and whole["min_v_dc"] == link["v_dc"].min()
+    running = RunningMetrics(t[-1], 10.0, link=True)
+    for a in range(0, n, 137):
+        sl = slice(a, a + 137)
+        running.update(**{k: v[sl] for k, v in series.items()}, run=np.ones(len(t[sl]), bool),
+                       link={k: v[sl] for k, v in link.items()})
+    got = running.result()
+    for k in ("E_regen", "E_chop", "peak_v_dc", "min_v_dc", "dc_fault"):
+        assert got[k] == whole[k], k
+    assert "E_regen" not in closed_loop_metrics(**series, run=np.ones(n, bool))
