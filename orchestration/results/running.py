@@ -43,7 +43,7 @@ LINK_COLUMNS = {k: f"plant.{k}" for k in LINK_SERIES}
 
 def link_on(scenario):
     """Whether the scenario's plant has its DC link on (``dc_link: capacitor``): the link's metrics."""
-    return scenario.plant.get("dc_link") == "capacitor"
+    return (getattr(scenario, "plant", None) or {}).get("dc_link") == "capacitor"
 
 
 def ss_window(scenario):

@@ -19,9 +19,9 @@
 
 typedef struct {
     sm_drive drive;
+    double V_dc, link; /* [V] the parameter V_dc; the link voltage the drive now uses (the v_dc input) */
     double Ts;
     double stop_time; /* the host's stop time [s], +inf when it gave none (set after sm_controller_init) */
-    double V_dc, link; /* [V] the parameter V_dc; the link voltage the drive now uses (the v_dc input) */
     double out[SM_CONTROLLER_N_OUT]; /* Integer and Boolean outputs as 0/1 values */
 } sm_controller;
 
