@@ -44,7 +44,7 @@ def record(values, t_end=1.5):
         o = plant.outputs()
         w = 100.0 * min(max((t - 0.2) / 0.5, 0.0), 1.0)
         load = 26.71 if t >= 1.0 else 0.0
-        inputs = (o[0], o[1], o[4], o[5], o[2], o[3], o[6], w, 0.95, load)
+        inputs = (o[0], o[1], o[4], o[5], o[2], o[3], o[6], w, 0.95, load, 0.0)
         ctrl.step(t, TS, inputs)
         rows.append((t, inputs))
         out = ctrl.outputs()
@@ -64,7 +64,7 @@ def time_python(values, rows, repeats):
 
 
 def time_c(lib, values, rows, repeats):
-    arrays = [(t, (ctypes.c_double * 10)(*inputs)) for t, inputs in rows]
+    arrays = [(t, (ctypes.c_double * 11)(*inputs)) for t, inputs in rows]
     msg = ctypes.create_string_buffer(256)
     best = float("inf")
     for _ in range(repeats):

@@ -51,7 +51,7 @@ def run(field_weakening, t_end=4.6, every=20):
         w_ref = min(max((t - T_RAMP[0]) / (T_RAMP[1] - T_RAMP[0]), 0.0), 1.0) * W_END
         tl = load(t, w_ref)
         o = plant.outputs()
-        ctrl.step(t, Ts, (o[0], o[1], o[4], o[5], o[2], o[3], o[6], w_ref, 0.95, tl))
+        ctrl.step(t, Ts, (o[0], o[1], o[4], o[5], o[2], o[3], o[6], w_ref, 0.95, tl, 0.0))
         c = ctrl.outputs()
         plant.step(t, Ts, (c[i_va], c[i_vb], tl))
         if k % every == 0:

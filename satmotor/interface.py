@@ -19,6 +19,16 @@ from satmotor.control.drive import HOST_DELAY_MAX, BacksteppingDrive, DriveConfi
 from satmotor.control.ifoc import IFOCGains
 from satmotor.control.measurements import MEAS_LEN, MEAS_OMEGA_M
 from satmotor.errors import ParameterError, require_integer, require_number
+from satmotor.machine.dc_link import (
+    DC_LINK_MODES,
+    DC_SOURCES,
+    E_CHOP,
+    E_REGEN,
+    V_DC,
+    DCLink,
+    DCLinkParams,
+    over_voltage_message,
+)
 from satmotor.machine.magnetics import ArctanCurve, LinearCurve, PolynomialCurve
 from satmotor.machine.params import CURVE_NAMES, MotorParams, make_curve
 from satmotor.machine.plant import OMEGA_M, PSI_R_A, PSI_R_B, PSI_S_A, PSI_S_B, THETA_M, Plant, initial_state
@@ -59,7 +69,7 @@ CONTROLLER_DESCRIPTION = ("Backstepping speed and rotor-flux controller for the 
                           "estimate and the constant-m and IFOC PI baselines")
 AUTHOR = "satmotor"
 
-_M, _A, _P = MotorParams(), ArctanCurve(), PolynomialCurve()
+_M, _A, _P, _L = MotorParams(), ArctanCurve(), PolynomialCurve(), DCLinkParams()
 _G, _C, _D = BacksteppingGains(), ControllerConfig(), DriveConfig()
 OMEGA_WARN = 1500.0  # [rad/s] omega_warn's default: about 10 x the default motor's synchronous speed
 MOTOR_PARAMETERS = _in_struct("motor", (
@@ -97,6 +107,15 @@ PLANT_OUTPUTS = (
     _v("theta_m", "output", 0.0, "rad", "mechanical angle"),
     _v("T_e", "output", 0.0, "N m", "electromagnetic torque 3/2 n_p (psi_s x i_s)"),
     _v("i_mu", "output", 0.0, "A", "magnitude of the magnetizing current i_s + k i_r"),
+    # the DC link (satmotor.machine.dc_link), last
+    _v("v_dc", "output", _L.V_dc, "V", "DC-link voltage (dc_link = ideal: the parameter V_dc)"),
+    _v("E_regen", "output", 0.0, "J", "energy the motor returned into the DC link, int max(0, -3/2 v_s.i_s) "
+       "dt (dc_link = capacitor; ideal: 0)"),
+    _v("E_chop", "output", 0.0, "J", "energy dissipated in the brake chopper (dc_link = capacitor; "
+       "ideal: 0)"),
+    # a Real 0/1 (not a Boolean): the plant's output port is all Real (hosts, the master, the ME plant)
+    _v("dc_fault", "output", 0.0, "1", "DC-link over-voltage fault, 0 or 1: 1 once v_dc exceeded V_dc_max "
+       "(latched; a warning logged once, the physics goes on)"),
 )
 PLANT_PARAMETERS = MOTOR_PARAMETERS + _in_struct("plant", (
     _v("omega_m0", "parameter", 0.0, "rad/s", "initial mechanical speed"),
@@ -119,7 +138,26 @@ PLANT_PARAMETERS = MOTOR_PARAMETERS + _in_struct("plant", (
     _v("omega_warn", "parameter", OMEGA_WARN, "rad/s", "mechanical speed |omega_m| (after a step) above "
        "which a warning is logged, once per run (default about 10 x the default motor's synchronous speed, "
        "157 rad/s); 0: no check"),
-)
+) + _in_struct("dclink", (  # the DC link (satmotor.machine.dc_link.DCLinkParams), last
+    _v("dc_link", "parameter", _L.dc_link, "", "DC link: " + ", ".join(DC_LINK_MODES) + " (ideal: a constant "
+       "V_dc, the command applied as it is; capacitor: C_dc fed by dc_source, |v_s| bounded by v_dc/sqrt(3))",
+       "String"),
+    _v("V_dc", "parameter", _L.V_dc, "V", "DC-link voltage (ideal), or the capacitor's initial voltage and "
+       "the dc source's voltage (capacitor), > 0; default the controller's V_dc"),
+    _v("C_dc", "parameter", _L.C_dc, "F", "DC-link capacitance, > 0 (capacitor)"),
+    _v("dc_source", "parameter", _L.dc_source, "", "what feeds the capacitor through a diode and R_src: "
+       + ", ".join(DC_SOURCES) + " (dc: the voltage V_dc; rectifier: a six-pulse diode bridge on the grid "
+       "V_grid, f_grid)", "String"),
+    _v("R_src", "parameter", _L.R_src, "Ohm", "source resistance, > 0 (capacitor)"),
+    _v("V_grid", "parameter", _L.V_grid, "V", "grid voltage, line-to-line rms (dc_source = rectifier), > 0"),
+    _v("f_grid", "parameter", _L.f_grid, "Hz", "grid frequency (dc_source = rectifier), > 0"),
+    _v("V_chop_on", "parameter", _L.V_chop_on, "V", "brake chopper: switches on above this link voltage"),
+    _v("V_chop_off", "parameter", _L.V_chop_off, "V", "brake chopper: switches off below this link voltage "
+       "(< V_chop_on: the hysteresis)"),
+    _v("R_chop", "parameter", _L.R_chop, "Ohm", "brake chopper resistor, >= 0 (0: no chopper)"),
+    _v("V_dc_max", "parameter", _L.V_dc_max, "V", "over-voltage: v_dc above it sets dc_fault and logs a "
+       "warning once (the physics goes on), >= 0 (0: no check)"),
+))
 
 # the controller's Real parameters that go into DriveConfig as they are (the start-up tolerances)
 _DRIVE_REALS = ("fw_voltage_ratio", "premag_fraction", "premag_min_fraction", "premag_speed_tol",
@@ -136,6 +174,10 @@ CONTROLLER_INPUTS = (
     _v("omega_ref", "input", 0.0, "rad/s", "speed set-point (shaped inside)"),
     _v("psi_ref", "input", 0.9, "Wb", "rotor flux set-point (shaped inside), > 0"),
     _v("T_load", "input", 0.0, "N m", "load torque, used in load_mode = known"),
+    # last: the plant's DC link
+    _v("v_dc", "input", 0.0, "V", "measured DC-link voltage (the plant's v_dc), >= 0: > 0 bounds |v_s| by "
+       "v_dc/sqrt(3) (pre-magnetization, law, field weakening); 0: not connected, the parameter V_dc is "
+       "used"),
 )
 CONTROLLER_OUTPUTS = (
     _v("v_s_alpha", "output", 0.0, "V", "stator voltage command, alpha axis (held over Ts)"),
@@ -316,6 +358,12 @@ def substeps_reason(n_sub, h_int, max_substeps):
             "take shorter communication steps or raise max_substeps")
 
 
+def dc_link(values):
+    """:class:`DCLinkParams` from the plant's flat values (the ``dclink`` parameters; missing names take
+    their defaults)."""
+    return DCLinkParams(**{v.name: _number(values, v) for v in PLANT_PARAMETERS if v.c_struct == "dclink"})
+
+
 class PlantUnit:
     """The plant as a co-simulation unit: inputs held over each communication step."""
 
@@ -336,6 +384,11 @@ class PlantUnit:
         # B_2 is the plant's alone: not in MotorParams, which is also the controller's model
         self.plant = Plant(self.params, f["B_2"])
         self.x0 = initial_state(self.params, omega_m=w0, psi_r_alpha=psi0)
+        self.link = dc_link(f)  # the DC link's parameters; a capacitor link integrates with the plant
+        self._link = DCLink(self.plant, self.link) if self.link.capacitor else None
+        if self._link is not None:
+            self.x0 = self._link.initial_state(self.x0)
+        self._chop, self._fault = False, False  # the chopper's state, the latched over-voltage fault
         self.x = self.x0
         self._dt, self._n_sub = None, 1  # the last step size and its sub-step count
 
@@ -355,9 +408,17 @@ class PlantUnit:
             self._dt = dt
         if self._warn[0] > 0.0 and not self._warned[0]:
             self._plausible(0, t, v_a, v_b)
-        x = self.plant.step(t, self.x, v_a, v_b, T_load, dt, self._n_sub)
+        if self._link is None:
+            x = self.plant.step(t, self.x, v_a, v_b, T_load, dt, self._n_sub)
+        else:
+            x, chop, fault, t_fault = self._link.step(t, self.x, v_a, v_b, T_load, dt, self._n_sub,
+                                                      self._chop, self._fault)
         if not math.isfinite(sum(x)) and not all(math.isfinite(v) for v in x):
             raise ArithmeticError(f"the plant state became non-finite over [{t}, {t + dt}] s: {x}")
+        if self._link is not None:
+            self._chop, self._fault = chop, fault
+            if t_fault is not None:
+                self.warnings.append(over_voltage_message(t_fault, x[V_DC], self.link.V_dc_max))
         self.x = x
         self._o = None
         if self._warn[1] > 0.0 and not self._warned[1]:
@@ -377,14 +438,23 @@ class PlantUnit:
     def outputs(self):
         """Output values in the order of :attr:`OUTPUTS`."""
         x, o = self.x, self._o if self._o is not None else self.plant.outputs(self.x)
+        if self._link is None:
+            link = (self.link.V_dc, 0.0, 0.0, 0.0)
+        else:
+            link = (x[V_DC], x[E_REGEN], x[E_CHOP], 1.0 if self._fault else 0.0)
         return (o.i_s_alpha, o.i_s_beta, x[PSI_S_A], x[PSI_S_B], x[PSI_R_A], x[PSI_R_B], x[OMEGA_M],
-                x[THETA_M], o.T_e, o.i_mu)
+                x[THETA_M], o.T_e, o.i_mu, *link)
 
     def get_state(self):
-        return tuple(self.x)
+        if self._link is None:
+            return tuple(self.x)
+        return (*self.x, float(self._chop), float(self._fault))  # the chopper and the fault last
 
     def set_state(self, state):
-        self.x = tuple(float(v) for v in state)
+        state = tuple(float(v) for v in state)
+        if self._link is not None:
+            state, self._chop, self._fault = state[:-2], bool(state[-2]), bool(state[-1])
+        self.x = state
         self._o = None
 
 
@@ -430,6 +500,7 @@ class ControllerUnit:
             self.drive = BacksteppingDrive(p, gains, cfg, dcfg)
         self.warnings = []  # the drive's warnings, for the host's log (the FMU glue logs and removes them)
         self.Ts = f["Ts"]
+        self._V_dc = self._link = f["V_dc"]  # the parameter V_dc, the link voltage the drive now uses
         self._speed_estimated = f["speed_source"] == "estimated"
         self.stop_time = math.inf
         self._out = tuple(v.start for v in CONTROLLER_OUTPUTS)
@@ -470,6 +541,13 @@ class ControllerUnit:
             inputs = (*inputs[:MEAS_OMEGA_M], 0.0, *inputs[MEAS_OMEGA_M + 1:])
         if not math.isfinite(sum(inputs)):  # per-step fast path, as in PlantUnit.step
             _finite_inputs(self.INPUTS, inputs)
+        v_dc = inputs[-1]  # the link voltage: held over the step, so set once per step
+        if v_dc < 0.0:
+            raise ParameterError("v_dc", v_dc, "must be >= 0 (0: not connected, the parameter V_dc is used)")
+        link = v_dc if v_dc > 0.0 else self._V_dc
+        if link != self._link:
+            self.drive.set_link_voltage(link)
+            self._link = link
         if n == 1:
             self._sample(inputs)
         elif n > 1:
@@ -483,7 +561,7 @@ class ControllerUnit:
 
     def _sample(self, inputs):
         # the first MEAS_LEN inputs are the drive's measurement tuple, in its order (MEAS_*)
-        omega_ref, psi_ref, T_load = inputs[MEAS_LEN:]
+        omega_ref, psi_ref, T_load = inputs[MEAS_LEN:MEAS_LEN + 3]
         d = self.drive.step(inputs[:MEAS_LEN], omega_ref, psi_ref, T_load)
         if self.drive.warnings:  # the native FMU logs the same text
             self.warnings.extend(f"BacksteppingController: {w}" for w in self.drive.warnings)

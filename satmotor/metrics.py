@@ -49,6 +49,11 @@ run phase
     demand was bounded by I_max (the controller's flags; only when the flags are given).
 ``ss_voltage_limited_fraction``, ``ss_current_limited_fraction`` [1]
     The same share over the steady-state window only (nan if no sample falls in it).
+``E_regen`` [J], ``E_chop`` [J], ``peak_v_dc`` [V], ``min_v_dc`` [V], ``dc_fault`` [1]
+    Only with the plant's DC link on (``dc_link: capacitor``, the series :data:`LINK_SERIES` given):
+    the energy the motor returned into the link and the energy the brake chopper dissipated over the
+    run (the plant's integrals at the last sample), the link voltage's extremes, and 1 if the
+    over-voltage fault was set (else 0).
 
 Holding the set-points (:func:`setpoint_status`)
 ------------------------------------------------
@@ -74,6 +79,8 @@ SS_DEFAULT_FRACTION = 0.1  # [1] default steady-state window: this last fraction
 SS_SPEED_MARGIN = 0.02  # [1] default margin of ss_speed for holding the set-points
 SS_FLUX_MARGIN = 0.02  # [1] default margin of ss_flux
 _T_REL = 1e-9  # relative tolerance of the window bounds (sample times carry rounding)
+#: The DC link's series (plant outputs), read when the plant's link is on (:func:`link_metrics`).
+LINK_SERIES = ("v_dc", "E_regen", "E_chop", "dc_fault")
 #: The series :func:`closed_loop_metrics` reads (also the keys of a closed_loop record).
 SERIES = ("t", "omega_m", "omega_ref", "psi_r_alpha", "psi_r_beta", "psi_ref", "z1", "e1", "i_s_alpha",
           "i_s_beta", "v_s_alpha", "v_s_beta", "W")
@@ -155,16 +162,24 @@ def settling_time(t, y, final, band=SETTLING_BAND):
     return float(t[out[-1]]) if out.size else float(t[0])
 
 
+def link_metrics(v_dc, E_regen, E_chop, dc_fault):
+    """The DC link's figures (module docstring) from its recorded series (1-D arrays, one length)."""
+    return {"E_regen": float(np.asarray(E_regen)[-1]), "E_chop": float(np.asarray(E_chop)[-1]),
+            "peak_v_dc": float(np.max(v_dc)), "min_v_dc": float(np.min(v_dc)),
+            "dc_fault": float(np.max(dc_fault))}
+
+
 def closed_loop_metrics(*, t, omega_m, omega_ref, psi_r_alpha, psi_r_beta, psi_ref, z1, e1,
                         i_s_alpha, i_s_beta, v_s_alpha, v_s_beta, W, run, ss_window=None,
-                        voltage_limited=None, current_limited=None, psi_set=None):
+                        voltage_limited=None, current_limited=None, psi_set=None, link=None):
     """The figures of the module docstring from the recorded series (1-D arrays of one length).
 
     ``omega_ref``, ``psi_ref`` the raw set-points; ``z1``, ``e1`` the controller's tracking errors;
     ``run`` the run-phase mask (``phase == RUN``), extended to the end of the record;
     ``ss_window = (t_from, t_to)`` [s] or None; the limiter flags optional; ``psi_set`` the flux
     set-point the drive works to (its ``psi_ref_shaped``), optional: ``ss_flux`` against it when
-    given, else against ``psi_ref``.  ``{}`` for an empty record.
+    given, else against ``psi_ref``; ``link`` the DC link's series ``{name: array}`` (names
+    :data:`LINK_SERIES`) when the plant's link is on, else None.  ``{}`` for an empty record.
     """
     t = np.asarray(t, dtype=float)
     if t.size == 0:
@@ -194,6 +209,8 @@ def closed_loop_metrics(*, t, omega_m, omega_ref, psi_r_alpha, psi_r_beta, psi_r
             on = np.asarray(flags, dtype=float) != 0.0
             out[f"{name}_fraction"] = float(np.mean(on))
             out[f"ss_{name}_fraction"] = float(np.mean(on[ss])) if ss.any() else math.nan
+    if link is not None:
+        out.update(link_metrics(**link))
     return out
 
 
@@ -261,8 +278,10 @@ class RunningMetrics:
     cut short: its metrics are not these).
     """
 
-    def __init__(self, t_last, omega_ref_final, ss_window=None, flags=True):
+    def __init__(self, t_last, omega_ref_final, ss_window=None, flags=True, link=False):
         self.t_last, self.w_final = float(t_last), float(omega_ref_final)
+        # the DC link (link_metrics): peak and least v_dc, last E_regen and E_chop, largest dc_fault
+        self._link = [-math.inf, math.inf, math.nan, math.nan, -math.inf] if link else None
         self.ss_window, self.flags = ss_window, flags
         self.n = 0
         self.t_first = self.t_seen = math.nan
@@ -284,9 +303,11 @@ class RunningMetrics:
         return steady_state_window(t, self.ss_window)
 
     def update(self, *, t, omega_m, omega_ref, psi_r_alpha, psi_r_beta, psi_ref, z1, e1, i_s_alpha, i_s_beta,
-               v_s_alpha, v_s_beta, W, run, voltage_limited=None, current_limited=None, psi_set=None):
+               v_s_alpha, v_s_beta, W, run, voltage_limited=None, current_limited=None, psi_set=None,
+               link=None):
         """Fold in the next chunk of samples (1-D arrays of one length, in time order); ``psi_set``
-        as for :func:`closed_loop_metrics` (the flux set-point the drive works to, or None)."""
+        and ``link`` as for :func:`closed_loop_metrics` (``link`` read when constructed with
+        ``link=True``)."""
         t, w = np.asarray(t, dtype=float), np.asarray(omega_m, dtype=float)
         if t.size == 0:
             return
@@ -343,6 +364,11 @@ class RunningMetrics:
                 self._on[i] += int(np.count_nonzero(on))
                 self._on[2 + i] += int(np.count_nonzero(on[ss]))
         self._on[4] += int(np.count_nonzero(ss))
+        if self._link is not None and link is not None:
+            m = link_metrics(**link)
+            k = self._link
+            k[0], k[1] = max(k[0], m["peak_v_dc"]), min(k[1], m["min_v_dc"])
+            k[2], k[3], k[4] = m["E_regen"], m["E_chop"], max(k[4], m["dc_fault"])
 
     def result(self):
         """The metrics of :func:`closed_loop_metrics` (``{}`` for no sample), or None when the record
@@ -381,4 +407,8 @@ class RunningMetrics:
             for i, name in enumerate(("voltage_limited", "current_limited")):
                 out[f"{name}_fraction"] = self._on[i] / self.n
                 out[f"ss_{name}_fraction"] = self._on[2 + i] / self._on[4] if not empty else math.nan
+        if self._link is not None:
+            k = self._link
+            out.update({"E_regen": k[2], "E_chop": k[3], "peak_v_dc": k[0], "min_v_dc": k[1],
+                        "dc_fault": k[4]})
         return out

@@ -43,7 +43,8 @@ def _params_struct(c_struct):
     return type(f"sm_{c_struct}_params", (ctypes.Structure,), {"_fields_": fields})
 
 
-MotorParams, PlantParams, ControllerParams = (_params_struct(s) for s in ("motor", "plant", "controller"))
+MotorParams, PlantParams, ControllerParams, DCLinkParams = (
+    _params_struct(s) for s in ("motor", "plant", "controller", "dclink"))
 
 
 def params(lib, struct, values=None):
@@ -103,8 +104,17 @@ def declare(lib):
         "sm_plant_initial_state": (I, [ctypes.c_void_p, D, D, D, D, P]),
         "sm_plant_check_step": (I, [ctypes.c_void_p, D, D, D, D, ctypes.POINTER(I), ctypes.c_char_p, S]),
         "sm_plant_nonfinite_message": (None, [D, D, P, ctypes.c_char_p, S]),
+        "sm_dclink_init": (I, [ctypes.c_void_p, ctypes.POINTER(DCLinkParams), ctypes.c_char_p, S]),
+        "sm_dclink_size": (S, []),
+        "sm_dclink_source_voltage": (D, [ctypes.c_void_p, D]),
+        "sm_dclink_applied": (None, [D, D, D, P, P]),
+        "sm_dclink_derivatives": (I, [ctypes.c_void_p, ctypes.c_void_p, D, P, D, D, D, I, P]),
+        "sm_dclink_switch": (I, [ctypes.c_void_p, D, I]),
+        "sm_dclink_step": (I, [ctypes.c_void_p, ctypes.c_void_p, D, P, D, D, D, D, I, ctypes.POINTER(I),
+                               ctypes.POINTER(I), P]),
+        "sm_dclink_over_voltage_message": (None, [D, D, D, ctypes.c_char_p, S]),
     }
-    for struct in (MotorParams, PlantParams, ControllerParams):
+    for struct in (MotorParams, PlantParams, ControllerParams, DCLinkParams):
         sig[struct.__name__ + "_default"] = (None, [ctypes.POINTER(struct)])
         sig[struct.__name__ + "_size"] = (S, [])
     for name, (res, args) in sig.items():

@@ -227,7 +227,7 @@ def _loop(values, w_set, T_set, t_end, ramp=(0.2, 1.2), t_load=1.3):
         w = min(max((t - ramp[0]) / (ramp[1] - ramp[0]), 0.0), 1.0) * w_set
         TL = T_set if t >= t_load else 0.0
         o = plant.outputs()
-        ctrl.step(t, Ts, (o[0], o[1], o[4], o[5], o[2], o[3], o[6], w, 0.95, TL))
+        ctrl.step(t, Ts, (o[0], o[1], o[4], o[5], o[2], o[3], o[6], w, 0.95, TL, 0.0))
         out = ctrl.outputs()
         plant.step(t, Ts, (out[0], out[1], TL))
         rows.append((t,) + tuple(plant.outputs()) + tuple(out))
@@ -244,8 +244,8 @@ def test_rated_point_held_with_field_weakening_not_without():
     # 150 rad/s with the rated load: the fixed 0.95 Wb needs more than V_dc/sqrt(3) = 311.8 V
     on = _loop({}, 150.0, 26.71, 2.0)
     off = _loop({"field_weakening": False}, 150.0, 26.71, 2.0)
-    W = 1 + 6  # plant omega_m column
-    VLIM = 1 + 10 + 15  # controller voltage_limited column
+    W = 1 + PlantUnit.OUTPUTS.index("omega_m")  # plant omega_m column
+    VLIM = 1 + len(PlantUnit.OUTPUTS) + ControllerUnit.OUTPUTS.index("voltage_limited")  # controller column
     tail = slice(-2000, None)
     w_on = [r[W] for r in on[tail]]
     w_off = [r[W] for r in off[tail]]

@@ -43,11 +43,13 @@ HELPERS = Path(__file__).with_name("fmu_helpers.py")
 H = 1e-4  # communication step = controller Ts [s]
 PLANT_IN = ("v_s_alpha", "v_s_beta", "T_load")
 PLANT_OUT = ("i_s_alpha", "i_s_beta", "psi_s_alpha", "psi_s_beta", "psi_r_alpha", "psi_r_beta", "omega_m",
-             "theta_m", "T_e", "i_mu")
+             "theta_m", "T_e", "i_mu", "v_dc", "E_regen", "E_chop", "dc_fault")  # the DC link last
+DC_LINK = ("dc_link", "V_dc", "C_dc", "dc_source", "R_src", "V_grid", "f_grid", "V_chop_on", "V_chop_off",
+           "R_chop", "V_dc_max")
 MOTOR = ("R_s", "R_r", "l_s", "l_r", "k", "n_p", "J", "B", "curve", "L_m0", "L_m_inf", "I_par", "poly_b",
          "poly_n", "table_file")
 CTRL_IN = ("i_s_alpha", "i_s_beta", "psi_r_alpha", "psi_r_beta", "psi_s_alpha", "psi_s_beta", "omega_m",
-           "omega_ref", "psi_ref", "T_load")
+           "omega_ref", "psi_ref", "T_load", "v_dc")
 CTRL_OUT = ("v_s_alpha", "v_s_beta", "v_sd", "v_sq", "e1", "e2", "z1", "z2", "W", "T_load_est",
             "psi_r_hat_alpha", "psi_r_hat_beta", "omega_ref_shaped", "psi_ref_shaped", "phase",
             "voltage_limited", "current_limited", "singular_limited", "omega_m_hat")
@@ -56,14 +58,16 @@ PREMAG_PARAMS = ("premag_fraction", "premag_min_fraction", "premag_speed_tol", "
 CONTRACT = {
     "SaturatedInductionMotor": {"input": PLANT_IN, "output": PLANT_OUT,
                                 "parameter": MOTOR + ("B_2", "omega_m0", "psi_r0", "h_int", "max_substeps",
-                                                      "v_warn", "i_warn", "omega_warn")},
+                                                      "v_warn", "i_warn", "omega_warn") + DC_LINK},
     "BacksteppingController": {"input": CTRL_IN, "output": CTRL_OUT, "parameter": (
         "c1", "c2", "d1", "d2", "Ts", "mode", "load_mode", "V_dc", "ref_bandwidth", "g_theta", "theta_max",
         "I_max", "use_stator_flux", "c0", "d0", "flux_source", "delay_samples", "observer",
         "speed_source", "field_weakening", "fw_voltage_ratio") + PREMAG_PARAMS + MOTOR
         + ("current_limit_gain", "host_delay_samples")},
 }
-UNITS = {"V": "v_s_alpha v_s_beta v_sd v_sq V_dc v_warn", "A": "i_s_alpha i_s_beta i_mu I_par I_max i_warn",
+UNITS = {"V": "v_s_alpha v_s_beta v_sd v_sq V_dc v_warn v_dc V_grid V_chop_on V_chop_off V_dc_max",
+         "A": "i_s_alpha i_s_beta i_mu I_par I_max i_warn",
+         "J": "E_regen E_chop", "F": "C_dc", "Hz": "f_grid",
          "Wb": "psi_s_alpha psi_s_beta psi_r_alpha psi_r_beta psi_ref psi_r0 e1 psi_r_hat_alpha "
                "psi_r_hat_beta "
                "psi_ref_shaped", "Wb/s": "e2",
@@ -71,9 +75,10 @@ UNITS = {"V": "v_s_alpha v_s_beta v_sd v_sq V_dc v_warn", "A": "i_s_alpha i_s_be
                   "omega_warn",
          "rad": "theta_m",
          "rad/s2": "z2 theta_max",
-         "N m": "T_load T_e T_load_est", "Ohm": "R_s R_r premag_gain", "H": "l_s l_r L_m0 L_m_inf",
+         "N m": "T_load T_e T_load_est", "Ohm": "R_s R_r premag_gain R_src R_chop",
+         "H": "l_s l_r L_m0 L_m_inf",
          "1": "k W delay_samples fw_voltage_ratio premag_fraction premag_min_fraction premag_boost "
-              "host_delay_samples",
+              "host_delay_samples dc_fault",
          "kg m2": "J", "N m s": "B", "A/Wb^n": "poly_b", "s": "h_int Ts premag_time_max",
          "1/s": "c1 c2 d1 d2 current_limit_gain",
          "1/s2": "g_theta c0 d0", "N m s2/rad2": "B_2"}
@@ -98,6 +103,10 @@ def _defaults():
     plant = motor | {"B_2": 0.0, "omega_m0": 0.0, "psi_r0": 0.0, "h_int": c.Ts}
     # bounded work per doStep and the plausibility bounds: 4 V_dc, 10 I_max, about 10 x 157 rad/s
     plant |= {"max_substeps": 50000, "v_warn": 4 * c.V_dc, "i_warn": 10 * d.I_max, "omega_warn": 1500.0}
+    # the DC link: off (ideal), at the controller's V_dc; the capacitor's settings (docs/model.md)
+    plant |= {"dc_link": "ideal", "V_dc": c.V_dc, "C_dc": 470e-6, "dc_source": "dc", "R_src": 0.1,
+              "V_grid": 400.0, "f_grid": 50.0, "V_chop_on": 750.0, "V_chop_off": 720.0, "R_chop": 0.0,
+              "V_dc_max": 800.0}
     return {"SaturatedInductionMotor": plant, "BacksteppingController": ctrl}
 
 
@@ -174,7 +183,8 @@ def ramp_run(params=()):
 
 def ctrl_inputs(rec, k):
     meas = {n: rec[n][k] for n in CTRL_IN[:7]}
-    return meas | {"omega_ref": rec["omega_ref"][k], "psi_ref": rec["psi_ref"][k], "T_load": rec["T_load"][k]}
+    return meas | {"omega_ref": rec["omega_ref"][k], "psi_ref": rec["psi_ref"][k], "T_load": rec["T_load"][k],
+                   "v_dc": 0.0}  # the link voltage: not connected
 
 
 def rel_err(got, ref, names):
@@ -440,7 +450,7 @@ def test_two_interleaved_closed_loops_match_their_plain_loops_and_reset_replays(
     for p, g in zip(params, got):
         ref = scen.run(motor_params(p), ControllerUnit(p).drive)
         fmu = {name: [y[name] for y in g["y"]] for name in PLANT_OUT} | dict(zip(PLANT_IN[:2], zip(*g["v"])))
-        err = rel_err(fmu, ref, PLANT_OUT + PLANT_IN[:2])
+        err = rel_err(fmu, ref, PLANT_OUT[:PLANT_OUT.index("v_dc")] + PLANT_IN[:2])  # the closed loop's keys
         print(f"closed loop {p}: max rel diff {err:.3g}")
         assert err <= 1e-9 and ref["omega_m"][-1] > 5.0
     assert got[0]["y"][-1]["omega_m"] != got[1]["y"][-1]["omega_m"]  # J differs: the instances are separate

@@ -86,7 +86,7 @@ def test_controller_discrete_outputs_and_inputs_in_the_masters_order(glue):
         t = k * Ts
         values = [150.0, 0.9, 2.0, 3.0 + k, -1.0, 0.5, 0.1 * k, 0.6, -0.2, 10.0 * k]
         s.set_real([vr[n] for n in order], values)
-        record = dict(zip(order, values))
+        record = {"v_dc": 0.0, **dict(zip(order, values))}  # v_dc not set: its start value
         assert s.do_step(t, Ts) is True
         unit.step(t, Ts, tuple(record[n] for n in ControllerUnit.INPUTS))
         want = dict(zip(ControllerUnit.OUTPUTS, unit.outputs()))

@@ -54,7 +54,7 @@ def _closed_loop(values, plant_values, t_end, omega, psi, load):
     for k in range(round(t_end / Ts) + 1):
         t = k * Ts
         o = plant.outputs()
-        inputs = (o[0], o[1], o[4], o[5], o[2], o[3], o[6], omega(t), psi(t), load(t))
+        inputs = (o[0], o[1], o[4], o[5], o[2], o[3], o[6], omega(t), psi(t), load(t), 0.0)  # v_dc: 0
         ctrl.step(t, Ts, inputs)
         yield t, inputs, ctrl.outputs()
         out = ctrl.outputs()
@@ -116,7 +116,7 @@ def test_c_controller_matches_python_sample_by_sample(lib, case):
     msgbuf = ctypes.create_string_buffer(256)
     worst, n, phases = 0.0, 0, set()
     for t, inputs, want in _closed_loop(values, plant_values, 0.5, _ramp, lambda t: 0.95, _load):
-        arr = (ctypes.c_double * 10)(*inputs)
+        arr = (ctypes.c_double * 11)(*inputs)
         assert lib.sm_controller_step(buf, t, 1e-4, arr, msgbuf, 256) == 0, msgbuf.value
         got = _out(buf, lib)
         for g, w in zip(got, want):
@@ -159,17 +159,17 @@ def test_c_controller_refuses_what_python_refuses_with_the_same_message(lib, val
 def test_c_controller_refuses_bad_inputs_and_steps_and_changes_nothing(lib):
     buf, status, _ = _c_controller(lib, {})
     msg = ctypes.create_string_buffer(256)
-    good = (ctypes.c_double * 10)(1.0, 0.0, 0.1, 0.0, 0.1, 0.0, 0.0, 0.0, 0.95, 0.0)
+    good = (ctypes.c_double * 11)(1.0, 0.0, 0.1, 0.0, 0.1, 0.0, 0.0, 0.0, 0.95, 0.0, 0.0)
     assert lib.sm_controller_step(buf, 0.0, 1e-4, good, msg, 256) == 0
     before = bytes(buf)
-    bad = (ctypes.c_double * 10)(*good)
+    bad = (ctypes.c_double * 11)(*good)
     bad[6] = math.nan
     assert lib.sm_controller_step(buf, 1e-4, 1e-4, bad, msg, 256) != 0
     assert msg.value.decode() == "omega_m = nan: must be a finite number"
     assert lib.sm_controller_step(buf, 1e-4, 1.5e-4, good, msg, 256) != 0
     assert msg.value.decode() == ("communicationStepSize = 0.00015: must be a whole multiple of the sample "
                                   "period Ts = 0.0001 s")
-    unreachable = (ctypes.c_double * 10)(*good)
+    unreachable = (ctypes.c_double * 11)(*good)
     unreachable[8] = 5.0
     assert lib.sm_controller_step(buf, 1e-4, 1e-4, unreachable, msg, 256) != 0
     with pytest.raises(Exception) as exc:
@@ -192,7 +192,7 @@ def test_sensorless_controller_does_not_read_omega_m(lib, garbage):
     for t, inputs, want in _closed_loop(values, {}, 0.3, _ramp, lambda t: 0.95, _load):
         bad = inputs[:6] + (garbage,) + inputs[7:]
         py.step(t, 1e-4, bad)
-        arr = (ctypes.c_double * 10)(*bad)
+        arr = (ctypes.c_double * 11)(*bad)
         assert lib.sm_controller_step(buf, t, 1e-4, arr, msgbuf, 256) == 0, msgbuf.value
         assert list(py.outputs()) == list(want)  # bit for bit: omega_m was not read
         got = _out(buf, lib)

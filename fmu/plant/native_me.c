@@ -11,6 +11,7 @@
 
 #include "fg_model_me.h"
 #include "sm_common.h"
+#include "sm_dclink.h"
 #include "sm_plant.h"
 #include "sm_values.h"
 #include "sm_vars.h"
@@ -19,6 +20,7 @@ typedef struct {
     sm_values v; /* first: the generated value store */
     sm_motor p;
     double x[SM_N_STATES];
+    double V_dc; /* [V] the ideal link's voltage (reported only) */
     int ready; /* 1 after exit-initialization: x is the integrator's */
 } plant_me_data;
 
@@ -57,6 +59,10 @@ static void publish(plant_me_data *d)
     r[SM_VR_i_s_beta] = o.i_s_beta;
     r[SM_VR_T_e] = o.T_e;
     r[SM_VR_i_mu] = o.i_mu;
+    r[SM_VR_v_dc] = d->V_dc; /* dc_link = ideal only (init refuses capacitor) */
+    r[SM_VR_E_regen] = 0.0;
+    r[SM_VR_E_chop] = 0.0;
+    r[SM_VR_dc_fault] = 0.0;
     for (j = 0; j < SM_N_STATES; ++j) {
         r[STATE_VR[j]] = d->x[j];
     }
@@ -74,10 +80,13 @@ static fg_status init(fg_instance *inst, plant_me_data *d)
 {
     sm_motor_params motor;
     sm_plant_params plant;
+    sm_dclink_params link_params;
+    sm_dclink link;
     char msg[SM_MSG_LEN];
     int st;
     sm_vars_motor_params(&d->v, &motor);
     sm_vars_plant_params(&d->v, &plant);
+    sm_vars_dclink_params(&d->v, &link_params);
     if (sm_resolve_file(inst, "table_file", motor.table_file, sizeof motor.table_file) != FG_OK) {
         return FG_ERROR;
     }
@@ -86,6 +95,17 @@ static fg_status init(fg_instance *inst, plant_me_data *d)
         fg_log(inst, FG_ERROR, "logStatusError", "%s", msg);
         return FG_ERROR;
     }
+    st = sm_dclink_init(&link, &link_params, msg, sizeof msg);
+    if (st == 0 && link.capacitor) { /* the link's state and chopper are the co-simulation plant's */
+        snprintf(msg, sizeof msg, "dc_link = 'capacitor': the model-exchange plant has the motor's six states "
+                 "only (dc_link = ideal); the DC link is in the co-simulation plant SaturatedInductionMotor");
+        st = SM_ERR_PARAM;
+    }
+    if (st != 0) {
+        fg_log(inst, FG_ERROR, "logStatusError", "%s", msg);
+        return FG_ERROR;
+    }
+    d->V_dc = link.V_dc;
     memcpy(d->x, d->p.x0, sizeof d->x);
     return FG_OK;
 }

@@ -7,6 +7,7 @@
 #include <string.h>
 
 #include "sm_common.h"
+#include "sm_dclink.h"
 #include "sm_plant.h"
 #include "sm_values.h"
 #include "sm_vars.h"
@@ -14,7 +15,9 @@
 typedef struct {
     sm_values v; /* first: the generated value store */
     sm_motor p;
-    double x[SM_N_STATES];
+    sm_dclink link;                  /* the DC link (satmotor/machine/dc_link.py) */
+    double x[SM_N_LINK_STATES];      /* the motor's six states, then v_dc, E_regen, E_chop (capacitor) */
+    int chop, fault;                 /* the chopper's state, the latched over-voltage fault */
     int ready;
     int warned[3]; /* a plausibility warning of |v_s|, |i_s|, |omega_m| was logged in this run */
 } plant_data;
@@ -72,6 +75,16 @@ static void publish(plant_data *d)
     r[SM_VR_theta_m] = d->x[SM_THETA_M];
     r[SM_VR_T_e] = o.T_e;
     r[SM_VR_i_mu] = o.i_mu;
+    if (d->link.capacitor) {
+        r[SM_VR_v_dc] = d->x[SM_V_DC];
+        r[SM_VR_E_regen] = d->x[SM_E_REGEN];
+        r[SM_VR_E_chop] = d->x[SM_E_CHOP];
+    } else {
+        r[SM_VR_v_dc] = d->link.V_dc;
+        r[SM_VR_E_regen] = 0.0;
+        r[SM_VR_E_chop] = 0.0;
+    }
+    r[SM_VR_dc_fault] = d->fault ? 1.0 : 0.0;
 }
 
 void fg_model_start(fg_instance *inst, void *data)
@@ -85,11 +98,13 @@ fg_status fg_model_exit_initialization(fg_instance *inst, void *data, double sta
     plant_data *d = (plant_data *)data;
     sm_motor_params motor;
     sm_plant_params plant;
+    sm_dclink_params link;
     char msg[SM_MSG_LEN];
     int st;
     d->v.r[SM_VR_time] = start_time;
     sm_vars_motor_params(&d->v, &motor);
     sm_vars_plant_params(&d->v, &plant);
+    sm_vars_dclink_params(&d->v, &link);
     if (sm_resolve_file(inst, "table_file", motor.table_file, sizeof motor.table_file) != FG_OK) {
         return FG_ERROR;
     }
@@ -108,9 +123,19 @@ fg_status fg_model_exit_initialization(fg_instance *inst, void *data, double sta
         fg_log(inst, FG_ERROR, "logStatusError", "%s", msg);
         return FG_ERROR;
     }
+    st = sm_dclink_init(&d->link, &link, msg, sizeof msg);
+    if (st != 0) {
+        fg_log(inst, FG_ERROR, "logStatusError", "%s", msg);
+        return FG_ERROR;
+    }
     for (st = 0; st < SM_N_STATES; ++st) {
         d->x[st] = d->p.x0[st];
     }
+    d->x[SM_V_DC] = d->link.V_dc; /* DCLink.initial_state */
+    d->x[SM_E_REGEN] = 0.0;
+    d->x[SM_E_CHOP] = 0.0;
+    d->chop = 0;
+    d->fault = 0;
     d->ready = 1;
     publish(d);
     return FG_OK;
@@ -120,9 +145,9 @@ fg_status fg_model_do_step(fg_instance *inst, void *data, double t, double h)
 {
     plant_data *d = (plant_data *)data;
     const double *r = d->v.r;
-    double x[SM_N_STATES];
+    double x[SM_N_LINK_STATES], t_fault = NAN;
     char msg[SM_MSG_LEN];
-    int n_sub = 1, st, j;
+    int n_sub = 1, st, j, chop = d->chop, fault = d->fault;
     if (!d->ready) {
         fg_log(inst, FG_ERROR, "logStatusError", "doStep before initialization");
         return FG_ERROR;
@@ -142,10 +167,15 @@ fg_status fg_model_do_step(fg_instance *inst, void *data, double t, double h)
         return FG_DISCARD;
     }
     plausible(inst, d, 0, t);
-    for (j = 0; j < SM_N_STATES; ++j) {
+    for (j = 0; j < SM_N_LINK_STATES; ++j) {
         x[j] = d->x[j];
     }
-    st = sm_plant_step(&d->p, x, r[SM_VR_v_s_alpha], r[SM_VR_v_s_beta], r[SM_VR_T_load], h, n_sub);
+    if (d->link.capacitor) {
+        st = sm_dclink_step(&d->p, &d->link, t, x, r[SM_VR_v_s_alpha], r[SM_VR_v_s_beta], r[SM_VR_T_load], h,
+                            n_sub, &chop, &fault, &t_fault);
+    } else {
+        st = sm_plant_step(&d->p, x, r[SM_VR_v_s_alpha], r[SM_VR_v_s_beta], r[SM_VR_T_load], h, n_sub);
+    }
     if (st != 0) {
         double y[SM_N_STATES];
         for (j = 0; j < SM_N_STATES; ++j) {
@@ -155,8 +185,14 @@ fg_status fg_model_do_step(fg_instance *inst, void *data, double t, double h)
         fg_log(inst, FG_DISCARD, "logStatusDiscard", "SaturatedInductionMotor at t = %.17g s: %s", t, msg);
         return FG_DISCARD;
     }
-    for (j = 0; j < SM_N_STATES; ++j) {
+    for (j = 0; j < SM_N_LINK_STATES; ++j) {
         d->x[j] = x[j];
+    }
+    d->chop = chop;
+    d->fault = fault;
+    if (!isnan(t_fault)) { /* set in this step: once per run (the fault is latched) */
+        sm_dclink_over_voltage_message(t_fault, x[SM_V_DC], d->link.V_dc_max, msg, sizeof msg);
+        fg_log(inst, FG_WARNING, "logStatusWarning", "%s", msg);
     }
     d->v.r[SM_VR_time] = t + h;
     publish(d);

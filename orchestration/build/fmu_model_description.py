@@ -70,6 +70,10 @@ SI_UNITS = {
     "N m s2/rad2": {"kg": 1, "m": 2, "rad": -2},
     "kg m2": {"kg": 1, "m": 2},
     "A/Wb^n": None,
+    # the DC link (satmotor.machine.dc_link)
+    "J": {"kg": 1, "m": 2, "s": -2},
+    "F": {"kg": -1, "m": -2, "s": 4, "A": 2},
+    "Hz": {"s": -1},
 }
 _BASE_ORDER = ("kg", "m", "s", "A", "K", "mol", "cd", "rad")
 

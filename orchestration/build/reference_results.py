@@ -68,7 +68,7 @@ def controller_inputs(scenario_path=DEFAULT_SCENARIO):
                       prof["T_load"].value, x0=plant.x0)
     cols = ("i_s_alpha", "i_s_beta", "psi_r_alpha", "psi_r_beta", "psi_s_alpha", "psi_s_beta", "omega_m",
             "omega_ref", "psi_ref", "T_load")
-    return [tuple(float(rec[c][k]) for c in cols) for k in range(N + 1)]
+    return [tuple(float(rec[c][k]) for c in cols) + (0.0,) for k in range(N + 1)]  # v_dc: not connected
 
 
 def run_unit(unit, inputs):

@@ -19,12 +19,30 @@ _COLUMNS = ("time", "plant.psi_r_alpha", "plant.psi_r_beta", "controller.phase",
             "controller.v_sd", "controller.v_sq", "controller.v_s_alpha", "controller.v_s_beta", "plant.i_mu",
             "controller.psi_r_hat_alpha", "controller.psi_r_hat_beta", "controller.current_limited",
             "controller.voltage_limited")
+#: the plant's DC link: drawn when recorded and on (the link voltage not constant)
+_LINK = ("plant.v_dc", "plant.E_regen", "plant.E_chop")
 
 
 def _mark(ax, t, flags, y, label):
     """Dots at ``y`` where a limiter flag is set (nothing if it never is)."""
     if np.any(flags):
         ax.plot(t[flags], y[flags], ".", ms=1.5, label=label)
+
+
+def _link(ax, t, link):
+    """The DC link, when on: the voltage bound v_dc/sqrt(3) on the voltage panel, the energies
+    returned (E_regen) and burnt in the chopper (E_chop) on a right axis of the last panel."""
+    v = link["plant.v_dc"]
+    if v.size == 0 or np.all(v == v[0]):  # dc_link: ideal (a constant)
+        return
+    ax[4].plot(t, v / np.sqrt(3.0), "r--", lw=0.9, label="v_dc/sqrt(3) (DC link)")
+    ax[4].legend(loc="best", fontsize=7)
+    right = ax[5].twinx()  # inside the panel: the figure has no right margin
+    for c, style in (("E_regen", "g"), ("E_chop", "m")):
+        e = link[f"plant.{c}"]
+        right.plot(t, e, style, lw=0.9, label=f"{c} [J, right] ({e[-1]:.4g} J at the end)")
+    right.tick_params(axis="y", direction="in", pad=-28, labelsize=7)
+    right.legend(loc="center right", fontsize=7)
 
 
 def canvas():
@@ -80,6 +98,8 @@ def figure(data, path, title, blank=None):
     ax[4].set_ylabel("stator voltage [V]")
     ax[5].plot(t, df["plant.i_mu"], label="|i_mu|")
     ax[5].set_ylabel("magnetizing current [A]")
+    if all(c in data for c in _LINK):
+        _link(ax, t, {c: np.asarray(data[c], dtype=float) for c in _LINK})
     ax[5].set_xlabel("time t [s]")
     for a in ax:
         a.grid(True, alpha=0.4)

@@ -15,10 +15,10 @@ import numpy as np
 
 from orchestration.scenario.recording import NEEDED, last_row_time, record_steps
 from satmotor.control.drive import RUN
-from satmotor.metrics import RunningMetrics
+from satmotor.metrics import LINK_SERIES, RunningMetrics
 
-__all__ = ["METRIC_COLUMNS", "FLAG_COLUMNS", "PSI_SET_COLUMN", "FIGURE_ROWS", "MetricsObserver", "FigureCopy",
-           "ss_window", "figure_step", "observers"]
+__all__ = ["METRIC_COLUMNS", "FLAG_COLUMNS", "LINK_COLUMNS", "link_on", "PSI_SET_COLUMN", "FIGURE_ROWS",
+           "MetricsObserver", "FigureCopy", "ss_window", "figure_step", "observers"]
 
 #: most rows the figure of a run shows (every k-th row beyond: the default scenario's 15 001, every 4th).
 #: The figure is 900 pixels wide; drawing costs memory: a figure of 8000 rows about 40 MB more than one
@@ -37,6 +37,13 @@ PHASE_COLUMN = "controller.phase"
 PSI_SET_COLUMN = "controller.psi_ref_shaped"
 FLAG_COLUMNS = {"voltage_limited": "controller.voltage_limited",
                 "current_limited": "controller.current_limited"}
+#: {series of satmotor.metrics.link_metrics: recorded column}, read when the plant's link is on
+LINK_COLUMNS = {k: f"plant.{k}" for k in LINK_SERIES}
+
+
+def link_on(scenario):
+    """Whether the scenario's plant has its DC link on (``dc_link: capacitor``): the link's metrics."""
+    return (getattr(scenario, "plant", None) or {}).get("dc_link") == "capacitor"
 
 
 def ss_window(scenario):
@@ -55,14 +62,16 @@ class MetricsObserver:
         self._flags = [(k, index[c]) for k, c in FLAG_COLUMNS.items()]
         self._phase = index[PHASE_COLUMN]
         self._psi_set = index.get(PSI_SET_COLUMN)
+        self._link = [(k, index[c]) for k, c in LINK_COLUMNS.items()] if link_on(scenario) else None
         t_last = last_row_time(scenario)
         w_final = scenario.profiles["omega_ref"].value(t_last)
-        self.metrics = RunningMetrics(t_last, w_final, ss_window(scenario))
+        self.metrics = RunningMetrics(t_last, w_final, ss_window(scenario), link=self._link is not None)
 
     def __call__(self, chunk):
         self.metrics.update(**{k: chunk[:, i] for k, i in self._cols + self._flags},
                             run=chunk[:, self._phase] == RUN,
-                            psi_set=None if self._psi_set is None else chunk[:, self._psi_set])
+                            psi_set=None if self._psi_set is None else chunk[:, self._psi_set],
+                            link=None if self._link is None else {k: chunk[:, i] for k, i in self._link})
 
     def times(self):
         """``[t_first, t_last]`` [s] of the rows seen (empty before the first)."""

@@ -20,6 +20,7 @@ bounds do.
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
 
 import numpy as np
@@ -27,11 +28,13 @@ import numpy as np
 from orchestration.results import atomic
 from orchestration.results.running import (
     FLAG_COLUMNS,
+    LINK_COLUMNS,
     METRIC_COLUMNS,
     PHASE_COLUMN,
     PSI_SET_COLUMN,
     FigureCopy,
     MetricsObserver,
+    link_on,
     observers,
     ss_window,
 )
@@ -52,7 +55,9 @@ def compute_metrics(df, scenario):
     return closed_loop_metrics(**{k: np.asarray(df[c]) for k, c in METRIC_COLUMNS.items()},
                                run=np.asarray(df[PHASE_COLUMN]) == RUN, ss_window=ss_window(scenario),
                                **{k: np.asarray(df[c]) for k, c in FLAG_COLUMNS.items()},
-                               psi_set=np.asarray(df[PSI_SET_COLUMN]) if PSI_SET_COLUMN in df else None)
+                               psi_set=np.asarray(df[PSI_SET_COLUMN]) if PSI_SET_COLUMN in df else None,
+                               link={k: np.asarray(df[c]) for k, c in LINK_COLUMNS.items()}
+                               if link_on(scenario) else None)
 
 
 def check_acceptance(metrics, scenario):
@@ -62,8 +67,9 @@ def check_acceptance(metrics, scenario):
     if acc is None or not metrics:
         return {}
     keys = ("ss_speed", "ss_flux", "overshoot_speed", "peak_current", "peak_current_run",
-            "final_overshoot_speed")
-    return acceptance(metrics, {key: getattr(acc, key) for key in keys})
+            "final_overshoot_speed", "peak_v_dc")
+    # peak_v_dc: a metric only with the plant's link on (a NaN, failing, without it)
+    return acceptance({"peak_v_dc": math.nan, **metrics}, {key: getattr(acc, key) for key in keys})
 
 
 def setpoint_status(metrics, times, scenario):

@@ -129,9 +129,10 @@ def system_structure(scenario, fmus, outputs, directory):
     FMU in ``fmus``.  ``outputs``: ``{unit: _Outputs}`` (their model descriptions).  Returns the
     path."""
     from orchestration.build.ssd import ssd_xml
+    from orchestration.scenario.system import connections_for
 
     path = Path(directory) / "SystemStructure.ssd"
-    path.write_bytes(ssd_xml(scenario, {u: o.md for u, o in outputs.items()},
+    path.write_bytes(ssd_xml(scenario, {u: o.md for u, o in outputs.items()}, connections_for(scenario.plant),
                              sources={u: Path(f).resolve().as_uri() for u, f in fmus.items()}))
     return path
 

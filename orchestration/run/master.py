@@ -47,7 +47,7 @@ from orchestration.run.recorder import Recorder
 from orchestration.run.result import RunResult, failure_message
 from orchestration.run.step_plans import evaluator, input_port
 from orchestration.scenario.recording import record_steps, recorded_columns
-from orchestration.scenario.system import CONTROLLER, DEFAULT_CONNECTIONS, PLANT, Connection
+from orchestration.scenario.system import CONTROLLER, DEFAULT_CONNECTIONS, PLANT, Connection, connections_for
 
 __all__ = ["run", "Connection", "DEFAULT_CONNECTIONS"]
 
@@ -61,7 +61,7 @@ class _NoStop:
     signum = 0
 
 
-def run(scenario, plant_fmu, controller_fmu, connections=DEFAULT_CONNECTIONS, algorithm=None,
+def run(scenario, plant_fmu, controller_fmu, connections=None, algorithm=None,
         unzip_dirs=None, recorder=None, stop=None, descriptions=None):
     """Run ``scenario`` (an :class:`orchestration.scenario.load.Scenario`) with the two FMU files.
 
@@ -73,6 +73,8 @@ def run(scenario, plant_fmu, controller_fmu, connections=DEFAULT_CONNECTIONS, al
     same FMUs many times.  Never raises for an FMU
     failure: the :class:`RunResult` says what happened.
     """
+    if connections is None:  # the default ones, with the link voltage for a capacitor link
+        connections = connections_for(scenario.plant)
     algorithm = algorithm or scenario.algorithm
     if algorithm not in ("gauss-seidel", "jacobi"):
         raise ValueError(f"algorithm = {algorithm!r}: must be gauss-seidel or jacobi")

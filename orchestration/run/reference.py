@@ -20,7 +20,7 @@ import pandas as pd
 
 from orchestration.run.measurement_noise import MeasurementNoise
 from orchestration.run.wiring import resolve
-from orchestration.scenario.system import CONTROLLER, DEFAULT_CONNECTIONS, PLANT, PROFILE
+from orchestration.scenario.system import CONTROLLER, DEFAULT_CONNECTIONS, LINK_VOLTAGE, PLANT, PROFILE
 from satmotor.interface import ControllerUnit, PlantUnit
 
 # co-simulation column -> plain-Python record key (satmotor.simulate.closed_loop's names)
@@ -38,11 +38,16 @@ COLUMNS = {
 }
 
 
-def _controller_inputs(profiles):
+def _controller_inputs(profiles, link=False):
     """``(plant values, t) -> the controller's inputs`` (order of ``ControllerUnit.INPUTS``), from
-    the default connections: plant outputs picked by index, profiles evaluated at ``t``."""
+    the default connections: plant outputs picked by index, profiles evaluated at ``t``; the last,
+    ``v_dc``, the plant's link voltage with ``link`` (``connections_for``: a capacitor link), else 0
+    (not connected)."""
     outputs = {PLANT: PlantUnit.OUTPUTS, CONTROLLER: ControllerUnit.OUTPUTS}
-    srcs = resolve(DEFAULT_CONNECTIONS, CONTROLLER, ControllerUnit.INPUTS, outputs, profiles)
+    if ControllerUnit.INPUTS[-1] != LINK_VOLTAGE:
+        raise ValueError(f"the reference expects {LINK_VOLTAGE} as the controller's last input")
+    i_link = PlantUnit.OUTPUTS.index(LINK_VOLTAGE)
+    srcs = resolve(DEFAULT_CONNECTIONS, CONTROLLER, ControllerUnit.INPUTS[:-1], outputs, profiles)
     if any(s.unit == CONTROLLER for s in srcs):
         raise ValueError("the reference expects the controller fed by the plant and the profiles only")
     n_p = sum(s.unit == PLANT for s in srcs)
@@ -52,7 +57,7 @@ def _controller_inputs(profiles):
     funcs = [s.ref for s in srcs[n_p:] if s.unit == PROFILE]
 
     def inputs(pv, t):
-        return (*pick(pv), *[f(t) for f in funcs])
+        return (*pick(pv), *[f(t) for f in funcs], pv[i_link] if link else 0.0)
 
     return inputs
 
@@ -65,7 +70,7 @@ def plain_reference(scenario):
     ctrl = ControllerUnit({**scenario.controller, "Ts": scenario.Ts})
     prof = {k: p.value for k, p in scenario.profiles.items()}
     load = prof["T_load"]
-    ctrl_inputs = _controller_inputs(prof)
+    ctrl_inputs = _controller_inputs(prof, link=scenario.plant.get("dc_link") == "capacitor")
     meas = getattr(scenario, "measurements", None)
     measure = MeasurementNoise(meas, PlantUnit.OUTPUTS) if meas is not None and meas.signals else None
     jacobi = scenario.algorithm == "jacobi"

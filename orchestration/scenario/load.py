@@ -71,7 +71,7 @@ TOP_KEYS = ("name", "description", "stop_time", "step", "controller_every", "alg
             "controller", "mismatch", "profiles", "record", "acceptance", "measurements", "sweep")
 RECORD_LEVELS = ("full", "decimated", "metrics")  # what a run keeps: orchestration.run.recorder
 ACCEPTANCE_KEYS = ("ss_speed", "ss_flux", "ss_window", "overshoot_speed", "peak_current", "peak_current_run",
-                   "final_overshoot_speed")
+                   "final_overshoot_speed", "peak_v_dc")
 _NAME = re.compile(r"[A-Za-z0-9_.-]+")
 _REL = 1e-9  # relative tolerance of "a multiple of step"
 #: libyaml's safe loader when PyYAML has it (the same documents, ten times faster: a sweep's variants
@@ -101,6 +101,7 @@ class Acceptance:
     peak_current: float | None = None  # [A] largest |i_s|
     peak_current_run: float | None = None  # [A] largest |i_s| once the law runs (the current limit)
     final_overshoot_speed: float | None = None  # [rad/s] beyond the final set-point after its last change
+    peak_v_dc: float | None = None  # [V] largest DC-link voltage (plant dc_link: capacitor)
 
 
 @dataclass(frozen=True)
@@ -286,7 +287,7 @@ def _acceptance(chk, raw, stop_time):
         return None
     vals = {}
     for key in ("ss_speed", "ss_flux", "overshoot_speed", "peak_current", "peak_current_run",
-                "final_overshoot_speed"):
+                "final_overshoot_speed", "peak_v_dc"):
         if key in raw:
             vals[key] = chk.number(raw[key], f"acceptance.{key}", low=0.0, strict=True)
     if "ss_window" in raw:

@@ -13,7 +13,8 @@ NEEDED = ("plant.omega_m", "plant.psi_r_alpha", "plant.psi_r_beta", "plant.i_s_a
           "controller.v_sq", "controller.e1", "controller.z1", "controller.W", "controller.T_load_est",
           "controller.phase", "controller.voltage_limited", "controller.current_limited",
           "controller.omega_ref_shaped", "controller.psi_ref_shaped", "controller.psi_r_hat_alpha",
-          "controller.psi_r_hat_beta")
+          "controller.psi_r_hat_beta",
+          "plant.v_dc", "plant.E_regen", "plant.E_chop", "plant.dc_fault")  # the DC link, last
 
 
 def recorded_columns(plant_outputs, controller_outputs, profile_names, measured=()):

@@ -29,8 +29,13 @@ class Connection:
     target: str
 
 
+# the DC-link voltage: the plant's output v_dc feeds the controller's input v_dc only when the scenario's
+# plant has a capacitor link (connections_for); unconnected, the controller uses its parameter V_dc
+LINK_VOLTAGE = "v_dc"
+LINK_CONNECTION = Connection(f"plant.{LINK_VOLTAGE}", f"controller.{LINK_VOLTAGE}")
 # the controller inputs the plant feeds (its measurements), in the controller FMU's input order
-MEASUREMENTS = tuple(v.name for v in CONTROLLER_INPUTS if v.name in {p.name for p in PLANT_OUTPUTS})
+MEASUREMENTS = tuple(v.name for v in CONTROLLER_INPUTS
+                     if v.name in {p.name for p in PLANT_OUTPUTS} and v.name != LINK_VOLTAGE)
 COLUMN_PREFIX = "measured."  # recorded column of a measured signal (after noise): measured.NAME
 DEFAULT_CONNECTIONS = tuple(
     [Connection(f"plant.{n}", f"controller.{n}") for n in MEASUREMENTS]
@@ -39,6 +44,14 @@ DEFAULT_CONNECTIONS = tuple(
        Connection("controller.v_s_beta", "plant.v_s_beta"),
        Connection("profile.T_load", "plant.T_load")]
 )
+
+
+def connections_for(plant_values):
+    """The connections of a scenario whose plant has the parameters ``plant_values``: the default ones,
+    and the link voltage (plant ``v_dc`` -> controller ``v_dc``) when ``dc_link`` is ``capacitor``."""
+    if plant_values.get("dc_link") == "capacitor":
+        return DEFAULT_CONNECTIONS + (LINK_CONNECTION,)
+    return DEFAULT_CONNECTIONS
 
 
 

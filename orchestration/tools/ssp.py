@@ -36,7 +36,7 @@ from orchestration.build import native_model_description as nmd
 from orchestration.build.native_build import PLATFORMS, ZIP_DATE
 from orchestration.build.ssd import COMPONENTS, RESOURCES, SIGNALS_UNIT, NotExpressible, ssd_xml
 from orchestration.results.atomic import describe
-from orchestration.scenario.system import CONTROLLER, DEFAULT_CONNECTIONS, PLANT
+from orchestration.scenario.system import CONTROLLER, PLANT, connections_for
 
 __all__ = ["NotExpressible", "NotWritable", "export", "check_expressible"]
 
@@ -107,11 +107,14 @@ def _write(scenario, fh, paths, platforms, connections, tmp):
                 z.writestr(info, content)
 
 
-def export(scenario, out, plant_fmu, controller_fmu, connections=DEFAULT_CONNECTIONS):
+def export(scenario, out, plant_fmu, controller_fmu, connections=None):
     """Write the SSP package of ``scenario`` to ``out``; returns its path.  Raises
     :class:`NotExpressible` (nothing written) for what SSP cannot express and :class:`NotWritable`
     when ``out`` cannot be written, both before anything is built; ``out`` is written to a temporary
-    file next to it and renamed at the end, so it is never left half-written."""
+    file next to it and renamed at the end, so it is never left half-written.  ``connections``: None,
+    the master's (``connections_for``: with the link voltage for a capacitor link)."""
+    if connections is None:
+        connections = connections_for(scenario.plant)
     paths = {PLANT: Path(plant_fmu), CONTROLLER: Path(controller_fmu)}
     native = all(read_model_description(str(p), validate=False).generationTool == nmd.GENERATION_TOOL
                  for p in paths.values())

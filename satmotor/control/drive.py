@@ -34,6 +34,7 @@ Start from standstill (the backstepping law is singular at Phi_rd = 0):
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 from typing import NamedTuple
@@ -204,6 +205,16 @@ class _Drive:
     def V_max(self):
         """Largest stator voltage magnitude [V] the law may apply: V_dc / sqrt(3)."""
         return self._V_max
+
+    def set_link_voltage(self, V_dc):
+        """Bound the voltage by a measured DC-link voltage ``V_dc`` [V] > 0 from the next sample on:
+        ``V_max = V_dc / sqrt(3)`` for the pre-magnetization, the law and the field weakening (the plant's
+        link voltage, read by the controller unit's ``v_dc`` input; C: ``sm_drive_set_link_voltage``)."""
+        self._V_max = V_max = V_dc / _SQRT3
+        if self._fw is not None:  # as FieldWeakening.__init__
+            self._fw.V_lim = V_max * self.dcfg.fw_voltage_ratio
+            self._fw.V_bd = 0.5 * (self._fw.V_lim + V_max)
+        self._set_law_voltage(V_dc)
 
     def reset(self):
         self._phase = PREMAG
@@ -416,6 +427,9 @@ class BacksteppingDrive(_Drive):
         self._theta_hat = 0.0
         self._e0 = self._z0 = 0.0
 
+    def _set_law_voltage(self, V_dc):
+        self.cfg = dataclasses.replace(self.cfg, V_dc=V_dc)
+
     def _on_switch(self, ms):
         pass
 
@@ -462,6 +476,9 @@ class IFOCDrive(_Drive):
 
     def _reset_law(self):
         self.ifoc.reset()
+
+    def _set_law_voltage(self, V_dc):
+        self.ifoc.set_link_voltage(V_dc)
 
     def _on_switch(self, ms):
         if self._L_m_auto:  # _checked: the raw set-point of this sample and its magnetizing current

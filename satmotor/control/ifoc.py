@@ -193,6 +193,11 @@ class IFOCController:
         self._kiT_i = self.Ki_i * Ts
         self._phi_gain = -math.expm1(-Ts / self.tau_r)
 
+    def set_link_voltage(self, V_dc):
+        """The voltage bound ``V_dc / sqrt(3)`` from a measured DC-link voltage [V] > 0 (as __init__)."""
+        self.V_max = V_dc / math.sqrt(3.0)
+        self._V_max2 = self.V_max * self.V_max
+
     def reset(self, theta_f=0.0, phi_r=0.0):
         """Zero the speed integrator and q integrator; start the flux model at ``phi_r`` [Wb]
         and the frame at ``theta_f`` [rad] (the rotor-flux angle of the plant).

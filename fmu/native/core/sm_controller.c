@@ -119,6 +119,7 @@ int sm_controller_init(sm_controller *u, const sm_controller_params *v, const sm
     }
     u->Ts = v->Ts;
     u->stop_time = INFINITY;
+    u->V_dc = u->link = v->V_dc;
     for (j = 0; j < SM_CONTROLLER_N_OUT; ++j) {
         u->out[j] = 0.0;
     }
@@ -237,6 +238,19 @@ static int step_samples(sm_controller *u, double t, double dt, const double in[S
             if ((st = sm_require_number(SM_CONTROLLER_INPUT_NAMES[j], in[j], 0, 0.0, 0, msg, msg_len))) {
                 return st;
             }
+        }
+    }
+    { /* the link voltage (ControllerUnit.step): held over the step, so set once per step */
+        double v_dc = in[SM_CONTROLLER_IN_v_dc], link;
+        if (v_dc < 0.0) {
+            char repr[32];
+            return sm_param_error(msg, msg_len, NULL, "v_dc", sm_repr_double(v_dc, repr, sizeof repr),
+                                  "must be >= 0 (0: not connected, the parameter V_dc is used)");
+        }
+        link = v_dc > 0.0 ? v_dc : u->V_dc;
+        if (link != u->link) {
+            sm_drive_set_link_voltage(&u->drive, link);
+            u->link = link;
         }
     }
     if (n == 1) {

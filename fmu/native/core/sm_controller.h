@@ -21,6 +21,7 @@ typedef struct {
     sm_drive drive;
     int has_warning;  /* a warning for the host's log is in warning (the FMU logs it and clears the flag) */
     char warning[256];
+    double V_dc, link; /* [V] the parameter V_dc; the link voltage the drive now uses (the v_dc input) */
     double Ts;
     double stop_time; /* the host's stop time [s], +inf when it gave none (set after sm_controller_init);
                        * the tests find it just before out */

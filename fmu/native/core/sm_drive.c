@@ -158,6 +158,21 @@ int sm_drive_init(sm_drive *d, sm_mode mode, const sm_motor *p, const sm_gains *
     return SM_CORE_OK;
 }
 
+void sm_drive_set_link_voltage(sm_drive *d, double V_dc)
+{
+    d->V_max = V_dc / sqrt(3.0);
+    if (d->dc.field_weakening) { /* as sm_fw_init */
+        d->fw.V_lim = d->V_max * d->dc.fw_voltage_ratio;
+        d->fw.V_bd = 0.5 * (d->fw.V_lim + d->V_max);
+    }
+    if (d->mode == SM_MODE_PI) { /* IFOCController.set_link_voltage */
+        d->ifoc.V_max = V_dc / sqrt(3.0);
+        d->ifoc.V_max2 = d->ifoc.V_max * d->ifoc.V_max;
+    } else {
+        d->cfg.V_dc = V_dc;
+    }
+}
+
 void sm_drive_reset(sm_drive *d)
 {
     d->phase = SM_PREMAG;

@@ -81,6 +81,9 @@ typedef struct {
 int sm_drive_init(sm_drive *d, sm_mode mode, const sm_motor *p, const sm_gains *g, const sm_law_config *cfg,
                   const sm_ifoc_gains *ig, const sm_drive_config *dc, char *msg, size_t msg_len);
 void sm_drive_reset(sm_drive *d);
+/* _Drive.set_link_voltage: V_max = V_dc / sqrt(3) [V] from a measured link voltage V_dc > 0 for the
+ * pre-magnetization, the law (cfg.V_dc, or the IFOC's bound) and the field weakening. */
+void sm_drive_set_link_voltage(sm_drive *d, double V_dc);
 /* One sample (drive._Drive.step): meas[SM_MEAS_LEN] = (i_s_alpha, i_s_beta, psi_r_alpha, psi_r_beta,
  * psi_s_alpha, psi_s_beta, omega_m), the controller's first inputs in their order; the raw set-points
  * omega_ref [rad/s], psi_ref [Wb] (shaped inside: omega_ref_shaped, psi_ref_shaped); load torque [N m].

@@ -1,0 +1,196 @@
+/* satmotor/machine/dc_link.py in C99 (see sm_dclink.h). */
+#include "sm_dclink.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+
+#define SM_DCLINK_PI 3.141592653589793 /* math.pi */
+
+static int one_of(const char *field, const char *value, const char *a, const char *b, int *is_a, char *msg,
+                  size_t msg_len)
+{
+    char rep[SM_STR_MAX + 8], reason[64];
+    if (strcmp(value, a) == 0 || strcmp(value, b) == 0) {
+        *is_a = strcmp(value, a) == 0;
+        return SM_CORE_OK;
+    }
+    snprintf(reason, sizeof reason, "must be one of %s, %s", a, b);
+    return sm_param_error(msg, msg_len, NULL, field, sm_repr_str(value, rep, sizeof rep), reason);
+}
+
+int sm_dclink_init(sm_dclink *l, const sm_dclink_params *pp, char *msg, size_t msg_len)
+{
+    sm_dclink q;
+    const char *names[] = {"V_dc", "C_dc", "R_src", "V_grid", "f_grid"};
+    double vals[5];
+    int i = 0, st;
+    if (msg != NULL && msg_len > 0) msg[0] = '\0';
+    if (l == NULL || pp == NULL) return SM_ERR_ARG;
+    if (sm_dclink_params_require_finite(pp, msg, msg_len)) return SM_ERR_PARAM;
+    memset(&q, 0, sizeof q);
+    if ((st = one_of("dc_link", pp->dc_link, "ideal", "capacitor", &i, msg, msg_len)) != SM_CORE_OK) return st;
+    q.capacitor = !i;
+    if ((st = one_of("dc_source", pp->dc_source, "dc", "rectifier", &q.src_dc, msg, msg_len)) != SM_CORE_OK)
+        return st;
+    vals[0] = pp->V_dc;
+    vals[1] = pp->C_dc;
+    vals[2] = pp->R_src;
+    vals[3] = pp->V_grid;
+    vals[4] = pp->f_grid;
+    for (i = 0; i < 5; ++i)
+        if (sm_require_number(names[i], vals[i], 1, 0.0, 0, msg, msg_len)) return SM_ERR_PARAM;
+    if (sm_require_number("R_chop", pp->R_chop, 1, 0.0, 1, msg, msg_len)) return SM_ERR_PARAM;
+    if (sm_require_number("V_dc_max", pp->V_dc_max, 1, 0.0, 1, msg, msg_len)) return SM_ERR_PARAM;
+    if (pp->R_chop > 0.0) {
+        if (sm_require_number("V_chop_on", pp->V_chop_on, 1, 0.0, 0, msg, msg_len)) return SM_ERR_PARAM;
+        if (sm_require_number("V_chop_off", pp->V_chop_off, 1, 0.0, 0, msg, msg_len)) return SM_ERR_PARAM;
+        if (!(pp->V_chop_off < pp->V_chop_on)) {
+            char v[40], on[40], reason[96];
+            snprintf(reason, sizeof reason, "must be below V_chop_on = %s V (the hysteresis)",
+                     sm_repr_double(pp->V_chop_on, on, sizeof on));
+            return sm_param_error(msg, msg_len, NULL, "V_chop_off", sm_repr_double(pp->V_chop_off, v, sizeof v),
+                                  reason);
+        }
+    }
+    q.V_dc = pp->V_dc;
+    q.C_dc = pp->C_dc;
+    q.R_src = pp->R_src;
+    q.V_grid = pp->V_grid;
+    q.f_grid = pp->f_grid;
+    q.V_chop_on = pp->V_chop_on;
+    q.V_chop_off = pp->V_chop_off;
+    q.R_chop = pp->R_chop;
+    q.V_dc_max = pp->V_dc_max;
+    /* DCLink.__init__ */
+    q.inv_R_src = 1.0 / q.R_src;
+    q.inv_C = 1.0 / q.C_dc;
+    q.chop_enabled = q.R_chop > 0.0;
+    q.inv_R_chop = q.chop_enabled ? 1.0 / q.R_chop : 0.0;
+    q.amp = sqrt(2.0) * q.V_grid;
+    q.omega_g = 2.0 * SM_DCLINK_PI * q.f_grid;
+    q.third = SM_DCLINK_PI / 3.0;
+    q.sixth = SM_DCLINK_PI / 6.0;
+    memcpy(l, &q, sizeof q);
+    return SM_CORE_OK;
+}
+
+size_t sm_dclink_size(void)
+{
+    return sizeof(sm_dclink);
+}
+
+double sm_dclink_source_voltage(const sm_dclink *l, double t)
+{
+    double theta, phi;
+    if (l->src_dc) return l->V_dc;
+    theta = l->omega_g * t;
+    phi = theta - l->third * floor(theta / l->third) - l->sixth;
+    return l->amp * cos(phi);
+}
+
+void sm_dclink_applied(double v_a, double v_b, double v_dc, double *out_a, double *out_b)
+{
+    double vmax, vn, g;
+    if (!(v_dc > 0.0)) {
+        *out_a = 0.0;
+        *out_b = 0.0;
+        return;
+    }
+    vmax = v_dc / sqrt(3.0);
+    vn = sm_hypot(v_a, v_b);
+    if (vn > vmax) {
+        g = vmax / vn;
+        *out_a = v_a * g;
+        *out_b = v_b * g;
+        return;
+    }
+    *out_a = v_a;
+    *out_b = v_b;
+}
+
+int sm_dclink_derivatives(const sm_motor *p, const sm_dclink *l, double t, const double x[SM_N_LINK_STATES],
+                          double v_a, double v_b, double T_load, int chop, double dx[SM_N_LINK_STATES])
+{
+    sm_plant_outputs o;
+    double va, vb, v_dc, p_inv, i_dc, i_src, i_chop;
+    int st, i;
+    if (p == NULL || l == NULL || x == NULL || dx == NULL) return SM_ERR_ARG;
+    v_dc = x[SM_V_DC];
+    sm_dclink_applied(v_a, v_b, v_dc, &va, &vb);
+    st = sm_plant_outputs_of(p, x, &o);
+    if (st == SM_CORE_OK) st = sm_plant_derivatives(p, x, va, vb, T_load, dx);
+    if (st != SM_CORE_OK || !isfinite(v_dc)) {
+        for (i = 0; i < SM_N_LINK_STATES; ++i) dx[i] = NAN;
+        return st != SM_CORE_OK ? st : SM_ERR_NONFINITE;
+    }
+    p_inv = 1.5 * (va * o.i_s_alpha + vb * o.i_s_beta);
+    i_dc = v_dc > 0.0 ? p_inv / v_dc : 0.0;
+    i_src = (sm_dclink_source_voltage(l, t) - v_dc) * l->inv_R_src;
+    if (!(i_src > 0.0)) i_src = 0.0;
+    i_chop = chop ? v_dc * l->inv_R_chop : 0.0;
+    dx[SM_V_DC] = (i_src - i_dc - i_chop) * l->inv_C;
+    dx[SM_E_REGEN] = p_inv < 0.0 ? -p_inv : 0.0;
+    dx[SM_E_CHOP] = v_dc * i_chop;
+    for (i = SM_N_STATES; i < SM_N_LINK_STATES; ++i)
+        if (!isfinite(dx[i])) return SM_ERR_NONFINITE;
+    return SM_CORE_OK;
+}
+
+int sm_dclink_switch(const sm_dclink *l, double v_dc, int chop)
+{
+    if (!l->chop_enabled) return 0;
+    if (v_dc > l->V_chop_on) return 1;
+    if (v_dc < l->V_chop_off) return 0;
+    return chop;
+}
+
+int sm_dclink_step(const sm_motor *p, const sm_dclink *l, double t, double x[SM_N_LINK_STATES], double v_a,
+                   double v_b, double T_load, double dt, int n_sub, int *chop, int *fault, double *t_fault)
+{
+    enum { N = SM_N_LINK_STATES };
+    double xc[N], xt[N], k1[N], k2[N], k3[N], k4[N], h, half, sixth, tj;
+    int j, i, st, c, f;
+    if (p == NULL || l == NULL || x == NULL || chop == NULL || fault == NULL || t_fault == NULL || n_sub < 1)
+        return SM_ERR_ARG;
+    *t_fault = NAN;
+    if (!isfinite(dt)) return SM_ERR_NONFINITE;
+    h = dt / (double)n_sub;
+    half = 0.5 * h;
+    sixth = h / 6.0;
+    c = *chop;
+    f = *fault;
+    memcpy(xc, x, sizeof xc);
+    for (j = 0; j < n_sub; ++j) {
+        tj = t + (double)j * h;
+        if ((st = sm_dclink_derivatives(p, l, tj, xc, v_a, v_b, T_load, c, k1)) != SM_CORE_OK) return st;
+        for (i = 0; i < N; ++i) xt[i] = xc[i] + half * k1[i];
+        if ((st = sm_dclink_derivatives(p, l, tj + half, xt, v_a, v_b, T_load, c, k2)) != SM_CORE_OK) return st;
+        for (i = 0; i < N; ++i) xt[i] = xc[i] + half * k2[i];
+        if ((st = sm_dclink_derivatives(p, l, tj + half, xt, v_a, v_b, T_load, c, k3)) != SM_CORE_OK) return st;
+        for (i = 0; i < N; ++i) xt[i] = xc[i] + h * k3[i];
+        if ((st = sm_dclink_derivatives(p, l, tj + h, xt, v_a, v_b, T_load, c, k4)) != SM_CORE_OK) return st;
+        for (i = 0; i < N; ++i) xc[i] = xc[i] + sixth * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]);
+        c = sm_dclink_switch(l, xc[SM_V_DC], c);
+        if (!f && l->V_dc_max > 0.0 && xc[SM_V_DC] > l->V_dc_max) {
+            f = 1;
+            *t_fault = tj + h;
+        }
+    }
+    for (i = 0; i < N; ++i)
+        if (!isfinite(xc[i])) return SM_ERR_NONFINITE;
+    memcpy(x, xc, sizeof xc);
+    *chop = c;
+    *fault = f;
+    return SM_CORE_OK;
+}
+
+void sm_dclink_over_voltage_message(double t, double v_dc, double V_dc_max, char *msg, size_t msg_len)
+{
+    char a[40], b[40], c[40];
+    if (msg == NULL || msg_len == 0) return;
+    snprintf(msg, msg_len, "SaturatedInductionMotor: DC-link over-voltage at t = %s s: v_dc = %s V exceeds "
+             "V_dc_max = %s V; dc_fault is set and the simulation goes on (logged once per run)",
+             sm_repr_double(t, a, sizeof a), sm_repr_double(v_dc, b, sizeof b),
+             sm_repr_double(V_dc_max, c, sizeof c));
+}
