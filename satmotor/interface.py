@@ -541,6 +541,9 @@ class ControllerUnit:
             inputs = (*inputs[:MEAS_OMEGA_M], 0.0, *inputs[MEAS_OMEGA_M + 1:])
         if not math.isfinite(sum(inputs)):  # per-step fast path, as in PlantUnit.step
             _finite_inputs(self.INPUTS, inputs)
+        if len(inputs) != len(self.INPUTS):  # a caller written for fewer inputs: said, not misread
+            raise ParameterError("inputs", len(inputs), f"must be {len(self.INPUTS)} values, in the order "
+                                 f"{', '.join(self.INPUTS)}")
         v_dc = inputs[-1]  # the link voltage: held over the step, so set once per step
         if v_dc < 0.0:
             raise ParameterError("v_dc", v_dc, "must be >= 0 (0: not connected, the parameter V_dc is used)")

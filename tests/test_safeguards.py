@@ -73,7 +73,7 @@ def _closed_loop(ctrl, plant, stop, w_ref, load, host_delay=0):
     for k in range(n):
         t = k * Ts
         o = P.outputs()
-        C.step(t, Ts, (o[0], o[1], o[4], o[5], o[2], o[3], o[6], w_ref(t), 0.95, load(t)))
+        C.step(t, Ts, (o[0], o[1], o[4], o[5], o[2], o[3], o[6], w_ref(t), 0.95, load(t), 0.0))  # v_dc: none
         co = C.outputs()
         fifo.append((co[0], co[1]))
         va, vb = fifo.pop(0)
@@ -122,7 +122,7 @@ def test_the_warning_when_the_limit_cannot_be_held_is_logged_by_every_controller
     def inputs(k):
         a = 2.0 * math.pi * 5.0 * k * Ts
         return (20.0 * math.cos(a), 20.0 * math.sin(a), 0.95 * math.cos(a), 0.95 * math.sin(a), 0.0, 0.0,
-                10.0, 10.0, 0.95, 0.0)
+                10.0, 10.0, 0.95, 0.0, 0.0)  # the last: v_dc, not connected
 
     unit = ControllerUnit(values)
     want = []
