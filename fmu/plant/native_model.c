@@ -15,6 +15,7 @@ typedef struct {
     sm_values v; /* first: the generated value store */
     sm_motor p;
     double x[SM_N_STATES];
+    sm_solve_memo memo; /* the outputs' solve at x, reused by the next step's first stage */
     int ready;
     int warned[3]; /* a plausibility warning of |v_s|, |i_s|, |omega_m| was logged in this run */
 } plant_data;
@@ -59,7 +60,7 @@ static void publish(plant_data *d)
 {
     sm_plant_outputs o;
     double *r = d->v.r;
-    if (sm_plant_outputs_of(&d->p, d->x, &o) != 0) {
+    if (sm_plant_outputs_memo(&d->p, &d->memo, d->x, &o) != 0) {
         o.i_s_alpha = o.i_s_beta = o.T_e = o.i_mu = NAN;
     }
     r[SM_VR_i_s_alpha] = o.i_s_alpha;
@@ -112,6 +113,7 @@ fg_status fg_model_exit_initialization(fg_instance *inst, void *data, double sta
         d->x[st] = d->p.x0[st];
     }
     d->ready = 1;
+    sm_solve_memo_clear(&d->memo);
     publish(d);
     return FG_OK;
 }
@@ -145,7 +147,7 @@ fg_status fg_model_do_step(fg_instance *inst, void *data, double t, double h)
     for (j = 0; j < SM_N_STATES; ++j) {
         x[j] = d->x[j];
     }
-    st = sm_plant_step(&d->p, x, r[SM_VR_v_s_alpha], r[SM_VR_v_s_beta], r[SM_VR_T_load], h, n_sub);
+    st = sm_plant_step_memo(&d->p, &d->memo, x, r[SM_VR_v_s_alpha], r[SM_VR_v_s_beta], r[SM_VR_T_load], h, n_sub);
     if (st != 0) {
         double y[SM_N_STATES];
         for (j = 0; j < SM_N_STATES; ++j) {
