@@ -27,9 +27,12 @@ and the stepping loop here.
 
 from __future__ import annotations
 
+import gc
 import time
 from ctypes import c_double
+from struct import Struct
 
+import numpy as np
 from fmpy.fmi1 import FMICallException
 
 from orchestration.process.interrupts import signal_name
@@ -139,13 +142,29 @@ def run(scenario, plant_fmu, controller_fmu, connections=DEFAULT_CONNECTIONS, al
 def _loop(sc, jacobi, plant, ctrl, p_out, c_out, c_disc, connections, profiles, rec, stop, measure=None):
     """The stepping loop; returns (the last communication point reached [s], whether the run
     reached its stop time).  A failing doStep raises FMICallException tagged with the unit and the
-    time (:meth:`FMUInstance.step_failed`).  The FMI functions are called through private ctypes
-    pointers declaring no argument types (:meth:`FMUInstance.fast`) with argument tuples made once:
-    the communication point is one ``c_double`` whose value is set once per step and shared by both
-    units; the profiles are evaluated once per step (pure functions of t); every value exchanged is
-    a plain float.  The controller's Integer and Boolean outputs (``c_disc``) follow its Reals in
-    each row (stored as float64, as every column).  Rows go straight to the recorder's current chunk
-    (:attr:`Recorder.rows`), flushed every :attr:`Recorder.chunk_rows` rows.
+    time (:meth:`FMUInstance.step_failed`).  The garbage collector is off while it runs (the loop
+    makes no reference cycle; it is switched back on, if it was on, when the loop ends)."""
+    enabled = gc.isenabled()
+    gc.disable()
+    try:
+        return _steps(sc, jacobi, plant, ctrl, p_out, c_out, c_disc, connections, profiles, rec, stop,
+                      measure)
+    finally:
+        if enabled:
+            gc.enable()
+
+
+def _steps(sc, jacobi, plant, ctrl, p_out, c_out, c_disc, connections, profiles, rec, stop, measure):
+    """:func:`_loop`'s steps.  The FMI functions are called through private ctypes pointers declaring
+    no argument types (:meth:`FMUInstance.fast`) with argument tuples made once: the communication
+    point is one ``c_double`` whose value is set once per step and shared by both units; the profiles
+    are evaluated once per step (pure functions of t).  The outputs stay in the ports' ctypes arrays:
+    the inputs are picked from them (:func:`~orchestration.run.step_plans.input_port`), and each
+    recorded row is those arrays' bytes appended to the recorder's raw chunk
+    (:meth:`Recorder.raw_rows`: time, plant Reals, controller Reals, Integers, Booleans, then the
+    profiles and the measured signals packed as doubles), flushed every :attr:`Recorder.chunk_rows`
+    rows: no Python float per recorded value.  The controller's Integer and Boolean outputs
+    (``c_disc``) follow its Reals in each row (stored as float64, as every column).
     ``measure``: None, or a :class:`MeasurementNoise` giving, at each controller sample, the plant
     outputs as the controller receives them and the row of measured values."""
     h, N = sc.step, sc.controller_every
@@ -164,15 +183,18 @@ def _loop(sc, jacobi, plant, ctrl, p_out, c_out, c_disc, connections, profiles, 
     ps, cs, p_invals, c_invals = p_in.set_args, c_in.set_args, p_in.values, c_in.values
     get_i, get_b, ia, ba = c_disc.get_int, c_disc.get_bool, c_disc.int_args, c_disc.bool_args
     ivals, bvals = c_disc.int_values, c_disc.bool_values
-    if ia is None or ba is None:  # a controller without Integer or Boolean outputs: the general path
-        get_i = get_b = None
     evaluate = evaluator(prof)
-    pv, cv = p_out.read()[:], c_out.read()[:] + c_disc.read()  # new lists after each read
-    held = cv  # controller outputs seen by the plant (Jacobi: one sample old)
+    p_out.read()
+    c_out.read()
+    c_disc.read()  # the initial values, in the ports' arrays
+    held = cvals[:] if jacobi else cvals  # controller outputs seen by the plant (Jacobi: one sample old)
     mrow = ()  # the measured signals' values at the last sample (recorded after the profiles)
+    nm = len(measure.columns) if measure is not None else 0
+    pack = Struct(f"<{len(prof) + nm}d").pack
+    raw = rec.raw_rows((("<f8", 1 + p_out.n + c_out.n), (np.dtype(type(ivals)._type_), len(ivals)),
+                        (np.dtype(type(bvals)._type_), len(bvals)), ("<f8", len(prof) + nm)))
     t0, t = 0.0, 0.0
-    rows, chunk = rec.rows, rec.chunk_rows
-    append, left = rows.append, chunk
+    left = chunk = rec.chunk_rows
     for k in range(n + 1):
         t = t0 + k * h
         T.value = t
@@ -181,42 +203,43 @@ def _loop(sc, jacobi, plant, ctrl, p_out, c_out, c_disc, connections, profiles, 
             if stop.signum:
                 return t, False
             if measure is None:
-                c_invals[:] = c_values(pv, held, fv)
+                c_invals[:] = c_values(pvals, held, fv)
             else:
-                mv, mrow = measure(pv)
+                mv, mrow = measure(pvals[:])
                 c_invals[:] = c_values(mv, held, fv)
             r = set_c(*cs)
             if r > 1:
                 check(calls_c["set_real"], r)
             if jacobi:
-                held = cv  # the previous sample's voltages
+                held = cvals[:]  # the previous sample's voltages
             r = step_c(*sc_args)
             if r > 1:
                 ctrl.step_failed(r, t)
             r = get_c(*cg)
             if r > 1:
                 check(calls_c["get_real"], r)
-            if get_i is not None:
+            if ia is not None:
                 r = get_i(*ia)
                 if r > 1:
                     check(calls_c["get_int"], r)
+            if ba is not None:
                 r = get_b(*ba)
                 if r > 1:
                     check(calls_c["get_bool"], r)
-                cv = cvals[:] + ivals[:] + bvals[:]
-            else:
-                cv = cvals[:] + c_disc.read()
-            if not jacobi:
-                held = cv
         if k % every == 0:
-            append((t, *pv, *cv, *fv, *mrow))
+            raw += T
+            raw += pvals
+            raw += cvals
+            raw += ivals
+            raw += bvals
+            raw += pack(*fv, *mrow)
             left -= 1
             if not left:
-                rec.flush()  # empties rows in place
+                rec.flush()  # empties raw in place
                 left = chunk
         if k == n:
             break
-        p_invals[:] = p_values(pv, held, fv)
+        p_invals[:] = p_values(pvals, held, fv)
         r = set_p(*ps)
         if r > 1:
             check(calls_p["set_real"], r)
@@ -226,5 +249,4 @@ def _loop(sc, jacobi, plant, ctrl, p_out, c_out, c_disc, connections, profiles, 
         r = get_p(*pg)
         if r > 1:
             check(calls_p["get_real"], r)
-        pv = pvals[:]
     return t, True
