@@ -56,17 +56,22 @@ class Recorder:
         self.every = max(1, int(every))
         self._skip = 0  # rows to drop before the next kept one (every > 1)
         self.raw = None  # bytearray of raw rows (raw_rows), else None
-        self._raw_dtype = self._raw_fields = None
+        self._raw_dtype = self._raw_fields = self._raw_order = None
 
-    def raw_rows(self, layout):
+    def raw_rows(self, layout, order=None):
         """Take rows as bytes from now on and return the ``bytearray`` the loop extends with each
-        row: ``layout`` lists the row's segments in column order as ``(numpy type, count)``, e.g.
+        row: ``layout`` lists the row's segments as ``(numpy type, count)``, e.g.
         ``(("<f8", 35), ("<i4", 4), ("<f8", 3))``; integer and boolean values are stored as float64
-        (a boolean byte as 0.0 or 1.0) like every column.  :meth:`flush` empties it in place."""
+        (a boolean byte as 0.0 or 1.0) like every column.  ``order``: None (the values are in column
+        order), or for each column the position of its value in the raw row.  :meth:`flush` empties
+        it in place."""
         layout = [(np.dtype(t), int(n)) for t, n in layout if int(n) > 0]
         width = sum(n for _, n in layout)
         if width != len(self._all):
             raise ValueError(f"raw row layout of {width} values for {len(self._all)} columns")
+        if order is not None and sorted(order) != list(range(width)):
+            raise ValueError("raw row order: not a permutation of the columns")
+        self._raw_order = None if order is None or list(order) == list(range(width)) else np.asarray(order)
         self._raw_fields = [(f"f{i}", t, n) for i, (t, n) in enumerate(layout)]
         self._raw_dtype = np.dtype([(name, t, (n,)) for name, t, n in self._raw_fields])
         self.raw = bytearray()
@@ -82,7 +87,7 @@ class Recorder:
         for name, t, n in self._raw_fields:
             a[:, col:col + n] = (rec[name] != 0) if t.kind == "b" else rec[name]
             col += n
-        return a
+        return a if self._raw_order is None else a[:, self._raw_order]
 
     def _clear(self):
         self.rows.clear()
