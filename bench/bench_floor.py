@@ -179,6 +179,7 @@ def main(argv=None):
         load1 = loadavg()
     us = {key: (c / a.steps * 1e6, w / a.steps * 1e6) for key, (c, w) in best.items()}
     heads = {name: git_head(root) for name, (root, _) in checkouts.items()}
+    heads = {name: h if h != "?" else checkouts[name][0].name for name, h in heads.items()}  # not in git
     env = (f"{datetime.date.today().isoformat()}, Python {platform.python_version()}, CPU: {cpu_model()} "
            f"({os.cpu_count()} cores, shared), load average {load0:.2f} -> {load1:.2f}")
     rows = []
