@@ -263,7 +263,8 @@ def _chained(sc, plant, ctrl, c_chain, p_chain, c_disc, n_prof, rec, stop, T, ev
              ctrl_step):
     """:func:`_steps` for Gauss-Seidel without measurements, the ports wired through memory
     (:func:`~orchestration.run.step_plans.chained_port`): the plant's get call writes the controller's
-    inputs and the controller's get call the plant's, the loop writes only the profile-fed inputs.  The
+    inputs and the controller's get call the plant's, the loop writes only the profile-fed inputs (when
+    a profile's value changed).  The
     same calls in the same order with the same values as :func:`_steps`; the rows are recorded from the
     chains' buffers (outputs in the chains' order, put back in column order per chunk)."""
     h, N = sc.step, sc.controller_every
@@ -291,14 +292,19 @@ def _chained(sc, plant, ctrl, c_chain, p_chain, c_disc, n_prof, rec, stop, T, ev
                         (np.dtype(type(bvals)._type_), len(bvals)), ("<f8", n_prof)), order)
     t0, t = 0.0, 0.0
     left = chunk = rec.chunk_rows
+    last = None  # the profile values (as bytes) last written to the profile-fed inputs
     for k in range(n + 1):
         t = t0 + k * h
         T.value = t
         fv = evaluate(t)
+        packed = pack(*fv)
+        if packed != last:  # rewritten only when a value changed, compared bit for bit
+            last = packed
+            c_prof[:] = pick_c(fv)  # read by the controller's next set, at its next sample
+            p_prof[:] = pick_p(fv)
         if k % N == 0:
             if stop.signum:
                 return t, False
-            c_prof[:] = pick_c(fv)
             r = set_c(*cs)
             if r > 1:
                 check(calls_c["set_real"], r)
@@ -322,14 +328,13 @@ def _chained(sc, plant, ctrl, c_chain, p_chain, c_disc, n_prof, rec, stop, T, ev
             raw += c_rec
             raw += ivals
             raw += bvals
-            raw += pack(*fv)
+            raw += packed
             left -= 1
             if not left:
                 rec.flush()  # empties raw in place
                 left = chunk
         if k == n:
             break
-        p_prof[:] = pick_p(fv)
         r = set_p(*ps)
         if r > 1:
             check(calls_p["set_real"], r)
