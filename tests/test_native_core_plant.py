@@ -560,3 +560,90 @@ def test_under_address_and_undefined_behaviour_sanitizers(tmp_path, table_csv):
     report = res.stdout + res.stderr
     assert res.returncode == 0 and "SANITIZED RUN OK" in res.stdout, report[:4000]
     assert "AddressSanitizer" not in report and "runtime error" not in report, report[:4000]
+
+
+def _residual_ok(py, a, c, I, psi):
+    """``a I + psi(I) = c`` holds at the root to a few ulps of c (the curve evaluated anew)."""
+    eps, p = np.finfo(float).eps, py.psi(I)
+    return abs(a * I + p - c) <= 8 * eps * c and abs(psi - p) <= 8 * eps * p
+
+
+def test_warm_started_solve_is_bit_identical_in_c_and_agrees_with_the_cold_root(lib, table_csv):
+    """curve.solve(a, c, guess) and sm_curve_solve_from: the same floats for every guess (above and below
+    the root, below the lower bound, 0, NaN, inf); the warm root solves the equation as the cold one
+    does (residual checked by evaluating the curve anew) and differs from it by no more than the
+    equation's own rounding allows: a few ulps of c divided by the slope a + L_dyn(I)."""
+    rng = np.random.default_rng(2026)
+    D = ctypes.c_double
+    le = MotorParams().l_e
+    for name, kw in curve_cases(table_csv):
+        py = make_curve(name, **kw)
+        c = c_curve(lib, name, kw)
+        I, psi = D(), D()
+        got, ref, spread = [], [], 0
+        for _ in range(400):
+            a = float(rng.choice([0.0, le, rng.uniform(0.0, 0.05)]))
+            cc = float(rng.uniform(1e-6, 2.5))
+            cold = py.solve(a, cc)
+            for guess in (cold[0] * (1 + rng.uniform(-0.05, 0.05)), cold[0] * (1 + rng.uniform(-1e-6, 1e-6)),
+                          cold[0], 2.0 * cold[0] + 1.0, 1e-9, 0.0, math.nan, math.inf):
+                assert lib.sm_curve_solve_from(c, a, cc, guess, I, psi) == 0
+                warm = py.solve(a, cc, guess)
+                got.append((I.value, psi.value))
+                ref.append(warm)
+                assert _residual_ok(py, a, cc, *warm), (name, a, cc, guess, warm)
+                bound = 8 * np.finfo(float).eps * cc / (a + py.L_dyn(cold[0]))
+                spread = max(spread, abs(warm[0] - cold[0]) / bound)
+        assert got == ref, f"{name}: C and Python warm starts differ"
+        print(f"{name}: warm root within {spread:.3g} of the rounding bound of the cold one")
+        assert spread <= 1, f"{name}: a warm root {spread:.3g} times the rounding bound from the cold one"
+
+
+def test_plant_step_warm_stages_agree_with_cold_rk4_and_depend_on_the_step_only(lib, table_csv):
+    """Plant.step warm-starts the solves of RK4 stages 2-4: against the all-cold RK4 of the same
+    derivatives (integrate.rk4 without the warm list) the state differs by rounding only; a step of
+    n h in n sub-steps is n steps of h to the last bit (each sub-step starts cold); C is the same."""
+    from satmotor.machine.integrate import rk4
+
+    rng = np.random.default_rng(3)
+    for label, values, B_2 in motor_cases(table_csv):
+        plant, _ = py_plant(values, B_2)
+        x, u = random_states(rng, 200)
+        worst = 0.0
+        for xi, ui in zip(x, u):
+            xs, ui = [float(v) for v in xi], tuple(map(float, ui))
+            warm = plant.step(0.0, xs, *ui, 1e-4, 1)
+            cold = rk4(plant.derivatives, 0.0, xs, 1e-4, 1, ui)
+            scale = max(1.0, max(abs(v) for v in cold))
+            worst = max(worst, max(abs(p - q) for p, q in zip(warm, cold)) / scale)
+            two = plant.step(0.0, plant.step(0.0, xs, *ui, 1e-4, 1), *ui, 1e-4, 1)
+            assert plant.step(0.0, xs, *ui, 2e-4, 2) == two
+        assert worst <= 1e-13, f"{label}: warm and cold RK4 differ by {worst:.3g}"
+
+
+def test_solve_memo_changes_no_result(lib, table_csv):
+    """The C plant's memo of the last cold solve (the FMU keeps the outputs' solve for the next step):
+    stepping with an empty, a matching, a stale (another state's) or a copied memo gives the floats of
+    the step without one, bit for bit, and the outputs read through it are those without one."""
+    rng = np.random.default_rng(17)
+    for label, values, B_2 in motor_cases(table_csv):
+        st, p, msg = c_motor(lib, dict(values, B_2=B_2))
+        assert st == 0, msg
+        memo = (ctypes.c_double * 4)()
+        lib.sm_solve_memo_clear(memo)
+        assert all(math.isnan(v) for v in memo)
+        x, u = random_states(rng, 150)
+        for j, (xi, ui) in enumerate(zip(x, u)):
+            xs = [float(v) for v in xi]
+            plain, with_memo = _vec(xs), _vec(xs)
+            o_plain, o_memo = nc.Outputs(), nc.Outputs()
+            if j % 3 == 0:  # matching: the outputs at this state filled it
+                assert lib.sm_plant_outputs_memo(p, memo, _vec(xs), ctypes.byref(o_memo)) == 0
+                assert lib.sm_plant_outputs_of(p, _vec(xs), ctypes.byref(o_plain)) == 0
+                assert bytes(o_memo) == bytes(o_plain)
+                assert (memo[2], memo[3]) == (o_plain.i_mu, o_plain.psi_m)  # kept: (a, c, I, psi)
+            elif j % 3 == 1:  # stale: another state's root, or a forged one for this (a, c) is never asked
+                lib.sm_plant_outputs_memo(p, memo, _vec([float(v) for v in x[j - 1]]), ctypes.byref(o_memo))
+            assert lib.sm_plant_step(p, plain, *ui, 1e-4, 2) == 0
+            assert lib.sm_plant_step_memo(p, memo, with_memo, *ui, 1e-4, 2) == 0
+            assert list(plain) == list(with_memo), f"{label}: the memo changed a step"

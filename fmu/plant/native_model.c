@@ -18,6 +18,7 @@ typedef struct {
     sm_dclink link;                  /* the DC link (satmotor/machine/dc_link.py) */
     double x[SM_N_LINK_STATES];      /* the motor's six states, then v_dc, E_regen, E_chop (capacitor) */
     int chop, fault;                 /* the chopper's state, the latched over-voltage fault */
+    sm_solve_memo memo; /* the outputs' solve at x, reused by the next step's first stage */
     int ready;
     int warned[3]; /* a plausibility warning of |v_s|, |i_s|, |omega_m| was logged in this run */
 } plant_data;
@@ -62,7 +63,7 @@ static void publish(plant_data *d)
 {
     sm_plant_outputs o;
     double *r = d->v.r;
-    if (sm_plant_outputs_of(&d->p, d->x, &o) != 0) {
+    if (sm_plant_outputs_memo(&d->p, &d->memo, d->x, &o) != 0) {
         o.i_s_alpha = o.i_s_beta = o.T_e = o.i_mu = NAN;
     }
     r[SM_VR_i_s_alpha] = o.i_s_alpha;
@@ -137,6 +138,7 @@ fg_status fg_model_exit_initialization(fg_instance *inst, void *data, double sta
     d->chop = 0;
     d->fault = 0;
     d->ready = 1;
+    sm_solve_memo_clear(&d->memo);
     publish(d);
     return FG_OK;
 }
@@ -170,11 +172,12 @@ fg_status fg_model_do_step(fg_instance *inst, void *data, double t, double h)
     for (j = 0; j < SM_N_LINK_STATES; ++j) {
         x[j] = d->x[j];
     }
-    if (d->link.capacitor) {
+    if (d->link.capacitor) { /* (the memo is for the motor's step alone: publish refills it) */
         st = sm_dclink_step(&d->p, &d->link, t, x, r[SM_VR_v_s_alpha], r[SM_VR_v_s_beta], r[SM_VR_T_load], h,
                             n_sub, &chop, &fault, &t_fault);
     } else {
-        st = sm_plant_step(&d->p, x, r[SM_VR_v_s_alpha], r[SM_VR_v_s_beta], r[SM_VR_T_load], h, n_sub);
+        st = sm_plant_step_memo(&d->p, &d->memo, x, r[SM_VR_v_s_alpha], r[SM_VR_v_s_beta], r[SM_VR_T_load], h,
+                                n_sub);
     }
     if (st != 0) {
         double y[SM_N_STATES];

@@ -27,9 +27,12 @@ and the stepping loop here.
 
 from __future__ import annotations
 
+import gc
 import time
 from ctypes import c_double
+from struct import Struct
 
+import numpy as np
 from fmpy.fmi1 import FMICallException
 
 from orchestration.process.interrupts import signal_name
@@ -45,7 +48,7 @@ from orchestration.run.fmu_instance import (
 from orchestration.run.measurement_noise import MeasurementNoise
 from orchestration.run.recorder import Recorder
 from orchestration.run.result import RunResult, failure_message
-from orchestration.run.step_plans import evaluator, input_port
+from orchestration.run.step_plans import chained_port, evaluator, input_port
 from orchestration.scenario.recording import record_steps, recorded_columns
 from orchestration.scenario.system import CONTROLLER, DEFAULT_CONNECTIONS, PLANT, Connection, connections_for
 
@@ -142,13 +145,29 @@ def run(scenario, plant_fmu, controller_fmu, connections=None, algorithm=None,
 def _loop(sc, jacobi, plant, ctrl, p_out, c_out, c_disc, connections, profiles, rec, stop, measure=None):
     """The stepping loop; returns (the last communication point reached [s], whether the run
     reached its stop time).  A failing doStep raises FMICallException tagged with the unit and the
-    time (:meth:`FMUInstance.step_failed`).  The FMI functions are called through private ctypes
-    pointers declaring no argument types (:meth:`FMUInstance.fast`) with argument tuples made once:
-    the communication point is one ``c_double`` whose value is set once per step and shared by both
-    units; the profiles are evaluated once per step (pure functions of t); every value exchanged is
-    a plain float.  The controller's Integer and Boolean outputs (``c_disc``) follow its Reals in
-    each row (stored as float64, as every column).  Rows go straight to the recorder's current chunk
-    (:attr:`Recorder.rows`), flushed every :attr:`Recorder.chunk_rows` rows.
+    time (:meth:`FMUInstance.step_failed`).  The garbage collector is off while it runs (the loop
+    makes no reference cycle; it is switched back on, if it was on, when the loop ends)."""
+    enabled = gc.isenabled()
+    gc.disable()
+    try:
+        return _steps(sc, jacobi, plant, ctrl, p_out, c_out, c_disc, connections, profiles, rec, stop,
+                      measure)
+    finally:
+        if enabled:
+            gc.enable()
+
+
+def _steps(sc, jacobi, plant, ctrl, p_out, c_out, c_disc, connections, profiles, rec, stop, measure):
+    """:func:`_loop`'s steps.  The FMI functions are called through private ctypes pointers declaring
+    no argument types (:meth:`FMUInstance.fast`) with argument tuples made once: the communication
+    point is one ``c_double`` whose value is set once per step and shared by both units; the profiles
+    are evaluated once per step (pure functions of t).  The outputs stay in the ports' ctypes arrays:
+    the inputs are picked from them (:func:`~orchestration.run.step_plans.input_port`), and each
+    recorded row is those arrays' bytes appended to the recorder's raw chunk
+    (:meth:`Recorder.raw_rows`: time, plant Reals, controller Reals, Integers, Booleans, then the
+    profiles and the measured signals packed as doubles), flushed every :attr:`Recorder.chunk_rows`
+    rows: no Python float per recorded value.  The controller's Integer and Boolean outputs
+    (``c_disc``) follow its Reals in each row (stored as float64, as every column).
     ``measure``: None, or a :class:`MeasurementNoise` giving, at each controller sample, the plant
     outputs as the controller receives them and the row of measured values."""
     h, N = sc.step, sc.controller_every
@@ -167,15 +186,25 @@ def _loop(sc, jacobi, plant, ctrl, p_out, c_out, c_disc, connections, profiles, 
     ps, cs, p_invals, c_invals = p_in.set_args, c_in.set_args, p_in.values, c_in.values
     get_i, get_b, ia, ba = c_disc.get_int, c_disc.get_bool, c_disc.int_args, c_disc.bool_args
     ivals, bvals = c_disc.int_values, c_disc.bool_values
-    if ia is None or ba is None:  # a controller without Integer or Boolean outputs: the general path
-        get_i = get_b = None
     evaluate = evaluator(prof)
-    pv, cv = p_out.read()[:], c_out.read()[:] + c_disc.read()  # new lists after each read
-    held = cv  # controller outputs seen by the plant (Jacobi: one sample old)
+    p_out.read()
+    c_out.read()
+    c_disc.read()  # the initial values, in the ports' arrays
+    if not jacobi and measure is None:  # Gauss-Seidel: the ports wired through memory when they can be
+        wiring = (connections, outputs, profiles, prof)
+        c_chain = chained_port(plant, PLANT, p_out.names, ctrl, CONTROLLER, *wiring)
+        p_chain = chained_port(ctrl, CONTROLLER, c_out.names, plant, PLANT, *wiring)
+        if c_chain is not None and p_chain is not None:
+            return _chained(sc, plant, ctrl, c_chain, p_chain, c_disc, len(prof), rec, stop, T, evaluate,
+                            (step_p, sp), (step_c, sc_args))
+    held = cvals[:] if jacobi else cvals  # controller outputs seen by the plant (Jacobi: one sample old)
     mrow = ()  # the measured signals' values at the last sample (recorded after the profiles)
+    nm = len(measure.columns) if measure is not None else 0
+    pack = Struct(f"<{len(prof) + nm}d").pack
+    raw = rec.raw_rows((("<f8", 1 + p_out.n + c_out.n), (np.dtype(type(ivals)._type_), len(ivals)),
+                        (np.dtype(type(bvals)._type_), len(bvals)), ("<f8", len(prof) + nm)))
     t0, t = 0.0, 0.0
-    rows, chunk = rec.rows, rec.chunk_rows
-    append, left = rows.append, chunk
+    left = chunk = rec.chunk_rows
     for k in range(n + 1):
         t = t0 + k * h
         T.value = t
@@ -184,42 +213,43 @@ def _loop(sc, jacobi, plant, ctrl, p_out, c_out, c_disc, connections, profiles, 
             if stop.signum:
                 return t, False
             if measure is None:
-                c_invals[:] = c_values(pv, held, fv)
+                c_invals[:] = c_values(pvals, held, fv)
             else:
-                mv, mrow = measure(pv)
+                mv, mrow = measure(pvals[:])
                 c_invals[:] = c_values(mv, held, fv)
             r = set_c(*cs)
             if r > 1:
                 check(calls_c["set_real"], r)
             if jacobi:
-                held = cv  # the previous sample's voltages
+                held = cvals[:]  # the previous sample's voltages
             r = step_c(*sc_args)
             if r > 1:
                 ctrl.step_failed(r, t)
             r = get_c(*cg)
             if r > 1:
                 check(calls_c["get_real"], r)
-            if get_i is not None:
+            if ia is not None:
                 r = get_i(*ia)
                 if r > 1:
                     check(calls_c["get_int"], r)
+            if ba is not None:
                 r = get_b(*ba)
                 if r > 1:
                     check(calls_c["get_bool"], r)
-                cv = cvals[:] + ivals[:] + bvals[:]
-            else:
-                cv = cvals[:] + c_disc.read()
-            if not jacobi:
-                held = cv
         if k % every == 0:
-            append((t, *pv, *cv, *fv, *mrow))
+            raw += T
+            raw += pvals
+            raw += cvals
+            raw += ivals
+            raw += bvals
+            raw += pack(*fv, *mrow)
             left -= 1
             if not left:
-                rec.flush()  # empties rows in place
+                rec.flush()  # empties raw in place
                 left = chunk
         if k == n:
             break
-        p_invals[:] = p_values(pv, held, fv)
+        p_invals[:] = p_values(pvals, held, fv)
         r = set_p(*ps)
         if r > 1:
             check(calls_p["set_real"], r)
@@ -229,5 +259,92 @@ def _loop(sc, jacobi, plant, ctrl, p_out, c_out, c_disc, connections, profiles, 
         r = get_p(*pg)
         if r > 1:
             check(calls_p["get_real"], r)
-        pv = pvals[:]
+    return t, True
+
+
+def _chained(sc, plant, ctrl, c_chain, p_chain, c_disc, n_prof, rec, stop, T, evaluate, plant_step,
+             ctrl_step):
+    """:func:`_steps` for Gauss-Seidel without measurements, the ports wired through memory
+    (:func:`~orchestration.run.step_plans.chained_port`): the plant's get call writes the controller's
+    inputs and the controller's get call the plant's, the loop writes only the profile-fed inputs (when
+    a profile's value changed).  The
+    same calls in the same order with the same values as :func:`_steps`; the rows are recorded from the
+    chains' buffers (outputs in the chains' order, put back in column order per chunk)."""
+    h, N = sc.step, sc.controller_every
+    n, every = record_steps(sc)
+    calls_p, calls_c = plant.calls, ctrl.calls
+    get_p, get_c = plant.fast(calls_p["get_real"]), ctrl.fast(calls_c["get_real"])
+    set_p, set_c = plant.fast(calls_p["set_real"]), ctrl.fast(calls_c["set_real"])
+    (step_p, sp), (step_c, sc_args) = plant_step, ctrl_step
+    pg, cs, p_rec, c_prof, pick_c = c_chain.get_args, c_chain.set_args, c_chain.outputs, c_chain.profiles, \
+        c_chain.pick
+    cg, ps, c_rec, p_prof, pick_p = p_chain.get_args, p_chain.set_args, p_chain.outputs, p_chain.profiles, \
+        p_chain.pick
+    get_i, get_b, ia, ba = c_disc.get_int, c_disc.get_bool, c_disc.int_args, c_disc.bool_args
+    ivals, bvals = c_disc.int_values, c_disc.bool_values
+    for get, args, name in ((get_p, pg, "get_real"), (get_c, cg, "get_real")):  # the initial outputs
+        r = get(*args)
+        if r > 1:
+            check(calls_p[name], r)
+    n_p, n_c = len(p_rec), len(c_rec)
+    pos_p, pos_c = {i: j for j, i in enumerate(c_chain.order)}, {i: j for j, i in enumerate(p_chain.order)}
+    order = ([0] + [1 + pos_p[i] for i in range(n_p)] + [1 + n_p + pos_c[i] for i in range(n_c)]
+             + list(range(1 + n_p + n_c, 1 + n_p + n_c + len(ivals) + len(bvals) + n_prof)))
+    pack = Struct(f"<{n_prof}d").pack
+    raw = rec.raw_rows((("<f8", 1 + n_p + n_c), (np.dtype(type(ivals)._type_), len(ivals)),
+                        (np.dtype(type(bvals)._type_), len(bvals)), ("<f8", n_prof)), order)
+    t0, t = 0.0, 0.0
+    left = chunk = rec.chunk_rows
+    last = None  # the profile values (as bytes) last written to the profile-fed inputs
+    for k in range(n + 1):
+        t = t0 + k * h
+        T.value = t
+        fv = evaluate(t)
+        packed = pack(*fv)
+        if packed != last:  # rewritten only when a value changed, compared bit for bit
+            last = packed
+            c_prof[:] = pick_c(fv)  # read by the controller's next set, at its next sample
+            p_prof[:] = pick_p(fv)
+        if k % N == 0:
+            if stop.signum:
+                return t, False
+            r = set_c(*cs)
+            if r > 1:
+                check(calls_c["set_real"], r)
+            r = step_c(*sc_args)
+            if r > 1:
+                ctrl.step_failed(r, t)
+            r = get_c(*cg)
+            if r > 1:
+                check(calls_c["get_real"], r)
+            if ia is not None:
+                r = get_i(*ia)
+                if r > 1:
+                    check(calls_c["get_int"], r)
+            if ba is not None:
+                r = get_b(*ba)
+                if r > 1:
+                    check(calls_c["get_bool"], r)
+        if k % every == 0:
+            raw += T
+            raw += p_rec
+            raw += c_rec
+            raw += ivals
+            raw += bvals
+            raw += packed
+            left -= 1
+            if not left:
+                rec.flush()  # empties raw in place
+                left = chunk
+        if k == n:
+            break
+        r = set_p(*ps)
+        if r > 1:
+            check(calls_p["set_real"], r)
+        r = step_p(*sp)
+        if r > 1:
+            plant.step_failed(r, t)
+        r = get_p(*pg)
+        if r > 1:
+            check(calls_p["get_real"], r)
     return t, True

@@ -37,6 +37,10 @@ class Recorder:
     The stepping loop appends its rows to :attr:`rows` itself and calls :meth:`flush` every
     :attr:`chunk_rows` rows (no method call per row); :meth:`flush` empties :attr:`rows` in place, so
     the list stays the same object for the whole run.
+
+    Raw rows (the fmpy master's path, :meth:`raw_rows`): the loop appends each row's bytes to
+    :attr:`raw` instead (the FMUs' ctypes value arrays copied as they are: no Python float per value),
+    and each chunk is decoded at once by numpy; the values are the same floats as the tuple rows'.
     """
 
     def __init__(self, columns, keep=None, chunk_rows=CHUNK_ROWS, observer=None, every=1):
@@ -51,6 +55,47 @@ class Recorder:
         self.observer = observer  # None, or a function of each chunk (rows x all columns)
         self.every = max(1, int(every))
         self._skip = 0  # rows to drop before the next kept one (every > 1)
+        self.raw = None  # bytearray of raw rows (raw_rows), else None
+        self._raw_dtype = self._raw_fields = self._raw_order = None
+
+    def raw_rows(self, layout, order=None):
+        """Take rows as bytes from now on and return the ``bytearray`` the loop extends with each
+        row: ``layout`` lists the row's segments as ``(numpy type, count)``, e.g.
+        ``(("<f8", 35), ("<i4", 4), ("<f8", 3))``; integer and boolean values are stored as float64
+        (a boolean byte as 0.0 or 1.0) like every column.  ``order``: None (the values are in column
+        order), or for each column the position of its value in the raw row.  :meth:`flush` empties
+        it in place."""
+        layout = [(np.dtype(t), int(n)) for t, n in layout if int(n) > 0]
+        width = sum(n for _, n in layout)
+        if width != len(self._all):
+            raise ValueError(f"raw row layout of {width} values for {len(self._all)} columns")
+        if order is not None and sorted(order) != list(range(width)):
+            raise ValueError("raw row order: not a permutation of the columns")
+        self._raw_order = None if order is None or list(order) == list(range(width)) else np.asarray(order)
+        self._raw_fields = [(f"f{i}", t, n) for i, (t, n) in enumerate(layout)]
+        self._raw_dtype = np.dtype([(name, t, (n,)) for name, t, n in self._raw_fields])
+        self.raw = bytearray()
+        return self.raw
+
+    def _current(self):
+        """The rows of the current chunk as a float64 array (rows x all columns)."""
+        if self.raw is None:
+            return np.array(self.rows, dtype=float).reshape(len(self.rows), len(self._all))
+        rec = np.frombuffer(self.raw, dtype=self._raw_dtype)
+        a = np.empty((len(rec), len(self._all)))
+        col = 0
+        for name, t, n in self._raw_fields:
+            a[:, col:col + n] = (rec[name] != 0) if t.kind == "b" else rec[name]
+            col += n
+        return a if self._raw_order is None else a[:, self._raw_order]
+
+    def _clear(self):
+        self.rows.clear()
+        if self.raw is not None:
+            del self.raw[:]
+
+    def _has_rows(self):
+        return bool(self.rows) or bool(self.raw)
 
     def append(self, row):
         self.rows.append(row)
@@ -58,7 +103,7 @@ class Recorder:
             self.flush()
 
     def _chunk_array(self):
-        a = np.array(self.rows, dtype=float).reshape(len(self.rows), len(self._all))
+        a = self._current()
         self.n_seen += len(a)
         if self.observer is not None:
             self.observer(a)
@@ -84,12 +129,12 @@ class Recorder:
             self.n_rows += len(chunk)
 
     def flush(self):
-        if self.rows:
+        if self._has_rows():
             chunk = self._chunk_array()
             if len(chunk):
                 self._write(chunk)
             self.n_rows += len(chunk)
-            self.rows.clear()
+            self._clear()
 
     def _write(self, chunk):
         self._chunks.append(chunk)
@@ -264,7 +309,7 @@ class StreamingRecorder(Recorder):
                 self._parquet.close()
                 os.replace(self._parts[1], self.parquet_path)
             else:  # the Parquet file first, complete, then the last CSV lines
-                chunk = self._chunk_array() if self.rows else None
+                chunk = self._chunk_array() if self._has_rows() else None
                 if chunk is not None and len(chunk):
                     self._pending.append(chunk)
                 self._flush_parquet()
@@ -276,7 +321,7 @@ class StreamingRecorder(Recorder):
                     if len(chunk):
                         self._write_csv(chunk)
                     self.n_rows += len(chunk)
-                    self.rows.clear()
+                    self._clear()
             path = self.csv_path
             self._csv.close()
             os.replace(self._parts[0], self.csv_path)

@@ -57,18 +57,23 @@ class _Curve:
         """Inverse characteristic: the magnitude I [A] with ``psi(I) = psi`` (psi >= 0)."""
         return self.solve(0.0, psi)[0]
 
-    def solve(self, a, c):
+    def solve(self, a, c, guess=0.0):
         """Root ``I >= 0`` of ``a I + psi(I) = c`` for ``a >= 0``, ``c >= 0``.
 
-        Safeguarded Newton iteration started from the lower bound ``c / (a + m(0))``;
-        returns ``(I, psi(I))``.  For the concave curves the iterates increase
-        monotonically to the root; bisection guards the table curve.
+        Safeguarded Newton iteration started from the lower bound ``c / (a + m(0))``, or from
+        ``guess`` [A] (a warm start: e.g. the root of a nearby solve) when it is finite and above
+        that bound; returns ``(I, psi(I))``.  For the concave curves the iterates from the bound
+        increase monotonically to the root (from a guess above the root, the first Newton step lands
+        below it); bisection guards the table curve.  Both starts stop at the same relative step
+        ``_REL_TOL``, so their roots agree to within that tolerance (not always to the last bit).
         """
         if c <= 0.0:
             return 0.0, 0.0
         lo = 0.0
         x = c / (a + self.m0)
         hi = math.inf
+        if x < guess < hi:
+            x = guess
         psi, dpsi = self._psi_dpsi(x)
         for _ in range(_MAX_ITER):
             g = a * x + psi - c
@@ -121,7 +126,8 @@ class LinearCurve(_Curve):
     def coenergy(self, I):
         return 0.5 * self.L_m0 * I * I
 
-    def solve(self, a, c):
+    def solve(self, a, c, guess=0.0):
+        """Closed form (``guess`` is not needed)."""
         if c <= 0.0:
             return 0.0, 0.0
         I = c / (a + self.L_m0)
@@ -173,7 +179,7 @@ class ArctanCurve(_Curve):
         d = self.L_m0 - self.L_m_inf
         return (self.L_m_inf * I + d * self.I_par * math.atan(x), self.L_m_inf + d / (1.0 + x * x))
 
-    def solve(self, a, c):
+    def solve(self, a, c, guess=0.0):
         """:meth:`_Curve.solve` with ``_psi_dpsi`` written out: the same operations in the same order
         (so the same iterates and the same root, bit for bit), without a call per iterate."""
         if c <= 0.0:
@@ -185,6 +191,8 @@ class ArctanCurve(_Curve):
         lo = 0.0
         x = c / (a + self.m0)
         hi = inf
+        if x < guess < hi:
+            x = guess
         u = x / I_par
         psi, dpsi = L_inf * x + dI * atan(u), L_inf + d / (1.0 + u * u)
         for _ in range(_MAX_ITER):
@@ -350,7 +358,9 @@ class PolynomialCurve(_Curve):
             older = prev
         raise ArithmeticError(f"polynomial: no convergence (a={a}, c={c})")
 
-    def solve(self, a, c):
+    def solve(self, a, c, guess=0.0):
+        """Root of ``a I + psi(I) = c`` by its Newton on psi from above (``guess`` unused: a warm start
+        in I could start it below the root)."""
         y = self._flux(a, c)
         return self.current(y), y
 

@@ -94,18 +94,21 @@ class Plant:
         self._B = params.B
         self._m0 = params.curve.m0
 
-    def _magnetizing_gamma(self, psa, psb):
-        """:meth:`magnetizing` for l_s = 0: i_mu along psi_s, ``psi_m(I) = |psi_s|``."""
+    def _magnetizing_gamma(self, psa, psb, warm=None):
+        """:meth:`magnetizing` for l_s = 0: i_mu along psi_s, ``psi_m(I) = |psi_s|`` (``warm``: as in
+        :meth:`derivatives`)."""
         pn = math.hypot(psa, psb)
-        I, psi = self._curve.solve(0.0, pn)
+        I, psi = self._curve.solve(0.0, pn, 0.0 if warm is None else warm[0])
+        if warm is not None:
+            warm[0] = I
         if I == 0.0:
             return 0.0, 0.0, 0.0, 0.0, self._m0
         s = I / pn
         return s * psa, s * psb, I, psi, psi / I
 
-    def _currents_gamma(self, psa, psb, pra, prb):
+    def _currents_gamma(self, psa, psb, pra, prb, warm=None):
         """``(i_s_alpha, i_s_beta, i_r_alpha, i_r_beta, i_mu_alpha, i_mu_beta, I, psi_m, m)`` for l_s = 0."""
-        ima, imb, I, psi, m = self._magnetizing_gamma(psa, psb)
+        ima, imb, I, psi, m = self._magnetizing_gamma(psa, psb, warm)
         k = self._k
         ira = (pra - k * psa) / self._lr
         irb = (prb - k * psb) / self._lr
@@ -125,17 +128,22 @@ class Plant:
         s = I / un
         return s * ua, s * ub, I, psi, psi / I
 
-    def derivatives(self, t, x, v_a, v_b, T_load):
-        """Right-hand side ``dx/dt`` [SI per s] for constant inputs over the call (state order)."""
+    def derivatives(self, t, x, v_a, v_b, T_load, warm=None):
+        """Right-hand side ``dx/dt`` [SI per s] for constant inputs over the call (state order).
+
+        ``warm``: None (the magnetizing-curve solve starts cold), or a one-element list: the solve
+        starts from ``warm[0]`` [A] and leaves its root |i_mu| there (:meth:`step`'s stages)."""
         psa, psb, pra, prb, w = x[PSI_S_A], x[PSI_S_B], x[PSI_R_A], x[PSI_R_B], x[OMEGA_M]
         if self._gamma:
-            return self._derivatives_gamma(psa, psb, pra, prb, w, v_a, v_b, T_load)
+            return self._derivatives_gamma(psa, psb, pra, prb, w, v_a, v_b, T_load, warm)
         # self.magnetizing written out (same operations): one call less per evaluation
         ua = psa * self._inv_ls + self._k_lr * pra
         ub = psb * self._inv_ls + self._k_lr * prb
         un = math.hypot(ua, ub)
         le = self._le
-        I, psi = self._curve.solve(le, le * un)
+        I, psi = self._curve.solve(le, le * un, 0.0 if warm is None else warm[0])
+        if warm is not None:
+            warm[0] = I
         if I == 0.0:
             ima = imb = 0.0
             m = self._m0
@@ -159,9 +167,9 @@ class Plant:
             w,
         )
 
-    def _derivatives_gamma(self, psa, psb, pra, prb, w, v_a, v_b, T_load):
+    def _derivatives_gamma(self, psa, psb, pra, prb, w, v_a, v_b, T_load, warm=None):
         """:meth:`derivatives` for l_s = 0 (the same equations, the currents of :meth:`_currents_gamma`)."""
-        isa, isb, ira, irb = self._currents_gamma(psa, psb, pra, prb)[:4]
+        isa, isb, ira, irb = self._currents_gamma(psa, psb, pra, prb, warm)[:4]
         we = self._np * w
         te = self._kappa * (psa * isb - psb * isa)
         return (
@@ -190,8 +198,11 @@ class Plant:
         return PlantOutputs(isa, isb, ira, irb, ima, imb, I, psi, m, te)
 
     def step(self, t, x, v_a, v_b, T_load, h, n_sub=1):
-        """Advance the state over ``h`` [s] with inputs held (zero-order hold), RK4."""
-        return rk4(self.derivatives, t, x, h, n_sub, (v_a, v_b, T_load))
+        """Advance the state over ``h`` [s] with inputs held (zero-order hold), RK4.  The
+        magnetizing-curve solve of stages 2 to 4 starts from the previous stage's root (a warm start:
+        fewer Newton iterates, the same tolerance); each sub-step's first stage starts cold, so the
+        step depends on ``x`` and the inputs only, never on an earlier step."""
+        return rk4(self.derivatives, t, x, h, n_sub, (v_a, v_b, T_load), [0.0])
 
     def magnetic_energy(self, x):
         """Stored magnetic energy [J]: 3/2 (l_s|i_s|^2/2 + l_r|i_r|^2/2 + int_0^psi_m I dpsi)."""

@@ -336,13 +336,15 @@ void sm_curve_evaluate(const sm_curve *c, double I, double *psi, double *m, doub
     if (L_dyn != NULL) *L_dyn = l;
 }
 
-/* _Curve.solve: safeguarded Newton from c / (a + m0).  For the arctan curve the Python runs an
- * inlined copy with the same operations in the same order, i.e. this same iteration. */
-static int generic_solve(const sm_curve *c, double a, double cc, double *I, double *psi_out)
+/* _Curve.solve: safeguarded Newton from c / (a + m0), or from guess when it lies between that bound
+ * and infinity (a warm start).  For the arctan curve the Python runs an inlined copy with the same
+ * operations in the same order, i.e. this same iteration. */
+static int generic_solve(const sm_curve *c, double a, double cc, double guess, double *I, double *psi_out)
 {
     double lo = 0.0, hi = INFINITY, x, psi, dpsi, g, x_new, step;
     int it;
     x = cc / (a + c->m0);
+    if (x < guess && guess < hi) x = guess;
     psi_dpsi(c, x, &psi, &dpsi);
     for (it = 0; it < SM_MAX_ITER; ++it) {
         g = a * x + psi - cc;
@@ -406,6 +408,11 @@ static double poly_current(const sm_curve *c, double psi)
 
 int sm_curve_solve(const sm_curve *c, double a, double cc, double *I, double *psi)
 {
+    return sm_curve_solve_from(c, a, cc, 0.0, I, psi);
+}
+
+int sm_curve_solve_from(const sm_curve *c, double a, double cc, double guess, double *I, double *psi)
+{
     double Iv = NAN, pv = NAN;
     int st = SM_CORE_OK;
     if (c == NULL) return SM_ERR_ARG;
@@ -421,7 +428,7 @@ int sm_curve_solve(const sm_curve *c, double a, double cc, double *I, double *ps
         Iv = cc / (a + c->L_m0);
         pv = c->L_m0 * Iv;
     } else {
-        st = generic_solve(c, a, cc, &Iv, &pv);
+        st = generic_solve(c, a, cc, guess, &Iv, &pv);
     }
     if (I != NULL) *I = Iv;
     if (psi != NULL) *psi = pv;

@@ -58,6 +58,11 @@ int sm_curve_current(const sm_curve *c, double psi, double *I);
  * a or cc; SM_ERR_NOCONV when the iteration does not converge (Python: ArithmeticError). */
 int sm_curve_solve(const sm_curve *c, double a, double cc, double *I, double *psi);
 
+/* _Curve.solve(a, cc, guess): sm_curve_solve started from guess [A] instead of its lower bound
+ * cc / (a + m0) when guess is finite and above that bound (a warm start; the linear and polynomial
+ * curves ignore it, as in Python).  The root agrees with the cold one to the solver's tolerance. */
+int sm_curve_solve_from(const sm_curve *c, double a, double cc, double guess, double *I, double *psi);
+
 /* sizeof(sm_curve), for hosts that allocate it without the header (ctypes). */
 size_t sm_curve_size(void);
 

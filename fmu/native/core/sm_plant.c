@@ -82,12 +82,42 @@ int sm_motor_init(sm_motor *p, const sm_motor_params *m, const sm_plant_params *
     return SM_CORE_OK;
 }
 
+void sm_solve_memo_clear(sm_solve_memo *memo)
+{
+    if (memo != NULL) memo->a = memo->c = memo->I = memo->psi = NAN;
+}
+
+/* curve.solve(a, cc, guess) with guess = *warm (NULL: 0.0, cold), the root left in *warm (Plant.derivatives'
+ * warm list); a cold solve whose (a, cc) is the memo's returns the memo's root, and a cold solve is kept
+ * in the memo: the same arguments give the same root, so the memo changes no result. */
+static int plant_solve(const sm_motor *p, double a, double cc, double *warm, sm_solve_memo *memo, double *I,
+                       double *psi)
+{
+    double guess = warm != NULL ? *warm : 0.0;
+    int st;
+    if (memo != NULL && guess == 0.0 && a == memo->a && cc == memo->c) {
+        *I = memo->I;
+        *psi = memo->psi;
+    } else {
+        st = sm_curve_solve_from(&p->curve, a, cc, guess, I, psi);
+        if (st) return st;
+        if (memo != NULL && guess == 0.0) {
+            memo->a = a;
+            memo->c = cc;
+            memo->I = *I;
+            memo->psi = *psi;
+        }
+    }
+    if (warm != NULL) *warm = *I;
+    return SM_CORE_OK;
+}
+
 /* Plant._magnetizing_gamma (l_s = 0): i_mu along psi_s, psi_m(I) = |psi_s| */
-static int magnetizing_gamma(const sm_motor *p, double psa, double psb, double *ima, double *imb, double *I_out,
-                             double *psi_out, double *m_out)
+static int magnetizing_gamma(const sm_motor *p, double psa, double psb, double *warm, sm_solve_memo *memo,
+                             double *ima, double *imb, double *I_out, double *psi_out, double *m_out)
 {
     double pn = sm_hypot(psa, psb), I, psi, s;
-    int st = sm_curve_solve(&p->curve, 0.0, pn, &I, &psi);
+    int st = plant_solve(p, 0.0, pn, warm, memo, &I, &psi);
     if (st) return st;
     if (I == 0.0) {
         *ima = 0.0;
@@ -116,17 +146,17 @@ static void currents_gamma(const sm_motor *p, double psa, double psb, double pra
     *isb = imb - p->k * *irb;
 }
 
-/* Plant.magnetizing: (i_mu_alpha, i_mu_beta, I, psi_m, m) */
-static int magnetizing(const sm_motor *p, double psa, double psb, double pra, double prb, double *ima,
-                       double *imb, double *I_out, double *psi_out, double *m_out)
+/* Plant.magnetizing: (i_mu_alpha, i_mu_beta, I, psi_m, m); warm, memo: plant_solve's */
+static int magnetizing(const sm_motor *p, double psa, double psb, double pra, double prb, double *warm,
+                       sm_solve_memo *memo, double *ima, double *imb, double *I_out, double *psi_out, double *m_out)
 {
     double ua, ub, un, le = p->le, I, psi, s;
     int st;
-    if (p->gamma) return magnetizing_gamma(p, psa, psb, ima, imb, I_out, psi_out, m_out);
+    if (p->gamma) return magnetizing_gamma(p, psa, psb, warm, memo, ima, imb, I_out, psi_out, m_out);
     ua = psa * p->inv_ls + p->k_lr * pra;
     ub = psb * p->inv_ls + p->k_lr * prb;
     un = sm_hypot(ua, ub);
-    st = sm_curve_solve(&p->curve, le, le * un, &I, &psi);
+    st = plant_solve(p, le, le * un, warm, memo, &I, &psi);
     if (st) return st;
     if (I == 0.0) {
         *ima = 0.0;
@@ -148,6 +178,12 @@ static int magnetizing(const sm_motor *p, double psa, double psb, double pra, do
 int sm_plant_derivatives(const sm_motor *p, const double x[6], double v_a, double v_b, double T_load,
                          double dx[6])
 {
+    return sm_plant_derivatives_from(p, x, v_a, v_b, T_load, dx, NULL, NULL);
+}
+
+int sm_plant_derivatives_from(const sm_motor *p, const double x[6], double v_a, double v_b, double T_load,
+                              double dx[6], double *warm, sm_solve_memo *memo)
+{
     double psa, psb, pra, prb, w, ima, imb, I, psi, m, isa, isb, km, ira, irb, we, te;
     int st, i;
     if (p == NULL || x == NULL || dx == NULL) return SM_ERR_ARG;
@@ -160,7 +196,7 @@ int sm_plant_derivatives(const sm_motor *p, const double x[6], double v_a, doubl
     pra = x[SM_PSI_R_A];
     prb = x[SM_PSI_R_B];
     w = x[SM_OMEGA_M];
-    st = magnetizing(p, psa, psb, pra, prb, &ima, &imb, &I, &psi, &m);
+    st = magnetizing(p, psa, psb, pra, prb, warm, memo, &ima, &imb, &I, &psi, &m);
     if (st) {
         for (i = 0; i < 6; ++i) dx[i] = NAN;
         return st;
@@ -187,6 +223,11 @@ int sm_plant_derivatives(const sm_motor *p, const double x[6], double v_a, doubl
 
 int sm_plant_outputs_of(const sm_motor *p, const double x[6], sm_plant_outputs *o)
 {
+    return sm_plant_outputs_memo(p, NULL, x, o);
+}
+
+int sm_plant_outputs_memo(const sm_motor *p, sm_solve_memo *memo, const double x[6], sm_plant_outputs *o)
+{
     double psa, psb, pra, prb, ima, imb, I, psi, m, isa, isb, km;
     int st;
     if (p == NULL || x == NULL || o == NULL) return SM_ERR_ARG;
@@ -199,7 +240,7 @@ int sm_plant_outputs_of(const sm_motor *p, const double x[6], sm_plant_outputs *
     psb = x[SM_PSI_S_B];
     pra = x[SM_PSI_R_A];
     prb = x[SM_PSI_R_B];
-    st = magnetizing(p, psa, psb, pra, prb, &ima, &imb, &I, &psi, &m);
+    st = magnetizing(p, psa, psb, pra, prb, NULL, memo, &ima, &imb, &I, &psi, &m);
     if (st) {
         o->i_s_alpha = o->i_s_beta = o->i_r_alpha = o->i_r_beta = NAN;
         o->i_mu_alpha = o->i_mu_beta = o->i_mu = o->psi_m = o->m = o->T_e = NAN;
@@ -228,7 +269,14 @@ int sm_plant_outputs_of(const sm_motor *p, const double x[6], sm_plant_outputs *
 int sm_plant_step(const sm_motor *p, double x[6], double v_a, double v_b, double T_load, double dt,
                   int n_sub)
 {
-    double xc[6], xt[6], k1[6], k2[6], k3[6], k4[6], h, half, sixth;
+    return sm_plant_step_memo(p, NULL, x, v_a, v_b, T_load, dt, n_sub);
+}
+
+/* integrate.rk4 with Plant.step's warm list: reset to 0.0 (cold) at each sub-step's first stage */
+int sm_plant_step_memo(const sm_motor *p, sm_solve_memo *memo, double x[6], double v_a, double v_b,
+                       double T_load, double dt, int n_sub)
+{
+    double xc[6], xt[6], k1[6], k2[6], k3[6], k4[6], h, half, sixth, warm;
     int j, i, st;
     if (p == NULL || x == NULL || n_sub < 1) return SM_ERR_ARG;
     if (!isfinite(dt)) return SM_ERR_NONFINITE;
@@ -237,13 +285,14 @@ int sm_plant_step(const sm_motor *p, double x[6], double v_a, double v_b, double
     sixth = h / 6.0;
     memcpy(xc, x, sizeof xc);
     for (j = 0; j < n_sub; ++j) {
-        if ((st = sm_plant_derivatives(p, xc, v_a, v_b, T_load, k1)) != SM_CORE_OK) return st;
+        warm = 0.0;
+        if ((st = sm_plant_derivatives_from(p, xc, v_a, v_b, T_load, k1, &warm, memo)) != SM_CORE_OK) return st;
         for (i = 0; i < 6; ++i) xt[i] = xc[i] + half * k1[i];
-        if ((st = sm_plant_derivatives(p, xt, v_a, v_b, T_load, k2)) != SM_CORE_OK) return st;
+        if ((st = sm_plant_derivatives_from(p, xt, v_a, v_b, T_load, k2, &warm, memo)) != SM_CORE_OK) return st;
         for (i = 0; i < 6; ++i) xt[i] = xc[i] + half * k2[i];
-        if ((st = sm_plant_derivatives(p, xt, v_a, v_b, T_load, k3)) != SM_CORE_OK) return st;
+        if ((st = sm_plant_derivatives_from(p, xt, v_a, v_b, T_load, k3, &warm, memo)) != SM_CORE_OK) return st;
         for (i = 0; i < 6; ++i) xt[i] = xc[i] + h * k3[i];
-        if ((st = sm_plant_derivatives(p, xt, v_a, v_b, T_load, k4)) != SM_CORE_OK) return st;
+        if ((st = sm_plant_derivatives_from(p, xt, v_a, v_b, T_load, k4, &warm, memo)) != SM_CORE_OK) return st;
         for (i = 0; i < 6; ++i) xc[i] = xc[i] + sixth * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]);
     }
     if (!all_finite(xc, 6)) return SM_ERR_NONFINITE;

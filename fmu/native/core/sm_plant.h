@@ -37,6 +37,17 @@ int sm_motor_init(sm_motor *p, const sm_motor_params *m, const sm_plant_params *
 /* sizeof(sm_motor), for hosts that allocate it without the header (ctypes). */
 size_t sm_motor_size(void);
 
+/* The arguments (a, c) and the root (I [A], psi [Wb]) of the last cold magnetizing-curve solve of a plant:
+ * a cold solve with the same (a, c) returns the kept root instead of solving again (the outputs at x and
+ * the first RK4 stage of the next step solve the same equation).  The same arguments give the same root,
+ * so no result depends on the memo (a copy, a stale or an empty one: sm_solve_memo_clear, all NaN).  Not
+ * in Python: there every solve is made. */
+typedef struct {
+    double a, c, I, psi;
+} sm_solve_memo;
+
+void sm_solve_memo_clear(sm_solve_memo *memo);
+
 typedef struct {
     double i_s_alpha, i_s_beta, i_r_alpha, i_r_beta, i_mu_alpha, i_mu_beta, i_mu, psi_m, m, T_e;
 } sm_plant_outputs;
@@ -46,14 +57,26 @@ typedef struct {
 int sm_plant_derivatives(const sm_motor *p, const double x[6], double v_a, double v_b, double T_load,
                          double dx[6]);
 
+/* Plant.derivatives(t, x, v_a, v_b, T_load, warm): the solve starts from *warm (NULL or 0.0: cold) and
+ * leaves its root there; memo: NULL or sm_solve_memo (used by cold solves only). */
+int sm_plant_derivatives_from(const sm_motor *p, const double x[6], double v_a, double v_b, double T_load,
+                              double dx[6], double *warm, sm_solve_memo *memo);
+
 /* Plant.outputs.  Same statuses as sm_plant_derivatives. */
 int sm_plant_outputs_of(const sm_motor *p, const double x[6], sm_plant_outputs *o);
 
-/* Plant.step: RK4 over dt in n_sub equal sub-steps (integrate.rk4), x updated in place only on
- * success.  SM_CORE_OK; SM_ERR_NONFINITE if the state became (or an input is) non-finite;
+/* sm_plant_outputs_of with a memo (NULL: none). */
+int sm_plant_outputs_memo(const sm_motor *p, sm_solve_memo *memo, const double x[6], sm_plant_outputs *o);
+
+/* Plant.step: RK4 over dt in n_sub equal sub-steps (integrate.rk4; the solves of stages 2 to 4 warm-started
+ * from the previous stage's root, as Plant.step), x updated in place only on success.  SM_CORE_OK; SM_ERR_NONFINITE if the state became (or an input is) non-finite;
  * SM_ERR_NOCONV; SM_ERR_ARG for n_sub < 1 or a NULL pointer. */
 int sm_plant_step(const sm_motor *p, double x[6], double v_a, double v_b, double T_load, double dt,
                   int n_sub);
+
+/* sm_plant_step with a memo (NULL: none): the same results. */
+int sm_plant_step_memo(const sm_motor *p, sm_solve_memo *memo, double x[6], double v_a, double v_b,
+                       double T_load, double dt, int n_sub);
 
 /* plant.initial_state(params, omega_m, theta_m, psi_r_alpha, psi_r_beta) into x.  SM_CORE_OK,
  * SM_ERR_NONFINITE, SM_ERR_NOCONV. */
