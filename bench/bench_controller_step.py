@@ -6,7 +6,7 @@ Run ``python bench/bench_controller_step.py [--compare DIR]``; prints a table (R
 written).  ``DIR`` is another checkout of this project with its own ``.venv`` (e.g. ``git archive
 COMMIT | tar -x -C DIR`` and ``make .venv/.installed`` there).
 
-The inputs: the controller's ten inputs at every sample of closed loops of this checkout's
+The inputs: the controller's inputs at every sample of closed loops of this checkout's
 plain-Python units (PlantUnit + ControllerUnit at their defaults, Ts = 100 us), recorded once:
 
 * ``below base speed``: ``scenarios/ramp_rated_load.yaml`` (100 rad/s, rated load; 1.5 s);
@@ -51,9 +51,11 @@ lib.sm_controller_step.argtypes = [ctypes.c_void_p, ctypes.c_double, ctypes.c_do
                                    ctypes.POINTER(ctypes.c_double), ctypes.c_char_p, ctypes.c_size_t]
 lib.sm_controller_params_default.argtypes = [ctypes.POINTER(ControllerParams)]
 lib.sm_motor_params_default.argtypes = [ctypes.POINTER(MotorParams)]
+n_in = len(ControllerUnit.INPUTS)  # 10 before the v_dc input (last) existed: the rows fitted to it
 for case, rows in inputs.items():
+    rows = [(list(r) + [0.0] * n_in)[:n_in] for r in rows]
     best_py = best_c = float("inf")
-    arrs = [(ctypes.c_double * 10)(*r) for r in rows]
+    arrs = [(ctypes.c_double * n_in)(*r) for r in rows]
     for _ in range(repeats):
         u = ControllerUnit({})
         t0 = time.process_time()
@@ -92,7 +94,7 @@ def record():
         for k in range(round(sc.stop_time / 1e-4)):
             t = k * 1e-4
             o = plant.outputs()
-            row = (o[0], o[1], o[4], o[5], o[2], o[3], o[6], w_ref(t), psi_ref(t), load(t))
+            row = (o[0], o[1], o[4], o[5], o[2], o[3], o[6], w_ref(t), psi_ref(t), load(t), 0.0)  # v_dc: none
             rows.append(row)
             ctrl.step(t, 1e-4, row)
             c = ctrl.outputs()

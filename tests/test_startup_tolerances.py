@@ -37,7 +37,7 @@ def _premag_current(values, omega_m):
     """The pre-magnetization current reference [A], seen through the loop's first voltage at zero
     current and zero flux: v_sd = R_s i_ref + K_pm (i_ref - 0)."""
     u = ControllerUnit({"premag_gain": 5.0, **values})  # (R_s + K_pm) 0.9 I_max within V_dc/sqrt(3)
-    u.step(0.0, 1e-4, (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, omega_m, 0.0, 0.95, 0.0))
+    u.step(0.0, 1e-4, (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, omega_m, 0.0, 0.95, 0.0, 0.0))  # v_dc last: none
     o = dict(zip(u.OUTPUTS, u.outputs()))
     assert o["phase"] == 0
     return math.hypot(o["v_sd"], o["v_sq"]) / (1.405 + u.drive.dcfg.premag_gain)
