@@ -21,7 +21,8 @@ from satmotor.control.measurements import MEAS_LEN, MEAS_OMEGA_M
 from satmotor.errors import ParameterError, require_integer, require_number
 from satmotor.machine.magnetics import ArctanCurve, LinearCurve, PolynomialCurve
 from satmotor.machine.params import CURVE_NAMES, MotorParams, make_curve
-from satmotor.machine.plant import OMEGA_M, PSI_R_A, PSI_R_B, PSI_S_A, PSI_S_B, THETA_M, Plant, initial_state
+from satmotor.machine.plant import OMEGA_M, PSI_R_A, PSI_R_B, PSI_S_A, PSI_S_B, T_R, T_S, THETA_M, Plant, initial_state
+from satmotor.machine.thermal import ThermalParams
 
 
 class Variable(NamedTuple):
@@ -59,7 +60,7 @@ CONTROLLER_DESCRIPTION = ("Backstepping speed and rotor-flux controller for the 
                           "estimate and the constant-m and IFOC PI baselines")
 AUTHOR = "satmotor"
 
-_M, _A, _P = MotorParams(), ArctanCurve(), PolynomialCurve()
+_M, _A, _P, _TH = MotorParams(), ArctanCurve(), PolynomialCurve(), ThermalParams()
 _G, _C, _D = BacksteppingGains(), ControllerConfig(), DriveConfig()
 OMEGA_WARN = 1500.0  # [rad/s] omega_warn's default: about 10 x the default motor's synchronous speed
 MOTOR_PARAMETERS = _in_struct("motor", (
@@ -97,6 +98,11 @@ PLANT_OUTPUTS = (
     _v("theta_m", "output", 0.0, "rad", "mechanical angle"),
     _v("T_e", "output", 0.0, "N m", "electromagnetic torque 3/2 n_p (psi_s x i_s)"),
     _v("i_mu", "output", 0.0, "A", "magnitude of the magnetizing current i_s + k i_r"),
+    # issue 19 (last: the earlier outputs keep their value references)
+    _v("P_fe", "output", 0.0, "W", "core (iron) loss 3/2 |e_s|^2 / R_fe, with the input held over the step "
+       "just ended; 0 without R_fe"),
+    _v("T_s", "output", _TH.T_s0, "K", "stator temperature (thermal off: T_s0, constant)"),
+    _v("T_r", "output", _TH.T_r0, "K", "rotor temperature (thermal off: T_r0, constant)"),
 )
 PLANT_PARAMETERS = MOTOR_PARAMETERS + _in_struct("plant", (
     _v("omega_m0", "parameter", 0.0, "rad/s", "initial mechanical speed"),
@@ -119,7 +125,27 @@ PLANT_PARAMETERS = MOTOR_PARAMETERS + _in_struct("plant", (
     _v("omega_warn", "parameter", OMEGA_WARN, "rad/s", "mechanical speed |omega_m| (after a step) above "
        "which a warning is logged, once per run (default about 10 x the default motor's synchronous speed, "
        "157 rad/s); 0: no check"),
-)
+) + _in_struct("plant", (
+    # issue 19, core loss and temperature (last: the earlier variables keep their value references);
+    # plant only: the controller keeps its own R_s, R_r (cold) and knows no core loss
+    _v("R_fe", "parameter", 0.0, "Ohm", "core-loss resistance across the stator emf d psi_s/dt (behind R_s; "
+       "l_s = 0: across the magnetizing branch), >= 0; 0: no core loss; plant only"),
+    _v("thermal", "parameter", _TH.thermal, "", "two-body thermal model on: T_s, T_r are states and "
+       "R_s(T_s), R_r(T_r) follow them; off: the temperatures stay at T_s0, T_r0", "Boolean"),
+    _v("T_amb", "parameter", _TH.T_amb, "K", "ambient (cooling air) temperature, > 0"),
+    _v("T_s0", "parameter", _TH.T_s0, "K", "initial stator temperature, > 0"),
+    _v("T_r0", "parameter", _TH.T_r0, "K", "initial rotor temperature, > 0"),
+    _v("T_ref", "parameter", _TH.T_ref, "K", "temperature at which R_s and R_r are given, > 0"),
+    _v("alpha_s", "parameter", _TH.alpha_s, "1/K", "temperature coefficient of R_s (copper), >= 0"),
+    _v("alpha_r", "parameter", _TH.alpha_r, "1/K", "temperature coefficient of R_r (aluminium cage), >= 0"),
+    _v("C_th_s", "parameter", _TH.C_th_s, "J/K", "heat capacity of the stator (winding and core), > 0"),
+    _v("C_th_r", "parameter", _TH.C_th_r, "J/K", "heat capacity of the rotor, > 0"),
+    _v("R_th_s", "parameter", _TH.R_th_s, "K/W", "thermal resistance stator to ambient, > 0"),
+    _v("R_th_r", "parameter", _TH.R_th_r, "K/W", "thermal resistance rotor to ambient, > 0"),
+    _v("R_th_sr", "parameter", _TH.R_th_sr, "K/W", "thermal resistance stator to rotor (air gap), > 0"),
+))
+THERMAL_NAMES = ("thermal", "T_amb", "T_s0", "T_r0", "T_ref", "alpha_s", "alpha_r", "C_th_s", "C_th_r",
+                 "R_th_s", "R_th_r", "R_th_sr")
 
 # the controller's Real parameters that go into DriveConfig as they are (the start-up tolerances)
 _DRIVE_REALS = ("fw_voltage_ratio", "premag_fraction", "premag_min_fraction", "premag_speed_tol",
@@ -325,8 +351,14 @@ class PlantUnit:
         self.warnings = []  # plausibility warnings not yet logged (the FMU glue takes them)
         self._o = None  # the plant's outputs at self.x, once computed (by the |i_s| check)
         # B_2 is the plant's alone: not in MotorParams, which is also the controller's model
-        self.plant = Plant(self.params, f["B_2"])
-        self.x0 = initial_state(self.params, omega_m=w0, psi_r_alpha=psi0)
+        # so are R_fe and the thermal model (the controller keeps its cold R_s, R_r); the checks in
+        # the native core's order: B_2, R_fe, then the thermal parameters
+        require_number("B_2", f["B_2"], 0, inclusive=True)
+        require_number("R_fe", f["R_fe"], 0, inclusive=True)
+        self.plant = Plant(self.params, f["B_2"], f["R_fe"], ThermalParams(*(f[n] for n in THERMAL_NAMES)))
+        self.x0 = initial_state(self.params, omega_m=w0, psi_r_alpha=psi0) + self.plant.thermal_state()
+        self._v = (0.0, 0.0)  # the stator voltage held over the last step (the outputs' with R_fe)
+        self._thermal = self.plant.th.thermal
         self.x = self.x0
         self._dt, self._n_sub = None, 1  # the last step size and its sub-step count
 
@@ -350,9 +382,10 @@ class PlantUnit:
         if not math.isfinite(sum(x)) and not all(math.isfinite(v) for v in x):
             raise ArithmeticError(f"the plant state became non-finite over [{t}, {t + dt}] s: {x}")
         self.x = x
+        self._v = (v_a, v_b)
         self._o = None
         if self._warn[1] > 0.0 and not self._warned[1]:
-            o = self._o = self.plant.outputs(x)  # kept for outputs(): no second computation
+            o = self._o = self.plant.outputs(x, v_a, v_b)  # kept for outputs(): no second computation
             self._plausible(1, t + dt, o.i_s_alpha, o.i_s_beta)
         if self._warn[2] > 0.0 and not self._warned[2] and abs(x[OMEGA_M]) > self._warn[2]:
             self._warned[2] = True
@@ -367,15 +400,17 @@ class PlantUnit:
 
     def outputs(self):
         """Output values in the order of :attr:`OUTPUTS`."""
-        x, o = self.x, self._o if self._o is not None else self.plant.outputs(self.x)
+        x, o = self.x, self._o if self._o is not None else self.plant.outputs(self.x, *self._v)
         return (o.i_s_alpha, o.i_s_beta, x[PSI_S_A], x[PSI_S_B], x[PSI_R_A], x[PSI_R_B], x[OMEGA_M],
-                x[THETA_M], o.T_e, o.i_mu)
+                x[THETA_M], o.T_e, o.i_mu, o.P_fe, o.T_s, o.T_r)
 
     def get_state(self):
-        return tuple(self.x)
+        """The plant state, then the held stator voltage (the outputs' with R_fe)."""
+        return tuple(self.x) + self._v
 
     def set_state(self, state):
-        self.x = tuple(float(v) for v in state)
+        state = tuple(float(v) for v in state)
+        self.x, self._v = state[:-2], state[-2:]
         self._o = None
 
 

@@ -14,7 +14,7 @@
 typedef struct {
     sm_values v; /* first: the generated value store */
     sm_motor p;
-    double x[SM_N_STATES];
+    double x[SM_N_STATES_MAX]; /* p.n_states of them: the thermal states with the thermal model on */
     int ready;
     int warned[3]; /* a plausibility warning of |v_s|, |i_s|, |omega_m| was logged in this run */
 } plant_data;
@@ -55,12 +55,14 @@ static void plausible(fg_instance *inst, plant_data *d, int k, double t)
            WARN_NAME[k], sm_repr_double(bound, c, sizeof c), WARN_WHAT[k][1]);
 }
 
-static void publish(plant_data *d)
+/* the outputs at x; v_a, v_b [V]: the stator voltage held over the step just ended (zero at
+ * initialization), which the terminal current and P_fe need with R_fe > 0 (as PlantUnit.outputs) */
+static void publish(plant_data *d, double v_a, double v_b)
 {
     sm_plant_outputs o;
     double *r = d->v.r;
-    if (sm_plant_outputs_of(&d->p, d->x, &o) != 0) {
-        o.i_s_alpha = o.i_s_beta = o.T_e = o.i_mu = NAN;
+    if (sm_plant_outputs_v(&d->p, d->x, v_a, v_b, &o) != 0) {
+        o.i_s_alpha = o.i_s_beta = o.T_e = o.i_mu = o.P_fe = o.T_s = o.T_r = NAN;
     }
     r[SM_VR_i_s_alpha] = o.i_s_alpha;
     r[SM_VR_i_s_beta] = o.i_s_beta;
@@ -72,6 +74,9 @@ static void publish(plant_data *d)
     r[SM_VR_theta_m] = d->x[SM_THETA_M];
     r[SM_VR_T_e] = o.T_e;
     r[SM_VR_i_mu] = o.i_mu;
+    r[SM_VR_P_fe] = o.P_fe;
+    r[SM_VR_T_s] = o.T_s;
+    r[SM_VR_T_r] = o.T_r;
 }
 
 void fg_model_start(fg_instance *inst, void *data)
@@ -108,11 +113,11 @@ fg_status fg_model_exit_initialization(fg_instance *inst, void *data, double sta
         fg_log(inst, FG_ERROR, "logStatusError", "%s", msg);
         return FG_ERROR;
     }
-    for (st = 0; st < SM_N_STATES; ++st) {
+    for (st = 0; st < SM_N_STATES_MAX; ++st) {
         d->x[st] = d->p.x0[st];
     }
     d->ready = 1;
-    publish(d);
+    publish(d, 0.0, 0.0);
     return FG_OK;
 }
 
@@ -120,7 +125,7 @@ fg_status fg_model_do_step(fg_instance *inst, void *data, double t, double h)
 {
     plant_data *d = (plant_data *)data;
     const double *r = d->v.r;
-    double x[SM_N_STATES];
+    double x[SM_N_STATES_MAX];
     char msg[SM_MSG_LEN];
     int n_sub = 1, st, j;
     if (!d->ready) {
@@ -142,7 +147,7 @@ fg_status fg_model_do_step(fg_instance *inst, void *data, double t, double h)
         return FG_DISCARD;
     }
     plausible(inst, d, 0, t);
-    for (j = 0; j < SM_N_STATES; ++j) {
+    for (j = 0; j < SM_N_STATES_MAX; ++j) {
         x[j] = d->x[j];
     }
     st = sm_plant_step(&d->p, x, r[SM_VR_v_s_alpha], r[SM_VR_v_s_beta], r[SM_VR_T_load], h, n_sub);
@@ -155,11 +160,11 @@ fg_status fg_model_do_step(fg_instance *inst, void *data, double t, double h)
         fg_log(inst, FG_DISCARD, "logStatusDiscard", "SaturatedInductionMotor at t = %.17g s: %s", t, msg);
         return FG_DISCARD;
     }
-    for (j = 0; j < SM_N_STATES; ++j) {
+    for (j = 0; j < SM_N_STATES_MAX; ++j) {
         d->x[j] = x[j];
     }
     d->v.r[SM_VR_time] = t + h;
-    publish(d);
+    publish(d, r[SM_VR_v_s_alpha], r[SM_VR_v_s_beta]);
     plausible(inst, d, 1, t + h);
     plausible(inst, d, 2, t + h);
     return FG_OK;
