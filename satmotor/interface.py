@@ -21,7 +21,16 @@ from satmotor.control.measurements import MEAS_LEN, MEAS_OMEGA_M
 from satmotor.errors import ParameterError, require_integer, require_number
 from satmotor.machine.magnetics import ArctanCurve, LinearCurve, PolynomialCurve
 from satmotor.machine.params import CURVE_NAMES, MotorParams, make_curve
-from satmotor.machine.plant import OMEGA_M, PSI_R_A, PSI_R_B, PSI_S_A, PSI_S_B, T_R, T_S, THETA_M, Plant, initial_state
+from satmotor.machine.plant import (
+    OMEGA_M,
+    PSI_R_A,
+    PSI_R_B,
+    PSI_S_A,
+    PSI_S_B,
+    THETA_M,
+    Plant,
+    initial_state,
+)
 from satmotor.machine.thermal import ThermalParams
 
 

@@ -113,7 +113,8 @@ def test_off_is_todays_plant_bit_for_bit():
         x = unit.x
         assert x == ref_x
         o = ref.outputs(ref_x)
-        assert unit.outputs()[:2] == (o.i_s_alpha, o.i_s_beta) and unit.outputs()[10:] == (0.0, 293.15, 293.15)
+        assert unit.outputs()[:2] == (o.i_s_alpha, o.i_s_beta)
+        assert unit.outputs()[10:] == (0.0, 293.15, 293.15)
 
 
 def _balance(values, t_start, t_load, T_load, h):
@@ -276,8 +277,9 @@ def test_thermal_steady_state_against_the_two_node_network(lib):
     assert abs(o.T_r - 300.0 - dTr) <= 5e-5 * dTr
 
 
-@pytest.mark.parametrize("name,bad", [("R_fe", -1.0), ("R_fe", float("nan")), ("C_th_s", 0.0), ("T_amb", -5.0),
-                                      ("R_th_sr", float("inf")), ("alpha_r", -1e-3), ("T_s0", 0.0)])
+@pytest.mark.parametrize("name,bad", [("R_fe", -1.0), ("R_fe", float("nan")), ("C_th_s", 0.0),
+                                      ("T_amb", -5.0), ("R_th_sr", float("inf")), ("alpha_r", -1e-3),
+                                      ("T_s0", 0.0)])
 def test_bad_loss_and_thermal_parameters_are_refused_naming_them(name, bad):
     with pytest.raises(ParameterError) as err:
         PlantUnit({name: bad})

@@ -275,7 +275,7 @@ class Plant:
         return PlantOutputs(isa, isb, ira, irb, ima, imb, I, psi, m, te, 0.0, ts, tr)
 
     def thermal_state(self):
-        """The state's thermal entries at the start: ``(T_s0, T_r0)`` with the thermal model on, else ``()``."""
+        """The state's thermal entries at the start: ``(T_s0, T_r0)`` with the thermal model on, or ``()``."""
         return (self.th.T_s0, self.th.T_r0) if self._th_on else ()
 
     def step(self, t, x, v_a, v_b, T_load, h, n_sub=1):
