@@ -153,6 +153,9 @@ PLANT_PARAMETERS = MOTOR_PARAMETERS + _in_struct("plant", (
     _v("R_th_r", "parameter", _TH.R_th_r, "K/W", "thermal resistance rotor to ambient, > 0"),
     _v("R_th_sr", "parameter", _TH.R_th_sr, "K/W", "thermal resistance stator to rotor (air gap), > 0"),
 ))
+# the machine's data only the plant models: a scenario's motor: section and a preset may hold them (the
+# controller's model ignores them)
+PLANT_MOTOR_NAMES = ("R_fe", "T_ref", "alpha_s", "alpha_r", "C_th_s", "C_th_r", "R_th_s", "R_th_r", "R_th_sr")
 THERMAL_NAMES = ("thermal", "T_amb", "T_s0", "T_r0", "T_ref", "alpha_s", "alpha_r", "C_th_s", "C_th_r",
                  "R_th_s", "R_th_r", "R_th_sr")
 

@@ -70,6 +70,12 @@ SI_UNITS = {
     "N m s2/rad2": {"kg": 1, "m": 2, "rad": -2},
     "kg m2": {"kg": 1, "m": 2},
     "A/Wb^n": None,
+    # issue 19: core loss and the thermal model
+    "W": {"kg": 1, "m": 2, "s": -3},
+    "K": {"K": 1},
+    "1/K": {"K": -1},
+    "J/K": {"kg": 1, "m": 2, "s": -2, "K": -1},
+    "K/W": {"kg": -1, "m": -2, "s": 3, "K": 1},
 }
 _BASE_ORDER = ("kg", "m", "s", "A", "K", "mol", "cd", "rad")
 
