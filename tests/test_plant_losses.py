@@ -301,3 +301,29 @@ def test_resistance_follows_the_temperature():
     base, warm = PlantUnit(DEFAULT).plant, PlantUnit(dict(DEFAULT, T_s0=373.15, T_r0=373.15)).plant
     assert warm._Rr / base._Rr == pytest.approx(1.0 + 80.0 * 4.03e-3, rel=1e-12)
     assert warm._Rs / base._Rs == pytest.approx(1.0 + 80.0 * 3.93e-3, rel=1e-12)
+
+
+@pytest.mark.parametrize("version", ["2.0", "3.0"])
+@pytest.mark.parametrize("param", ["R_fe", "thermal"])
+def test_the_model_exchange_plant_refuses_core_loss_and_the_thermal_model(fmu_dir, version, param):
+    """No R_fe or thermal in model exchange (i_s would depend on v_s; two more states): an error at
+    initialization naming the parameter, not a crash."""
+    from fmpy.fmi1 import FMICallException
+    from test_native_me import MEPlant, me_path
+
+    me = MEPlant(me_path(fmu_dir, version))
+    if not me.fmi3:
+        me.fmu.setupExperiment(startTime=0.0)
+    if param == "R_fe":
+        me.set({"R_fe": 500.0})
+    else:
+        me.fmu.setBoolean([me.vr["thermal"]], [True])
+    with pytest.raises(FMICallException):
+        if me.fmi3:
+            me.fmu.enterInitializationMode(startTime=0.0)
+        else:
+            me.fmu.enterInitializationMode()
+        me.fmu.exitInitializationMode()
+    want = ("R_fe = 500.0" if param == "R_fe" else "thermal = true") + ": the model-exchange plant"
+    assert any(want in msg for _, msg in me.log), me.log
+    me.fmu.freeInstance()
