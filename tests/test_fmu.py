@@ -43,7 +43,10 @@ HELPERS = Path(__file__).with_name("fmu_helpers.py")
 H = 1e-4  # communication step = controller Ts [s]
 PLANT_IN = ("v_s_alpha", "v_s_beta", "T_load")
 PLANT_OUT = ("i_s_alpha", "i_s_beta", "psi_s_alpha", "psi_s_beta", "psi_r_alpha", "psi_r_beta", "omega_m",
-             "theta_m", "T_e", "i_mu")
+             "theta_m", "T_e", "i_mu", "P_fe", "T_s", "T_r")
+# issue 19: core loss and the thermal model (plant only)
+LOSS_THERMAL = ("R_fe", "thermal", "T_amb", "T_s0", "T_r0", "T_ref", "alpha_s", "alpha_r", "C_th_s", "C_th_r",
+                "R_th_s", "R_th_r", "R_th_sr")
 MOTOR = ("R_s", "R_r", "l_s", "l_r", "k", "n_p", "J", "B", "curve", "L_m0", "L_m_inf", "I_par", "poly_b",
          "poly_n", "table_file")
 CTRL_IN = ("i_s_alpha", "i_s_beta", "psi_r_alpha", "psi_r_beta", "psi_s_alpha", "psi_s_beta", "omega_m",
@@ -56,7 +59,7 @@ PREMAG_PARAMS = ("premag_fraction", "premag_min_fraction", "premag_speed_tol", "
 CONTRACT = {
     "SaturatedInductionMotor": {"input": PLANT_IN, "output": PLANT_OUT,
                                 "parameter": MOTOR + ("B_2", "omega_m0", "psi_r0", "h_int", "max_substeps",
-                                                      "v_warn", "i_warn", "omega_warn")},
+                                                      "v_warn", "i_warn", "omega_warn") + LOSS_THERMAL},
     "BacksteppingController": {"input": CTRL_IN, "output": CTRL_OUT, "parameter": (
         "c1", "c2", "d1", "d2", "Ts", "mode", "load_mode", "V_dc", "ref_bandwidth", "g_theta", "theta_max",
         "I_max", "use_stator_flux", "c0", "d0", "flux_source", "delay_samples", "observer",
@@ -74,7 +77,10 @@ UNITS = {"V": "v_s_alpha v_s_beta v_sd v_sq V_dc v_warn", "A": "i_s_alpha i_s_be
          "1": "k W delay_samples fw_voltage_ratio premag_fraction premag_min_fraction premag_boost",
          "kg m2": "J", "N m s": "B", "A/Wb^n": "poly_b", "s": "h_int Ts premag_time_max",
          "1/s": "c1 c2 d1 d2",
-         "1/s2": "g_theta c0 d0", "N m s2/rad2": "B_2"}
+         "1/s2": "g_theta c0 d0", "N m s2/rad2": "B_2",
+         "W": "P_fe", "K": "T_s T_r T_amb T_s0 T_r0 T_ref", "1/K": "alpha_s alpha_r", "J/K": "C_th_s C_th_r",
+         "K/W": "R_th_s R_th_r R_th_sr"}
+UNITS["Ohm"] += " R_fe"
 UNIT_OF = {name: unit for unit, names in UNITS.items() for name in names.split()}
 
 
@@ -95,6 +101,10 @@ def _defaults():
     plant = motor | {"B_2": 0.0, "omega_m0": 0.0, "psi_r0": 0.0, "h_int": c.Ts}
     # bounded work per doStep and the plausibility bounds: 4 V_dc, 10 I_max, about 10 x 157 rad/s
     plant |= {"max_substeps": 50000, "v_warn": 4 * c.V_dc, "i_warn": 10 * d.I_max, "omega_warn": 1500.0}
+    # no core loss, thermal model off, 20 C; copper and aluminium; the default motor's thermal estimate
+    plant |= {"R_fe": 0.0, "thermal": False, "T_amb": 293.15, "T_s0": 293.15, "T_r0": 293.15, "T_ref": 293.15,
+              "alpha_s": 3.93e-3, "alpha_r": 4.03e-3, "C_th_s": 6000.0, "C_th_r": 2200.0, "R_th_s": 0.2,
+              "R_th_r": 0.5, "R_th_sr": 0.15}
     return {"SaturatedInductionMotor": plant, "BacksteppingController": ctrl}
 
 
@@ -227,7 +237,7 @@ def test_model_description_matches_the_contract(fmus, name):
     booleans = {"use_stator_flux", "voltage_limited", "current_limited", "singular_limited",
                 "field_weakening"}
     assert {v.name for v in md.modelVariables if v.type == "Boolean"} == (
-        booleans if name == "BacksteppingController" else set())
+        booleans if name == "BacksteppingController" else {"thermal"})
     cs = md.coSimulation
     assert cs.canGetAndSetFMUstate and cs.canSerializeFMUstate
     assert cs.canHandleVariableCommunicationStepSize == (name == "SaturatedInductionMotor")
@@ -437,7 +447,7 @@ def test_two_interleaved_closed_loops_match_their_plain_loops_and_reset_replays(
     for p, g in zip(params, got):
         ref = scen.run(motor_params(p), ControllerUnit(p).drive)
         fmu = {name: [y[name] for y in g["y"]] for name in PLANT_OUT} | dict(zip(PLANT_IN[:2], zip(*g["v"])))
-        err = rel_err(fmu, ref, PLANT_OUT + PLANT_IN[:2])
+        err = rel_err(fmu, ref, PLANT_OUT[:10] + PLANT_IN[:2])  # the plain loop records no P_fe, T_s, T_r
         print(f"closed loop {p}: max rel diff {err:.3g}")
         assert err <= 1e-9 and ref["omega_m"][-1] > 5.0
     assert got[0]["y"][-1]["omega_m"] != got[1]["y"][-1]["omega_m"]  # J differs: the instances are separate
@@ -615,8 +625,8 @@ def test_a_valid_state_set_after_a_refusal_clears_it_and_the_run_goes_on_from_th
 FOREIGN_STATES = {  # attempt (tests/fmu_helpers.py _child_state): what its refusal must name
     "controller state": "BacksteppingController", "controller blob": "BacksteppingController",
     "truncated": "not valid", "garbled": "not valid", "empty": "not valid", "not an object": "list",
-    "non-numeric entry": "entry 0 = 'x'", "null entry": "entry 1 = None", "entry missing": "5 entries",
-    "entry missing, tag adjusted": "5 entries", "other build": "build", "other guid": "guid {0}",
+    "non-numeric entry": "entry 0 = 'x'", "null entry": "entry 1 = None", "entry missing": "7 entries",
+    "entry missing, tag adjusted": "7 entries", "other build": "build", "other guid": "guid {0}",
     "untagged": "untagged", "plant state": "SaturatedInductionMotor",
 }
 
