@@ -245,7 +245,7 @@ def test_rated_point_held_with_field_weakening_not_without():
     on = _loop({}, 150.0, 26.71, 2.0)
     off = _loop({"field_weakening": False}, 150.0, 26.71, 2.0)
     W = 1 + 6  # plant omega_m column
-    VLIM = 1 + 10 + 15  # controller voltage_limited column
+    VLIM = 1 + len(PlantUnit.OUTPUTS) + 15  # controller voltage_limited column
     tail = slice(-2000, None)
     w_on = [r[W] for r in on[tail]]
     w_off = [r[W] for r in off[tail]]
