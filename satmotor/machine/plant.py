@@ -12,6 +12,9 @@ Conventions
   torque ``B_2 omega_m |omega_m|`` opposing motion.  It is an argument of :class:`Plant`, not a
   field of :class:`~satmotor.machine.params.MotorParams`, because MotorParams is also the controller's
   model: the controller does not know the fan load and sees it as part of an unknown load.
+* Plant-only too: the core-loss resistance ``R_fe`` and the two-body thermal model (two more states
+  ``T_s``, ``T_r`` when on), :mod:`satmotor.machine.thermal`; both off by default, then the equations
+  below exactly (the fast paths of :meth:`Plant.derivatives`).
 
 Equations (seed eqs 1, 4, 10-13 with the factor k of the errata)::
 
@@ -283,7 +286,8 @@ class Plant:
         return rk4(self.derivatives, t, x, h, n_sub, (v_a, v_b, T_load))
 
     def magnetic_energy(self, x):
-        """Stored magnetic energy [J]: 3/2 (l_s|i_s|^2/2 + l_r|i_r|^2/2 + int_0^psi_m I dpsi)."""
+        """Stored magnetic energy [J]: 3/2 (l_s|i_s0|^2/2 + l_r|i_r|^2/2 + int_0^psi_m I dpsi), i_s0 the
+        current through the stator leakage (the terminal current without core loss)."""
         isa, isb, ira, irb, _, _, I, _, _ = self.currents(x[PSI_S_A], x[PSI_S_B], x[PSI_R_A], x[PSI_R_B])
         return 1.5 * (
             0.5 * self._ls * (isa**2 + isb**2)
