@@ -32,8 +32,11 @@ from dataclasses import dataclass
 from satmotor.errors import ParameterError, require_number
 
 T_20C = 293.15  # [K]
-ALPHA_COPPER = 3.93e-3  # [1/K] annealed copper at 20 C (IEC 60228 / IEC 60034-1 use 234.5 K: 1/254.45 K)
-ALPHA_ALUMINIUM = 4.03e-3  # [1/K] pure aluminium at 20 C (cage; 1/(228 + 20) K, IEC 60034-1's 225 for Al)
+# temperature coefficients at 20 C, IEC 60287-1-1 (Table 1): copper 3.93e-3, aluminium 4.03e-3 1/K
+# (inferred zero-resistance temperatures 234.5 and 228 C below 0 C); IEC 60034-1's resistance correction
+# uses 235 and 225, i.e. 3.92e-3 and 4.08e-3 at 20 C
+ALPHA_COPPER = 3.93e-3  # [1/K] the stator winding
+ALPHA_ALUMINIUM = 4.03e-3  # [1/K] the cage (die-cast aluminium; an alloy is somewhat lower)
 
 
 @dataclass(frozen=True)
