@@ -184,7 +184,8 @@ def test_derivatives_and_outputs_at_random_states_are_the_python_plants_bit_for_
             assert me.get(der_names) == want  # the derivative variables too
             o = plant.outputs(xs)
             link = (PlantUnit(params).link.V_dc, 0.0, 0.0, 0.0)  # v_dc, E_regen, E_chop, dc_fault: ideal
-            assert me.get(OUTPUTS) == [o.i_s_alpha, o.i_s_beta, *xs, o.T_e, o.i_mu, *link], (label, xs)
+            want = [o.i_s_alpha, o.i_s_beta, *xs, o.T_e, o.i_mu, *link, *o[10:]]  # then P_fe, T_s, T_r
+            assert me.get(OUTPUTS) == want, (label, xs)
             assert me.states() == xs
             n_values += 6
         me.close()
