@@ -654,7 +654,7 @@ def test_a_c_host_integrating_the_me_plant_with_rk4_gets_the_python_plant_bit_fo
     for k in range(HOST_STEPS):
         unit.step(k * HOST_H, HOST_H, u)
         x = rk4(cold.plant.derivatives, k * HOST_H, x, HOST_H, 1, u)  # every solve cold, as the host's
-    cold.set_state(x)
+    cold.set_state((*x, *u[:2]))  # the state, then the held stator voltage
     assert got == list(cold.outputs())
     warm = list(unit.outputs())
     assert all(abs(g - w) <= 1e-12 * max(1.0, abs(w)) for g, w in zip(got, warm)), (got, warm)
