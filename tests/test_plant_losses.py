@@ -478,3 +478,15 @@ def test_the_general_path_warm_starts_stages_2_to_4(label, values):
     g = spy.guesses
     assert len(g) == 8 and g[0] == 0.0 and g[4] == 0.0
     assert all(v > 0.0 for i, v in enumerate(g) if i % 4)
+
+
+def test_a_scenario_with_the_capacitor_link_and_the_thermal_model_is_refused_naming_file_and_field(tmp_path):
+    """The scenario check reports the combination with the file, plant.dc_link and its value."""
+    from orchestration.scenario.validate import validate_scenario_file
+
+    src = (Path(__file__).resolve().parents[1] / "scenarios" / "regenerative_stop.yaml").read_text()
+    assert "\nplant:\n" in src
+    path = tmp_path / "combo.yaml"
+    path.write_text(src.replace("\nplant:\n", "\nplant:\n  thermal: true\n", 1))
+    text = "\n".join(str(p) for p in validate_scenario_file(path))
+    assert str(path) in text and "plant.dc_link = 'capacitor': cannot be combined with thermal = true" in text
