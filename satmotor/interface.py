@@ -31,7 +31,17 @@ from satmotor.machine.dc_link import (
 )
 from satmotor.machine.magnetics import ArctanCurve, LinearCurve, PolynomialCurve
 from satmotor.machine.params import CURVE_NAMES, MotorParams, make_curve
-from satmotor.machine.plant import OMEGA_M, PSI_R_A, PSI_R_B, PSI_S_A, PSI_S_B, THETA_M, Plant, initial_state
+from satmotor.machine.plant import (
+    OMEGA_M,
+    PSI_R_A,
+    PSI_R_B,
+    PSI_S_A,
+    PSI_S_B,
+    THETA_M,
+    Plant,
+    initial_state,
+)
+from satmotor.machine.thermal import ThermalParams
 
 
 class Variable(NamedTuple):
@@ -69,7 +79,7 @@ CONTROLLER_DESCRIPTION = ("Backstepping speed and rotor-flux controller for the 
                           "estimate and the constant-m and IFOC PI baselines")
 AUTHOR = "satmotor"
 
-_M, _A, _P, _L = MotorParams(), ArctanCurve(), PolynomialCurve(), DCLinkParams()
+_M, _A, _P, _L, _TH = MotorParams(), ArctanCurve(), PolynomialCurve(), DCLinkParams(), ThermalParams()
 _G, _C, _D = BacksteppingGains(), ControllerConfig(), DriveConfig()
 OMEGA_WARN = 1500.0  # [rad/s] omega_warn's default: about 10 x the default motor's synchronous speed
 MOTOR_PARAMETERS = _in_struct("motor", (
@@ -116,6 +126,11 @@ PLANT_OUTPUTS = (
     # a Real 0/1 (not a Boolean): the plant's output port is all Real (hosts, the master, the ME plant)
     _v("dc_fault", "output", 0.0, "1", "DC-link over-voltage fault, 0 or 1: 1 once v_dc exceeded V_dc_max "
        "(latched; a warning logged once, the physics goes on)"),
+    # issue 19 (last: the earlier outputs keep their value references)
+    _v("P_fe", "output", 0.0, "W", "core (iron) loss 3/2 |e_s|^2 / R_fe, with the input held over the step "
+       "just ended; 0 without R_fe"),
+    _v("T_s", "output", _TH.T_s0, "K", "stator temperature (thermal off: T_s0, constant)"),
+    _v("T_r", "output", _TH.T_r0, "K", "rotor temperature (thermal off: T_r0, constant)"),
 )
 PLANT_PARAMETERS = MOTOR_PARAMETERS + _in_struct("plant", (
     _v("omega_m0", "parameter", 0.0, "rad/s", "initial mechanical speed"),
@@ -157,7 +172,30 @@ PLANT_PARAMETERS = MOTOR_PARAMETERS + _in_struct("plant", (
     _v("R_chop", "parameter", _L.R_chop, "Ohm", "brake chopper resistor, >= 0 (0: no chopper)"),
     _v("V_dc_max", "parameter", _L.V_dc_max, "V", "over-voltage: v_dc above it sets dc_fault and logs a "
        "warning once (the physics goes on), >= 0 (0: no check)"),
+)) + _in_struct("plant", (
+    # issue 19, core loss and temperature (last: the earlier variables keep their value references);
+    # plant only: the controller keeps its own R_s, R_r (cold) and knows no core loss
+    _v("R_fe", "parameter", 0.0, "Ohm", "core-loss resistance across the stator emf d psi_s/dt (behind R_s; "
+       "l_s = 0: across the magnetizing branch), >= 0; 0: no core loss; plant only"),
+    _v("thermal", "parameter", _TH.thermal, "", "two-body thermal model on: T_s, T_r are states and "
+       "R_s(T_s), R_r(T_r) follow them; off: the temperatures stay at T_s0, T_r0", "Boolean"),
+    _v("T_amb", "parameter", _TH.T_amb, "K", "ambient (cooling air) temperature, > 0"),
+    _v("T_s0", "parameter", _TH.T_s0, "K", "initial stator temperature, > 0"),
+    _v("T_r0", "parameter", _TH.T_r0, "K", "initial rotor temperature, > 0"),
+    _v("T_ref", "parameter", _TH.T_ref, "K", "temperature at which R_s and R_r are given, > 0"),
+    _v("alpha_s", "parameter", _TH.alpha_s, "1/K", "temperature coefficient of R_s (copper), >= 0"),
+    _v("alpha_r", "parameter", _TH.alpha_r, "1/K", "temperature coefficient of R_r (aluminium cage), >= 0"),
+    _v("C_th_s", "parameter", _TH.C_th_s, "J/K", "heat capacity of the stator (winding and core), > 0"),
+    _v("C_th_r", "parameter", _TH.C_th_r, "J/K", "heat capacity of the rotor, > 0"),
+    _v("R_th_s", "parameter", _TH.R_th_s, "K/W", "thermal resistance stator to ambient, > 0"),
+    _v("R_th_r", "parameter", _TH.R_th_r, "K/W", "thermal resistance rotor to ambient, > 0"),
+    _v("R_th_sr", "parameter", _TH.R_th_sr, "K/W", "thermal resistance stator to rotor (air gap), > 0"),
 ))
+# the machine's data only the plant models: a scenario's motor: section and a preset may hold them (the
+# controller's model ignores them)
+PLANT_MOTOR_NAMES = ("R_fe", "T_ref", "alpha_s", "alpha_r", "C_th_s", "C_th_r", "R_th_s", "R_th_r", "R_th_sr")
+THERMAL_NAMES = ("thermal", "T_amb", "T_s0", "T_r0", "T_ref", "alpha_s", "alpha_r", "C_th_s", "C_th_r",
+                 "R_th_s", "R_th_r", "R_th_sr")
 
 # the controller's Real parameters that go into DriveConfig as they are (the start-up tolerances)
 _DRIVE_REALS = ("fw_voltage_ratio", "premag_fraction", "premag_min_fraction", "premag_speed_tol",
@@ -358,6 +396,16 @@ def substeps_reason(n_sub, h_int, max_substeps):
             "take shorter communication steps or raise max_substeps")
 
 
+def link_refusal(R_fe, thermal):
+    """``dc_link = capacitor`` with core loss or the thermal model: refused (the capacitor link's states
+    take the places 6 to 8 the thermal ones would, and its inverter power uses the current without the
+    core branch); the native plant refuses with the same text."""
+    if R_fe > 0.0 or thermal:
+        what = "R_fe > 0 (core loss)" if R_fe > 0.0 else "thermal = true (the thermal model)"
+        raise ParameterError("dc_link", "capacitor", f"cannot be combined with {what}"
+                             " in this plant: use dc_link = ideal, or R_fe = 0 and thermal = false")
+
+
 def dc_link(values):
     """:class:`DCLinkParams` from the plant's flat values (the ``dclink`` parameters; missing names take
     their defaults)."""
@@ -382,9 +430,17 @@ class PlantUnit:
         self.warnings = []  # plausibility warnings not yet logged (the FMU glue takes them)
         self._o = None  # the plant's outputs at self.x, once computed (by the |i_s| check)
         # B_2 is the plant's alone: not in MotorParams, which is also the controller's model
-        self.plant = Plant(self.params, f["B_2"])
-        self.x0 = initial_state(self.params, omega_m=w0, psi_r_alpha=psi0)
+        # so are R_fe and the thermal model (the controller keeps its cold R_s, R_r); the checks in
+        # the native core's order: B_2, R_fe, then the thermal parameters
+        require_number("B_2", f["B_2"], 0, inclusive=True)
+        require_number("R_fe", f["R_fe"], 0, inclusive=True)
+        self.plant = Plant(self.params, f["B_2"], f["R_fe"], ThermalParams(*(f[n] for n in THERMAL_NAMES)))
+        self.x0 = initial_state(self.params, omega_m=w0, psi_r_alpha=psi0) + self.plant.thermal_state()
+        self._v = (0.0, 0.0)  # the stator voltage held over the last step (the outputs' with R_fe)
+        self._thermal = self.plant.th.thermal
         self.link = dc_link(f)  # the DC link's parameters; a capacitor link integrates with the plant
+        if self.link.capacitor:
+            link_refusal(self.plant.R_fe, self._thermal)
         self._link = DCLink(self.plant, self.link) if self.link.capacitor else None
         if self._link is not None:
             self.x0 = self._link.initial_state(self.x0)
@@ -420,9 +476,10 @@ class PlantUnit:
             if t_fault is not None:
                 self.warnings.append(over_voltage_message(t_fault, x[V_DC], self.link.V_dc_max))
         self.x = x
+        self._v = (v_a, v_b)
         self._o = None
         if self._warn[1] > 0.0 and not self._warned[1]:
-            o = self._o = self.plant.outputs(x)  # kept for outputs(): no second computation
+            o = self._o = self.plant.outputs(x, v_a, v_b)  # kept for outputs(): no second computation
             self._plausible(1, t + dt, o.i_s_alpha, o.i_s_beta)
         if self._warn[2] > 0.0 and not self._warned[2] and abs(x[OMEGA_M]) > self._warn[2]:
             self._warned[2] = True
@@ -437,24 +494,28 @@ class PlantUnit:
 
     def outputs(self):
         """Output values in the order of :attr:`OUTPUTS`."""
-        x, o = self.x, self._o if self._o is not None else self.plant.outputs(self.x)
+        x, o = self.x, self._o if self._o is not None else self.plant.outputs(self.x, *self._v)
         if self._link is None:
             link = (self.link.V_dc, 0.0, 0.0, 0.0)
         else:
             link = (x[V_DC], x[E_REGEN], x[E_CHOP], 1.0 if self._fault else 0.0)
         return (o.i_s_alpha, o.i_s_beta, x[PSI_S_A], x[PSI_S_B], x[PSI_R_A], x[PSI_R_B], x[OMEGA_M],
-                x[THETA_M], o.T_e, o.i_mu, *link)
+                x[THETA_M], o.T_e, o.i_mu, *link, o.P_fe, o.T_s, o.T_r)
 
     def get_state(self):
+        """The plant state, then the held stator voltage (the outputs' with R_fe); with a capacitor link
+        the nine states, then the chopper and the fault (no voltage: R_fe is refused with the link, so
+        the outputs do not depend on it)."""
         if self._link is None:
-            return tuple(self.x)
-        return (*self.x, float(self._chop), float(self._fault))  # the chopper and the fault last
+            return tuple(self.x) + self._v
+        return (*self.x, float(self._chop), float(self._fault))
 
     def set_state(self, state):
         state = tuple(float(v) for v in state)
         if self._link is not None:
-            state, self._chop, self._fault = state[:-2], bool(state[-2]), bool(state[-1])
-        self.x = state
+            self.x, self._chop, self._fault = state[:-2], bool(state[-2]), bool(state[-1])
+        else:
+            self.x, self._v = state[:-2], state[-2:]
         self._o = None
 
 

@@ -31,7 +31,8 @@ C = ctypes.c_char_p
 
 class Outputs(ctypes.Structure):
     _fields_ = [(n, ctypes.c_double) for n in ("i_s_alpha", "i_s_beta", "i_r_alpha", "i_r_beta", "i_mu_alpha",
-                                                "i_mu_beta", "i_mu", "psi_m", "m", "T_e")]
+                                                "i_mu_beta", "i_mu", "psi_m", "m", "T_e", "P_fe", "T_s",
+                                                "T_r")]
 
 
 _CTYPES = {"Real": ctypes.c_double, "Integer": ctypes.c_int, "Boolean": ctypes.c_int}
@@ -101,9 +102,10 @@ def declare(lib):
                               ctypes.c_char_p, S]),
         "sm_plant_derivatives": (I, [ctypes.c_void_p, P, D, D, D, P]),
         "sm_plant_outputs_of": (I, [ctypes.c_void_p, P, ctypes.POINTER(Outputs)]),
+        "sm_plant_outputs_v": (I, [ctypes.c_void_p, P, D, D, ctypes.POINTER(Outputs)]),
         "sm_plant_step": (I, [ctypes.c_void_p, P, D, D, D, D, I]),
         "sm_plant_step_memo": (I, [ctypes.c_void_p, P, P, D, D, D, D, I]),
-        "sm_plant_outputs_memo": (I, [ctypes.c_void_p, P, P, ctypes.POINTER(Outputs)]),
+        "sm_plant_outputs_memo": (I, [ctypes.c_void_p, P, P, D, D, ctypes.POINTER(Outputs)]),
         "sm_solve_memo_clear": (None, [P]),
         "sm_plant_initial_state": (I, [ctypes.c_void_p, D, D, D, D, P]),
         "sm_plant_check_step": (I, [ctypes.c_void_p, D, D, D, D, ctypes.POINTER(I), ctypes.c_char_p, S]),

@@ -124,7 +124,9 @@ def test_core_loss_and_friction_are_separated(tmp_path):
 def test_one_percent_noise_on_every_column(tmp_path):
     """10 seeds: the curve within 2 % at the median (each within 6 %), R_fe within 5 % every time."""
     rows, xs = no_load(R_fe=800.0, P_fw=70.0)
-    curve_err, rfe_err = [], []
+    (tmp_path / "clean").mkdir()
+    plant_rfe = _fit(tmp_path / "clean", rows)[1]["core_loss"]["R_fe_plant_Ohm"]  # the plant's, noiseless
+    curve_err, rfe_err, plant_err = [], [], []
     for seed in range(10):
         rng = np.random.default_rng(seed)
         noisy = rows * (1.0 + 0.01 * rng.standard_normal(rows.shape))
@@ -133,10 +135,12 @@ def test_one_percent_noise_on_every_column(tmp_path):
         assert code == 0
         curve_err.append(_curve_error(doc, xs))
         rfe_err.append(abs(doc["core_loss"]["R_fe_Ohm"] / 800.0 - 1.0))
+        plant_err.append(abs(doc["core_loss"]["R_fe_plant_Ohm"] / plant_rfe - 1.0))
     print(f"1 % noise: curve median {np.median(curve_err):.3g} worst {max(curve_err):.3g}; "
-          f"R_fe median {np.median(rfe_err):.3g} worst {max(rfe_err):.3g}")
+          f"R_fe median {np.median(rfe_err):.3g} worst {max(rfe_err):.3g}; the plant's R_fe "
+          f"({plant_rfe:.6g} Ohm noiseless) median {np.median(plant_err):.3g} worst {max(plant_err):.3g}")
     assert np.median(curve_err) < 0.02 and max(curve_err) < 0.06
-    assert max(rfe_err) < 0.05
+    assert max(rfe_err) < 0.05 and max(plant_err) < 0.05
 
 
 def test_motor_yaml_is_a_ready_section(tmp_path, capsys):
@@ -208,3 +212,51 @@ def test_locked_rotor_options_are_checked(tmp_path, capsys):
         assert main(["fit-curve", str(f), "--R-s", repr(R_S), "--out", str(tmp_path / "o"), *extra]) == 2
         err = capsys.readouterr().err
         assert ("--locked-rotor" in err or "--l-s" in err or "--leakage-ratio" in err), err
+
+
+def test_motor_yaml_r_fe_is_the_plants_placement(tmp_path):
+    """The data's R_fe (800 Ohm) sits across E_m, behind l_s; the plant puts R_fe across v_s - R_s i_s.
+    The R_fe written into motor: must give the plant's core loss 3/2 |V - R_s I|^2 / R_fe (computed here
+    from the circuit's phasors) equal to the measured 3/2 |E_m|^2 / 800 at the test points (least
+    squares; measured: within 2e-4 at every row), and the scenario loader must give it to the plant
+    alone.  With l_s = 0 the two placements are one: R_fe exactly."""
+    rows, xs = no_load(R_fe=800.0, P_fw=70.0)
+    my = tmp_path / "motor.yaml"
+    code, doc, _ = _fit(tmp_path, rows, "--motor-yaml", str(my))
+    assert code == 0
+    sec = yaml.safe_load(my.read_text())["motor"]
+    r_plant = sec["R_fe"]
+    assert doc["core_loss"]["R_fe_plant_Ohm"] == r_plant
+    assert doc["core_loss"]["R_fe_Ohm"] == pytest.approx(800.0)
+    err = []
+    for x in xs:
+        V, I = _phasors(x, 800.0, 70.0)
+        E = V - (R_S + 1j * W * L_S) * I  # the T circuit's main-flux emf
+        p_meas = 1.5 * abs(E) ** 2 / 800.0
+        p_plant = 1.5 * abs(V - R_S * I) ** 2 / r_plant
+        err.append(p_plant / p_meas - 1.0)
+    rated = int(np.argmin(abs(LEVELS - 1.0)))
+    print(f"plant R_fe {r_plant!r} Ohm (across E_m: 800); core loss at the test points: "
+          + ", ".join(f"{e:+.2%}" for e in err))
+    assert r_plant > 800.0  # |v_s - R_s i_s| > |E_m| at no load: the leakage drop adds
+    # one resistance cannot follow the ratio |v_s - R_s i_s|^2 / |E_m|^2 (1.045 to 1.096 over the rows,
+    # rising with the current): the least squares of the loss holds the high rows, where the loss is
+    assert abs(err[rated]) < 0.01 and max(abs(e) for e in err) < 0.05
+    V, I = _phasors(xs[rated], 800.0, 70.0)
+    ratio = abs(V - R_S * I) ** 2 / abs(V - (R_S + 1j * W * L_S) * I) ** 2
+    assert ratio - 1.0 > 0.05  # the unconverted 800 Ohm would put the plant's loss 6.9 % high there
+    scenario = tmp_path / "s.yaml"
+    scenario.write_text("name: s\nstop_time: 0.1\nprofiles:\n  psi_ref: {type: constant, value: 0.9}\n"
+                        + my.read_text())
+    sc = load_scenario(scenario)
+    assert sc.plant["R_fe"] == r_plant and "R_fe" not in sc.controller
+
+
+def test_plant_core_loss_resistance_is_r_fe_without_leakage():
+    from satmotor.identify.noload import plant_core_loss_resistance
+
+    e = np.array([50.0, 150.0, 300.0])
+    assert plant_core_loss_resistance(800.0, e, e) == 800.0
+    assert plant_core_loss_resistance(0.0, e, 1.01 * e) == 0.0
+    # a uniform 1 % higher stator emf: R_fe 2 % (1.01^2) higher for the same loss
+    assert plant_core_loss_resistance(800.0, e, 1.01 * e) == pytest.approx(800.0 * 1.01**2, rel=1e-12)

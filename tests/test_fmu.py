@@ -43,9 +43,13 @@ HELPERS = Path(__file__).with_name("fmu_helpers.py")
 H = 1e-4  # communication step = controller Ts [s]
 PLANT_IN = ("v_s_alpha", "v_s_beta", "T_load")
 PLANT_OUT = ("i_s_alpha", "i_s_beta", "psi_s_alpha", "psi_s_beta", "psi_r_alpha", "psi_r_beta", "omega_m",
-             "theta_m", "T_e", "i_mu", "v_dc", "E_regen", "E_chop", "dc_fault")  # the DC link last
+             "theta_m", "T_e", "i_mu", "v_dc", "E_regen", "E_chop", "dc_fault",  # the DC link
+             "P_fe", "T_s", "T_r")  # then the losses
 DC_LINK = ("dc_link", "V_dc", "C_dc", "dc_source", "R_src", "V_grid", "f_grid", "V_chop_on", "V_chop_off",
            "R_chop", "V_dc_max")
+# issue 19: core loss and the thermal model (plant only)
+LOSS_THERMAL = ("R_fe", "thermal", "T_amb", "T_s0", "T_r0", "T_ref", "alpha_s", "alpha_r", "C_th_s", "C_th_r",
+                "R_th_s", "R_th_r", "R_th_sr")
 MOTOR = ("R_s", "R_r", "l_s", "l_r", "k", "n_p", "J", "B", "curve", "L_m0", "L_m_inf", "I_par", "poly_b",
          "poly_n", "table_file")
 CTRL_IN = ("i_s_alpha", "i_s_beta", "psi_r_alpha", "psi_r_beta", "psi_s_alpha", "psi_s_beta", "omega_m",
@@ -58,7 +62,8 @@ PREMAG_PARAMS = ("premag_fraction", "premag_min_fraction", "premag_speed_tol", "
 CONTRACT = {
     "SaturatedInductionMotor": {"input": PLANT_IN, "output": PLANT_OUT,
                                 "parameter": MOTOR + ("B_2", "omega_m0", "psi_r0", "h_int", "max_substeps",
-                                                      "v_warn", "i_warn", "omega_warn") + DC_LINK},
+                                                      "v_warn", "i_warn", "omega_warn")
+                                 + DC_LINK + LOSS_THERMAL},
     "BacksteppingController": {"input": CTRL_IN, "output": CTRL_OUT, "parameter": (
         "c1", "c2", "d1", "d2", "Ts", "mode", "load_mode", "V_dc", "ref_bandwidth", "g_theta", "theta_max",
         "I_max", "use_stator_flux", "c0", "d0", "flux_source", "delay_samples", "observer",
@@ -81,7 +86,10 @@ UNITS = {"V": "v_s_alpha v_s_beta v_sd v_sq V_dc v_warn v_dc V_grid V_chop_on V_
               "host_delay_samples dc_fault",
          "kg m2": "J", "N m s": "B", "A/Wb^n": "poly_b", "s": "h_int Ts premag_time_max",
          "1/s": "c1 c2 d1 d2 current_limit_gain",
-         "1/s2": "g_theta c0 d0", "N m s2/rad2": "B_2"}
+         "1/s2": "g_theta c0 d0", "N m s2/rad2": "B_2",
+         "W": "P_fe", "K": "T_s T_r T_amb T_s0 T_r0 T_ref", "1/K": "alpha_s alpha_r", "J/K": "C_th_s C_th_r",
+         "K/W": "R_th_s R_th_r R_th_sr"}
+UNITS["Ohm"] += " R_fe"
 UNIT_OF = {name: unit for unit, names in UNITS.items() for name in names.split()}
 
 
@@ -107,6 +115,10 @@ def _defaults():
     plant |= {"dc_link": "ideal", "V_dc": c.V_dc, "C_dc": 470e-6, "dc_source": "dc", "R_src": 0.1,
               "V_grid": 400.0, "f_grid": 50.0, "V_chop_on": 750.0, "V_chop_off": 720.0, "R_chop": 0.0,
               "V_dc_max": 800.0}
+    # no core loss, thermal model off, 20 C; copper and aluminium; the default motor's thermal estimate
+    plant |= {"R_fe": 0.0, "thermal": False, "T_amb": 293.15, "T_s0": 293.15, "T_r0": 293.15, "T_ref": 293.15,
+              "alpha_s": 3.93e-3, "alpha_r": 4.03e-3, "C_th_s": 6000.0, "C_th_r": 2200.0, "R_th_s": 0.2,
+              "R_th_r": 0.5, "R_th_sr": 0.15}
     return {"SaturatedInductionMotor": plant, "BacksteppingController": ctrl}
 
 
@@ -240,7 +252,7 @@ def test_model_description_matches_the_contract(fmus, name):
     booleans = {"use_stator_flux", "voltage_limited", "current_limited", "singular_limited",
                 "field_weakening"}
     assert {v.name for v in md.modelVariables if v.type == "Boolean"} == (
-        booleans if name == "BacksteppingController" else set())
+        booleans if name == "BacksteppingController" else {"thermal"})
     cs = md.coSimulation
     assert cs.canGetAndSetFMUstate and cs.canSerializeFMUstate
     assert cs.canHandleVariableCommunicationStepSize == (name == "SaturatedInductionMotor")
@@ -628,8 +640,8 @@ def test_a_valid_state_set_after_a_refusal_clears_it_and_the_run_goes_on_from_th
 FOREIGN_STATES = {  # attempt (tests/fmu_helpers.py _child_state): what its refusal must name
     "controller state": "BacksteppingController", "controller blob": "BacksteppingController",
     "truncated": "not valid", "garbled": "not valid", "empty": "not valid", "not an object": "list",
-    "non-numeric entry": "entry 0 = 'x'", "null entry": "entry 1 = None", "entry missing": "5 entries",
-    "entry missing, tag adjusted": "5 entries", "other build": "build", "other guid": "guid {0}",
+    "non-numeric entry": "entry 0 = 'x'", "null entry": "entry 1 = None", "entry missing": "7 entries",
+    "entry missing, tag adjusted": "7 entries", "other build": "build", "other guid": "guid {0}",
     "untagged": "untagged", "plant state": "SaturatedInductionMotor",
 }
 

@@ -518,6 +518,16 @@ SANITIZED_RUN = textwrap.dedent("""
     lib.sm_plant_step(p, x, float("nan"), 0.0, 0.0, 1e-3, 3)
     lib.sm_plant_outputs_of(p, x, ctypes.byref(nc.Outputs()))
     lib.sm_plant_nonfinite_message(0.0, 1e-3, x, msg, 8)
+    # core loss and the thermal model (8 states): the general path, its outputs, its checks
+    pe = nc.params(lib, nc.PlantParams, dict(psi_r0=0.9, R_fe=300.0, thermal=1, T_s0=373.15))
+    assert lib.sm_motor_init(p, m, pe, big, 4096) == 0, big.value
+    x8 = (D * 8)(0.5, 0.2, 0.4, 0.1, 10.0, 0.0, 373.15, 293.15)
+    for k in range(200):
+        lib.sm_plant_step(p, x8, 300.0 * math.cos(k * 0.3), 300.0 * math.sin(k * 0.3), 5.0, 1e-3, 3)
+    lib.sm_plant_outputs_v(p, x8, 300.0, float("nan"), ctypes.byref(nc.Outputs()))
+    lib.sm_plant_step(p, x8, float("inf"), 0.0, 0.0, 1e-3, 3)
+    for bad in (dict(R_fe=-1.0), dict(C_th_r=0.0), dict(T_s0=-300.0, alpha_s=0.01)):
+        assert lib.sm_motor_init(p, m, nc.params(lib, nc.PlantParams, bad), msg, 8) != 0
     m.R_s = -1.0
     assert lib.sm_motor_init(p, m, pp, msg, 8) != 0
     assert lib.sm_motor_init(p, m, None, msg, 8) != 0
@@ -638,12 +648,13 @@ def test_solve_memo_changes_no_result(lib, table_csv):
             plain, with_memo = _vec(xs), _vec(xs)
             o_plain, o_memo = nc.Outputs(), nc.Outputs()
             if j % 3 == 0:  # matching: the outputs at this state filled it
-                assert lib.sm_plant_outputs_memo(p, memo, _vec(xs), ctypes.byref(o_memo)) == 0
+                assert lib.sm_plant_outputs_memo(p, memo, _vec(xs), 0.0, 0.0, ctypes.byref(o_memo)) == 0
                 assert lib.sm_plant_outputs_of(p, _vec(xs), ctypes.byref(o_plain)) == 0
                 assert bytes(o_memo) == bytes(o_plain)
                 assert (memo[2], memo[3]) == (o_plain.i_mu, o_plain.psi_m)  # kept: (a, c, I, psi)
             elif j % 3 == 1:  # stale: another state's root, or a forged one for this (a, c) is never asked
-                lib.sm_plant_outputs_memo(p, memo, _vec([float(v) for v in x[j - 1]]), ctypes.byref(o_memo))
+                lib.sm_plant_outputs_memo(p, memo, _vec([float(v) for v in x[j - 1]]), 0.0, 0.0,
+                                          ctypes.byref(o_memo))
             assert lib.sm_plant_step(p, plain, *ui, 1e-4, 2) == 0
             assert lib.sm_plant_step_memo(p, memo, with_memo, *ui, 1e-4, 2) == 0
             assert list(plain) == list(with_memo), f"{label}: the memo changed a step"

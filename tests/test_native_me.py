@@ -184,7 +184,8 @@ def test_derivatives_and_outputs_at_random_states_are_the_python_plants_bit_for_
             assert me.get(der_names) == want  # the derivative variables too
             o = plant.outputs(xs)
             link = (PlantUnit(params).link.V_dc, 0.0, 0.0, 0.0)  # v_dc, E_regen, E_chop, dc_fault: ideal
-            assert me.get(OUTPUTS) == [o.i_s_alpha, o.i_s_beta, *xs, o.T_e, o.i_mu, *link], (label, xs)
+            want = [o.i_s_alpha, o.i_s_beta, *xs, o.T_e, o.i_mu, *link, *o[10:]]  # then P_fe, T_s, T_r
+            assert me.get(OUTPUTS) == want, (label, xs)
             assert me.states() == xs
             n_values += 6
         me.close()
@@ -653,7 +654,7 @@ def test_a_c_host_integrating_the_me_plant_with_rk4_gets_the_python_plant_bit_fo
     for k in range(HOST_STEPS):
         unit.step(k * HOST_H, HOST_H, u)
         x = rk4(cold.plant.derivatives, k * HOST_H, x, HOST_H, 1, u)  # every solve cold, as the host's
-    cold.set_state(x)
+    cold.set_state((*x, *u[:2]))  # the state, then the held stator voltage
     assert got == list(cold.outputs())
     warm = list(unit.outputs())
     assert all(abs(g - w) <= 1e-12 * max(1.0, abs(w)) for g, w in zip(got, warm)), (got, warm)

@@ -63,6 +63,9 @@ static void publish(plant_me_data *d)
     r[SM_VR_E_regen] = 0.0;
     r[SM_VR_E_chop] = 0.0;
     r[SM_VR_dc_fault] = 0.0;
+    r[SM_VR_P_fe] = o.P_fe;
+    r[SM_VR_T_s] = o.T_s;
+    r[SM_VR_T_r] = o.T_r;
     for (j = 0; j < SM_N_STATES; ++j) {
         r[STATE_VR[j]] = d->x[j];
     }
@@ -106,6 +109,16 @@ static fg_status init(fg_instance *inst, plant_me_data *d)
         return FG_ERROR;
     }
     d->V_dc = link.V_dc;
+    /* not in model exchange: the core loss makes i_s depend on v_s (direct feedthrough this model
+     * structure does not declare), the thermal model two more states; the co-simulation plant has both */
+    if (plant.R_fe != 0.0 || plant.thermal) {
+        char v[40];
+        fg_log(inst, FG_ERROR, "logStatusError", "%s = %s: the model-exchange plant SaturatedInductionMotorME has "
+               "no %s; use the co-simulation plant SaturatedInductionMotor", plant.R_fe != 0.0 ? "R_fe" : "thermal",
+               plant.R_fe != 0.0 ? sm_repr_double(plant.R_fe, v, sizeof v) : "true",
+               plant.R_fe != 0.0 ? "core loss (R_fe must be 0)" : "thermal model (thermal must be false)");
+        return FG_ERROR;
+    }
     memcpy(d->x, d->p.x0, sizeof d->x);
     return FG_OK;
 }

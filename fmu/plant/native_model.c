@@ -16,7 +16,9 @@ typedef struct {
     sm_values v; /* first: the generated value store */
     sm_motor p;
     sm_dclink link;                  /* the DC link (satmotor/machine/dc_link.py) */
-    double x[SM_N_LINK_STATES];      /* the motor's six states, then v_dc, E_regen, E_chop (capacitor) */
+    /* the motor's six states, then: the thermal ones (p.n_states of them in all), or (capacitor: refused
+     * with the core-loss/thermal model, interface.link_refusal) v_dc, E_regen, E_chop */
+    double x[(int)SM_N_LINK_STATES > (int)SM_N_STATES_MAX ? (int)SM_N_LINK_STATES : (int)SM_N_STATES_MAX];
     int chop, fault;                 /* the chopper's state, the latched over-voltage fault */
     sm_solve_memo memo; /* the outputs' solve at x, reused by the next step's first stage */
     int ready;
@@ -59,12 +61,14 @@ static void plausible(fg_instance *inst, plant_data *d, int k, double t)
            WARN_NAME[k], sm_repr_double(bound, c, sizeof c), WARN_WHAT[k][1]);
 }
 
-static void publish(plant_data *d)
+/* the outputs at x; v_a, v_b [V]: the stator voltage held over the step just ended (zero at
+ * initialization), which the terminal current and P_fe need with R_fe > 0 (as PlantUnit.outputs) */
+static void publish(plant_data *d, double v_a, double v_b)
 {
     sm_plant_outputs o;
     double *r = d->v.r;
-    if (sm_plant_outputs_memo(&d->p, &d->memo, d->x, &o) != 0) {
-        o.i_s_alpha = o.i_s_beta = o.T_e = o.i_mu = NAN;
+    if (sm_plant_outputs_memo(&d->p, &d->memo, d->x, v_a, v_b, &o) != 0) {
+        o.i_s_alpha = o.i_s_beta = o.T_e = o.i_mu = o.P_fe = o.T_s = o.T_r = NAN;
     }
     r[SM_VR_i_s_alpha] = o.i_s_alpha;
     r[SM_VR_i_s_beta] = o.i_s_beta;
@@ -86,6 +90,9 @@ static void publish(plant_data *d)
         r[SM_VR_E_chop] = 0.0;
     }
     r[SM_VR_dc_fault] = d->fault ? 1.0 : 0.0;
+    r[SM_VR_P_fe] = o.P_fe;
+    r[SM_VR_T_s] = o.T_s;
+    r[SM_VR_T_r] = o.T_r;
 }
 
 void fg_model_start(fg_instance *inst, void *data)
@@ -129,17 +136,28 @@ fg_status fg_model_exit_initialization(fg_instance *inst, void *data, double sta
         fg_log(inst, FG_ERROR, "logStatusError", "%s", msg);
         return FG_ERROR;
     }
-    for (st = 0; st < SM_N_STATES; ++st) {
+    if (d->link.capacitor && d->p.ext) { /* interface.link_refusal, the same text */
+        sm_param_error(msg, sizeof msg, NULL, "dc_link", "'capacitor'",
+                       d->p.R_fe > 0.0 ? "cannot be combined with R_fe > 0 (core loss) in this plant: use dc_link "
+                                         "= ideal, or R_fe = 0 and thermal = false"
+                                       : "cannot be combined with thermal = true (the thermal model) in this plant: "
+                                         "use dc_link = ideal, or R_fe = 0 and thermal = false");
+        fg_log(inst, FG_ERROR, "logStatusError", "%s", msg);
+        return FG_ERROR;
+    }
+    for (st = 0; st < SM_N_STATES_MAX; ++st) {
         d->x[st] = d->p.x0[st];
     }
-    d->x[SM_V_DC] = d->link.V_dc; /* DCLink.initial_state */
-    d->x[SM_E_REGEN] = 0.0;
-    d->x[SM_E_CHOP] = 0.0;
+    if (d->link.capacitor) { /* DCLink.initial_state (the thermal model is refused with it) */
+        d->x[SM_V_DC] = d->link.V_dc;
+        d->x[SM_E_REGEN] = 0.0;
+        d->x[SM_E_CHOP] = 0.0;
+    }
     d->chop = 0;
     d->fault = 0;
     d->ready = 1;
     sm_solve_memo_clear(&d->memo);
-    publish(d);
+    publish(d, 0.0, 0.0);
     return FG_OK;
 }
 
@@ -147,7 +165,7 @@ fg_status fg_model_do_step(fg_instance *inst, void *data, double t, double h)
 {
     plant_data *d = (plant_data *)data;
     const double *r = d->v.r;
-    double x[SM_N_LINK_STATES], t_fault = NAN;
+    double x[(int)SM_N_LINK_STATES > (int)SM_N_STATES_MAX ? (int)SM_N_LINK_STATES : (int)SM_N_STATES_MAX], t_fault = NAN;
     char msg[SM_MSG_LEN];
     int n_sub = 1, st, j, chop = d->chop, fault = d->fault;
     if (!d->ready) {
@@ -169,7 +187,7 @@ fg_status fg_model_do_step(fg_instance *inst, void *data, double t, double h)
         return FG_DISCARD;
     }
     plausible(inst, d, 0, t);
-    for (j = 0; j < SM_N_LINK_STATES; ++j) {
+    for (j = 0; j < (int)(sizeof x / sizeof x[0]); ++j) {
         x[j] = d->x[j];
     }
     if (d->link.capacitor) { /* (the memo is for the motor's step alone: publish refills it) */
@@ -188,7 +206,7 @@ fg_status fg_model_do_step(fg_instance *inst, void *data, double t, double h)
         fg_log(inst, FG_DISCARD, "logStatusDiscard", "SaturatedInductionMotor at t = %.17g s: %s", t, msg);
         return FG_DISCARD;
     }
-    for (j = 0; j < SM_N_LINK_STATES; ++j) {
+    for (j = 0; j < (int)(sizeof x / sizeof x[0]); ++j) {
         d->x[j] = x[j];
     }
     d->chop = chop;
@@ -198,7 +216,7 @@ fg_status fg_model_do_step(fg_instance *inst, void *data, double t, double h)
         fg_log(inst, FG_WARNING, "logStatusWarning", "%s", msg);
     }
     d->v.r[SM_VR_time] = t + h;
-    publish(d);
+    publish(d, r[SM_VR_v_s_alpha], r[SM_VR_v_s_beta]);
     plausible(inst, d, 1, t + h);
     plausible(inst, d, 2, t + h);
     return FG_OK;

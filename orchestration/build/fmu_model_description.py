@@ -74,6 +74,12 @@ SI_UNITS = {
     "J": {"kg": 1, "m": 2, "s": -2},
     "F": {"kg": -1, "m": -2, "s": 4, "A": 2},
     "Hz": {"s": -1},
+    # issue 19: core loss and the thermal model
+    "W": {"kg": 1, "m": 2, "s": -3},
+    "K": {"K": 1},
+    "1/K": {"K": -1},
+    "J/K": {"kg": 1, "m": 2, "s": -2, "K": -1},
+    "K/W": {"kg": -1, "m": -2, "s": 3, "K": 1},
 }
 _BASE_ORDER = ("kg", "m", "s", "A", "K", "mol", "cd", "rad")
 

@@ -51,6 +51,8 @@ DERIVATIVE_DEPENDENCIES = {
     "omega_m": (*FLUXES, "omega_m", "T_load"),
     "theta_m": ("omega_m",),
 }
+# outputs constant here (no core loss, no thermal model in model exchange: 0, T_s0, T_r0): no dependency
+CONSTANT_OUTPUTS = ("P_fe", "T_s", "T_r")
 _DER_UNIT = {"Wb": "Wb/s", "rad/s": "rad/s2", "rad": "rad/s"}
 GLUE_ME = ("fg_model_me.h", "fg_me.h", "fg_me.c")
 EXTRA_CFLAGS = ("-DFG_MODEL_EXCHANGE",)
@@ -203,7 +205,8 @@ def fmi3(token="{GUID}"):
     for el in old:
         if el.tag == "Output":
             name = name_of[el.get("valueReference")]
-            el.set("dependencies", " ".join(str(vrs[d]) for d in ((name,) if name in STATES else FLUXES)))
+            deps = (name,) if name in STATES else () if name in CONSTANT_OUTPUTS else FLUXES
+            el.set("dependencies", " ".join(str(vrs[d]) for d in deps))
             ms.append(el)
     for s in STATES:
         deps = " ".join(str(vrs[d]) for d in sorted(DERIVATIVE_DEPENDENCIES[s], key=vrs.get))

@@ -7,8 +7,10 @@ Top-level keys (SI units; see ``scenarios/ramp_rated_load.yaml`` for a full exam
 per controller sample, default 1; the controller's ``Ts = step * controller_every``),
 ``algorithm`` (``gauss-seidel`` default, or ``jacobi``), ``motor`` (motor parameters given to
 both units: the names of :data:`satmotor.interface.MOTOR_PARAMETERS`, which the plant and the
-controller's model share, or ``preset: NAME`` of a motor of :mod:`satmotor.machine.library` with
-overrides beside it, :mod:`orchestration.scenario.presets`), ``plant`` and ``controller``
+controller's model share, and the plant-only machine data :data:`satmotor.interface.PLANT_MOTOR_NAMES`
+(core loss ``R_fe``, the thermal constants: given to the plant alone), or ``preset: NAME`` of a motor of
+:mod:`satmotor.machine.library` with overrides beside it, :mod:`orchestration.scenario.presets`),
+``plant`` and ``controller``
 (parameter overrides by FMI variable name, over ``motor``: only the deliberate differences),
 ``mismatch`` (``true``: the plant and the controller are meant to get different motor parameters;
 default false), ``profiles``
@@ -181,6 +183,14 @@ def _choices():
             ("plant", "curve"): CURVE_NAMES, ("controller", "curve"): CURVE_NAMES}
 
 
+def _plant_motor_names():
+    """The plant-only parameters a ``motor:`` section (and a preset) may hold: the machine's core loss and
+    thermal data (:data:`satmotor.interface.PLANT_MOTOR_NAMES`), which the controller's model ignores."""
+    from satmotor.interface import PLANT_MOTOR_NAMES
+
+    return PLANT_MOTOR_NAMES
+
+
 def _multiple(x, step):
     n = round(x / step)
     return n >= 1 and abs(x - n * step) <= _REL * x
@@ -194,6 +204,9 @@ def _overrides(chk, raw, unit, variables, base_dir):
         chk.add(unit, raw, "must be a mapping {parameter name: value}")
         return {}
     table = motor_variables(variables) if unit == "motor" else variables.get(unit, {})
+    if unit == "motor":  # the machine's data only the plant models (R_fe, thermal): to the plant alone
+        own = _plant_motor_names()
+        table = {**table, **{n: t for n, t in variables.get("plant", {}).items() if n in own}}
     out, choices = {}, _choices()
     for name, value in raw.items():
         where = f"{unit}.{name}"
@@ -391,11 +404,14 @@ def _check(data, file, variables):
     acceptance = _acceptance(chk, data.get("acceptance"), stop_time)
     measurements = _measurements(chk, data.get("measurements"))
     # the physics, on every value that passed the schema, in the same pass as the schema problems
-    fields_of = {u: {**{n: f"motor.{n}" for n in motor}, **{n: f"{u}.{n}" for n in over}}
+    plant_only = _plant_motor_names()
+    shared = {n: v for n, v in motor.items() if n not in plant_only}
+    fields_of = {u: {**{n: f"motor.{n}" for n in (motor if u == "plant" else shared)},
+                     **{n: f"{u}.{n}" for n in over}}
                  for u, over in (("plant", plant), ("controller", controller))}
     sc = Scenario(name if isinstance(name, str) else "", description, Path(file), stop_time, step or 1e-4,
                   every or 1, algorithm, MappingProxyType({**motor, **plant}),
-                  MappingProxyType({**motor, **controller}),
+                  MappingProxyType({**shared, **controller}),
                   MappingProxyType({k: profiles[k] for k in PROFILE_NAMES if k in profiles}),
                   record, acceptance, measurements, MappingProxyType(motor), mismatch,
                   preset=_preset_name(data.get("motor")))

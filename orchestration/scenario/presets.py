@@ -29,4 +29,4 @@ def expand(chk, raw_motor, raw_controller):
     controller = raw_controller
     if raw_controller is None or isinstance(raw_controller, dict):
         controller = {**m.controller, **(raw_controller or {})}
-    return {**m.values, **rest}, controller
+    return {**m.values, **m.plant, **rest}, controller

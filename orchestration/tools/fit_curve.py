@@ -18,8 +18,9 @@ into ``--out`` (default ``results/fit_curve``):
 * ``fit.png``: the points, every fit, and the residuals;
 * with ``--motor-yaml FILE``: a ready ``motor:`` section (the chosen curve, ``R_s``, ``l_s``, and
   ``l_r``, ``R_r``, ``n_p``, ``J``, ``B`` when given as options; the others keep the default motor's
-  values, which a comment lists) and the core-loss resistance ``R_fe`` (a plant parameter:
-  ``plant: {R_fe: ...}``), to paste into a scenario.
+  values, which a comment lists) and the core-loss resistance ``R_fe`` as the plant needs it (across
+  ``v_s - R_s i_s``: :func:`satmotor.identify.noload.plant_core_loss_resistance`; plant only, in the
+  ``motor:`` section like the rest), to paste into a scenario.
 
 With ``--locked-rotor V_ll_rms,I_rms,P_in,f`` (and ``--leakage-ratio`` l_r/l_s, default 1) instead of
 ``--l-s``: the stator leakage, rotor leakage and rotor resistance come from that test and the no-load
@@ -152,7 +153,12 @@ def points_from_file(path, R_s, l_s, copper_tol=None, l_r=None):
     :class:`~satmotor.identify.noload.LossSeparation`, None without P_in); :class:`InputError` on bad
     input."""
     from satmotor.errors import ParameterError
-    from satmotor.identify.noload import COPPER_TOL, magnetizing_points, separate_losses
+    from satmotor.identify.noload import (
+        COPPER_TOL,
+        magnetizing_points,
+        plant_core_loss_resistance,
+        separate_losses,
+    )
 
     cols, lines = read_noload(path)
     tol = COPPER_TOL if copper_tol is None else copper_tol
@@ -163,6 +169,8 @@ def points_from_file(path, R_s, l_s, copper_tol=None, l_r=None):
         if "P_in" in cols:  # the core-loss current is not rotor current: out of the leakage correction
             losses = separate_losses(pts.E_m, pts.P_loss, cols["P_in"])
             pts = magnetizing_points(*args, R_fe=losses.R_fe)
+            # the plant puts R_fe across v_s - R_s i_s, not across E_m: its own R_fe for the same loss
+            losses = losses._replace(R_fe_plant=plant_core_loss_resistance(losses.R_fe, pts.E_m, pts.E_s))
     except ParameterError as exc:
         field = exc.field
         if "[" in field:
@@ -203,7 +211,8 @@ def write_outputs(out, source, pts, has_p, fits, failures, best, table, R_s, l_s
         doc["locked_rotor"] = {"l_s_H": rotor.l_s, "l_r_H": rotor.l_r, "R_r_Ohm": rotor.R_r,
                                "psi_m_Wb": rotor.psi_m}
     if losses is not None:
-        doc["core_loss"] = {"R_fe_Ohm": losses.R_fe, "P_fw_W": losses.P_fw, "rms_W": losses.rms,
+        doc["core_loss"] = {"R_fe_Ohm": losses.R_fe, "R_fe_plant_Ohm": losses.R_fe_plant,
+                            "P_fw_W": losses.P_fw, "rms_W": losses.rms,
                             "lossless_rows": [line for line, _ in pts.warnings]}
     if failures:
         doc["failed"] = dict(failures)
@@ -257,28 +266,25 @@ MOTOR_OPTIONS = ("l_r", "R_r", "n_p", "J", "B")  # the motor parameters a no-loa
 
 
 def write_motor_yaml(path, source, best, R_s, l_s, losses, motor=None):
-    """The ``motor:`` section (and ``plant: {R_fe: ...}``) of the fitted motor, to paste into a scenario."""
+    """The ``motor:`` section of the fitted motor (with the plant's ``R_fe``), to paste into a scenario."""
     import yaml
-
-    from satmotor.interface import PLANT_PARAMETERS
 
     motor = {k: v for k, v in (motor or {}).items() if v is not None}
     if "l_r" not in motor and l_s > 0.0:
         motor["l_r"] = l_s  # as the rotor-leakage correction assumed
     section = {"R_s": R_s, "l_s": l_s, **motor, **_overrides(best)}
     rest = [name for name in ("R_r", "l_r", "k", "n_p", "J", "B") if name not in section]
+    if losses is not None:  # plant only (the controller's model ignores it), in motor: like the rest
+        section["R_fe"] = losses.R_fe_plant if losses.R_fe_plant is not None else losses.R_fe
     doc = {"motor": section}
-    plant_has_r_fe = any(v.name == "R_fe" for v in PLANT_PARAMETERS)
-    if losses is not None and plant_has_r_fe:
-        doc["plant"] = {"R_fe": losses.R_fe}
     head = (f"# satmotor-cosim fit-curve {source}: the motor identified from a no-load test, to paste\n"
-            "# into a scenario (motor: sets the plant and the controller's model alike).\n"
+            "# into a scenario (motor: sets the plant and the controller's model alike; R_fe the plant\n"
+            "# only).\n"
             + (f"# Not given, so the default motor's: {', '.join(rest)}.\n" if rest else ""))
     if losses is not None:
-        head += (f"# Core loss: R_fe = {losses.R_fe!r} Ohm (0: none found); friction and windage at no load "
-                 f"P_fw = {losses.P_fw:.6g} W.\n")
-        if not plant_has_r_fe:
-            head += "# (this plant has no core-loss parameter: R_fe is reported here only)\n"
+        head += (f"# Core loss: R_fe = {losses.R_fe!r} Ohm across E_m (the no-load separation; 0: none "
+                 f"found), the plant's (across v_s - R_s i_s, ahead of l_s) R_fe = {section['R_fe']!r} Ohm; "
+                 f"friction and windage at no load P_fw = {losses.P_fw:.6g} W.\n")
     Path(path).write_text(head + yaml.safe_dump(doc, sort_keys=False, default_flow_style=False),
                           encoding="utf-8")
 
@@ -393,7 +399,9 @@ def run(path, R_s, l_s, out=DEFAULT_OUT, stream=None, copper_tol=None, motor_yam
         print(f"  locked rotor: l_s = {rb.l_s:.6g} H, l_r = {rb.l_r:.6g} H, R_r = {rb.R_r:.6g} Ohm "
               f"(main flux {rb.psi_m:.4g} Wb in the test)", file=stream)
     if losses is not None:
-        print(f"  core loss: R_fe = {losses.R_fe:.6g} Ohm" + (" (none found)" if losses.R_fe == 0.0 else "")
+        print(f"  core loss: R_fe = {losses.R_fe:.6g} Ohm" + (" (none found)" if losses.R_fe == 0.0 else
+                                                                f" across E_m, {losses.R_fe_plant:.6g} Ohm "
+                                                                "in the plant's placement")
               + f", friction and windage {losses.P_fw:.4g} W (fit RMS {losses.rms:.3g} W)", file=stream)
     print(f"  written: {Path(out) / 'fit.yaml'}, curve_table.csv, fit.png"
           + (f", {motor_yaml}" if motor_yaml is not None else ""), file=stream)

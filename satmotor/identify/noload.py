@@ -76,6 +76,8 @@ class MagnetizingPoints(NamedTuple):
     E_m: np.ndarray | None = None  # [V] peak main-flux EMF |E_m| (None without P_in)
     P_loss: np.ndarray | None = None  # [W] P_in - 3 R_s I_rms^2 (>= 0; None without P_in)
     warnings: tuple = ()  # ((row index, message), ...): rows taken as lossless (step 6)
+    E_s: np.ndarray | None = None  # [V] peak stator emf |V - R_s I| (the plant's core-loss voltage; None
+    # without P_in)
 
 
 class LossSeparation(NamedTuple):
@@ -84,6 +86,7 @@ class LossSeparation(NamedTuple):
     R_fe: float  # [Ohm] core-loss resistance across the main field (0: no core loss found)
     P_fw: float  # [W] friction and windage loss (constant over the rows)
     rms: float  # [W] RMS residual of the fit of P_loss
+    R_fe_plant: float | None = None  # [Ohm] the plant's R_fe (plant_core_loss_resistance), once known
 
 
 def _row_array(name, values, n=None):
@@ -185,7 +188,8 @@ def magnetizing_points(V_ll_rms, I_rms, f, R_s, l_s, P_in=None, l_r=None, copper
             raise ParameterError(f"row[{k}]", (float(V_ll[k]), float(I_r[k])),
                                  f"gives no positive magnetizing point (psi_m = {psi[k]:.6g} Wb, "
                                  f"i_mu = {i_mu[k]:.6g} A): check R_s, l_s and the row's values")
-    return MagnetizingPoints(i_mu, psi, I, cos_phi, Eabs, P_loss, tuple(warnings))
+    E_s = None if P_in is None else np.abs(V - R_s * Ic)
+    return MagnetizingPoints(i_mu, psi, I, cos_phi, Eabs, P_loss, tuple(warnings), E_s)
 
 
 CORE_LOSS_FLOOR = 1e-6  # [1] a core loss below this share of the input power (top row) is none
@@ -209,3 +213,17 @@ def separate_losses(E_m, P_loss, P_in):
         return LossSeparation(0.0, P_fw, float(np.sqrt(np.mean((y - P_fw) ** 2))))
     rms = float(np.sqrt(np.mean((A @ np.array([slope, P_fw]) - y) ** 2)))
     return LossSeparation(1.5 / float(slope), float(P_fw), rms)
+
+
+def plant_core_loss_resistance(R_fe, E_m, E_s):
+    """The plant's R_fe [Ohm] for a core-loss resistance ``R_fe`` [Ohm] found across the main-flux EMF
+    ``E_m`` (step 7): the plant (:mod:`satmotor.machine.thermal`) puts it across the stator emf
+    ``e_s = v_s - R_s i_s`` (``E_s`` [V] peak, :class:`MagnetizingPoints`), ahead of the stator leakage.
+    Least squares over the rows of ``3/2 E_s^2 / R = 3/2 E_m^2 / R_fe`` (the plant's core loss at the
+    test points against the separated one): ``R = R_fe sum(E_s^4) / sum(E_s^2 E_m^2)``; with l_s = 0
+    (``E_s = E_m``) exactly R_fe.  0 stays 0 (no core loss)."""
+    if R_fe == 0.0:
+        return 0.0
+    es2 = np.asarray(E_s, dtype=float) ** 2
+    em2 = np.asarray(E_m, dtype=float) ** 2
+    return float(R_fe * np.sum(es2 * es2) / np.sum(es2 * em2))

@@ -26,7 +26,7 @@ qu2012_2kw2     2.2 kW, 400 V, 5 A, 50 Hz, 14.6 N m, measured: Z. Qu, M. Ranta, 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from types import MappingProxyType
 
 from satmotor.errors import ParameterError
@@ -71,6 +71,9 @@ class NamedMotor:
     psi_rated: float
     source: str
     notes: str = ""
+    # the machine's plant-only data (satmotor.interface.PLANT_MOTOR_NAMES: core loss, thermal constants);
+    # empty: the plant's defaults (those of the default motor)
+    plant: MappingProxyType = field(default_factory=lambda: MappingProxyType({}))
 
     def params(self):
         """The :class:`MotorParams` of this motor."""
@@ -114,7 +117,11 @@ def _qu2012_2kw2():
         plate.V_phase_peak / (2.0 * math.pi * plate.f_n),
         "Z. Qu, M. Ranta, M. Hinkkanen, J. Luomi, IEEE Trans. Ind. Appl. 48(3), 2012, "
         "doi 10.1109/TIA.2012.2190818 (Gamma form); the same data as motulator's saturated 2.2-kW example",
-        "n_n = P_n / T_n (1439 rpm); psi_rated = V_phase_peak / (2 pi f_n) at no load; B not given (0)")
+        "n_n = P_n / T_n (1439 rpm); psi_rated = V_phase_peak / (2 pi f_n) at no load; B not given (0); "
+        "thermal constants an estimate (docs/motors.md), no core loss given (R_fe = 0)",
+        # thermal: an estimate for a 2.2-kW TEFC machine (frame 90L, about 17 kg): stator 9 kg, rotor 3.5 kg;
+        # at rated load (stator copper 277 W + core about 50 W, rotor about 120 W) rises of about 83 K
+        MappingProxyType(dict(C_th_s=4200.0, C_th_r=1600.0, R_th_s=0.25, R_th_r=0.7, R_th_sr=0.2)))
 
 
 MOTORS = MappingProxyType({m.name: m for m in (_default_4kw(), _qu2012_2kw2())})

@@ -12,6 +12,9 @@ Conventions
   torque ``B_2 omega_m |omega_m|`` opposing motion.  It is an argument of :class:`Plant`, not a
   field of :class:`~satmotor.machine.params.MotorParams`, because MotorParams is also the controller's
   model: the controller does not know the fan load and sees it as part of an unknown load.
+* Plant-only too: the core-loss resistance ``R_fe`` and the two-body thermal model (two more states
+  ``T_s``, ``T_r`` when on), :mod:`satmotor.machine.thermal`; both off by default, then the equations
+  below exactly (the fast paths of :meth:`Plant.derivatives`).
 
 Equations (seed eqs 1, 4, 10-13 with the factor k of the errata)::
 
@@ -40,9 +43,12 @@ from typing import NamedTuple
 
 from satmotor.errors import require_number
 from satmotor.machine.integrate import rk4
+from satmotor.machine.thermal import ThermalParams, resistance
 
 PSI_S_A, PSI_S_B, PSI_R_A, PSI_R_B, OMEGA_M, THETA_M = range(6)
 N_STATES = 6
+T_S, T_R = 6, 7  # the thermal states (only with the thermal model on)
+N_THERMAL_STATES = 8
 STATE_NAMES = ("psi_s_alpha", "psi_s_beta", "psi_r_alpha", "psi_r_beta", "omega_m", "theta_m")
 
 
@@ -59,6 +65,9 @@ class PlantOutputs(NamedTuple):
     psi_m: float  # [Wb] main flux linkage magnitude
     m: float  # [H] static magnetizing inductance psi_m / i_mu
     T_e: float  # [N m] electromagnetic torque
+    P_fe: float = 0.0  # [W] core loss 3/2 |e_s|^2 / R_fe (0 without R_fe)
+    T_s: float = 0.0  # [K] stator temperature
+    T_r: float = 0.0  # [K] rotor temperature
 
 
 class Plant:
@@ -70,14 +79,25 @@ class Plant:
     B_2 : float
         Quadratic (fan/pump) load coefficient [N m s2/rad2], >= 0: load torque
         ``B_2 omega_m |omega_m|`` opposing motion (default 0: none).
+    R_fe : float
+        Core-loss resistance [Ohm], >= 0 (0: no core loss), across the stator emf
+        (:mod:`satmotor.machine.thermal`).  Then the terminal current and P_fe depend on v_s:
+        :meth:`outputs` takes the voltage.
+    thermal : satmotor.machine.thermal.ThermalParams or None
+        The two-body thermal model (None: the defaults, off).  On, the state has two more entries,
+        ``T_s``, ``T_r`` [K] (:data:`N_THERMAL_STATES`); off, the resistances are R_s(T_s0), R_r(T_r0).
     """
 
     __slots__ = ("p", "B_2", "_curve", "_inv_ls", "_k_lr", "_le", "_k", "_ls", "_lr", "_Rs", "_Rr",
-                 "_np", "_kappa", "_inv_J", "_B", "_B2", "_m0", "_gamma")
+                 "_np", "_kappa", "_inv_J", "_B", "_B2", "_m0", "_gamma", "R_fe", "th", "_ext", "_th_on")
 
-    def __init__(self, params, B_2=0.0):
+    def __init__(self, params, B_2=0.0, R_fe=0.0, thermal=None):
         self.p = params
         self.B_2 = self._B2 = require_number("B_2", B_2, 0, inclusive=True)
+        self.R_fe = require_number("R_fe", R_fe, 0, inclusive=True)
+        self.th = th = ThermalParams() if thermal is None else thermal
+        self._th_on = th.thermal
+        self._ext = self.R_fe > 0.0 or self._th_on  # the general path (_derivatives_ext)
         self._curve = params.curve
         self._gamma = params.l_s == 0.0  # the Gamma-equivalent model (module docstring)
         self._inv_ls = 0.0 if self._gamma else 1.0 / params.l_s
@@ -86,8 +106,9 @@ class Plant:
         self._k = params.k
         self._ls = params.l_s
         self._lr = params.l_r
-        self._Rs = params.R_s
-        self._Rr = params.R_r
+        # thermal off: the resistances at T_s0, T_r0 (with T_s0 = T_ref exactly R_s: R_s * 1.0)
+        self._Rs = resistance(params.R_s, th.alpha_s, th.T_s0, th.T_ref)
+        self._Rr = resistance(params.R_r, th.alpha_r, th.T_r0, th.T_ref)
         self._np = params.n_p
         self._kappa = 1.5 * params.n_p
         self._inv_J = 1.0 / params.J
@@ -114,15 +135,18 @@ class Plant:
         irb = (prb - k * psb) / self._lr
         return ima - k * ira, imb - k * irb, ira, irb, ima, imb, I, psi, m
 
-    def magnetizing(self, psa, psb, pra, prb):
-        """Return ``(i_mu_alpha, i_mu_beta, I, psi_m, m)`` from the four fluxes [Wb]."""
+    def magnetizing(self, psa, psb, pra, prb, warm=None):
+        """Return ``(i_mu_alpha, i_mu_beta, I, psi_m, m)`` from the four fluxes [Wb] (``warm``: as in
+        :meth:`derivatives`)."""
         if self._gamma:
-            return self._magnetizing_gamma(psa, psb)
+            return self._magnetizing_gamma(psa, psb, warm)
         ua = psa * self._inv_ls + self._k_lr * pra
         ub = psb * self._inv_ls + self._k_lr * prb
         un = math.hypot(ua, ub)
         le = self._le
-        I, psi = self._curve.solve(le, le * un)
+        I, psi = self._curve.solve(le, le * un, 0.0 if warm is None else warm[0])
+        if warm is not None:
+            warm[0] = I
         if I == 0.0:
             return 0.0, 0.0, 0.0, 0.0, self._m0
         s = I / un
@@ -133,6 +157,8 @@ class Plant:
 
         ``warm``: None (the magnetizing-curve solve starts cold), or a one-element list: the solve
         starts from ``warm[0]`` [A] and leaves its root |i_mu| there (:meth:`step`'s stages)."""
+        if self._ext:
+            return self._derivatives_ext(x, v_a, v_b, T_load, warm)
         psa, psb, pra, prb, w = x[PSI_S_A], x[PSI_S_B], x[PSI_R_A], x[PSI_R_B], x[OMEGA_M]
         if self._gamma:
             return self._derivatives_gamma(psa, psb, pra, prb, w, v_a, v_b, T_load, warm)
@@ -181,13 +207,79 @@ class Plant:
             w,
         )
 
-    def outputs(self, x):
-        """Currents, magnetizing state and torque at state ``x``."""
+    def currents(self, psa, psb, pra, prb, warm=None):
+        """``(i_s0_alpha, i_s0_beta, i_r_alpha, i_r_beta, i_mu_alpha, i_mu_beta, I, psi_m, m)`` from the
+        fluxes [Wb]: i_s0 the stator current through the leakage (the terminal current without R_fe);
+        ``warm``: as in :meth:`derivatives`."""
+        if self._gamma:
+            return self._currents_gamma(psa, psb, pra, prb, warm)
+        ima, imb, I, psi, m = self.magnetizing(psa, psb, pra, prb, warm)
+        km = self._k * m
+        return ((psa - m * ima) * self._inv_ls, (psb - m * imb) * self._inv_ls, (pra - km * ima) / self._lr,
+                (prb - km * imb) / self._lr, ima, imb, I, psi, m)
+
+    def _resistances(self, x):
+        """``(R_s, R_r)`` [Ohm] at the temperatures of ``x`` (thermal on), else the constant ones."""
+        if self._th_on:
+            th = self.th
+            return (resistance(self.p.R_s, th.alpha_s, x[T_S], th.T_ref),
+                    resistance(self.p.R_r, th.alpha_r, x[T_R], th.T_ref))
+        return self._Rs, self._Rr
+
+    def _ext_terms(self, x, v_a, v_b, warm=None):
+        """The general path's quantities at ``x`` and the voltage: ``(currents, R_s, R_r, e_a, e_b,
+        i_fe_a, i_fe_b)`` with e_s = d psi_s/dt [V] and i_fe the core-loss current [A]."""
+        c = self.currents(x[PSI_S_A], x[PSI_S_B], x[PSI_R_A], x[PSI_R_B], warm)
+        Rs, Rr = self._resistances(x)
+        ua = v_a - Rs * c[0]  # the emf without core loss (R_fe infinite)
+        ub = v_b - Rs * c[1]
+        R_fe = self.R_fe
+        if R_fe > 0.0:
+            g = 1.0 / (R_fe + Rs)
+            fa, fb = ua * g, ub * g  # i_fe = (v_s - R_s i_s0) / (R_fe + R_s)
+            return c, Rs, Rr, R_fe * fa, R_fe * fb, fa, fb
+        return c, Rs, Rr, ua, ub, 0.0, 0.0
+
+    def _derivatives_ext(self, x, v_a, v_b, T_load, warm=None):
+        """:meth:`derivatives` with core loss and/or the thermal model (module thermal's equations)."""
+        (isa, isb, ira, irb, *_), Rs, Rr, ea, eb, fa, fb = self._ext_terms(x, v_a, v_b, warm)
+        psa, psb, pra, prb, w = x[PSI_S_A], x[PSI_S_B], x[PSI_R_A], x[PSI_R_B], x[OMEGA_M]
+        we = self._np * w
+        te = self._kappa * (psa * isb - psb * isa)
+        d = (
+            ea,
+            eb,
+            -Rr * ira - we * prb,
+            -Rr * irb + we * pra,
+            (te - T_load - (self._B + self._B2 * abs(w)) * w) * self._inv_J,
+            w,
+        )
+        if not self._th_on:
+            return d
+        th = self.th
+        Ts, Tr = x[T_S], x[T_R]
+        ta, tb = isa + fa, isb + fb  # the terminal current heats the stator copper
+        p_s = 1.5 * Rs * (ta * ta + tb * tb) + (1.5 * (ea * fa + eb * fb))  # copper + core (e.i_fe)
+        p_r = 1.5 * Rr * (ira * ira + irb * irb)
+        q_sr = (Ts - Tr) / th.R_th_sr
+        return d + ((p_s - (Ts - th.T_amb) / th.R_th_s - q_sr) / th.C_th_s,
+                    (p_r - (Tr - th.T_amb) / th.R_th_r + q_sr) / th.C_th_r)
+
+    def outputs(self, x, v_a=0.0, v_b=0.0):
+        """Currents, magnetizing state, torque, core loss and temperatures at state ``x``; with
+        R_fe > 0 the terminal current and P_fe need the stator voltage ``v_a``, ``v_b`` [V]."""
+        if self._ext:
+            (isa, isb, ira, irb, ima, imb, I, psi, m), _, _, ea, eb, fa, fb = self._ext_terms(x, v_a, v_b)
+            te = self._kappa * (x[PSI_S_A] * isb - x[PSI_S_B] * isa)
+            ts, tr = (x[T_S], x[T_R]) if self._th_on else (self.th.T_s0, self.th.T_r0)
+            return PlantOutputs(isa + fa, isb + fb, ira, irb, ima, imb, I, psi, m, te,
+                                1.5 * (ea * fa + eb * fb), ts, tr)
         psa, psb, pra, prb = x[PSI_S_A], x[PSI_S_B], x[PSI_R_A], x[PSI_R_B]
+        ts, tr = self.th.T_s0, self.th.T_r0
         if self._gamma:
             isa, isb, ira, irb, ima, imb, I, psi, m = self._currents_gamma(psa, psb, pra, prb)
             te = self._kappa * (psa * isb - psb * isa)
-            return PlantOutputs(isa, isb, ira, irb, ima, imb, I, psi, m, te)
+            return PlantOutputs(isa, isb, ira, irb, ima, imb, I, psi, m, te, 0.0, ts, tr)
         ima, imb, I, psi, m = self.magnetizing(psa, psb, pra, prb)
         isa = (psa - m * ima) * self._inv_ls
         isb = (psb - m * imb) * self._inv_ls
@@ -195,7 +287,11 @@ class Plant:
         ira = (pra - km * ima) / self._lr
         irb = (prb - km * imb) / self._lr
         te = self._kappa * (psa * isb - psb * isa)
-        return PlantOutputs(isa, isb, ira, irb, ima, imb, I, psi, m, te)
+        return PlantOutputs(isa, isb, ira, irb, ima, imb, I, psi, m, te, 0.0, ts, tr)
+
+    def thermal_state(self):
+        """The state's thermal entries at the start: ``(T_s0, T_r0)`` with the thermal model on, or ``()``."""
+        return (self.th.T_s0, self.th.T_r0) if self._th_on else ()
 
     def step(self, t, x, v_a, v_b, T_load, h, n_sub=1):
         """Advance the state over ``h`` [s] with inputs held (zero-order hold), RK4.  The
@@ -205,12 +301,13 @@ class Plant:
         return rk4(self.derivatives, t, x, h, n_sub, (v_a, v_b, T_load), [0.0])
 
     def magnetic_energy(self, x):
-        """Stored magnetic energy [J]: 3/2 (l_s|i_s|^2/2 + l_r|i_r|^2/2 + int_0^psi_m I dpsi)."""
-        o = self.outputs(x)
+        """Stored magnetic energy [J]: 3/2 (l_s|i_s0|^2/2 + l_r|i_r|^2/2 + int_0^psi_m I dpsi), i_s0 the
+        current through the stator leakage (the terminal current without core loss)."""
+        isa, isb, ira, irb, _, _, I, _, _ = self.currents(x[PSI_S_A], x[PSI_S_B], x[PSI_R_A], x[PSI_R_B])
         return 1.5 * (
-            0.5 * self._ls * (o.i_s_alpha**2 + o.i_s_beta**2)
-            + 0.5 * self._lr * (o.i_r_alpha**2 + o.i_r_beta**2)
-            + self._curve.energy(o.i_mu)
+            0.5 * self._ls * (isa**2 + isb**2)
+            + 0.5 * self._lr * (ira**2 + irb**2)
+            + self._curve.energy(I)
         )
 
 

@@ -13,6 +13,33 @@ static int all_finite(const double *v, int n)
     return 1;
 }
 
+/* thermal.resistance: R (1 + alpha (T - T_ref)) */
+static double resistance(double R, double alpha, double T, double T_ref)
+{
+    return R * (1.0 + alpha * (T - T_ref));
+}
+
+/* ThermalParams.__post_init__ (the Boolean thermal needs no check: an int, != 0 is true) */
+static int thermal_check(const sm_plant_params *pp, char *msg, size_t msg_len)
+{
+    const char *pos[] = {"T_amb", "T_s0", "T_r0", "T_ref", "C_th_s", "C_th_r", "R_th_s", "R_th_r", "R_th_sr"};
+    const double pv[] = {pp->T_amb, pp->T_s0, pp->T_r0, pp->T_ref, pp->C_th_s, pp->C_th_r,
+                         pp->R_th_s, pp->R_th_r, pp->R_th_sr};
+    char v[40];
+    int i;
+    for (i = 0; i < 9; ++i)
+        if (sm_require_number(pos[i], pv[i], 1, 0.0, 0, msg, msg_len)) return SM_ERR_PARAM;
+    if (sm_require_number("alpha_s", pp->alpha_s, 1, 0.0, 1, msg, msg_len)) return SM_ERR_PARAM;
+    if (sm_require_number("alpha_r", pp->alpha_r, 1, 0.0, 1, msg, msg_len)) return SM_ERR_PARAM;
+    if (!(1.0 + pp->alpha_s * (pp->T_s0 - pp->T_ref) > 0.0))
+        return sm_param_error(msg, msg_len, NULL, "T_s0", sm_repr_double(pp->T_s0, v, sizeof v),
+                              "gives a resistance <= 0 (1 + alpha (T - T_ref) <= 0)");
+    if (!(1.0 + pp->alpha_r * (pp->T_r0 - pp->T_ref) > 0.0))
+        return sm_param_error(msg, msg_len, NULL, "T_r0", sm_repr_double(pp->T_r0, v, sizeof v),
+                              "gives a resistance <= 0 (1 + alpha (T - T_ref) <= 0)");
+    return SM_CORE_OK;
+}
+
 int sm_motor_init(sm_motor *p, const sm_motor_params *m, const sm_plant_params *pp, char *msg, size_t msg_len)
 {
     sm_motor q;
@@ -52,8 +79,28 @@ int sm_motor_init(sm_motor *p, const sm_motor_params *m, const sm_plant_params *
     if (sm_require_number("psi_r0", pp->psi_r0, 1, 0.0, 1, msg, msg_len)) return SM_ERR_PARAM;
     if (sm_require_number("h_int", pp->h_int, 1, 0.0, 0, msg, msg_len)) return SM_ERR_PARAM;
     if (sm_require_number("B_2", pp->B_2, 1, 0.0, 1, msg, msg_len)) return SM_ERR_PARAM;
-    q.R_s = m->R_s;
-    q.R_r = m->R_r;
+    if (sm_require_number("R_fe", pp->R_fe, 1, 0.0, 1, msg, msg_len)) return SM_ERR_PARAM;
+    if ((st = thermal_check(pp, msg, msg_len)) != SM_CORE_OK) return st;
+    /* thermal off: the resistances at T_s0, T_r0 (T_s0 = T_ref: exactly R_s, R_s * 1.0) */
+    q.R_s = resistance(m->R_s, pp->alpha_s, pp->T_s0, pp->T_ref);
+    q.R_r = resistance(m->R_r, pp->alpha_r, pp->T_r0, pp->T_ref);
+    q.R_s_ref = m->R_s;
+    q.R_r_ref = m->R_r;
+    q.R_fe = pp->R_fe;
+    q.T_amb = pp->T_amb;
+    q.T_s0 = pp->T_s0;
+    q.T_r0 = pp->T_r0;
+    q.T_ref = pp->T_ref;
+    q.alpha_s = pp->alpha_s;
+    q.alpha_r = pp->alpha_r;
+    q.C_th_s = pp->C_th_s;
+    q.C_th_r = pp->C_th_r;
+    q.R_th_s = pp->R_th_s;
+    q.R_th_r = pp->R_th_r;
+    q.R_th_sr = pp->R_th_sr;
+    q.thermal = pp->thermal != 0;
+    q.ext = q.R_fe > 0.0 || q.thermal;
+    q.n_states = q.thermal ? SM_N_STATES_MAX : SM_N_STATES;
     q.l_s = m->l_s;
     q.l_r = m->l_r;
     q.k = m->k;
@@ -73,6 +120,8 @@ int sm_motor_init(sm_motor *p, const sm_motor_params *m, const sm_plant_params *
     q.psi_r0 = pp->psi_r0;
     q.h_int = pp->h_int;
     st = sm_plant_initial_state(&q, q.omega_m0, 0.0, q.psi_r0, 0.0, q.x0);
+    q.x0[SM_T_S] = q.T_s0; /* Plant.thermal_state (read only with the thermal model on) */
+    q.x0[SM_T_R] = q.T_r0;
     if (st) {
         if (msg != NULL && msg_len > 0)
             snprintf(msg, msg_len, "the initial state (psi_r0 = %.17g Wb) could not be solved", q.psi_r0);
@@ -175,22 +224,109 @@ static int magnetizing(const sm_motor *p, double psa, double psb, double pra, do
     return SM_CORE_OK;
 }
 
-int sm_plant_derivatives(const sm_motor *p, const double x[6], double v_a, double v_b, double T_load,
-                         double dx[6])
+/* Plant.currents: i_s0 (through the leakage), i_r, i_mu, I, psi_m, m from the fluxes */
+static int currents(const sm_motor *p, const double *x, double *warm, sm_solve_memo *memo, double c[9])
+{
+    double psa = x[SM_PSI_S_A], psb = x[SM_PSI_S_B], pra = x[SM_PSI_R_A], prb = x[SM_PSI_R_B], km;
+    int st = magnetizing(p, psa, psb, pra, prb, warm, memo, &c[4], &c[5], &c[6], &c[7], &c[8]);
+    if (st) return st;
+    if (p->gamma) {
+        currents_gamma(p, psa, psb, pra, prb, c[4], c[5], &c[0], &c[1], &c[2], &c[3]);
+    } else {
+        km = p->k * c[8];
+        c[0] = (psa - c[8] * c[4]) * p->inv_ls;
+        c[1] = (psb - c[8] * c[5]) * p->inv_ls;
+        c[2] = (pra - km * c[4]) / p->l_r;
+        c[3] = (prb - km * c[5]) / p->l_r;
+    }
+    return SM_CORE_OK;
+}
+
+/* Plant._ext_terms: the currents, R_s, R_r at x's temperatures, e_s = d psi_s/dt, i_fe */
+typedef struct {
+    double c[9], Rs, Rr, ea, eb, fa, fb;
+} ext_terms;
+
+static int ext_terms_of(const sm_motor *p, const double *x, double v_a, double v_b, double *warm,
+                        sm_solve_memo *memo, ext_terms *e)
+{
+    double ua, ub, g;
+    int st = currents(p, x, warm, memo, e->c);
+    if (st) return st;
+    if (p->thermal) {
+        e->Rs = resistance(p->R_s_ref, p->alpha_s, x[SM_T_S], p->T_ref);
+        e->Rr = resistance(p->R_r_ref, p->alpha_r, x[SM_T_R], p->T_ref);
+    } else {
+        e->Rs = p->R_s;
+        e->Rr = p->R_r;
+    }
+    ua = v_a - e->Rs * e->c[0];
+    ub = v_b - e->Rs * e->c[1];
+    if (p->R_fe > 0.0) {
+        g = 1.0 / (p->R_fe + e->Rs);
+        e->fa = ua * g;
+        e->fb = ub * g;
+        e->ea = p->R_fe * e->fa;
+        e->eb = p->R_fe * e->fb;
+    } else {
+        e->ea = ua;
+        e->eb = ub;
+        e->fa = 0.0;
+        e->fb = 0.0;
+    }
+    return SM_CORE_OK;
+}
+
+/* Plant._derivatives_ext: core loss and/or the thermal model */
+static int derivatives_ext(const sm_motor *p, const double *x, double v_a, double v_b, double T_load, double *dx,
+                           double *warm, sm_solve_memo *memo)
+{
+    ext_terms e;
+    double w = x[SM_OMEGA_M], we, te, Ts, Tr, ta, tb, p_s, p_r, q_sr;
+    int st = ext_terms_of(p, x, v_a, v_b, warm, memo, &e), i;
+    if (st) {
+        for (i = 0; i < p->n_states; ++i) dx[i] = NAN;
+        return st;
+    }
+    we = (double)p->n_p * w;
+    te = p->kappa * (x[SM_PSI_S_A] * e.c[1] - x[SM_PSI_S_B] * e.c[0]);
+    dx[0] = e.ea;
+    dx[1] = e.eb;
+    dx[2] = -e.Rr * e.c[2] - we * x[SM_PSI_R_B];
+    dx[3] = -e.Rr * e.c[3] + we * x[SM_PSI_R_A];
+    dx[4] = (te - T_load - (p->B + p->B_2 * fabs(w)) * w) * p->inv_J;
+    dx[5] = w;
+    if (p->thermal) {
+        Ts = x[SM_T_S];
+        Tr = x[SM_T_R];
+        ta = e.c[0] + e.fa;
+        tb = e.c[1] + e.fb;
+        p_s = 1.5 * e.Rs * (ta * ta + tb * tb) + (1.5 * (e.ea * e.fa + e.eb * e.fb));
+        p_r = 1.5 * e.Rr * (e.c[2] * e.c[2] + e.c[3] * e.c[3]);
+        q_sr = (Ts - Tr) / p->R_th_sr;
+        dx[SM_T_S] = (p_s - (Ts - p->T_amb) / p->R_th_s - q_sr) / p->C_th_s;
+        dx[SM_T_R] = (p_r - (Tr - p->T_amb) / p->R_th_r + q_sr) / p->C_th_r;
+    }
+    return all_finite(dx, p->n_states) ? SM_CORE_OK : SM_ERR_NONFINITE;
+}
+
+int sm_plant_derivatives(const sm_motor *p, const double *x, double v_a, double v_b, double T_load,
+                         double *dx)
 {
     return sm_plant_derivatives_from(p, x, v_a, v_b, T_load, dx, NULL, NULL);
 }
 
-int sm_plant_derivatives_from(const sm_motor *p, const double x[6], double v_a, double v_b, double T_load,
-                              double dx[6], double *warm, sm_solve_memo *memo)
+int sm_plant_derivatives_from(const sm_motor *p, const double *x, double v_a, double v_b, double T_load,
+                              double *dx, double *warm, sm_solve_memo *memo)
 {
     double psa, psb, pra, prb, w, ima, imb, I, psi, m, isa, isb, km, ira, irb, we, te;
     int st, i;
     if (p == NULL || x == NULL || dx == NULL) return SM_ERR_ARG;
-    if (!all_finite(x, 6) || !isfinite(v_a) || !isfinite(v_b) || !isfinite(T_load)) {
-        for (i = 0; i < 6; ++i) dx[i] = NAN;
+    if (!all_finite(x, p->n_states) || !isfinite(v_a) || !isfinite(v_b) || !isfinite(T_load)) {
+        for (i = 0; i < p->n_states; ++i) dx[i] = NAN;
         return SM_ERR_NONFINITE;
     }
+    if (p->ext) return derivatives_ext(p, x, v_a, v_b, T_load, dx, warm, memo);
     psa = x[SM_PSI_S_A];
     psb = x[SM_PSI_S_B];
     pra = x[SM_PSI_R_A];
@@ -221,29 +357,64 @@ int sm_plant_derivatives_from(const sm_motor *p, const double x[6], double v_a, 
     return all_finite(dx, 6) ? SM_CORE_OK : SM_ERR_NONFINITE;
 }
 
-int sm_plant_outputs_of(const sm_motor *p, const double x[6], sm_plant_outputs *o)
+static void outputs_nan(sm_plant_outputs *o)
 {
-    return sm_plant_outputs_memo(p, NULL, x, o);
+    o->i_s_alpha = o->i_s_beta = o->i_r_alpha = o->i_r_beta = NAN;
+    o->i_mu_alpha = o->i_mu_beta = o->i_mu = o->psi_m = o->m = o->T_e = NAN;
+    o->P_fe = o->T_s = o->T_r = NAN;
 }
 
-int sm_plant_outputs_memo(const sm_motor *p, sm_solve_memo *memo, const double x[6], sm_plant_outputs *o)
+int sm_plant_outputs_of(const sm_motor *p, const double *x, sm_plant_outputs *o)
+{
+    return sm_plant_outputs_v(p, x, 0.0, 0.0, o);
+}
+
+int sm_plant_outputs_v(const sm_motor *p, const double *x, double v_a, double v_b, sm_plant_outputs *o)
+{
+    return sm_plant_outputs_memo(p, NULL, x, v_a, v_b, o);
+}
+
+int sm_plant_outputs_memo(const sm_motor *p, sm_solve_memo *memo, const double *x, double v_a, double v_b,
+                          sm_plant_outputs *o)
 {
     double psa, psb, pra, prb, ima, imb, I, psi, m, isa, isb, km;
+    ext_terms e;
     int st;
     if (p == NULL || x == NULL || o == NULL) return SM_ERR_ARG;
-    if (!all_finite(x, 6)) {
-        o->i_s_alpha = o->i_s_beta = o->i_r_alpha = o->i_r_beta = NAN;
-        o->i_mu_alpha = o->i_mu_beta = o->i_mu = o->psi_m = o->m = o->T_e = NAN;
+    if (!all_finite(x, p->n_states) || (p->ext && (!isfinite(v_a) || !isfinite(v_b)))) {
+        outputs_nan(o);
         return SM_ERR_NONFINITE;
     }
+    if (p->ext) { /* Plant.outputs, the general path */
+        if ((st = ext_terms_of(p, x, v_a, v_b, NULL, memo, &e)) != SM_CORE_OK) {
+            outputs_nan(o);
+            return st;
+        }
+        o->i_s_alpha = e.c[0] + e.fa;
+        o->i_s_beta = e.c[1] + e.fb;
+        o->i_r_alpha = e.c[2];
+        o->i_r_beta = e.c[3];
+        o->i_mu_alpha = e.c[4];
+        o->i_mu_beta = e.c[5];
+        o->i_mu = e.c[6];
+        o->psi_m = e.c[7];
+        o->m = e.c[8];
+        o->T_e = p->kappa * (x[SM_PSI_S_A] * e.c[1] - x[SM_PSI_S_B] * e.c[0]);
+        o->P_fe = 1.5 * (e.ea * e.fa + e.eb * e.fb);
+        o->T_s = p->thermal ? x[SM_T_S] : p->T_s0;
+        o->T_r = p->thermal ? x[SM_T_R] : p->T_r0;
+        return SM_CORE_OK;
+    }
+    o->P_fe = 0.0;
+    o->T_s = p->T_s0;
+    o->T_r = p->T_r0;
     psa = x[SM_PSI_S_A];
     psb = x[SM_PSI_S_B];
     pra = x[SM_PSI_R_A];
     prb = x[SM_PSI_R_B];
     st = magnetizing(p, psa, psb, pra, prb, NULL, memo, &ima, &imb, &I, &psi, &m);
     if (st) {
-        o->i_s_alpha = o->i_s_beta = o->i_r_alpha = o->i_r_beta = NAN;
-        o->i_mu_alpha = o->i_mu_beta = o->i_mu = o->psi_m = o->m = o->T_e = NAN;
+        outputs_nan(o);
         return st;
     }
     if (p->gamma) {
@@ -266,37 +437,39 @@ int sm_plant_outputs_memo(const sm_motor *p, sm_solve_memo *memo, const double x
     return SM_CORE_OK;
 }
 
-int sm_plant_step(const sm_motor *p, double x[6], double v_a, double v_b, double T_load, double dt,
+int sm_plant_step(const sm_motor *p, double *x, double v_a, double v_b, double T_load, double dt,
                   int n_sub)
 {
     return sm_plant_step_memo(p, NULL, x, v_a, v_b, T_load, dt, n_sub);
 }
 
 /* integrate.rk4 with Plant.step's warm list: reset to 0.0 (cold) at each sub-step's first stage */
-int sm_plant_step_memo(const sm_motor *p, sm_solve_memo *memo, double x[6], double v_a, double v_b,
+int sm_plant_step_memo(const sm_motor *p, sm_solve_memo *memo, double *x, double v_a, double v_b,
                        double T_load, double dt, int n_sub)
 {
-    double xc[6], xt[6], k1[6], k2[6], k3[6], k4[6], h, half, sixth, warm;
-    int j, i, st;
+    double xc[SM_N_STATES_MAX], xt[SM_N_STATES_MAX], k1[SM_N_STATES_MAX], k2[SM_N_STATES_MAX],
+        k3[SM_N_STATES_MAX], k4[SM_N_STATES_MAX], h, half, sixth, warm;
+    int j, i, st, n;
     if (p == NULL || x == NULL || n_sub < 1) return SM_ERR_ARG;
+    n = p->n_states;
     if (!isfinite(dt)) return SM_ERR_NONFINITE;
     h = dt / (double)n_sub;
     half = 0.5 * h;
     sixth = h / 6.0;
-    memcpy(xc, x, sizeof xc);
+    memcpy(xc, x, (size_t)n * sizeof xc[0]);
     for (j = 0; j < n_sub; ++j) {
         warm = 0.0;
         if ((st = sm_plant_derivatives_from(p, xc, v_a, v_b, T_load, k1, &warm, memo)) != SM_CORE_OK) return st;
-        for (i = 0; i < 6; ++i) xt[i] = xc[i] + half * k1[i];
+        for (i = 0; i < n; ++i) xt[i] = xc[i] + half * k1[i];
         if ((st = sm_plant_derivatives_from(p, xt, v_a, v_b, T_load, k2, &warm, memo)) != SM_CORE_OK) return st;
-        for (i = 0; i < 6; ++i) xt[i] = xc[i] + half * k2[i];
+        for (i = 0; i < n; ++i) xt[i] = xc[i] + half * k2[i];
         if ((st = sm_plant_derivatives_from(p, xt, v_a, v_b, T_load, k3, &warm, memo)) != SM_CORE_OK) return st;
-        for (i = 0; i < 6; ++i) xt[i] = xc[i] + h * k3[i];
+        for (i = 0; i < n; ++i) xt[i] = xc[i] + h * k3[i];
         if ((st = sm_plant_derivatives_from(p, xt, v_a, v_b, T_load, k4, &warm, memo)) != SM_CORE_OK) return st;
-        for (i = 0; i < 6; ++i) xc[i] = xc[i] + sixth * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]);
+        for (i = 0; i < n; ++i) xc[i] = xc[i] + sixth * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]);
     }
-    if (!all_finite(xc, 6)) return SM_ERR_NONFINITE;
-    memcpy(x, xc, sizeof xc);
+    if (!all_finite(xc, n)) return SM_ERR_NONFINITE;
+    memcpy(x, xc, (size_t)n * sizeof xc[0]);
     return SM_CORE_OK;
 }
 

@@ -10,8 +10,10 @@
 #include "sm_curves.h"
 #include "sm_params.h" /* generated: sm_motor_params, sm_plant_params (orchestration/build/native_tables.py) */
 
-/* state x = [psi_s_alpha, psi_s_beta, psi_r_alpha, psi_r_beta, omega_m, theta_m] */
+/* state x = [psi_s_alpha, psi_s_beta, psi_r_alpha, psi_r_beta, omega_m, theta_m], with the thermal model
+ * on (sm_motor.thermal) two more: [..., T_s, T_r] (SM_N_STATES_MAX; sm_motor.n_states says which) */
 enum { SM_PSI_S_A, SM_PSI_S_B, SM_PSI_R_A, SM_PSI_R_B, SM_OMEGA_M, SM_THETA_M, SM_N_STATES };
+enum { SM_T_S = SM_N_STATES, SM_T_R, SM_N_STATES_MAX };
 
 typedef struct {
     double R_s, R_r, l_s, l_r, k;
@@ -23,7 +25,12 @@ typedef struct {
     int gamma; /* l_s == 0: the Gamma-equivalent model (Plant._gamma) */
     /* PlantUnit parameters */
     double omega_m0, psi_r0, h_int;
-    double x0[SM_N_STATES]; /* initial_state(params, omega_m0, psi_r_alpha = psi_r0) */
+    /* core loss and the thermal model (satmotor/machine/thermal.py; Plant.R_fe, Plant.th) */
+    double R_fe, R_s_ref, R_r_ref; /* R_s, R_r above: at T_s0, T_r0; R_s_ref, R_r_ref: at T_ref */
+    double T_amb, T_s0, T_r0, T_ref, alpha_s, alpha_r, C_th_s, C_th_r, R_th_s, R_th_r, R_th_sr;
+    int thermal, ext; /* ext: R_fe > 0 or thermal (Plant._ext: the general path) */
+    int n_states;     /* SM_N_STATES, or SM_N_STATES_MAX with the thermal model on */
+    double x0[SM_N_STATES_MAX]; /* initial_state(params, omega_m0, psi_r_alpha = psi_r0) + (T_s0, T_r0) */
 } sm_motor;
 
 /* The checks of PlantUnit(values) in its order: finiteness of every flat Real parameter
@@ -50,32 +57,41 @@ void sm_solve_memo_clear(sm_solve_memo *memo);
 
 typedef struct {
     double i_s_alpha, i_s_beta, i_r_alpha, i_r_beta, i_mu_alpha, i_mu_beta, i_mu, psi_m, m, T_e;
+    double P_fe, T_s, T_r; /* [W] core loss, [K] temperatures (PlantOutputs) */
 } sm_plant_outputs;
 
-/* Plant.derivatives (its inlined fast path).  SM_CORE_OK; SM_ERR_NONFINITE if x or an input is not
+/* Plant.derivatives (its inlined fast path; the general path with R_fe or the thermal model: x and dx
+ * then have p->n_states entries).  SM_CORE_OK; SM_ERR_NONFINITE if x or an input is not
  * finite (dx is then filled with NaN); SM_ERR_NOCONV if the curve solve did not converge. */
-int sm_plant_derivatives(const sm_motor *p, const double x[6], double v_a, double v_b, double T_load,
-                         double dx[6]);
+int sm_plant_derivatives(const sm_motor *p, const double *x, double v_a, double v_b, double T_load,
+                         double *dx);
 
 /* Plant.derivatives(t, x, v_a, v_b, T_load, warm): the solve starts from *warm (NULL or 0.0: cold) and
- * leaves its root there; memo: NULL or sm_solve_memo (used by cold solves only). */
-int sm_plant_derivatives_from(const sm_motor *p, const double x[6], double v_a, double v_b, double T_load,
-                              double dx[6], double *warm, sm_solve_memo *memo);
+ * leaves its root there; memo: NULL or sm_solve_memo (used by cold solves only).  x and dx have
+ * p->n_states entries (every path: the fast one and the general one with R_fe or the thermal model). */
+int sm_plant_derivatives_from(const sm_motor *p, const double *x, double v_a, double v_b, double T_load,
+                              double *dx, double *warm, sm_solve_memo *memo);
 
-/* Plant.outputs.  Same statuses as sm_plant_derivatives. */
-int sm_plant_outputs_of(const sm_motor *p, const double x[6], sm_plant_outputs *o);
+/* Plant.outputs(x, v_a, v_b): with R_fe > 0 the terminal current and P_fe depend on the stator voltage
+ * [V].  x has p->n_states entries.  Same statuses as sm_plant_derivatives. */
+int sm_plant_outputs_v(const sm_motor *p, const double *x, double v_a, double v_b, sm_plant_outputs *o);
 
-/* sm_plant_outputs_of with a memo (NULL: none). */
-int sm_plant_outputs_memo(const sm_motor *p, sm_solve_memo *memo, const double x[6], sm_plant_outputs *o);
+/* Plant.outputs(x) (zero voltage): sm_plant_outputs_v(p, x, 0, 0, o). */
+int sm_plant_outputs_of(const sm_motor *p, const double *x, sm_plant_outputs *o);
 
-/* Plant.step: RK4 over dt in n_sub equal sub-steps (integrate.rk4; the solves of stages 2 to 4 warm-started
- * from the previous stage's root, as Plant.step), x updated in place only on success.  SM_CORE_OK; SM_ERR_NONFINITE if the state became (or an input is) non-finite;
+/* sm_plant_outputs_v with a memo (NULL: none): the same results. */
+int sm_plant_outputs_memo(const sm_motor *p, sm_solve_memo *memo, const double *x, double v_a, double v_b,
+                          sm_plant_outputs *o);
+
+/* Plant.step: RK4 over dt in n_sub equal sub-steps (integrate.rk4) of the p->n_states states (the solves
+ * of stages 2 to 4 warm-started from the previous stage's root, as Plant.step), x updated in place only
+ * on success.  SM_CORE_OK; SM_ERR_NONFINITE if the state became (or an input is) non-finite;
  * SM_ERR_NOCONV; SM_ERR_ARG for n_sub < 1 or a NULL pointer. */
-int sm_plant_step(const sm_motor *p, double x[6], double v_a, double v_b, double T_load, double dt,
+int sm_plant_step(const sm_motor *p, double *x, double v_a, double v_b, double T_load, double dt,
                   int n_sub);
 
 /* sm_plant_step with a memo (NULL: none): the same results. */
-int sm_plant_step_memo(const sm_motor *p, sm_solve_memo *memo, double x[6], double v_a, double v_b,
+int sm_plant_step_memo(const sm_motor *p, sm_solve_memo *memo, double *x, double v_a, double v_b,
                        double T_load, double dt, int n_sub);
 
 /* plant.initial_state(params, omega_m, theta_m, psi_r_alpha, psi_r_beta) into x.  SM_CORE_OK,

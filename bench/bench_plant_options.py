@@ -1,0 +1,110 @@
+"""Per-step cost of the plant's options, side by side in one run: today's plant, core loss (R_fe), the
+thermal model, both; the native co-simulation FMU (C, FMI 2.0, through fmpy) and the Python plant
+(``satmotor.interface.PlantUnit``, what the pythonfmu FMU runs).
+
+Run ``python bench/bench_plant_options.py [--fmus build/fmus]`` (the FMUs built first:
+``satmotor-cosim build --out build/fmus``).  Prints, per option, the CPU and wall time per RK4 sub-step
+and the ratio to today's plant, and the load average before and after (a shared machine).
+
+Method: a direct-on-line start of the default motor at rated voltage and frequency, the voltage vector
+``V (cos w t, sin w t)`` held over each communication step of 1 ms, ``h_int`` = 1e-5 s (100 RK4 sub-steps
+per ``doStep``, so the per-call overhead of fmpy and ctypes is spread over them), rated load from 0.3 s;
+native: 1 s simulated (1e5 sub-steps), Python: 0.1 s (1e4 sub-steps); the best of ``REPEATS`` runs.
+Other options (the PWM inverter, the DC link) add rows to :data:`OPTIONS`: (name, plant parameter
+overrides).
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import time
+from pathlib import Path
+
+OPTIONS = [
+    ("today (average-value, no core loss, thermal off)", {}),
+    ("core loss R_fe = 1200 Ohm", {"R_fe": 1200.0}),
+    ("thermal model on", {"thermal": True}),
+    ("core loss + thermal", {"R_fe": 1200.0, "thermal": True}),
+]
+REPEATS = 3
+DT, H_INT, T_LOAD_ON, T_N = 1e-3, 1e-5, 0.3, 26.71
+V, W = 400.0 * math.sqrt(2.0 / 3.0), 2.0 * math.pi * 50.0
+
+
+def _inputs(k):
+    t = k * DT
+    return V * math.cos(W * t), V * math.sin(W * t), (T_N if t >= T_LOAD_ON else 0.0)
+
+
+def native_run(fmu, overrides, t_end):
+    """(cpu, wall) [s] of ``t_end`` simulated through the native co-simulation FMU."""
+    from fmpy import extract, read_model_description
+    from fmpy.fmi2 import FMU2Slave
+
+    md = read_model_description(str(fmu))
+    vr = {v.name: v.valueReference for v in md.modelVariables}
+    types = {v.name: v.type for v in md.modelVariables}
+    d = extract(str(fmu))
+    s = FMU2Slave(guid=md.guid, unzipDirectory=d, modelIdentifier=md.coSimulation.modelIdentifier,
+                  instanceName="bench")
+    s.instantiate()
+    s.setupExperiment(startTime=0.0)
+    s.enterInitializationMode()
+    s.setReal([vr["h_int"]], [H_INT])
+    for name, value in overrides.items():
+        if types[name] == "Boolean":
+            s.setBoolean([vr[name]], [bool(value)])
+        else:
+            s.setReal([vr[name]], [float(value)])
+    s.exitInitializationMode()
+    ins = [vr["v_s_alpha"], vr["v_s_beta"], vr["T_load"]]
+    n = round(t_end / DT)
+    c0, w0 = time.process_time(), time.perf_counter()
+    for k in range(n):
+        s.setReal(ins, list(_inputs(k)))
+        s.doStep(k * DT, DT)
+    cpu, wall = time.process_time() - c0, time.perf_counter() - w0
+    omega = s.getReal([vr["omega_m"]])[0]
+    s.terminate()
+    s.freeInstance()
+    assert omega > 100.0, omega  # the start happened
+    return cpu, wall
+
+
+def python_run(overrides, t_end):
+    """(cpu, wall) [s] of ``t_end`` simulated by PlantUnit."""
+    from satmotor.interface import PlantUnit
+
+    u = PlantUnit({"h_int": H_INT, **overrides})
+    n = round(t_end / DT)
+    c0, w0 = time.process_time(), time.perf_counter()
+    for k in range(n):
+        u.step(k * DT, DT, _inputs(k))
+    return time.process_time() - c0, time.perf_counter() - w0
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--fmus", default="build/fmus", help="FMU directory (default build/fmus)")
+    args = ap.parse_args(argv)
+    fmu = Path(args.fmus) / "native" / "SaturatedInductionMotor.fmu"
+    print(f"load average before: {os.getloadavg()}")
+    rows = []
+    for name, ov in OPTIONS:
+        n_sub_native = round(1.0 / H_INT)
+        n_sub_py = round(0.1 / H_INT)
+        nat = min((native_run(fmu, ov, 1.0) for _ in range(REPEATS)), key=lambda r: r[0])
+        py = min((python_run(ov, 0.1) for _ in range(REPEATS)), key=lambda r: r[0])
+        rows.append((name, [x / n_sub_native * 1e6 for x in nat], [x / n_sub_py * 1e6 for x in py]))
+    print(f"load average after: {os.getloadavg()}")
+    base_n, base_p = rows[0][1][0], rows[0][2][0]
+    print("per RK4 sub-step [us], CPU (wall), ratio of CPU to today's")
+    print(f"{'option':52s} {'native':>18s} {'ratio':>6s} {'Python':>18s} {'ratio':>6s}")
+    for name, (nc, nw), (pc, pw) in rows:
+        print(f"{name:52s} {nc:8.3f} ({nw:7.3f}) {nc / base_n:6.2f} {pc:8.2f} ({pw:7.2f}) {pc / base_p:6.2f}")
+
+
+if __name__ == "__main__":
+    main()
