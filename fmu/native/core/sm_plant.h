@@ -8,7 +8,7 @@
 
 #include "sm_common.h"
 #include "sm_curves.h"
-#include "sm_params.h" /* generated: sm_motor_params, sm_plant_params (orchestration/build/native_tables.py) */
+#include "sm_params.h" /* generated: sm_motor_params, sm_plant_params (orchestration/build/native/tables.py) */
 
 /* state x = [psi_s_alpha, psi_s_beta, psi_r_alpha, psi_r_beta, omega_m, theta_m] */
 enum { SM_PSI_S_A, SM_PSI_S_B, SM_PSI_R_A, SM_PSI_R_B, SM_OMEGA_M, SM_THETA_M, SM_N_STATES };
