@@ -48,7 +48,7 @@ class Variable(NamedTuple):
     """One exposed variable: name, causality (input/output/parameter), type (Real, Integer,
     String), start value, unit, description and, for a parameter, the C parameter struct of the
     native core whose member of the same name it fills (``c_struct``: ``motor`` is
-    ``sm_motor_params``; see ``orchestration/build/native_tables.py``)."""
+    ``sm_motor_params``; see ``orchestration/build/native/tables.py``)."""
 
     name: str
     causality: str

@@ -112,7 +112,8 @@ def fmu_dir_all_platforms(tmp_path_factory):
     """The distributable FMUs (``build --all-platforms``: the native ones for Linux, Windows and macOS,
     cross-compiled with zig), built once per run, only for the tests that use them; skipped without zig.
     On a fresh machine zig first compiles its MinGW and macOS C runtimes: minutes."""
-    from orchestration.build import fmus, native_build
+    from orchestration.build import fmus
+    from orchestration.build.native import compiler as native_build
 
     if not native_build.zig_available():
         pytest.skip("zig is not installed (pip install ziglang, in the native and dev extras)")

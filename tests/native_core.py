@@ -3,7 +3,7 @@ compiled with gcc into one shared library, loaded with ctypes, argument types de
 flag set per pytest session.  Extra compiler flags (appended) from the environment variable
 ``SM_CORE_EXTRA_CFLAGS``.  The parameter structs (:data:`MotorParams`, :data:`PlantParams`,
 :data:`ControllerParams`) are ctypes structures whose fields are read from the generator's table
-(:func:`orchestration.build.native_tables.struct_members`), as the C structs are generated from it."""
+(:func:`orchestration.build.native.tables.struct_members`), as the C structs are generated from it."""
 
 from __future__ import annotations
 
@@ -14,7 +14,7 @@ import subprocess
 import tempfile
 from pathlib import Path
 
-from orchestration.build import native_tables
+from orchestration.build.native import tables as native_tables
 
 CORE = Path(__file__).resolve().parents[1] / "fmu" / "native" / "core"
 FLAGS = ["-std=c99", "-O2", "-fPIC", "-shared", "-Wall", "-Wextra", "-Werror", "-pedantic", "-Wconversion",

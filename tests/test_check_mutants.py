@@ -16,8 +16,10 @@ from pathlib import Path
 import pytest
 from test_check import rewrite_model_description, run_check
 
-from orchestration.build import fmu_build, fmus, native_build, native_fmus
-from orchestration.build import native_model_description as nmd
+from orchestration.build import fmu_build, fmus
+from orchestration.build.native import compiler as native_build
+from orchestration.build.native import fmus as native_fmus
+from orchestration.build.native import model_description as nmd
 
 pytestmark = pytest.mark.slow
 PLANT = "SaturatedInductionMotor"

@@ -240,7 +240,8 @@ def test_no_global_mutable_state_in_the_core_or_the_models(tmp_path):
     import shutil
     import subprocess
 
-    from orchestration.build import native_build, native_fmus
+    from orchestration.build.native import compiler as native_build
+    from orchestration.build.native import fmus as native_fmus
 
     if shutil.which("gcc") is None or shutil.which("nm") is None:
         pytest.skip("needs gcc and nm")
@@ -269,7 +270,7 @@ def test_a_table_curve_reads_its_file_from_the_fmus_resources(version, tmp_path)
     same trajectory as the plain-Python unit reading that CSV."""
     from conftest import no_load_table
 
-    from orchestration.build import native_fmus
+    from orchestration.build.native import fmus as native_fmus
     from satmotor.interface import PlantUnit
 
     i_mu, psi = no_load_table()

@@ -1,4 +1,4 @@
-"""The generator of the native C tables (orchestration/build/native_tables.py): what it writes, compiled and
+"""The generator of the native C tables (orchestration/build/native/tables.py): what it writes, compiled and
 read back through ctypes, is what the interface tables and the Python settings dataclasses say; a
 parameter added to a table reaches the C struct and its copy from the value store with no C edit."""
 
@@ -13,7 +13,7 @@ import pytest
 from native_core import ControllerParams, MotorParams, PlantParams, load
 
 import satmotor.interface as itf
-from orchestration.build import native_tables
+from orchestration.build.native import tables as native_tables
 from satmotor.control.backstepping import BacksteppingGains, ControllerConfig
 from satmotor.control.drive import DriveConfig
 from satmotor.control.ifoc import IFOCGains

@@ -332,7 +332,8 @@ def test_python_refuses_what_the_fmu_cannot_hold(tmp_path):
 def test_no_global_mutable_state_in_the_model(tmp_path):
     """No writable data (bss/data/common symbols) in the compiled model (with its generated tables and the
     shared value accessors): every instance independent."""
-    from orchestration.build import native_build, native_tables
+    from orchestration.build.native import compiler as native_build
+    from orchestration.build.native import tables as native_tables
 
     generated = native_tables.model_files(signals_fmu.MODEL_NAME, tmp_path, signals_fmu.VARIABLES)
     sources = [p for p in [*signals_fmu.sources(), *generated] if p.suffix == ".c"]

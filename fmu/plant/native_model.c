@@ -1,7 +1,7 @@
 /* The plant as a native FMU model: PlantUnit of satmotor/interface.py on the C core
  * (fmu/native/core/sm_plant.c), behind the FMI glue of fmu/native/fmi (fg_model.h).  The value
  * references, start values and the parameter copy into the core's structs are generated (sm_vars.h /
- * sm_vars.c, orchestration/build/native_tables.py); the get/set accessors are fmu/native/common/sm_values.c. */
+ * sm_vars.c, orchestration/build/native/tables.py); the get/set accessors are fmu/native/common/sm_values.c. */
 #include <math.h>
 #include <stdio.h>
 #include <string.h>

@@ -122,7 +122,7 @@ def build_all(out_dir="build/fmus", native=True, cross=False):
     """Build both pythonfmu FMUs into ``out_dir`` (each in a child process) and, with ``native``, the
     native ones into ``out_dir/native`` (FMI 2.0) and ``out_dir/native-fmi3`` (FMI 3.0): for this
     machine (Linux x86_64) by default; with ``cross`` for every platform of
-    :data:`orchestration.build.native_fmus.ALL` too (Windows and macOS cross-compiled with zig, the Linux
+    :data:`orchestration.build.native.fmus.ALL` too (Windows and macOS cross-compiled with zig, the Linux
     binary linked against glibc 2.17: the distributable FMUs).  Returns the paths."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
@@ -132,7 +132,8 @@ def build_all(out_dir="build/fmus", native=True, cross=False):
                         "--out", str(out)], check=True)
         paths.append(out / f"{name}.fmu")
     if native:
-        from orchestration.build import native_fmus, native_me
+        from orchestration.build.native import fmus as native_fmus
+        from orchestration.build.native import model_exchange as native_me
 
         cross = native_fmus.zig_available() if cross is None else cross
         for p in [*native_fmus.build_all(out, cross), *native_me.build_all(out, cross)]:
@@ -165,7 +166,7 @@ def main(argv=None):
         return 0
     cross = args.all_platforms and not args.no_native
     if cross:
-        from orchestration.build.native_build import zig_available
+        from orchestration.build.native.compiler import zig_available
 
         if not zig_available():
             print(NO_ZIG, file=sys.stderr)

@@ -46,10 +46,10 @@ def binary_folders(path):
 def up_to_date(fmu_dir=DEFAULT_DIR, all_platforms=False):
     """True when every FMU of every variant exists and was built from the current sources
     (:func:`orchestration.build.fmu_build.inputs_fingerprint`,
-    :func:`orchestration.build.native_fmus.inputs_fingerprint`); with ``all_platforms``, when the native
-    ones also hold the binaries of every platform (:data:`orchestration.build.native_fmus.ALL`)."""
-    from orchestration.build import native_fmus
+    :func:`orchestration.build.native.fmus.inputs_fingerprint`); with ``all_platforms``, when the native
+    ones also hold the binaries of every platform (:data:`orchestration.build.native.fmus.ALL`)."""
     from orchestration.build.fmu_build import BUILD_INPUTS, inputs_fingerprint
+    from orchestration.build.native import fmus as native_fmus
 
     for variant in VARIANTS:
         for p in paths(fmu_dir, variant):
@@ -63,7 +63,7 @@ def up_to_date(fmu_dir=DEFAULT_DIR, all_platforms=False):
                     ok = set(native_fmus.ALL[version]) <= binary_folders(p)
             if not ok:
                 return False
-    from orchestration.build import native_me
+    from orchestration.build.native import model_exchange as native_me
 
     return native_me.up_to_date(fmu_dir, all_platforms)
 

@@ -61,7 +61,7 @@ def cmd_build(args):
     or cannot cross-compile (no zig)."""
     if args.all_platforms:
         from orchestration.build.fmu_build import NO_ZIG
-        from orchestration.build.native_build import zig_available
+        from orchestration.build.native.compiler import zig_available
 
         if not zig_available():
             print(NO_ZIG, file=sys.stderr)
@@ -311,7 +311,7 @@ def cmd_check(args):
 def cmd_export_ssp(args):
     """``export-ssp SCENARIO OUT.ssp``: 0 written, 2 the scenario is invalid or SSP cannot express it
     (nothing written), 1 building the FMUs failed."""
-    from orchestration.build.native_build import NativeBuildError
+    from orchestration.build.native.compiler import NativeBuildError
     from orchestration.scenario.load import ScenarioError, load_scenario
     from orchestration.tools.ssp import NotExpressible, NotWritable, export
 

@@ -163,7 +163,7 @@ def signals_fmu_for(scenario, cache_dir):
     reused while the profiles and the C sources it is built from are unchanged (the key is a SHA-256
     over both); the build takes about a second (a C compile), the reuse nothing."""
     from orchestration.build import signals_fmu
-    from orchestration.build.native_build import build_once
+    from orchestration.build.native.compiler import build_once
 
     inputs = [*signals_fmu.sources(), Path(signals_fmu.__file__)]
     return build_once(cache_dir, f"{signals_fmu.MODEL_NAME}.fmu", inputs,
@@ -177,7 +177,7 @@ def run(scenario, plant_fmu, controller_fmu, recorder=None, stop=None, algorithm
 
     ``signals_fmu``: the profiles FMU (None: built with :func:`orchestration.build.signals_fmu.build`, into
     ``signals_cache`` when given (:func:`signals_fmu_for`), else for this run only); ``recorder_cache``:
-    where the RowRecorder FMU is built once (:func:`orchestration.build.recorder_fmu.recorder_fmu_for`)
+    where the RowRecorder FMU is built once (:func:`orchestration.build.native.recorder_fmu.recorder_fmu_for`)
     and the lean copies of the four FMUs libcosim loads are kept (:mod:`orchestration.run.lean_fmu`;
     default: next to ``signals_cache``, else :data:`RECORDER_CACHE`); ``recorder``:
     ``columns -> Recorder`` (default in memory); ``stop``: ``.signum`` non-zero stops the run at the
@@ -315,7 +315,7 @@ def _chunk_steps(sc, chunk_time, sources=None):
 def _with_recorder(sc, structure, sources, cache, work, chunk_time):
     """The system file ``structure`` with the RowRecorder (built in ``cache``) recording ``sources``
     into ``work/rows.bin``, a block per chunk; returns its path."""
-    from orchestration.build.recorder_fmu import recorder_fmu_for
+    from orchestration.build.native.recorder_fmu import recorder_fmu_for
     from orchestration.run.lean_fmu import lean_fmu
 
     fmu = lean_fmu(recorder_fmu_for(cache), cache / "lean")

@@ -1,4 +1,4 @@
-"""Recording inside a compiled engine: the RowRecorder FMU (:mod:`orchestration.build.recorder_fmu`)
+"""Recording inside a compiled engine: the RowRecorder FMU (:mod:`orchestration.build.native.recorder_fmu`)
 added to the system the engine loads, connected to the outputs a run records, and the master's rows
 made from the binary rows it writes.
 
@@ -29,7 +29,7 @@ from pathlib import Path
 
 import numpy as np
 
-from orchestration.build import recorder_fmu
+from orchestration.build.native import recorder_fmu
 from orchestration.build.ssd import NS, OSP_NS, OSP_TYPE, SSC_NS, SSD_NS, SSV_NS, seconds_text
 from orchestration.results.running import FLAG_COLUMNS, METRIC_COLUMNS, PHASE_COLUMN, PSI_SET_COLUMN
 from orchestration.results.writer import level

@@ -31,9 +31,10 @@ from pathlib import Path
 
 from fmpy import read_model_description
 
-from orchestration.build import native_fmus, signals_fmu
-from orchestration.build import native_model_description as nmd
-from orchestration.build.native_build import PLATFORMS, ZIP_DATE
+from orchestration.build import signals_fmu
+from orchestration.build.native import fmus as native_fmus
+from orchestration.build.native import model_description as nmd
+from orchestration.build.native.compiler import PLATFORMS, ZIP_DATE
 from orchestration.build.ssd import COMPONENTS, RESOURCES, SIGNALS_UNIT, NotExpressible, ssd_xml
 from orchestration.results.atomic import describe
 from orchestration.scenario.system import CONTROLLER, PLANT, connections_for

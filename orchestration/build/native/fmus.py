@@ -4,9 +4,9 @@ Each FMU is the model-agnostic glue (``fmu/native/fmi``), the C core (``fmu/nati
 generated parameter structs (``sm_params.h`` / ``.c``), the shared value accessors
 (``fmu/native/common/sm_values.c``), the unit's model (``fmu/plant/native_model.c`` or
 ``fmu/controller/native_model.c``) and its generated tables ``sm_vars.h`` / ``sm_vars.c``: all
-generated from the interface tables by :mod:`orchestration.build.native_tables`; the model description
-comes from the same tables (:mod:`orchestration.build.native_model_description`).  Compiled and packed by
-:func:`orchestration.build.native_build.build_native_fmu` (reproducible; the GUID is derived from the
+generated from the interface tables by :mod:`orchestration.build.native.tables`; the model description
+comes from the same tables (:mod:`orchestration.build.native.model_description`).  Compiled and packed by
+:func:`orchestration.build.native.compiler.build_native_fmu` (reproducible; the GUID is derived from the
 inputs).
 
 Layout under the build directory: ``native/<Name>.fmu`` (FMI 2.0) and ``native-fmi3/<Name>.fmu``
@@ -19,9 +19,9 @@ import hashlib
 import tempfile
 from pathlib import Path
 
-from orchestration.build import native_model_description as nmd
-from orchestration.build.native_build import GLUE_DIR, build_native_fmu, host_compiler, zig_available
-from orchestration.build.native_tables import core_files, model_files
+from orchestration.build.native import model_description as nmd
+from orchestration.build.native.compiler import GLUE_DIR, build_native_fmu, host_compiler, zig_available
+from orchestration.build.native.tables import core_files, model_files
 
 FMU_DIR = GLUE_DIR.parents[1]  # the FMU sources (installed package or the checkout's fmu/)
 BUILD_INPUTS = "build_inputs.sha256"  # in resources/: what the FMU was built from
@@ -51,8 +51,11 @@ def inputs_fingerprint(name):
     """SHA-256 over everything the native FMU ``name`` is built from: its C sources, the glue, the
     interface tables and the generators (a change to any makes a built FMU stale)."""
     from orchestration.build import documentation as documentation_module
-    from orchestration.build import fmu_model_description, native_build, native_tables, source_fmu
+    from orchestration.build import fmu_model_description
     from orchestration.build import sources as sources_module
+    from orchestration.build.native import compiler as native_build
+    from orchestration.build.native import source_fmu
+    from orchestration.build.native import tables as native_tables
     from satmotor import interface
 
     h = hashlib.sha256()
@@ -106,7 +109,7 @@ def documentation(name, xml, fmi_version):
 
 def build_all(out_dir, cross=False):
     """Both native co-simulation FMUs in both FMI versions (the model-exchange plant is
-    :func:`orchestration.build.native_me.build_all`); returns the paths.  For this machine (Linux
+    :func:`orchestration.build.native.model_exchange.build_all`); returns the paths.  For this machine (Linux
     x86_64) by default; ``cross``: also Windows and macOS (:data:`ALL`, cross-compiled with zig cc,
     which the ``ziglang`` wheel provides; on a fresh machine zig first compiles its MinGW and macOS C
     runtimes: minutes).  ``cross=None``: cross when zig is installed."""

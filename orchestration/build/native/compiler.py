@@ -32,7 +32,7 @@ from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-from orchestration.build import source_fmu
+from orchestration.build.native import source_fmu
 from orchestration.build.sources import fmu_sources
 
 GLUE_DIR = fmu_sources() / "native" / "fmi"
@@ -211,7 +211,7 @@ def build_native_fmu(model_identifier: str, sources: Iterable[str | Path], model
 
     ``sources``: the model's files (``.c`` compiled, ``.h`` and others only copied), placed flat
     next to the glue in ``sources/`` of the FMU (so ``#include "x.h"`` of any of them works), with
-    what makes it a source-code FMU (:mod:`orchestration.build.source_fmu`: the FMI 2.0 source file
+    what makes it a source-code FMU (:mod:`orchestration.build.native.source_fmu`: the FMI 2.0 source file
     list, the FMI 3.0 build description, the identity header).
     ``model_description_xml``: the complete modelDescription.xml; its ``modelIdentifier`` must be
     ``model_identifier``; its guid/instantiationToken is compiled in (``{GUID}``: derived from the
@@ -297,7 +297,7 @@ def build_once(cache_dir, name, inputs, build, text=""):
     the path of what it built there) and reused while its ``inputs`` (files: the C sources, the
     modules that generate it) and ``text`` (e.g. a profiles file) are unchanged; the key is a
     SHA-256 over them and the glue.  Built aside, then renamed: never half-written."""
-    from orchestration.build import native_tables
+    from orchestration.build.native import tables as native_tables
 
     h = hashlib.sha256(text.encode())
     for f in (*inputs, *sorted(GLUE_DIR.glob("*.[ch]")), Path(__file__), Path(native_tables.__file__)):
