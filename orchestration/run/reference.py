@@ -64,8 +64,9 @@ def _controller_inputs(profiles, link=False):
 
 def plain_reference(scenario):
     """Run ``scenario`` with the plain-Python units; a DataFrame with the co-simulation's column
-    names (``time``, :data:`COLUMNS`, the plant's other outputs, ``measured.NAME`` with measurements,
-    then the profiles as the controller sampled them), one row per controller sample."""
+    names (``time``, :data:`COLUMNS`, the plant's other outputs with a capacitor DC link,
+    ``measured.NAME`` with measurements, then the profiles as the controller sampled them), one row per
+    controller sample."""
     plant = PlantUnit(dict(scenario.plant))
     ctrl = ControllerUnit({**scenario.controller, "Ts": scenario.Ts})
     prof = {k: p.value for k, p in scenario.profiles.items()}
@@ -102,5 +103,6 @@ def plain_reference(scenario):
             break
         plant.step(t, h, (held[i_va], held[i_vb], load(t)))
     frame = pd.DataFrame(rows, columns=["time", *p_cols, *c_cols, *m_cols, *f_cols], dtype=float)
-    more = [c for c in p_cols if c not in COLUMNS]  # the plant's other outputs (the DC link's: metrics)
+    link = scenario.plant.get("dc_link") == "capacitor"  # then the metrics read the plant's link outputs
+    more = [c for c in p_cols if c not in COLUMNS] if link else []
     return frame[["time", *COLUMNS, *more, *m_cols, *f_cols]]
