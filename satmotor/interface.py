@@ -15,10 +15,12 @@ import sys
 from typing import NamedTuple
 
 from satmotor.control.backstepping import BacksteppingGains, ControllerConfig
+from satmotor.control.deadtime import compensate
 from satmotor.control.drive import BacksteppingDrive, DriveConfig, IFOCDrive
 from satmotor.control.ifoc import IFOCGains
-from satmotor.control.measurements import MEAS_LEN, MEAS_OMEGA_M
+from satmotor.control.measurements import MEAS_I_S_A, MEAS_I_S_B, MEAS_LEN, MEAS_OMEGA_M
 from satmotor.errors import ParameterError, require_integer, require_number
+from satmotor.machine.inverter import InverterParams, PwmInverter
 from satmotor.machine.magnetics import ArctanCurve, LinearCurve, PolynomialCurve
 from satmotor.machine.params import CURVE_NAMES, MotorParams, make_curve
 from satmotor.machine.plant import OMEGA_M, PSI_R_A, PSI_R_B, PSI_S_A, PSI_S_B, THETA_M, Plant, initial_state
@@ -61,6 +63,7 @@ AUTHOR = "satmotor"
 
 _M, _A, _P = MotorParams(), ArctanCurve(), PolynomialCurve()
 _G, _C, _D = BacksteppingGains(), ControllerConfig(), DriveConfig()
+_INV = InverterParams(V_dc=_C.V_dc)  # the plant's inverter: its link voltage the controller's default
 OMEGA_WARN = 1500.0  # [rad/s] omega_warn's default: about 10 x the default motor's synchronous speed
 MOTOR_PARAMETERS = _in_struct("motor", (
     _v("R_s", "parameter", _M.R_s, "Ohm", "stator resistance"),
@@ -97,6 +100,11 @@ PLANT_OUTPUTS = (
     _v("theta_m", "output", 0.0, "rad", "mechanical angle"),
     _v("T_e", "output", 0.0, "N m", "electromagnetic torque 3/2 n_p (psi_s x i_s)"),
     _v("i_mu", "output", 0.0, "A", "magnitude of the magnetizing current i_s + k i_r"),
+    # last: the inverter's (satmotor.machine.inverter)
+    _v("v_avg_alpha", "output", 0.0, "V", "stator voltage applied by the inverter, alpha axis, averaged over "
+       "the last communication step (inverter = average: v_s_alpha)"),
+    _v("v_avg_beta", "output", 0.0, "V", "stator voltage applied by the inverter, beta axis, averaged over "
+       "the last communication step (inverter = average: v_s_beta)"),
 )
 PLANT_PARAMETERS = MOTOR_PARAMETERS + _in_struct("plant", (
     _v("omega_m0", "parameter", 0.0, "rad/s", "initial mechanical speed"),
@@ -119,7 +127,20 @@ PLANT_PARAMETERS = MOTOR_PARAMETERS + _in_struct("plant", (
     _v("omega_warn", "parameter", OMEGA_WARN, "rad/s", "mechanical speed |omega_m| (after a step) above "
        "which a warning is logged, once per run (default about 10 x the default motor's synchronous speed, "
        "157 rad/s); 0: no check"),
-)
+) + _in_struct("plant", (
+    # last: the inverter (satmotor.machine.inverter); the earlier variables keep their value references
+    _v("inverter", "parameter", _INV.inverter, "", "stator voltage source: average (the commanded voltage as "
+       "it is, the average-value model) or pwm (carrier-comparison PWM inverter, switching instants "
+       "integrated exactly; co-simulation only)", "String"),
+    _v("f_sw", "parameter", _INV.f_sw, "Hz", "pwm: switching (triangular carrier) frequency, > 0; the duty "
+       "cycles are sampled at every carrier peak and valley"),
+    _v("t_dead", "parameter", _INV.t_dead, "s", "pwm: dead time of every leg, 0 <= t_dead < 1/(2 f_sw); "
+       "during it the phase current's sign sets the voltage"),
+    _v("v_on", "parameter", _INV.v_on, "V", "pwm: on-state voltage drop of a conducting device or diode, "
+       "0 <= v_on < V_dc/2"),
+    _v("V_dc", "parameter", _INV.V_dc, "V", "pwm: DC-link voltage the inverter switches, > 0 (default the "
+       "controller's default V_dc)"),
+))
 
 # the controller's Real parameters that go into DriveConfig as they are (the start-up tolerances)
 _DRIVE_REALS = ("fw_voltage_ratio", "premag_fraction", "premag_min_fraction", "premag_speed_tol",
@@ -214,7 +235,12 @@ CONTROLLER_PARAMETERS = _in_struct("controller", (
        "steady magnetizing current of psi_ref (bounded by I_max), >= 1"),
     _v("premag_gain", "parameter", _D.premag_gain, "Ohm", "proportional gain of the pre-magnetization "
        "current loop, > 0"),
-)) + MOTOR_PARAMETERS
+)) + MOTOR_PARAMETERS + _in_struct("controller", (
+    # last: the earlier variables keep their value references
+    _v("deadtime_comp_voltage", "parameter", 0.0, "V", "dead-time compensation: sign(i_phase) times this "
+       "voltage added to each phase of the voltage command (from the measured currents), >= 0; 0: off "
+       "(satmotor.control.deadtime)"),
+))
 
 
 
@@ -307,6 +333,12 @@ def substeps_reason(n_sub, h_int, max_substeps):
             "take shorter communication steps or raise max_substeps")
 
 
+def pwm_substeps_reason(n, f_sw, max_substeps):
+    """Why a communication step of up to ``n`` RK4 sub-steps with the pwm inverter is refused."""
+    return (f"needs up to {n} RK4 sub-steps with the pwm inverter (f_sw = {f_sw!r} Hz), more than "
+            f"max_substeps = {max_substeps}: take shorter communication steps or raise max_substeps")
+
+
 class PlantUnit:
     """The plant as a co-simulation unit: inputs held over each communication step."""
 
@@ -329,6 +361,9 @@ class PlantUnit:
         self.x0 = initial_state(self.params, omega_m=w0, psi_r_alpha=psi0)
         self.x = self.x0
         self._dt, self._n_sub = None, 1  # the last step size and its sub-step count
+        inv = InverterParams(f["V_dc"], f["inverter"], f["f_sw"], f["t_dead"], f["v_on"])
+        self.inverter = PwmInverter(inv) if inv.inverter == "pwm" else None  # None: average-value
+        self._v_avg = (0.0, 0.0)  # [V] the step-average applied voltage (outputs v_avg_alpha/beta)
 
     def step(self, t, dt, inputs):
         """Advance over ``dt`` [s] with the inputs ``(v_s_alpha, v_s_beta, T_load)`` held;
@@ -342,14 +377,25 @@ class PlantUnit:
             if n_sub > self.max_substeps:
                 raise ParameterError("communicationStepSize", dt, substeps_reason(n_sub, self.h_int,
                                                                                   self.max_substeps))
+            if self.inverter is not None and n_sub + self.inverter.intervals_bound(dt) > self.max_substeps:
+                raise ParameterError("communicationStepSize", dt, pwm_substeps_reason(
+                    n_sub + self.inverter.intervals_bound(dt), self.inverter.f_sw, self.max_substeps))
             self._n_sub = n_sub
             self._dt = dt
         if self._warn[0] > 0.0 and not self._warned[0]:
             self._plausible(0, t, v_a, v_b)
-        x = self.plant.step(t, self.x, v_a, v_b, T_load, dt, self._n_sub)
+        if self.inverter is None:
+            x = self.plant.step(t, self.x, v_a, v_b, T_load, dt, self._n_sub)
+            v_avg = (v_a, v_b)
+        else:  # the switched voltages, integrated to the switching instants (on a copy of its state)
+            before = self.inverter.get_state()
+            x, *v_avg = self.inverter.step(self.plant, t, self.x, v_a, v_b, T_load, dt, self.h_int)
         if not math.isfinite(sum(x)) and not all(math.isfinite(v) for v in x):
+            if self.inverter is not None:
+                self.inverter.set_state(before)
             raise ArithmeticError(f"the plant state became non-finite over [{t}, {t + dt}] s: {x}")
         self.x = x
+        self._v_avg = tuple(v_avg)
         self._o = None
         if self._warn[1] > 0.0 and not self._warned[1]:
             o = self._o = self.plant.outputs(x)  # kept for outputs(): no second computation
@@ -369,13 +415,20 @@ class PlantUnit:
         """Output values in the order of :attr:`OUTPUTS`."""
         x, o = self.x, self._o if self._o is not None else self.plant.outputs(self.x)
         return (o.i_s_alpha, o.i_s_beta, x[PSI_S_A], x[PSI_S_B], x[PSI_R_A], x[PSI_R_B], x[OMEGA_M],
-                x[THETA_M], o.T_e, o.i_mu)
+                x[THETA_M], o.T_e, o.i_mu, *self._v_avg)
 
     def get_state(self):
-        return tuple(self.x)
+        """The state: the plant's, the last step-average voltage and (pwm) the inverter's."""
+        if self.inverter is None:
+            return (*self.x, *self._v_avg)
+        return (*self.x, *self._v_avg, *self.inverter.get_state())
 
     def set_state(self, state):
-        self.x = tuple(float(v) for v in state)
+        n = len(self.x)
+        self.x = tuple(float(v) for v in state[:n])
+        self._v_avg = (float(state[n]), float(state[n + 1]))
+        if self.inverter is not None:
+            self.inverter.set_state(state[n + 2:])
         self._o = None
 
 
@@ -419,6 +472,7 @@ class ControllerUnit:
                                    use_stator_flux=f["use_stator_flux"])
             self.drive = BacksteppingDrive(p, gains, cfg, dcfg)
         self.Ts = f["Ts"]
+        self._comp = require_number("deadtime_comp_voltage", f["deadtime_comp_voltage"], 0, inclusive=True)
         self._speed_estimated = f["speed_source"] == "estimated"
         self.stop_time = math.inf
         self._out = tuple(v.start for v in CONTROLLER_OUTPUTS)
@@ -471,7 +525,10 @@ class ControllerUnit:
         # the first MEAS_LEN inputs are the drive's measurement tuple, in its order (MEAS_*)
         omega_ref, psi_ref, T_load = inputs[MEAS_LEN:]
         d = self.drive.step(inputs[:MEAS_LEN], omega_ref, psi_ref, T_load)
-        self._out = (d.v_s_alpha, d.v_s_beta, d.v_sd, d.v_sq, d.e1, d.e2, d.z1, d.z2, d.W, d.T_load_est,
+        va, vb = d.v_s_alpha, d.v_s_beta
+        if self._comp > 0.0:  # dead-time compensation from the measured currents (0: off, as before)
+            va, vb = compensate(va, vb, inputs[MEAS_I_S_A], inputs[MEAS_I_S_B], self._comp)
+        self._out = (va, vb, d.v_sd, d.v_sq, d.e1, d.e2, d.z1, d.z2, d.W, d.T_load_est,
                      d.psi_r_hat_alpha, d.psi_r_hat_beta, d.omega_ref_shaped, d.psi_ref_shaped, d.phase,
                      d.voltage_limited, d.current_limited, d.singular_limited, self.drive.omega_m_hat)
 

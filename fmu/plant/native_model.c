@@ -7,6 +7,7 @@
 #include <string.h>
 
 #include "sm_common.h"
+#include "sm_inverter.h"
 #include "sm_plant.h"
 #include "sm_values.h"
 #include "sm_vars.h"
@@ -14,7 +15,9 @@
 typedef struct {
     sm_values v; /* first: the generated value store */
     sm_motor p;
+    sm_inverter inv; /* the stator voltage source (average-value or pwm, with its switching state) */
     double x[SM_N_STATES];
+    double v_avg[2]; /* [V] the step-average applied voltage (outputs v_avg_alpha/beta) */
     int ready;
     int warned[3]; /* a plausibility warning of |v_s|, |i_s|, |omega_m| was logged in this run */
 } plant_data;
@@ -72,6 +75,8 @@ static void publish(plant_data *d)
     r[SM_VR_theta_m] = d->x[SM_THETA_M];
     r[SM_VR_T_e] = o.T_e;
     r[SM_VR_i_mu] = o.i_mu;
+    r[SM_VR_v_avg_alpha] = d->v_avg[0];
+    r[SM_VR_v_avg_beta] = d->v_avg[1];
 }
 
 void fg_model_start(fg_instance *inst, void *data)
@@ -104,10 +109,12 @@ fg_status fg_model_exit_initialization(fg_instance *inst, void *data, double sta
         }
     }
     st = sm_motor_init(&d->p, &motor, &plant, msg, sizeof msg);
+    if (st == 0) st = sm_inverter_init(&d->inv, &plant, msg, sizeof msg);
     if (st != 0) {
         fg_log(inst, FG_ERROR, "logStatusError", "%s", msg);
         return FG_ERROR;
     }
+    d->v_avg[0] = d->v_avg[1] = 0.0;
     for (st = 0; st < SM_N_STATES; ++st) {
         d->x[st] = d->p.x0[st];
     }
@@ -120,7 +127,7 @@ fg_status fg_model_do_step(fg_instance *inst, void *data, double t, double h)
 {
     plant_data *d = (plant_data *)data;
     const double *r = d->v.r;
-    double x[SM_N_STATES];
+    double x[SM_N_STATES], v_avg[2];
     char msg[SM_MSG_LEN];
     int n_sub = 1, st, j;
     if (!d->ready) {
@@ -137,6 +144,17 @@ fg_status fg_model_do_step(fg_instance *inst, void *data, double t, double h)
                  (long)d->v.i[SM_VR_max_substeps]);
         st = 1;
     }
+    if (st == 0 && d->inv.pwm) { /* the switching intervals too (as PlantUnit.step) */
+        double n_pwm = (double)n_sub + sm_inverter_intervals_bound(&d->inv, h);
+        if (n_pwm > (double)d->v.i[SM_VR_max_substeps]) {
+            char v[40], f[40];
+            snprintf(msg, sizeof msg, "communicationStepSize = %s: needs up to %.0f RK4 sub-steps with the pwm "
+                     "inverter (f_sw = %s Hz), more than max_substeps = %ld: take shorter communication steps "
+                     "or raise max_substeps", sm_repr_double(h, v, sizeof v), n_pwm,
+                     sm_repr_double(d->inv.f_sw, f, sizeof f), (long)d->v.i[SM_VR_max_substeps]);
+            st = 1;
+        }
+    }
     if (st != 0) {
         fg_log(inst, FG_DISCARD, "logStatusDiscard", "SaturatedInductionMotor at t = %.17g s: %s", t, msg);
         return FG_DISCARD;
@@ -145,7 +163,14 @@ fg_status fg_model_do_step(fg_instance *inst, void *data, double t, double h)
     for (j = 0; j < SM_N_STATES; ++j) {
         x[j] = d->x[j];
     }
-    st = sm_plant_step(&d->p, x, r[SM_VR_v_s_alpha], r[SM_VR_v_s_beta], r[SM_VR_T_load], h, n_sub);
+    if (d->inv.pwm) { /* the switched voltages to the switching instants; d->inv changes only on success */
+        st = sm_inverter_step(&d->inv, &d->p, x, t, h, r[SM_VR_v_s_alpha], r[SM_VR_v_s_beta], r[SM_VR_T_load],
+                              v_avg, NULL, 0, NULL);
+    } else {
+        st = sm_plant_step(&d->p, x, r[SM_VR_v_s_alpha], r[SM_VR_v_s_beta], r[SM_VR_T_load], h, n_sub);
+        v_avg[0] = r[SM_VR_v_s_alpha];
+        v_avg[1] = r[SM_VR_v_s_beta];
+    }
     if (st != 0) {
         double y[SM_N_STATES];
         for (j = 0; j < SM_N_STATES; ++j) {
@@ -158,6 +183,8 @@ fg_status fg_model_do_step(fg_instance *inst, void *data, double t, double h)
     for (j = 0; j < SM_N_STATES; ++j) {
         d->x[j] = x[j];
     }
+    d->v_avg[0] = v_avg[0];
+    d->v_avg[1] = v_avg[1];
     d->v.r[SM_VR_time] = t + h;
     publish(d);
     plausible(inst, d, 1, t + h);
