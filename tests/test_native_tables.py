@@ -41,7 +41,7 @@ PLANT_OWN = [v for v in itf.PLANT_PARAMETERS if v.c_struct == "plant"]  # max_su
 
 @pytest.mark.parametrize("struct, table", [(MotorParams, itf.MOTOR_PARAMETERS), (PlantParams, PLANT_OWN),
                                            (ControllerParams,
-                                            itf.CONTROLLER_PARAMETERS[:-len(itf.MOTOR_PARAMETERS)])])
+                                            [v for v in itf.CONTROLLER_PARAMETERS if v.c_struct == "controller"])])
 def test_the_c_parameter_defaults_are_the_start_values_of_the_table(lib, struct, table):
     p = struct()
     getattr(lib, struct.__name__ + "_default")(ctypes.byref(p))
