@@ -30,7 +30,8 @@ OPTIONS = {
     "pwm 5 kHz": {"inverter": "pwm", "f_sw": 5000.0},
     "pwm 10 kHz": {"inverter": "pwm", "f_sw": 10000.0},
     "pwm 5 kHz, 2 us dead time": {"inverter": "pwm", "f_sw": 5000.0, "t_dead": 2e-6},
-    "pwm 10 kHz, 2 us dead time, 1 V drops": {"inverter": "pwm", "f_sw": 10000.0, "t_dead": 2e-6, "v_on": 1.0},
+    "pwm 10 kHz, 2 us dead time, 1 V drops": {"inverter": "pwm", "f_sw": 10000.0, "t_dead": 2e-6,
+                                              "v_on": 1.0},
 }
 
 
@@ -96,8 +97,8 @@ def main(argv=None):
     load0 = os.getloadavg()
     res = {name: (python_cost(v, rows), c_cost(lib, nc, v, rows)) for name, v in OPTIONS.items()}
     load1 = os.getloadavg()
-    print(f"plant per-step cost, {len(rows)} steps of {H} s (scenarios/ramp_rated_load.yaml inputs), one run; "
-          f"load average {load0[0]:.2f} before, {load1[0]:.2f} after ({os.cpu_count()} CPUs)")
+    print(f"plant per-step cost, {len(rows)} steps of {H} s (scenarios/ramp_rated_load.yaml inputs), "
+          f"one run; load average {load0[0]:.2f} before, {load1[0]:.2f} after ({os.cpu_count()} CPUs)")
     (bp, _), (bc, _) = res["average (today)"]
     print(f"{'option':40s} {'Python CPU us':>13s} {'wall us':>8s} {'x avg':>6s}   {'C CPU us':>8s} "
           f"{'wall us':>8s} {'x avg':>6s}")

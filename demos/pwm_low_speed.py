@@ -137,10 +137,12 @@ def plot(runs, E, v_on, out):
 
     out.mkdir(parents=True, exist_ok=True)
     fig, ax = plt.subplots(3, 1, figsize=(9, 9.5), sharex=False)
-    colors = ("0.3", "tab:red", "tab:blue")
+    colors = ("k", "tab:red", "tab:blue")
     for (name, r), col in zip(runs.items(), colors):
         f = r["fine"]
-        ax[0].plot(f[:, 0], f[:, 1], color=col, lw=0.6, label=f"{name} (within the carrier period)")
+        ideal = name.startswith("average")  # dashed, on top: the compensated run lies under it
+        style = {"ls": "--", "zorder": 3} if ideal else {}
+        ax[0].plot(f[:, 0], f[:, 1], color=col, lw=0.6, label=f"{name} (within the carrier period)", **style)
         m = (r["t"] >= ZOOM[0]) & (r["t"] <= ZOOM[1])
         if name.startswith("pwm"):
             # the alpha component of the voltage error: the step averages against the law's voltage
@@ -152,7 +154,7 @@ def plot(runs, E, v_on, out):
             closed = (2.0 * e[0] - e[1] - e[2]) / 3.0
             ax[1].plot(r["t"][m], closed[m], "k--", lw=0.8,
                        label="closed form: -sign(i_x) (t_dead f_sw V_dc + v_on) per phase, alpha")
-        ax[2].plot(r["t"], r["w"], color=col, lw=0.8, label=name)
+        ax[2].plot(r["t"], r["w"], color=col, lw=0.8, label=name, **style)
     ax[0].set_ylabel("i_s_alpha = i_a [A]")
     ax[0].set_title("10 rad/s, half rated load: 5 kHz PWM, 4 us dead time, 1.5 V drops "
                     "(scenarios/pwm_low_speed.yaml)")

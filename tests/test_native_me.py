@@ -158,8 +158,9 @@ def test_both_me_fmus_validate_and_are_model_exchange_only(fmu_dir):
 def test_the_me_plant_refuses_the_pwm_inverter(fmu_dir, version):
     """Switching belongs to co-simulation: inverter = pwm is an error at initialization, naming it."""
     me = MEPlant(me_path(fmu_dir, version), "pwm")
-    with pytest.raises(Exception):
+    with pytest.raises(Exception) as exc:
         me.initialize({"inverter": "pwm"})
+    assert exc.value.status == 3  # fmi2Error / fmi3Error, not fatal
     assert any("inverter = 'pwm'" in msg and "co-simulation" in msg for _, msg in me.log), me.log
     me.fmu.freeInstance()
     good = MEPlant(me_path(fmu_dir, version), "average")

@@ -37,11 +37,11 @@ def _value(struct, name, type_):
 
 
 PLANT_OWN = [v for v in itf.PLANT_PARAMETERS if v.c_struct == "plant"]  # max_substeps has no struct
+CONTROLLER_OWN = [v for v in itf.CONTROLLER_PARAMETERS if v.c_struct == "controller"]
 
 
 @pytest.mark.parametrize("struct, table", [(MotorParams, itf.MOTOR_PARAMETERS), (PlantParams, PLANT_OWN),
-                                           (ControllerParams,
-                                            [v for v in itf.CONTROLLER_PARAMETERS if v.c_struct == "controller"])])
+                                           (ControllerParams, CONTROLLER_OWN)])
 def test_the_c_parameter_defaults_are_the_start_values_of_the_table(lib, struct, table):
     p = struct()
     getattr(lib, struct.__name__ + "_default")(ctypes.byref(p))

@@ -37,7 +37,8 @@ machine floating.  Everything below is on the absolute time axis ``t`` [s]:
   closer than ``eps = MERGE_REL T_h`` after the start of the current interval is applied at that
   start (so no interval is shorter than eps; the event moves earlier by less than eps, a
   voltage-second error below ``eps V_dc``); an event within eps before the step's end is left to the
-  next step, which applies it at its start.  An edge belongs to the step ``[t0, t1)`` with
+  next step, which applies it at its start.  An edge that changes nothing (a leg held across a
+  half-period boundary) does not split an interval.  An edge belongs to the step ``[t0, t1)`` with
   ``t0 - eps <= edge < t1 - eps``; a half period's duty cycles are computed once (when it is first
   reached) and kept until the next half period, across step boundaries.
 
