@@ -378,3 +378,39 @@ def test_plant_fmu_pwm_equals_the_plant_unit_and_restores_its_state(variant, fmu
         s.doStep(k * 1e-4, 1e-4)
     assert get(outs) == end
     inst.close()
+
+
+@needs_gcc
+def test_c_controller_compensation_equals_python(lib):
+    """sm_controller with deadtime_comp_voltage against ControllerUnit over a closed loop on the pwm plant
+    (the outputs bit for bit); and its check of a negative value."""
+    ctl = ctypes.CDLL(lib._name)
+    ctl.sm_controller_size.restype = ctypes.c_size_t
+    ctl.sm_controller_init.argtypes = [ctypes.c_void_p, ctypes.POINTER(nc.ControllerParams),
+                                       ctypes.POINTER(nc.MotorParams), ctypes.c_char_p, ctypes.c_size_t]
+    ctl.sm_controller_step.argtypes = [ctypes.c_void_p, ctypes.c_double, ctypes.c_double,
+                                       ctypes.POINTER(ctypes.c_double), ctypes.c_char_p, ctypes.c_size_t]
+    ctl.sm_controller_params_default.argtypes = [ctypes.POINTER(nc.ControllerParams)]
+    ctl.sm_motor_params_default.argtypes = [ctypes.POINTER(nc.MotorParams)]
+    msg = ctypes.create_string_buffer(256)
+    bad = nc.params(ctl, nc.ControllerParams, {"deadtime_comp_voltage": -1.0})
+    buf = ctypes.create_string_buffer(ctl.sm_controller_size())
+    assert ctl.sm_controller_init(buf, bad, nc.params(ctl, nc.MotorParams), msg, 256) == 1
+    with pytest.raises(ParameterError) as e:
+        ControllerUnit({"deadtime_comp_voltage": -1.0})
+    assert msg.value.decode() == str(e.value)
+    vals = {"deadtime_comp_voltage": 12.3}
+    cp = nc.params(ctl, nc.ControllerParams, vals)
+    assert ctl.sm_controller_init(buf, cp, nc.params(ctl, nc.MotorParams), msg, 256) == 0, msg.value
+    py, plant = ControllerUnit(vals), _unit(t_dead=4e-6, v_on=1.5, psi_r0=0.0)
+    out_c = ctypes.cast(ctypes.addressof(buf) + ctl.sm_controller_size() - 8 * len(ControllerUnit.OUTPUTS),
+                        ctypes.POINTER(ctypes.c_double))
+    for k in range(3000):
+        t = k * 1e-4
+        o = plant.outputs()
+        row = (o[0], o[1], o[4], o[5], o[2], o[3], o[6], 10.0 if t > 0.2 else 0.0, 0.95, 0.0)
+        py.step(t, 1e-4, row)
+        assert ctl.sm_controller_step(buf, t, 1e-4, (ctypes.c_double * 10)(*row), msg, 256) == 0, msg.value
+        c = py.outputs()
+        assert [out_c[j] for j in range(len(c))] == [float(v) for v in c], k
+        plant.step(t, 1e-4, (c[0], c[1], 0.0))
