@@ -14,7 +14,8 @@ first-order error of satmotor/machine/inverter.py).  Over the steady window [1.3
 
 The figure (docs/figures/pwm_low_speed.png is this figure): the phase-a current over 250 ms of the
 steady state, at the controller's samples and resolved within the carrier period (the ripple), for
-the three runs; the phase-a voltage error against -sign(i_a) t_dead f_sw V_dc; the speed.
+the three runs; the alpha voltage error against the closed form -sign(i_x) (t_dead f_sw V_dc + v_on) per
+phase; the speed; a close-up of the current ripple over 15 carrier periods.
 
 Usage::
 
@@ -38,6 +39,7 @@ ROOT = Path(__file__).resolve().parents[1]
 SCENARIO = ROOT / "scenarios" / "pwm_low_speed.yaml"
 WINDOW = (1.3, 1.5)  # [s] the steady window of the scenario
 ZOOM = (1.25, 1.5)  # [s] the figure's current window (in-step ripple resolved here)
+RIPPLE = (1.300, 1.303)  # [s] the figure's close-up of the ripple: 15 carrier periods
 SUB = 8  # pieces per constant interval in the ripple replay
 
 
@@ -136,7 +138,7 @@ def plot(runs, E, v_on, out):
     import matplotlib.pyplot as plt
 
     out.mkdir(parents=True, exist_ok=True)
-    fig, ax = plt.subplots(3, 1, figsize=(9, 9.5), sharex=False)
+    fig, ax = plt.subplots(4, 1, figsize=(9, 12), sharex=False)
     colors = ("k", "tab:red", "tab:blue")
     for (name, r), col in zip(runs.items(), colors):
         f = r["fine"]
@@ -155,12 +157,15 @@ def plot(runs, E, v_on, out):
             ax[1].plot(r["t"][m], closed[m], "k--", lw=0.8,
                        label="closed form: -sign(i_x) (t_dead f_sw V_dc + v_on) per phase, alpha")
         ax[2].plot(r["t"], r["w"], color=col, lw=0.8, label=name, **style)
+        z = (f[:, 0] >= RIPPLE[0]) & (f[:, 0] <= RIPPLE[1])
+        ax[3].plot(f[z, 0], f[z, 1] - np.mean(f[z, 1]), color=col, lw=0.8, label=name, **style)
     ax[0].set_ylabel("i_s_alpha = i_a [A]")
     ax[0].set_title("10 rad/s, half rated load: 5 kHz PWM, 4 us dead time, 1.5 V drops "
                     "(scenarios/pwm_low_speed.yaml)")
     ax[1].set_ylabel("voltage error [V]")
     ax[2].set_ylabel("omega_m [rad/s]")
-    ax[2].set_xlabel("t [s]")
+    ax[3].set_ylabel("i_a - its mean there [A]")
+    ax[3].set_xlabel("t [s]")
     for a in ax:
         a.grid(alpha=0.3)
         a.legend(fontsize=7, loc="upper right")
