@@ -414,3 +414,22 @@ def test_c_controller_compensation_equals_python(lib):
         c = py.outputs()
         assert [out_c[j] for j in range(len(c))] == [float(v) for v in c], k
         plant.step(t, 1e-4, (c[0], c[1], 0.0))
+
+
+def test_scenario_sets_the_inverter_and_notes_a_link_the_controller_does_not_assume(tmp_path):
+    """The inverter parameters are scenario parameters; a pwm plant whose V_dc differs from the
+    controller's is a note (allowed, said), a bad one a problem naming it."""
+    from orchestration.scenario.problems import Note
+    from orchestration.scenario.validate import check_scenario_file
+
+    path = Path(__file__).resolve().parents[1] / "scenarios" / "pwm_low_speed.yaml"
+    src = path.read_text()
+    assert check_scenario_file(path) == ([], [])
+    f = tmp_path / "link.yaml"
+    f.write_text(src.replace("  V_dc: 540.0 ", "  V_dc: 600.0 "))
+    problems, (note,) = check_scenario_file(f)
+    assert not problems and isinstance(note, Note) and note.field == "plant.V_dc" and "600 V" in note.message
+    g = tmp_path / "bad.yaml"
+    g.write_text(src.replace("  t_dead: 4.0e-6 ", "  t_dead: 1.0e-3 "))
+    problems = check_scenario_file(g)[0]
+    assert problems and "t_dead" in str(problems[0]), problems
