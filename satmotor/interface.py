@@ -389,7 +389,11 @@ class PlantUnit:
             v_avg = (v_a, v_b)
         else:  # the switched voltages, integrated to the switching instants (on a copy of its state)
             before = self.inverter.get_state()
-            x, *v_avg = self.inverter.step(self.plant, t, self.x, v_a, v_b, T_load, dt, self.h_int)
+            try:
+                x, *v_avg = self.inverter.step(self.plant, t, self.x, v_a, v_b, T_load, dt, self.h_int)
+            except Exception:  # a failed solve inside: the switching state as before the step
+                self.inverter.set_state(before)
+                raise
         if not math.isfinite(sum(x)) and not all(math.isfinite(v) for v in x):
             if self.inverter is not None:
                 self.inverter.set_state(before)
