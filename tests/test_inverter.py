@@ -461,3 +461,54 @@ def test_plant_fmu_step_average_equals_the_command(variant, fmu_dir):
         inst.close()
         print(f"{variant}, f_sw = {f_sw} Hz: worst |v_avg - v_s| = {worst:.3g} V over 300 steps")
         assert worst <= 1e-12 * V_DC
+
+
+SANITIZED_RUN = """
+import ctypes, sys
+sys.path.insert(0, {tests!r})
+import native_core as nc
+lib = nc.declare(ctypes.CDLL({lib!r}))
+msg = ctypes.create_string_buffer(64)  # short: messages are truncated, never overrun
+for bad in ({{"inverter": "x" * 1000}}, {{"f_sw": 0.0}}, {{"t_dead": 1.0}}, {{"v_on": 1e3}}):
+    inv = nc.new_inverter(lib)
+    assert lib.sm_inverter_init(inv, nc.params(lib, nc.PlantParams, bad), msg, 64) == 1
+for case in ({{"inverter": "pwm", "t_dead": 3e-6, "v_on": 1.0, "psi_r0": 0.8}},
+             {{"inverter": "pwm", "f_sw": 7300.0, "t_dead": 1e-5}}):
+    motor, inv = nc.new_motor(lib), nc.new_inverter(lib)
+    mp, pp = nc.params(lib, nc.MotorParams, case), nc.params(lib, nc.PlantParams, case)
+    assert lib.sm_motor_init(motor, mp, pp, msg, 64) == 0
+    assert lib.sm_inverter_init(inv, pp, msg, 64) == 0
+    x = (ctypes.c_double * 6)()
+    lib.sm_plant_initial_state(motor, 0.0, 0.0, 0.8, 0.0, x)
+    avg, tr, n = (ctypes.c_double * 2)(), (ctypes.c_double * 21)(), ctypes.c_size_t()
+    t = 1.3e-5
+    for k in range(400):
+        dt = (1e-4, 3.3e-5, 2e-4)[k % 3]
+        va, vb = (300.0 * (k % 7 - 3), 120.0 * (k % 5 - 2))
+        assert lib.sm_inverter_step(inv, motor, x, t, dt, va, vb, 1.0, avg, tr, 3, ctypes.byref(n)) == 0
+        assert n.value >= 1
+        assert lib.sm_inverter_step(inv, motor, x, t + dt, dt, va, vb, 1.0, avg, None, 0, None) == 0
+        t += 2 * dt
+    assert lib.sm_inverter_step(inv, motor, x, t, float("nan"), 0.0, 0.0, 0.0, avg, None, 0, None) == 3
+print("SANITIZED RUN OK")
+"""
+
+
+@needs_gcc
+def test_inverter_under_address_and_undefined_behaviour_sanitizers(tmp_path):
+    import os
+    import subprocess
+
+    gcc = shutil.which("gcc")
+    asan = subprocess.run([gcc, "-print-file-name=libasan.so"], capture_output=True, text=True).stdout.strip()
+    if not os.path.isabs(asan) or not os.path.exists(asan):
+        pytest.skip("no libasan runtime")
+    lib = nc.build(nc.SANITIZE, tmp_path)
+    script = tmp_path / "run.py"
+    script.write_text(SANITIZED_RUN.format(tests=str(Path(__file__).parent), lib=str(lib)))
+    env = dict(os.environ, LD_PRELOAD=asan, ASAN_OPTIONS="detect_leaks=0:abort_on_error=0:exitcode=99",
+               UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1:exitcode=98")
+    res = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, env=env, timeout=300)
+    report = res.stdout + res.stderr
+    assert res.returncode == 0 and "SANITIZED RUN OK" in res.stdout, report[:4000]
+    assert "AddressSanitizer" not in report and "runtime error" not in report, report[:4000]
