@@ -277,7 +277,7 @@ def test_c_step_bit_for_bit(lib, values):
         u.step(t, dt, (va, vb, TL))
         assert lib.sm_dclink_step(m, link, t, x, va, vb, TL, dt, u._n_sub, chop, fault, tf) == 0
         t += dt
-        assert u.get_state() == (*x, float(chop.value), float(fault.value)), k
+        assert u.get_state() == (*x, float(chop.value), float(fault.value), va, vb), k
         seen_chop |= bool(chop.value)
         if u.warnings:
             seen_fault = True
