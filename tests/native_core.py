@@ -125,6 +125,8 @@ def declare(lib):
         "sm_inverter_intervals_bound": (D, [ctypes.c_void_p, D]),
         "sm_inverter_step": (I, [ctypes.c_void_p, ctypes.c_void_p, P, D, D, D, D, D, P, P, S,
                                  ctypes.POINTER(S)]),
+        "sm_inverter_step_memo": (I, [ctypes.c_void_p, ctypes.c_void_p, P, P, D, D, D, D, D, P, P, S,
+                                       ctypes.POINTER(S)]),
         "sm_deadtime_compensate": (None, [P, P, D, D, D]),
     }
     for struct in (MotorParams, PlantParams, ControllerParams, DCLinkParams):

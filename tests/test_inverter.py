@@ -293,6 +293,11 @@ def test_c_equals_python_bit_for_bit(lib, case):
     assert st == 0, msg
     x = (ctypes.c_double * 6)(*u.x)
     avg = (ctypes.c_double * 2)()
+    # the native plant's path: sm_inverter_step_memo with the plant's solve memo (the same results)
+    inv_m, x_m, avg_m = nc.new_inverter(lib), (ctypes.c_double * 6)(*u.x), (ctypes.c_double * 2)()
+    ctypes.memmove(inv_m, inv, lib.sm_inverter_size())
+    memo = (ctypes.c_double * 4)()
+    lib.sm_solve_memo_clear(memo)
     cap = 4096
     tr = (ctypes.c_double * (7 * cap))()
     ntr = ctypes.c_size_t()
@@ -312,6 +317,9 @@ def test_c_equals_python_bit_for_bit(lib, case):
         assert got == trace, n
         assert tuple(x) == tuple(xp), n
         assert (avg[0], avg[1]) == (a_p, b_p), n
+        assert lib.sm_inverter_step_memo(inv_m, motor, memo, x_m, t, dt, float(va), float(vb), T_load, avg_m,
+                                         None, 0, None) == 0
+        assert tuple(x_m) == tuple(xp) and (avg_m[0], avg_m[1]) == (a_p, b_p), n
         assert lib.sm_inverter_intervals_bound(inv, dt) == u.inverter.intervals_bound(dt)
         t += dt
 

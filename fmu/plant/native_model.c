@@ -225,8 +225,8 @@ fg_status fg_model_do_step(fg_instance *inst, void *data, double t, double h)
         x[j] = d->x[j];
     }
     if (d->inv.pwm) { /* the switched voltages to the switching instants; d->inv changes only on success */
-        st = sm_inverter_step(&d->inv, &d->p, x, t, h, r[SM_VR_v_s_alpha], r[SM_VR_v_s_beta], r[SM_VR_T_load],
-                              v_avg, NULL, 0, NULL);
+        st = sm_inverter_step_memo(&d->inv, &d->p, &d->memo, x, t, h, r[SM_VR_v_s_alpha], r[SM_VR_v_s_beta],
+                                   r[SM_VR_T_load], v_avg, NULL, 0, NULL);
     } else if (d->link.capacitor) { /* (the memo is for the motor's step alone: publish refills it) */
         st = sm_dclink_step(&d->p, &d->link, t, x, r[SM_VR_v_s_alpha], r[SM_VR_v_s_beta], r[SM_VR_T_load], h,
                             n_sub, &chop, &fault, &t_fault);

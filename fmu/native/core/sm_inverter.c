@@ -141,8 +141,8 @@ static int half_edges(long long k, double T_h, const double d[3], edge ev[6])
 }
 
 /* PwmInverter._volts: out = (v_alpha, v_beta, v_a, v_b, v_c); cur (have_cur) the phase currents at x */
-static int volts(const sm_inverter *q, const sm_motor *p, const double x[6], double half, double cur[3],
-                 int *have_cur, double out[5])
+static int volts(const sm_inverter *q, const sm_motor *p, sm_solve_memo *memo, const double x[6], double half,
+                 double cur[3], int *have_cur, double out[5])
 {
     double v[3];
     int j, st;
@@ -150,7 +150,7 @@ static int volts(const sm_inverter *q, const sm_motor *p, const double x[6], dou
     if (q->v_on > 0.0) {
         if (!*have_cur) {
             sm_plant_outputs o;
-            if ((st = sm_plant_outputs_of(p, x, &o)) != SM_CORE_OK) return st;
+            if ((st = sm_plant_outputs_memo(p, memo, x, 0.0, 0.0, &o)) != SM_CORE_OK) return st;
             phase_currents(o.i_s_alpha, o.i_s_beta, cur);
             *have_cur = 1;
         }
@@ -170,8 +170,8 @@ static int volts(const sm_inverter *q, const sm_motor *p, const double x[6], dou
 }
 
 /* PwmInverter._integrate */
-static int integrate(const sm_motor *p, double x[6], double t, double L, const double vo[5], double T_load,
-                     double *trace, size_t trace_cap, size_t *trace_n)
+static int integrate(const sm_motor *p, sm_solve_memo *memo, double x[6], double t, double L, const double vo[5],
+                     double T_load, double *trace, size_t trace_cap, size_t *trace_n)
 {
     double q = ceil(L / p->h_int - 1e-9);
     int n = q > 1.0 ? (int)q : 1;
@@ -184,12 +184,20 @@ static int integrate(const sm_motor *p, double x[6], double t, double L, const d
         }
         ++*trace_n;
     }
-    return sm_plant_step(p, x, vo[0], vo[1], T_load, L, n);
+    return sm_plant_step_memo(p, memo, x, vo[0], vo[1], T_load, L, n);
 }
 
 int sm_inverter_step(sm_inverter *inv, const sm_motor *p, double x[6], double t0, double dt, double v_alpha,
                      double v_beta, double T_load, double v_avg[2], double *trace, size_t trace_cap,
                      size_t *trace_n)
+{
+    return sm_inverter_step_memo(inv, p, NULL, x, t0, dt, v_alpha, v_beta, T_load, v_avg, trace, trace_cap,
+                                 trace_n);
+}
+
+int sm_inverter_step_memo(sm_inverter *inv, const sm_motor *p, sm_solve_memo *memo, double x[6], double t0,
+                          double dt, double v_alpha, double v_beta, double T_load, double v_avg[2], double *trace,
+                          size_t trace_cap, size_t *trace_n)
 {
     sm_inverter q;
     edge evs[6];
@@ -244,10 +252,10 @@ int sm_inverter_step(sm_inverter *inv, const sm_motor *p, double x[6], double t0
         }
         if (tn - tp >= eps) {
             if (!have_volts) {
-                if ((st = volts(&q, p, xs, half, cur, &have_cur, vo)) != SM_CORE_OK) return st;
+                if ((st = volts(&q, p, memo, xs, half, cur, &have_cur, vo)) != SM_CORE_OK) return st;
                 have_volts = 1;
             }
-            if ((st = integrate(p, xs, tp, tn - tp, vo, T_load, trace, trace_cap, trace_n)) != SM_CORE_OK)
+            if ((st = integrate(p, memo, xs, tp, tn - tp, vo, T_load, trace, trace_cap, trace_n)) != SM_CORE_OK)
                 return st;
             sa += vo[0] * (tn - tp);
             sb += vo[1] * (tn - tp);
@@ -276,7 +284,7 @@ int sm_inverter_step(sm_inverter *inv, const sm_motor *p, double x[6], double t0
                 double i;
                 if (!have_cur) {
                     sm_plant_outputs o;
-                    if ((st = sm_plant_outputs_of(p, xs, &o)) != SM_CORE_OK) return st;
+                    if ((st = sm_plant_outputs_memo(p, memo, xs, 0.0, 0.0, &o)) != SM_CORE_OK) return st;
                     phase_currents(o.i_s_alpha, o.i_s_beta, cur);
                     have_cur = 1;
                 }
@@ -288,9 +296,9 @@ int sm_inverter_step(sm_inverter *inv, const sm_motor *p, double x[6], double t0
         }
     }
     if (!have_volts) {
-        if ((st = volts(&q, p, xs, half, cur, &have_cur, vo)) != SM_CORE_OK) return st;
+        if ((st = volts(&q, p, memo, xs, half, cur, &have_cur, vo)) != SM_CORE_OK) return st;
     }
-    if ((st = integrate(p, xs, tp, t1 - tp, vo, T_load, trace, trace_cap, trace_n)) != SM_CORE_OK) return st;
+    if ((st = integrate(p, memo, xs, tp, t1 - tp, vo, T_load, trace, trace_cap, trace_n)) != SM_CORE_OK) return st;
     sa += vo[0] * (t1 - tp);
     sb += vo[1] * (t1 - tp);
     v_avg[0] = sa / dt;

@@ -53,6 +53,12 @@ int sm_inverter_step(sm_inverter *inv, const sm_motor *p, double x[6], double t0
                      double v_beta, double T_load, double v_avg[2], double *trace, size_t trace_cap,
                      size_t *trace_n);
 
+/* sm_inverter_step with the plant's solve memo (NULL: none; sm_plant_step_memo, sm_plant_outputs_memo):
+ * the same results, fewer curve solves (the currents at an interval's start and its first RK4 stage). */
+int sm_inverter_step_memo(sm_inverter *inv, const sm_motor *p, sm_solve_memo *memo, double x[6], double t0,
+                          double dt, double v_alpha, double v_beta, double T_load, double v_avg[2], double *trace,
+                          size_t trace_cap, size_t *trace_n);
+
 /* deadtime.compensate: (v_alpha, v_beta) [V] with sign(i_phase) V_comp added per phase from the measured
  * (i_alpha, i_beta) [A]; unchanged for V_comp = 0. */
 void sm_deadtime_compensate(double *v_alpha, double *v_beta, double i_alpha, double i_beta, double V_comp);
