@@ -166,8 +166,8 @@ PLANT_PARAMETERS = MOTOR_PARAMETERS + _in_struct("plant", (
        "V_dc, the command applied as it is; capacitor: C_dc fed by dc_source, |v_s| bounded by v_dc/sqrt(3))",
        "String"),
     _v("V_dc", "parameter", _L.V_dc, "V", "DC-link voltage (ideal; the one the pwm inverter switches), or "
-       "the capacitor's initial voltage and the dc source's voltage (capacitor), > 0; default the controller's "
-       "V_dc"),
+       "the capacitor's initial voltage and the dc source's voltage (capacitor), > 0; default the "
+       "controller's V_dc"),
     _v("C_dc", "parameter", _L.C_dc, "F", "DC-link capacitance, > 0 (capacitor)"),
     _v("dc_source", "parameter", _L.dc_source, "", "what feeds the capacitor through a diode and R_src: "
        + ", ".join(DC_SOURCES) + " (dc: the voltage V_dc; rectifier: a six-pulse diode bridge on the grid "
