@@ -241,7 +241,7 @@ def test_compensation_closed_form():
 
 def test_controller_compensation_is_off_by_default_and_adds_when_on():
     vals = {"Ts": 1e-4}
-    meas = (3.0, 0.5, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.9, 0.0)
+    meas = (3.0, 0.5, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.9, 0.0, 0.0)  # v_dc 0: not connected
     a, b = ControllerUnit(vals), ControllerUnit(dict(vals, deadtime_comp_voltage=0.0))
     c = ControllerUnit(dict(vals, deadtime_comp_voltage=5.0))
     for u in (a, b, c):
@@ -417,9 +417,9 @@ def test_c_controller_compensation_equals_python(lib):
     for k in range(3000):
         t = k * 1e-4
         o = plant.outputs()
-        row = (o[0], o[1], o[4], o[5], o[2], o[3], o[6], 10.0 if t > 0.2 else 0.0, 0.95, 0.0)
+        row = (o[0], o[1], o[4], o[5], o[2], o[3], o[6], 10.0 if t > 0.2 else 0.0, 0.95, 0.0, 0.0)  # v_dc: 0
         py.step(t, 1e-4, row)
-        assert ctl.sm_controller_step(buf, t, 1e-4, (ctypes.c_double * 10)(*row), msg, 256) == 0, msg.value
+        assert ctl.sm_controller_step(buf, t, 1e-4, (ctypes.c_double * 11)(*row), msg, 256) == 0, msg.value
         c = py.outputs()
         assert [out_c[j] for j in range(len(c))] == [float(v) for v in c], k
         plant.step(t, 1e-4, (c[0], c[1], 0.0))
