@@ -227,7 +227,7 @@ def test_state_round_trip():
     a = [u.step(50e-4, 1e-4, (300.0, 0.0, 0.0)) or u.get_state() for _ in range(1)]
     u.set_state(s)
     b = [u.step(50e-4, 1e-4, (300.0, 0.0, 0.0)) or u.get_state() for _ in range(1)]
-    assert a == b and len(s) == 11
+    assert a == b and len(s) == 13  # nine states, chopper, fault, the held voltage
 
 
 # --- the C port (ctypes) ---------------------------------------------------------------------------
