@@ -1,5 +1,6 @@
 """Per-step cost of the plant's options, side by side in one run: today's plant, core loss (R_fe), the
-thermal model, both; the native co-simulation FMU (C, FMI 2.0, through fmpy) and the Python plant
+thermal model, both, the capacitor DC link, the PWM inverter (with and without dead time and drops); the
+native co-simulation FMU (C, FMI 2.0, through fmpy) and the Python plant
 (``satmotor.interface.PlantUnit``, what the pythonfmu FMU runs).
 
 Run ``python bench/bench_plant_options.py [--fmus build/fmus]`` (the FMUs built first:
@@ -10,8 +11,10 @@ Method: a direct-on-line start of the default motor at rated voltage and frequen
 ``V (cos w t, sin w t)`` held over each communication step of 1 ms, ``h_int`` = 1e-5 s (100 RK4 sub-steps
 per ``doStep``, so the per-call overhead of fmpy and ctypes is spread over them), rated load from 0.3 s;
 native: 1 s simulated (1e5 sub-steps), Python: 0.1 s (1e4 sub-steps); the best of ``REPEATS`` runs.
-Other options (the PWM inverter, the DC link) add rows to :data:`OPTIONS`: (name, plant parameter
-overrides).
+Each option is a row of :data:`OPTIONS`: (name, plant parameter overrides).  The cost is given per
+``doStep`` of 1 ms (the same work for every option: 1 ms of the motor) and per RK4 sub-step of today's
+plant (the ``doStep`` cost / 100): the PWM inverter integrates more, shorter intervals (its switching
+instants) within the same step.  (Folds the former ``bench/bench_plant_pwm.py``.)
 """
 
 from __future__ import annotations
@@ -27,6 +30,11 @@ OPTIONS = [
     ("core loss R_fe = 1200 Ohm", {"R_fe": 1200.0}),
     ("thermal model on", {"thermal": True}),
     ("core loss + thermal", {"R_fe": 1200.0, "thermal": True}),
+    ("DC link capacitor (470 uF, dc source)", {"dc_link": "capacitor"}),
+    ("pwm 5 kHz", {"inverter": "pwm", "f_sw": 5000.0}),
+    ("pwm 5 kHz, 2 us dead time, 1 V drops",
+     {"inverter": "pwm", "f_sw": 5000.0, "t_dead": 2e-6, "v_on": 1.0}),
+    ("pwm 20 kHz", {"inverter": "pwm", "f_sw": 20000.0}),
 ]
 REPEATS = 3
 DT, H_INT, T_LOAD_ON, T_N = 1e-3, 1e-5, 0.3, 26.71
@@ -56,6 +64,8 @@ def native_run(fmu, overrides, t_end):
     for name, value in overrides.items():
         if types[name] == "Boolean":
             s.setBoolean([vr[name]], [bool(value)])
+        elif types[name] == "String":
+            s.setString([vr[name]], [value])
         else:
             s.setReal([vr[name]], [float(value)])
     s.exitInitializationMode()
@@ -100,10 +110,12 @@ def main(argv=None):
         rows.append((name, [x / n_sub_native * 1e6 for x in nat], [x / n_sub_py * 1e6 for x in py]))
     print(f"load average after: {os.getloadavg()}")
     base_n, base_p = rows[0][1][0], rows[0][2][0]
-    print("per RK4 sub-step [us], CPU (wall), ratio of CPU to today's")
-    print(f"{'option':52s} {'native':>18s} {'ratio':>6s} {'Python':>18s} {'ratio':>6s}")
+    per_step = DT / H_INT  # today's RK4 sub-steps per doStep
+    print("per doStep of 1 ms [us], CPU (wall), ratio of CPU to today's; [per today's RK4 sub-step]")
+    print(f"{'option':52s} {'native':>26s} {'ratio':>6s} {'Python':>28s} {'ratio':>6s}")
     for name, (nc, nw), (pc, pw) in rows:
-        print(f"{name:52s} {nc:8.3f} ({nw:7.3f}) {nc / base_n:6.2f} {pc:8.2f} ({pw:7.2f}) {pc / base_p:6.2f}")
+        print(f"{name:52s} {nc * per_step:8.1f} ({nw * per_step:7.1f}) [{nc:6.3f}] {nc / base_n:6.2f} "
+              f"{pc * per_step:9.0f} ({pw * per_step:8.0f}) [{pc:6.2f}] {pc / base_p:6.2f}")
 
 
 if __name__ == "__main__":

@@ -15,9 +15,10 @@ import sys
 from typing import NamedTuple
 
 from satmotor.control.backstepping import BacksteppingGains, ControllerConfig
+from satmotor.control.deadtime import compensate
 from satmotor.control.drive import HOST_DELAY_MAX, BacksteppingDrive, DriveConfig, IFOCDrive
 from satmotor.control.ifoc import IFOCGains
-from satmotor.control.measurements import MEAS_LEN, MEAS_OMEGA_M
+from satmotor.control.measurements import MEAS_I_S_A, MEAS_I_S_B, MEAS_LEN, MEAS_OMEGA_M
 from satmotor.errors import ParameterError, require_integer, require_number
 from satmotor.machine.dc_link import (
     DC_LINK_MODES,
@@ -29,6 +30,7 @@ from satmotor.machine.dc_link import (
     DCLinkParams,
     over_voltage_message,
 )
+from satmotor.machine.inverter import InverterParams, PwmInverter
 from satmotor.machine.magnetics import ArctanCurve, LinearCurve, PolynomialCurve
 from satmotor.machine.params import CURVE_NAMES, MotorParams, make_curve
 from satmotor.machine.plant import (
@@ -81,6 +83,7 @@ AUTHOR = "satmotor"
 
 _M, _A, _P, _L, _TH = MotorParams(), ArctanCurve(), PolynomialCurve(), DCLinkParams(), ThermalParams()
 _G, _C, _D = BacksteppingGains(), ControllerConfig(), DriveConfig()
+_INV = InverterParams(V_dc=_L.V_dc)  # the plant's inverter: its link voltage the dclink V_dc
 OMEGA_WARN = 1500.0  # [rad/s] omega_warn's default: about 10 x the default motor's synchronous speed
 MOTOR_PARAMETERS = _in_struct("motor", (
     _v("R_s", "parameter", _M.R_s, "Ohm", "stator resistance"),
@@ -131,6 +134,11 @@ PLANT_OUTPUTS = (
        "just ended; 0 without R_fe"),
     _v("T_s", "output", _TH.T_s0, "K", "stator temperature (thermal off: T_s0, constant)"),
     _v("T_r", "output", _TH.T_r0, "K", "rotor temperature (thermal off: T_r0, constant)"),
+    # last: the inverter's (satmotor.machine.inverter)
+    _v("v_avg_alpha", "output", 0.0, "V", "stator voltage applied by the inverter, alpha axis, averaged over "
+       "the last communication step (inverter = average: v_s_alpha)"),
+    _v("v_avg_beta", "output", 0.0, "V", "stator voltage applied by the inverter, beta axis, averaged over "
+       "the last communication step (inverter = average: v_s_beta)"),
 )
 PLANT_PARAMETERS = MOTOR_PARAMETERS + _in_struct("plant", (
     _v("omega_m0", "parameter", 0.0, "rad/s", "initial mechanical speed"),
@@ -157,8 +165,9 @@ PLANT_PARAMETERS = MOTOR_PARAMETERS + _in_struct("plant", (
     _v("dc_link", "parameter", _L.dc_link, "", "DC link: " + ", ".join(DC_LINK_MODES) + " (ideal: a constant "
        "V_dc, the command applied as it is; capacitor: C_dc fed by dc_source, |v_s| bounded by v_dc/sqrt(3))",
        "String"),
-    _v("V_dc", "parameter", _L.V_dc, "V", "DC-link voltage (ideal), or the capacitor's initial voltage and "
-       "the dc source's voltage (capacitor), > 0; default the controller's V_dc"),
+    _v("V_dc", "parameter", _L.V_dc, "V", "DC-link voltage (ideal; the one the pwm inverter switches), or "
+       "the capacitor's initial voltage and the dc source's voltage (capacitor), > 0; default the "
+       "controller's V_dc"),
     _v("C_dc", "parameter", _L.C_dc, "F", "DC-link capacitance, > 0 (capacitor)"),
     _v("dc_source", "parameter", _L.dc_source, "", "what feeds the capacitor through a diode and R_src: "
        + ", ".join(DC_SOURCES) + " (dc: the voltage V_dc; rectifier: a six-pulse diode bridge on the grid "
@@ -190,6 +199,19 @@ PLANT_PARAMETERS = MOTOR_PARAMETERS + _in_struct("plant", (
     _v("R_th_s", "parameter", _TH.R_th_s, "K/W", "thermal resistance stator to ambient, > 0"),
     _v("R_th_r", "parameter", _TH.R_th_r, "K/W", "thermal resistance rotor to ambient, > 0"),
     _v("R_th_sr", "parameter", _TH.R_th_sr, "K/W", "thermal resistance stator to rotor (air gap), > 0"),
+)) + _in_struct("plant", (
+    # last: the inverter (satmotor.machine.inverter); the earlier variables keep their value references.
+    # Its link voltage is the dclink parameter V_dc (one parameter)
+    _v("inverter", "parameter", _INV.inverter, "", "stator voltage source: average (the commanded voltage as "
+       "it is, the average-value model) or pwm (carrier-comparison PWM inverter on the link voltage V_dc, "
+       "switching instants integrated exactly; co-simulation only; dc_link = ideal, R_fe = 0 and thermal "
+       "= false only)", "String"),
+    _v("f_sw", "parameter", _INV.f_sw, "Hz", "pwm: switching (triangular carrier) frequency, > 0; the duty "
+       "cycles are sampled at every carrier peak and valley"),
+    _v("t_dead", "parameter", _INV.t_dead, "s", "pwm: dead time of every leg, 0 <= t_dead < 1/(2 f_sw); "
+       "during it the phase current's sign sets the voltage"),
+    _v("v_on", "parameter", _INV.v_on, "V", "pwm: on-state voltage drop of a conducting device or diode, "
+       "0 <= v_on < V_dc/2"),
 ))
 # the machine's data only the plant models: a scenario's motor: section and a preset may hold them (the
 # controller's model ignores them)
@@ -303,6 +325,9 @@ CONTROLLER_PARAMETERS = _in_struct("controller", (
     _v("host_delay_samples", "parameter", _D.host_delay_samples, "1", "samples of coupling delay the host "
        "adds between this output and the plant's input (a Jacobi master: 1; Gauss-Seidel: 0), 0 to "
        f"{HOST_DELAY_MAX}; compensated with delay_samples by one prediction over both", "Integer"),
+    _v("deadtime_comp_voltage", "parameter", 0.0, "V", "dead-time compensation: sign(i_phase) times this "
+       "voltage added to each phase of the voltage command (from the measured currents), >= 0; 0: off "
+       "(satmotor.control.deadtime)"),
 ))
 
 
@@ -412,6 +437,27 @@ def dc_link(values):
     return DCLinkParams(**{v.name: _number(values, v) for v in PLANT_PARAMETERS if v.c_struct == "dclink"})
 
 
+def pwm_substeps_reason(n, f_sw, max_substeps):
+    """Why a communication step of up to ``n`` RK4 sub-steps with the pwm inverter is refused."""
+    return (f"needs up to {n} RK4 sub-steps with the pwm inverter (f_sw = {f_sw!r} Hz), more than "
+            f"max_substeps = {max_substeps}: take shorter communication steps or raise max_substeps")
+
+
+def inverter_refusal(inverter, dc_link_mode, R_fe, thermal):
+    """``inverter = pwm`` with ``dc_link = capacitor``, core loss or the thermal model: refused (the pwm
+    step integrates the six-state plant between switching instants on the ideal link voltage V_dc, with
+    the phase currents at zero stator voltage); the native plant refuses with the same text."""
+    if inverter != "pwm":
+        return
+    if dc_link_mode == "capacitor":
+        raise ParameterError("inverter", "pwm", "cannot be combined with dc_link = capacitor in this plant: "
+                             "use inverter = average, or dc_link = ideal")
+    if R_fe > 0.0 or thermal:
+        what = "R_fe > 0 (core loss)" if R_fe > 0.0 else "thermal = true (the thermal model)"
+        raise ParameterError("inverter", "pwm", f"cannot be combined with {what} in this plant: use "
+                             "inverter = average, or R_fe = 0 and thermal = false")
+
+
 class PlantUnit:
     """The plant as a co-simulation unit: inputs held over each communication step."""
 
@@ -436,7 +482,9 @@ class PlantUnit:
         require_number("R_fe", f["R_fe"], 0, inclusive=True)
         self.plant = Plant(self.params, f["B_2"], f["R_fe"], ThermalParams(*(f[n] for n in THERMAL_NAMES)))
         self.x0 = initial_state(self.params, omega_m=w0, psi_r_alpha=psi0) + self.plant.thermal_state()
-        self._v = (0.0, 0.0)  # the stator voltage held over the last step (the outputs' with R_fe)
+        # the stator voltage held over the last step (the outputs' with R_fe); pwm: its step average
+        # (outputs v_avg_alpha/beta)
+        self._v = (0.0, 0.0)
         self._thermal = self.plant.th.thermal
         self.link = dc_link(f)  # the DC link's parameters; a capacitor link integrates with the plant
         if self.link.capacitor:
@@ -447,6 +495,10 @@ class PlantUnit:
         self._chop, self._fault = False, False  # the chopper's state, the latched over-voltage fault
         self.x = self.x0
         self._dt, self._n_sub = None, 1  # the last step size and its sub-step count
+        # the inverter switches the link's V_dc (one parameter); pwm: ideal link, no core loss, no thermal
+        inv = InverterParams(self.link.V_dc, f["inverter"], f["f_sw"], f["t_dead"], f["v_on"])
+        inverter_refusal(inv.inverter, self.link.dc_link, self.plant.R_fe, self._thermal)
+        self.inverter = PwmInverter(inv) if inv.inverter == "pwm" else None  # None: average-value
 
     def step(self, t, dt, inputs):
         """Advance over ``dt`` [s] with the inputs ``(v_s_alpha, v_s_beta, T_load)`` held;
@@ -460,23 +512,38 @@ class PlantUnit:
             if n_sub > self.max_substeps:
                 raise ParameterError("communicationStepSize", dt, substeps_reason(n_sub, self.h_int,
                                                                                   self.max_substeps))
+            if self.inverter is not None and n_sub + self.inverter.intervals_bound(dt) > self.max_substeps:
+                raise ParameterError("communicationStepSize", dt, pwm_substeps_reason(
+                    n_sub + self.inverter.intervals_bound(dt), self.inverter.f_sw, self.max_substeps))
             self._n_sub = n_sub
             self._dt = dt
         if self._warn[0] > 0.0 and not self._warned[0]:
             self._plausible(0, t, v_a, v_b)
-        if self._link is None:
-            x = self.plant.step(t, self.x, v_a, v_b, T_load, dt, self._n_sub)
-        else:
+        before = None
+        if self._link is not None:
             x, chop, fault, t_fault = self._link.step(t, self.x, v_a, v_b, T_load, dt, self._n_sub,
                                                       self._chop, self._fault)
+            v_avg = (v_a, v_b)
+        elif self.inverter is None:
+            x = self.plant.step(t, self.x, v_a, v_b, T_load, dt, self._n_sub)
+            v_avg = (v_a, v_b)
+        else:  # the switched voltages, integrated to the switching instants (on a copy of its state)
+            before = self.inverter.get_state()
+            try:
+                x, *v_avg = self.inverter.step(self.plant, t, self.x, v_a, v_b, T_load, dt, self.h_int)
+            except Exception:  # a failed solve inside: the switching state as before the step
+                self.inverter.set_state(before)
+                raise
         if not math.isfinite(sum(x)) and not all(math.isfinite(v) for v in x):
+            if self.inverter is not None:
+                self.inverter.set_state(before)
             raise ArithmeticError(f"the plant state became non-finite over [{t}, {t + dt}] s: {x}")
         if self._link is not None:
             self._chop, self._fault = chop, fault
             if t_fault is not None:
                 self.warnings.append(over_voltage_message(t_fault, x[V_DC], self.link.V_dc_max))
         self.x = x
-        self._v = (v_a, v_b)
+        self._v = tuple(v_avg)
         self._o = None
         if self._warn[1] > 0.0 and not self._warned[1]:
             o = self._o = self.plant.outputs(x, v_a, v_b)  # kept for outputs(): no second computation
@@ -500,22 +567,28 @@ class PlantUnit:
         else:
             link = (x[V_DC], x[E_REGEN], x[E_CHOP], 1.0 if self._fault else 0.0)
         return (o.i_s_alpha, o.i_s_beta, x[PSI_S_A], x[PSI_S_B], x[PSI_R_A], x[PSI_R_B], x[OMEGA_M],
-                x[THETA_M], o.T_e, o.i_mu, *link, o.P_fe, o.T_s, o.T_r)
+                x[THETA_M], o.T_e, o.i_mu, *link, o.P_fe, o.T_s, o.T_r, *self._v)
 
     def get_state(self):
-        """The plant state, then the held stator voltage (the outputs' with R_fe); with a capacitor link
-        the nine states, then the chopper and the fault (no voltage: R_fe is refused with the link, so
-        the outputs do not depend on it)."""
-        if self._link is None:
-            return tuple(self.x) + self._v
-        return (*self.x, float(self._chop), float(self._fault))
+        """The plant state, then the held stator voltage (the outputs' with R_fe and v_avg_alpha/beta;
+        pwm: the step average), then (pwm) the inverter's; with a capacitor link the nine states, the
+        chopper, the fault, then the held voltage."""
+        if self._link is not None:
+            return (*self.x, float(self._chop), float(self._fault), *self._v)
+        if self.inverter is None:
+            return (*self.x, *self._v)
+        return (*self.x, *self._v, *self.inverter.get_state())
 
     def set_state(self, state):
         state = tuple(float(v) for v in state)
+        n = len(self.x)
+        self.x = state[:n]
         if self._link is not None:
-            self.x, self._chop, self._fault = state[:-2], bool(state[-2]), bool(state[-1])
-        else:
-            self.x, self._v = state[:-2], state[-2:]
+            self._chop, self._fault = bool(state[n]), bool(state[n + 1])
+            n += 2
+        self._v = state[n:n + 2]
+        if self.inverter is not None:
+            self.inverter.set_state(state[n + 2:])
         self._o = None
 
 
@@ -562,6 +635,7 @@ class ControllerUnit:
         self.warnings = []  # the drive's warnings, for the host's log (the FMU glue logs and removes them)
         self.Ts = f["Ts"]
         self._V_dc = self._link = f["V_dc"]  # the parameter V_dc, the link voltage the drive now uses
+        self._comp = require_number("deadtime_comp_voltage", f["deadtime_comp_voltage"], 0, inclusive=True)
         self._speed_estimated = f["speed_source"] == "estimated"
         self.stop_time = math.inf
         self._out = tuple(v.start for v in CONTROLLER_OUTPUTS)
@@ -630,7 +704,10 @@ class ControllerUnit:
         if self.drive.warnings:  # the native FMU logs the same text
             self.warnings.extend(f"BacksteppingController: {w}" for w in self.drive.warnings)
             self.drive.warnings.clear()
-        self._out = (d.v_s_alpha, d.v_s_beta, d.v_sd, d.v_sq, d.e1, d.e2, d.z1, d.z2, d.W, d.T_load_est,
+        va, vb = d.v_s_alpha, d.v_s_beta
+        if self._comp > 0.0:  # dead-time compensation from the measured currents (0: off, as before)
+            va, vb = compensate(va, vb, inputs[MEAS_I_S_A], inputs[MEAS_I_S_B], self._comp)
+        self._out = (va, vb, d.v_sd, d.v_sq, d.e1, d.e2, d.z1, d.z2, d.W, d.T_load_est,
                      d.psi_r_hat_alpha, d.psi_r_hat_beta, d.omega_ref_shaped, d.psi_ref_shaped, d.phase,
                      d.voltage_limited, d.current_limited, d.singular_limited, self.drive.omega_m_hat)
 

@@ -119,6 +119,15 @@ def declare(lib):
         "sm_dclink_step": (I, [ctypes.c_void_p, ctypes.c_void_p, D, P, D, D, D, D, I, ctypes.POINTER(I),
                                ctypes.POINTER(I), P]),
         "sm_dclink_over_voltage_message": (None, [D, D, D, ctypes.c_char_p, S]),
+        "sm_inverter_size": (S, []),
+        "sm_inverter_init": (I, [ctypes.c_void_p, ctypes.POINTER(PlantParams), D, ctypes.c_char_p, S]),
+        "sm_inverter_duties": (None, [D, D, D, P]),
+        "sm_inverter_intervals_bound": (D, [ctypes.c_void_p, D]),
+        "sm_inverter_step": (I, [ctypes.c_void_p, ctypes.c_void_p, P, D, D, D, D, D, P, P, S,
+                                 ctypes.POINTER(S)]),
+        "sm_inverter_step_memo": (I, [ctypes.c_void_p, ctypes.c_void_p, P, P, D, D, D, D, D, P, P, S,
+                                       ctypes.POINTER(S)]),
+        "sm_deadtime_compensate": (None, [P, P, D, D, D]),
     }
     for struct in (MotorParams, PlantParams, ControllerParams, DCLinkParams):
         sig[struct.__name__ + "_default"] = (None, [ctypes.POINTER(struct)])
@@ -141,6 +150,11 @@ def load(sanitize=False):
 def new_curve(lib):
     """A zeroed, 8-byte aligned buffer of sizeof(sm_curve) (the structs hold no pointers)."""
     return (ctypes.c_double * ((lib.sm_curve_size() + 7) // 8))()
+
+
+def new_inverter(lib):
+    """A zeroed, 8-byte aligned buffer of sizeof(sm_inverter)."""
+    return (ctypes.c_double * ((lib.sm_inverter_size() + 7) // 8))()
 
 
 def new_motor(lib):

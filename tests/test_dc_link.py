@@ -227,7 +227,7 @@ def test_state_round_trip():
     a = [u.step(50e-4, 1e-4, (300.0, 0.0, 0.0)) or u.get_state() for _ in range(1)]
     u.set_state(s)
     b = [u.step(50e-4, 1e-4, (300.0, 0.0, 0.0)) or u.get_state() for _ in range(1)]
-    assert a == b and len(s) == 11
+    assert a == b and len(s) == 13  # nine states, chopper, fault, the held voltage
 
 
 # --- the C port (ctypes) ---------------------------------------------------------------------------
@@ -277,7 +277,7 @@ def test_c_step_bit_for_bit(lib, values):
         u.step(t, dt, (va, vb, TL))
         assert lib.sm_dclink_step(m, link, t, x, va, vb, TL, dt, u._n_sub, chop, fault, tf) == 0
         t += dt
-        assert u.get_state() == (*x, float(chop.value), float(fault.value)), k
+        assert u.get_state() == (*x, float(chop.value), float(fault.value), va, vb), k
         seen_chop |= bool(chop.value)
         if u.warnings:
             seen_fault = True

@@ -44,12 +44,14 @@ H = 1e-4  # communication step = controller Ts [s]
 PLANT_IN = ("v_s_alpha", "v_s_beta", "T_load")
 PLANT_OUT = ("i_s_alpha", "i_s_beta", "psi_s_alpha", "psi_s_beta", "psi_r_alpha", "psi_r_beta", "omega_m",
              "theta_m", "T_e", "i_mu", "v_dc", "E_regen", "E_chop", "dc_fault",  # the DC link
-             "P_fe", "T_s", "T_r")  # then the losses
+             "P_fe", "T_s", "T_r",  # then the losses
+             "v_avg_alpha", "v_avg_beta")  # then the inverter's
 DC_LINK = ("dc_link", "V_dc", "C_dc", "dc_source", "R_src", "V_grid", "f_grid", "V_chop_on", "V_chop_off",
            "R_chop", "V_dc_max")
 # issue 19: core loss and the thermal model (plant only)
 LOSS_THERMAL = ("R_fe", "thermal", "T_amb", "T_s0", "T_r0", "T_ref", "alpha_s", "alpha_r", "C_th_s", "C_th_r",
                 "R_th_s", "R_th_r", "R_th_sr")
+INVERTER = ("inverter", "f_sw", "t_dead", "v_on")  # the link voltage: the DC link's V_dc
 MOTOR = ("R_s", "R_r", "l_s", "l_r", "k", "n_p", "J", "B", "curve", "L_m0", "L_m_inf", "I_par", "poly_b",
          "poly_n", "table_file")
 CTRL_IN = ("i_s_alpha", "i_s_beta", "psi_r_alpha", "psi_r_beta", "psi_s_alpha", "psi_s_beta", "omega_m",
@@ -63,16 +65,17 @@ CONTRACT = {
     "SaturatedInductionMotor": {"input": PLANT_IN, "output": PLANT_OUT,
                                 "parameter": MOTOR + ("B_2", "omega_m0", "psi_r0", "h_int", "max_substeps",
                                                       "v_warn", "i_warn", "omega_warn")
-                                 + DC_LINK + LOSS_THERMAL},
+                                 + DC_LINK + LOSS_THERMAL + INVERTER},
     "BacksteppingController": {"input": CTRL_IN, "output": CTRL_OUT, "parameter": (
         "c1", "c2", "d1", "d2", "Ts", "mode", "load_mode", "V_dc", "ref_bandwidth", "g_theta", "theta_max",
         "I_max", "use_stator_flux", "c0", "d0", "flux_source", "delay_samples", "observer",
         "speed_source", "field_weakening", "fw_voltage_ratio") + PREMAG_PARAMS + MOTOR
-        + ("current_limit_gain", "host_delay_samples")},
+        + ("current_limit_gain", "host_delay_samples", "deadtime_comp_voltage")},
 }
-UNITS = {"V": "v_s_alpha v_s_beta v_sd v_sq V_dc v_warn v_dc V_grid V_chop_on V_chop_off V_dc_max",
+UNITS = {"V": "v_s_alpha v_s_beta v_sd v_sq V_dc v_warn v_dc V_grid V_chop_on V_chop_off V_dc_max "
+              "v_avg_alpha v_avg_beta v_on deadtime_comp_voltage",
          "A": "i_s_alpha i_s_beta i_mu I_par I_max i_warn",
-         "J": "E_regen E_chop", "F": "C_dc", "Hz": "f_grid",
+         "J": "E_regen E_chop", "F": "C_dc", "Hz": "f_grid f_sw",
          "Wb": "psi_s_alpha psi_s_beta psi_r_alpha psi_r_beta psi_ref psi_r0 e1 psi_r_hat_alpha "
                "psi_r_hat_beta "
                "psi_ref_shaped", "Wb/s": "e2",
@@ -84,7 +87,7 @@ UNITS = {"V": "v_s_alpha v_s_beta v_sd v_sq V_dc v_warn v_dc V_grid V_chop_on V_
          "H": "l_s l_r L_m0 L_m_inf",
          "1": "k W delay_samples fw_voltage_ratio premag_fraction premag_min_fraction premag_boost "
               "host_delay_samples dc_fault",
-         "kg m2": "J", "N m s": "B", "A/Wb^n": "poly_b", "s": "h_int Ts premag_time_max",
+         "kg m2": "J", "N m s": "B", "A/Wb^n": "poly_b", "s": "h_int Ts premag_time_max t_dead",
          "1/s": "c1 c2 d1 d2 current_limit_gain",
          "1/s2": "g_theta c0 d0", "N m s2/rad2": "B_2",
          "W": "P_fe", "K": "T_s T_r T_amb T_s0 T_r0 T_ref", "1/K": "alpha_s alpha_r", "J/K": "C_th_s C_th_r",
@@ -106,7 +109,7 @@ def _defaults():
         "observer": d.observer, "speed_source": d.speed_source,
         "field_weakening": d.field_weakening} | {
         n: getattr(d, n) for n in ("fw_voltage_ratio", "current_limit_gain", "host_delay_samples")
-        + PREMAG_PARAMS}
+        + PREMAG_PARAMS} | {"deadtime_comp_voltage": 0.0}
     # at rest, unmagnetized (closed_loop's x0); one RK4 step per sample (closed_loop's n_sub = 1)
     plant = motor | {"B_2": 0.0, "omega_m0": 0.0, "psi_r0": 0.0, "h_int": c.Ts}
     # bounded work per doStep and the plausibility bounds: 4 V_dc, 10 I_max, about 10 x 157 rad/s
@@ -119,6 +122,8 @@ def _defaults():
     plant |= {"R_fe": 0.0, "thermal": False, "T_amb": 293.15, "T_s0": 293.15, "T_r0": 293.15, "T_ref": 293.15,
               "alpha_s": 3.93e-3, "alpha_r": 4.03e-3, "C_th_s": 6000.0, "C_th_r": 2200.0, "R_th_s": 0.2,
               "R_th_r": 0.5, "R_th_sr": 0.15}
+    # the average-value inverter (today's plant); the pwm settings' defaults: 5 kHz, no dead time or drops
+    plant |= {"inverter": "average", "f_sw": 5000.0, "t_dead": 0.0, "v_on": 0.0}
     return {"SaturatedInductionMotor": plant, "BacksteppingController": ctrl}
 
 

@@ -21,8 +21,9 @@ DIMENSIONS = {
     "V": "kg m2 s-3 A-1", "Wb/s": "kg m2 s-3 A-1", "Wb": "kg m2 s-2 A-1", "A": "A",
     "Ohm": "kg m2 s-3 A-2", "H": "kg m2 s-2 A-2", "N m": "kg m2 s-2", "N m s": "kg m2 s-1",
     "kg m2": "kg m2", "rad": "rad", "rad/s": "rad s-1", "rad/s2": "rad s-2", "s": "s", "1/s": "s-1",
+    "Hz": "s-1",
     "1/s2": "s-2", "1": "", "N m s2/rad2": "kg m2 rad-2",
-    "J": "kg m2 s-2", "F": "kg-1 m-2 s4 A2", "Hz": "s-1",  # the DC link
+    "J": "kg m2 s-2", "F": "kg-1 m-2 s4 A2",  # the DC link
     "W": "kg m2 s-3", "K": "K", "1/K": "K-1", "J/K": "kg m2 s-2 K-1", "K/W": "kg-1 m-2 s3 K",
 }
 NO_DIMENSION = {"A/Wb^n"}  # poly_b: its dimension depends on the Integer poly_n

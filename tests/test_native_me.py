@@ -45,6 +45,9 @@ REFERENCE = ROOT / "reference" / native_me.NAME
 VERSIONS = ("2.0", "3.0")
 STATES = native_me.STATES
 OUTPUTS = PlantUnit.OUTPUTS
+# the outputs a model-exchange integration is compared on: not v_avg_alpha/beta, which the ME plant gives as
+# the input itself (its average-value inverter) and the co-simulation plant as the last step's average
+COMPARED = tuple(o for o in OUTPUTS if o not in ("v_avg_alpha", "v_avg_beta"))
 TARGET = 1e-6  # relative error of the ME plant under CVode (rtol 1e-10) against the co-simulation plant
 
 
@@ -140,10 +143,30 @@ def test_both_me_fmus_validate_and_are_model_exchange_only(fmu_dir):
         mine = [(v.name, v.valueReference, v.causality, v.start) for v in md.modelVariables]
         assert mine[:len(same)] == same and len(mine) == len(same) + 6
         # outputs depend on states only: no direct feedthrough from an input (no algebraic loop with
-        # the controller in a tool)
+        # the controller in a tool); but the step-average applied voltage, which is the input v_s itself
+        # (the average-value inverter; the controller does not read it)
         inputs = {v.name for v in md.modelVariables if v.causality == "input"}
         for out in md.outputs:
-            assert out.dependencies is not None and not {d.name for d in out.dependencies} & inputs
+            assert out.dependencies is not None
+            deps = {d.name for d in out.dependencies}
+            if out.variable.name in ("v_avg_alpha", "v_avg_beta"):
+                assert deps == {out.variable.name.replace("v_avg", "v_s")}
+            else:
+                assert not deps & inputs
+
+
+@pytest.mark.parametrize("version", VERSIONS)
+def test_the_me_plant_refuses_the_pwm_inverter(fmu_dir, version):
+    """Switching belongs to co-simulation: inverter = pwm is an error at initialization, naming it."""
+    me = MEPlant(me_path(fmu_dir, version), "pwm")
+    with pytest.raises(Exception) as exc:
+        me.initialize({"inverter": "pwm"})
+    assert exc.value.status == 3  # fmi2Error / fmi3Error, not fatal
+    assert any("inverter = 'pwm'" in msg and "co-simulation" in msg for _, msg in me.log), me.log
+    me.fmu.freeInstance()
+    good = MEPlant(me_path(fmu_dir, version), "average")
+    good.initialize({"inverter": "average", "t_dead": 1e-6})
+    good.close()
 
 
 def _random_states(rng, n):
@@ -185,7 +208,7 @@ def test_derivatives_and_outputs_at_random_states_are_the_python_plants_bit_for_
             assert me.get(der_names) == want  # the derivative variables too
             o = plant.outputs(xs)
             link = (PlantUnit(params).link.V_dc, 0.0, 0.0, 0.0)  # v_dc, E_regen, E_chop, dc_fault: ideal
-            want = [o.i_s_alpha, o.i_s_beta, *xs, o.T_e, o.i_mu, *link, *o[10:]]  # then P_fe, T_s, T_r
+            want = [o.i_s_alpha, o.i_s_beta, *xs, o.T_e, o.i_mu, *link, *o[10:], *us[:2]]  # P_fe.. v_avg
             assert me.get(OUTPUTS) == want, (label, xs)
             assert me.states() == xs
             n_values += 6
@@ -303,9 +326,9 @@ def test_the_reference_is_the_co_simulation_plant_at_a_small_step(fmu_dir):
     cs_in = read_csv(ROOT / "reference" / "SaturatedInductionMotor" / "SaturatedInductionMotor_in.csv")
     ref = read_csv(REFERENCE / f"{native_me.NAME}_ref.csv")
     res = simulate_fmu(str(fmus.paths(fmu_dir, "native")[0]), stop_time=0.3, output_interval=1e-4,
-                       input=cs_in, output=list(OUTPUTS), start_values={"h_int": reference_results.ME_H_INT})
+                       input=cs_in, output=list(COMPARED), start_values={"h_int": reference_results.ME_H_INT})
     assert len(res) == len(ref)
-    dev, worst = _deviation(res, ref, OUTPUTS)
+    dev, worst = _deviation(res, ref, COMPARED)
     print(f"native co-simulation plant (h_int {reference_results.ME_H_INT}) vs the ME reference: "
           f"{dev:.3g} ({worst})")
     assert dev <= 1e-12
@@ -322,9 +345,9 @@ def test_cvode_integrates_the_me_plant_to_the_reference(fmu_dir, version):
     res = simulate_fmu(str(me_path(fmu_dir, version)), start_time=opts["StartTime"],
                        stop_time=opts["StopTime"], output_interval=opts["StepSize"], solver="CVode",
                        relative_tolerance=opts["RelTol"],
-                       input=inputs, output=list(OUTPUTS), record_events=False)
+                       input=inputs, output=list(COMPARED), record_events=False)
     assert len(res) == len(ref) and np.allclose(res["time"], ref["time"], rtol=0, atol=1e-12)
-    dev, worst = _deviation(res, ref, OUTPUTS)
+    dev, worst = _deviation(res, ref, COMPARED)
     print(f"FMI {version} ME plant, CVode rtol {opts['RelTol']}: max relative error {dev:.3g} ({worst})")
     assert dev < TARGET
     assert ref["omega_m"][-1] > 140.0 and max(ref["i_mu"]) > 5.0  # the start and the knee were run
@@ -364,11 +387,11 @@ def _closed_loop(fmu_dir, frame, integrate):
     rows = []
     for k in range(n + 1):
         t = k * h
-        y = me.get(OUTPUTS)
+        y = me.get(COMPARED)
         rows.append(y)
         if k == n:
             break
-        meas = dict(zip(OUTPUTS, y))
+        meas = dict(zip(COMPARED, y))
         ctrl.setReal(c_in, [meas[m] for m in MEASURED]
                      + [prof[p][k] for p in ("omega_ref", "psi_ref", "T_load")])
         ctrl.doStep(t, h)
@@ -430,7 +453,7 @@ def test_closed_loop_with_the_controller_fmu_against_the_co_simulation_loop(fmu_
     res = run(sc, *map(str, fmus.paths(fmu_dir, "native")))
     assert res.ok, res.message
     frame = res.frame
-    cs = np.column_stack([frame[f"plant.{o}"].to_numpy() for o in OUTPUTS])
+    cs = np.column_stack([frame[f"plant.{o}"].to_numpy() for o in COMPARED])
     # RK4 over the ME derivatives at the master's step: the co-simulation plant's arithmetic, but each
     # derivative's curve solve cold where the co-simulation plant warm-starts stages 2-4 (Plant.step):
     # the same to within the solve's rounding, amplified by no more than the loop's 4000 steps
@@ -450,9 +473,9 @@ def test_closed_loop_with_the_controller_fmu_against_the_co_simulation_loop(fmu_
     dev = np.max(np.abs(got - cs), axis=0) / np.maximum(np.max(np.abs(cs), axis=0), 1e-300)  # E_regen: 0
     worst = int(np.argmax(dev))
     print(f"closed loop, ME plant under CVode vs the co-simulation loop: max relative difference "
-          f"{dev[worst]:.3g} ({OUTPUTS[worst]})")
+          f"{dev[worst]:.3g} ({COMPARED[worst]})")
     assert dev[worst] < 1e-5
-    psi_r = math.hypot(cs[-1, OUTPUTS.index("psi_r_alpha")], cs[-1, OUTPUTS.index("psi_r_beta")])
+    psi_r = math.hypot(cs[-1, COMPARED.index("psi_r_alpha")], cs[-1, COMPARED.index("psi_r_beta")])
     assert psi_r > 0.9  # magnetized: the loop ran the law
 
 

@@ -114,7 +114,7 @@ def test_off_is_todays_plant_bit_for_bit():
         assert x == ref_x
         o = ref.outputs(ref_x)
         assert unit.outputs()[:2] == (o.i_s_alpha, o.i_s_beta)
-        assert unit.outputs()[-3:] == (0.0, 293.15, 293.15)  # P_fe, T_s, T_r: the last outputs
+        assert unit.outputs()[-5:-2] == (0.0, 293.15, 293.15)  # P_fe, T_s, T_r (then v_avg_alpha/beta)
 
 
 def _balance(values, t_start, t_load, T_load, h):

@@ -12,6 +12,7 @@
 #include "fg_model_me.h"
 #include "sm_common.h"
 #include "sm_dclink.h"
+#include "sm_inverter.h"
 #include "sm_plant.h"
 #include "sm_values.h"
 #include "sm_vars.h"
@@ -43,6 +44,8 @@ static int derivatives(plant_me_data *d, double dx[SM_N_STATES])
     for (j = 0; j < SM_N_STATES; ++j) {
         d->v.r[DER_VR[j]] = st == SM_CORE_OK ? dx[j] : NAN;
     }
+    d->v.r[SM_VR_v_avg_alpha] = r[SM_VR_v_s_alpha]; /* the average-value inverter: the command as it is */
+    d->v.r[SM_VR_v_avg_beta] = r[SM_VR_v_s_beta];
     return st;
 }
 
@@ -85,6 +88,7 @@ static fg_status init(fg_instance *inst, plant_me_data *d)
     sm_plant_params plant;
     sm_dclink_params link_params;
     sm_dclink link;
+    sm_inverter inv;
     char msg[SM_MSG_LEN];
     int st;
     sm_vars_motor_params(&d->v, &motor);
@@ -104,6 +108,7 @@ static fg_status init(fg_instance *inst, plant_me_data *d)
                  "only (dc_link = ideal); the DC link is in the co-simulation plant SaturatedInductionMotor");
         st = SM_ERR_PARAM;
     }
+    if (st == 0) st = sm_inverter_init(&inv, &plant, link.V_dc, msg, sizeof msg);
     if (st != 0) {
         fg_log(inst, FG_ERROR, "logStatusError", "%s", msg);
         return FG_ERROR;
@@ -117,6 +122,12 @@ static fg_status init(fg_instance *inst, plant_me_data *d)
                "no %s; use the co-simulation plant SaturatedInductionMotor", plant.R_fe != 0.0 ? "R_fe" : "thermal",
                plant.R_fe != 0.0 ? sm_repr_double(plant.R_fe, v, sizeof v) : "true",
                plant.R_fe != 0.0 ? "core loss (R_fe must be 0)" : "thermal model (thermal must be false)");
+        return FG_ERROR;
+    }
+    if (inv.pwm) { /* switching needs the co-simulation plant's step: no events here */
+        fg_log(inst, FG_ERROR, "logStatusError", "inverter = 'pwm': the model-exchange plant SaturatedInductionMotorME "
+               "has only the average-value inverter (switching belongs to co-simulation: use the "
+               "SaturatedInductionMotor FMU)");
         return FG_ERROR;
     }
     memcpy(d->x, d->p.x0, sizeof d->x);

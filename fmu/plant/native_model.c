@@ -8,6 +8,7 @@
 
 #include "sm_common.h"
 #include "sm_dclink.h"
+#include "sm_inverter.h"
 #include "sm_plant.h"
 #include "sm_values.h"
 #include "sm_vars.h"
@@ -21,6 +22,8 @@ typedef struct {
     double x[(int)SM_N_LINK_STATES > (int)SM_N_STATES_MAX ? (int)SM_N_LINK_STATES : (int)SM_N_STATES_MAX];
     int chop, fault;                 /* the chopper's state, the latched over-voltage fault */
     sm_solve_memo memo; /* the outputs' solve at x, reused by the next step's first stage */
+    sm_inverter inv; /* the stator voltage source (average-value or pwm, with its switching state) */
+    double v_avg[2]; /* [V] the voltage held over the last step, pwm: its step average (outputs v_avg_*) */
     int ready;
     int warned[3]; /* a plausibility warning of |v_s|, |i_s|, |omega_m| was logged in this run */
 } plant_data;
@@ -93,6 +96,8 @@ static void publish(plant_data *d, double v_a, double v_b)
     r[SM_VR_P_fe] = o.P_fe;
     r[SM_VR_T_s] = o.T_s;
     r[SM_VR_T_r] = o.T_r;
+    r[SM_VR_v_avg_alpha] = d->v_avg[0];
+    r[SM_VR_v_avg_beta] = d->v_avg[1];
 }
 
 void fg_model_start(fg_instance *inst, void *data)
@@ -145,6 +150,24 @@ fg_status fg_model_exit_initialization(fg_instance *inst, void *data, double sta
         fg_log(inst, FG_ERROR, "logStatusError", "%s", msg);
         return FG_ERROR;
     }
+    /* the inverter switches the link's V_dc (one parameter), then interface.inverter_refusal, the same text */
+    st = sm_inverter_init(&d->inv, &plant, d->link.V_dc, msg, sizeof msg);
+    if (st == 0 && d->inv.pwm && d->link.capacitor) {
+        st = sm_param_error(msg, sizeof msg, NULL, "inverter", "'pwm'",
+                            "cannot be combined with dc_link = capacitor in this plant: use inverter = average, "
+                            "or dc_link = ideal");
+    } else if (st == 0 && d->inv.pwm && d->p.ext) {
+        st = sm_param_error(msg, sizeof msg, NULL, "inverter", "'pwm'",
+                            d->p.R_fe > 0.0 ? "cannot be combined with R_fe > 0 (core loss) in this plant: use "
+                                              "inverter = average, or R_fe = 0 and thermal = false"
+                                            : "cannot be combined with thermal = true (the thermal model) in this "
+                                              "plant: use inverter = average, or R_fe = 0 and thermal = false");
+    }
+    if (st != 0) {
+        fg_log(inst, FG_ERROR, "logStatusError", "%s", msg);
+        return FG_ERROR;
+    }
+    d->v_avg[0] = d->v_avg[1] = 0.0;
     for (st = 0; st < SM_N_STATES_MAX; ++st) {
         d->x[st] = d->p.x0[st];
     }
@@ -165,7 +188,7 @@ fg_status fg_model_do_step(fg_instance *inst, void *data, double t, double h)
 {
     plant_data *d = (plant_data *)data;
     const double *r = d->v.r;
-    double x[(int)SM_N_LINK_STATES > (int)SM_N_STATES_MAX ? (int)SM_N_LINK_STATES : (int)SM_N_STATES_MAX], t_fault = NAN;
+    double x[(int)SM_N_LINK_STATES > (int)SM_N_STATES_MAX ? (int)SM_N_LINK_STATES : (int)SM_N_STATES_MAX], v_avg[2], t_fault = NAN;
     char msg[SM_MSG_LEN];
     int n_sub = 1, st, j, chop = d->chop, fault = d->fault;
     if (!d->ready) {
@@ -182,6 +205,17 @@ fg_status fg_model_do_step(fg_instance *inst, void *data, double t, double h)
                  (long)d->v.i[SM_VR_max_substeps]);
         st = 1;
     }
+    if (st == 0 && d->inv.pwm) { /* the switching intervals too (as PlantUnit.step) */
+        double n_pwm = (double)n_sub + sm_inverter_intervals_bound(&d->inv, h);
+        if (n_pwm > (double)d->v.i[SM_VR_max_substeps]) {
+            char v[40], f[40];
+            snprintf(msg, sizeof msg, "communicationStepSize = %s: needs up to %.0f RK4 sub-steps with the pwm "
+                     "inverter (f_sw = %s Hz), more than max_substeps = %ld: take shorter communication steps "
+                     "or raise max_substeps", sm_repr_double(h, v, sizeof v), n_pwm,
+                     sm_repr_double(d->inv.f_sw, f, sizeof f), (long)d->v.i[SM_VR_max_substeps]);
+            st = 1;
+        }
+    }
     if (st != 0) {
         fg_log(inst, FG_DISCARD, "logStatusDiscard", "SaturatedInductionMotor at t = %.17g s: %s", t, msg);
         return FG_DISCARD;
@@ -190,12 +224,19 @@ fg_status fg_model_do_step(fg_instance *inst, void *data, double t, double h)
     for (j = 0; j < (int)(sizeof x / sizeof x[0]); ++j) {
         x[j] = d->x[j];
     }
-    if (d->link.capacitor) { /* (the memo is for the motor's step alone: publish refills it) */
+    if (d->inv.pwm) { /* the switched voltages to the switching instants; d->inv changes only on success */
+        st = sm_inverter_step_memo(&d->inv, &d->p, &d->memo, x, t, h, r[SM_VR_v_s_alpha], r[SM_VR_v_s_beta],
+                                   r[SM_VR_T_load], v_avg, NULL, 0, NULL);
+    } else if (d->link.capacitor) { /* (the memo is for the motor's step alone: publish refills it) */
         st = sm_dclink_step(&d->p, &d->link, t, x, r[SM_VR_v_s_alpha], r[SM_VR_v_s_beta], r[SM_VR_T_load], h,
                             n_sub, &chop, &fault, &t_fault);
     } else {
         st = sm_plant_step_memo(&d->p, &d->memo, x, r[SM_VR_v_s_alpha], r[SM_VR_v_s_beta], r[SM_VR_T_load], h,
                                 n_sub);
+    }
+    if (!d->inv.pwm) {
+        v_avg[0] = r[SM_VR_v_s_alpha];
+        v_avg[1] = r[SM_VR_v_s_beta];
     }
     if (st != 0) {
         double y[SM_N_STATES];
@@ -215,8 +256,10 @@ fg_status fg_model_do_step(fg_instance *inst, void *data, double t, double h)
         sm_dclink_over_voltage_message(t_fault, x[SM_V_DC], d->link.V_dc_max, msg, sizeof msg);
         fg_log(inst, FG_WARNING, "logStatusWarning", "%s", msg);
     }
+    d->v_avg[0] = v_avg[0];
+    d->v_avg[1] = v_avg[1];
     d->v.r[SM_VR_time] = t + h;
-    publish(d, r[SM_VR_v_s_alpha], r[SM_VR_v_s_beta]);
+    publish(d, v_avg[0], v_avg[1]);
     plausible(inst, d, 1, t + h);
     plausible(inst, d, 2, t + h);
     return FG_OK;

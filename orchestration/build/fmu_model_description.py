@@ -55,6 +55,7 @@ SI_UNITS = {
     "1": {},
     "s": {"s": 1},
     "1/s": {"s": -1},
+    "Hz": {"s": -1},
     "1/s2": {"s": -2},
     "A": {"A": 1},
     "V": {"kg": 1, "m": 2, "s": -3, "A": -1},
@@ -73,7 +74,6 @@ SI_UNITS = {
     # the DC link (satmotor.machine.dc_link)
     "J": {"kg": 1, "m": 2, "s": -2},
     "F": {"kg": -1, "m": -2, "s": 4, "A": 2},
-    "Hz": {"s": -1},
     # issue 19: core loss and the thermal model
     "W": {"kg": 1, "m": 2, "s": -3},
     "K": {"K": 1},

@@ -102,7 +102,10 @@ def write_me(out="reference"):
     d.mkdir(parents=True, exist_ok=True)
     inputs = plant_inputs()
     _held_csv(d / f"{ME_NAME}_in.csv", PlantUnit.INPUTS, inputs)
-    _csv(d / f"{ME_NAME}_ref.csv", PlantUnit.OUTPUTS, run_unit(PlantUnit({"h_int": ME_H_INT}), inputs))
+    # not v_avg_alpha/beta: the ME plant gives the input itself, the co-simulation plant the step's average
+    keep = [j for j, n in enumerate(PlantUnit.OUTPUTS) if n not in ("v_avg_alpha", "v_avg_beta")]
+    rows = [tuple(r[j] for j in keep) for r in run_unit(PlantUnit({"h_int": ME_H_INT}), inputs)]
+    _csv(d / f"{ME_NAME}_ref.csv", [PlantUnit.OUTPUTS[j] for j in keep], rows)
     opts = {"StartTime": 0.0, "StopTime": round(N * H, 12), "StepSize": H, "RelTol": ME_REL_TOL}
     (d / "ReferenceOptions.txt").write_text("".join(f"{k}, {v!r}\n" for k, v in opts.items()),
                                             encoding="ascii", newline="\n")

@@ -60,6 +60,13 @@ def plausibility_notes(sc, plant, ctrl, file):
                 f"V_dc = {V_dc:.4g} V is {V_dc / V_link:.3g} x the {V_link:.4g} V DC link the motor's name "
                 f"plate ({rated.V_n:g} V line to line) needs: far outside its physical range (a unit "
                 "mistake?)")))
+    inv = getattr(plant, "inverter", None)
+    if inv is not None and ctrl is not None:  # a switching plant: its link and the controller's limit
+        V_ctrl = ctrl.drive.V_max * math.sqrt(3.0)
+        if inv.link_voltage() != V_ctrl:
+            notes.append(Note(file, "plant.V_dc", inv.link_voltage(), (
+                f"the plant's pwm inverter switches V_dc = {inv.link_voltage():.4g} V, the controller's "
+                f"voltage limit assumes V_dc = {V_ctrl:.4g} V (set both to the link's voltage)")))
     profiles, stop = sc.profiles, sc.stop_time
     if stop is None:
         return notes

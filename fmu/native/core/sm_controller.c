@@ -118,6 +118,10 @@ int sm_controller_init(sm_controller *u, const sm_controller_params *v, const sm
         return st;
     }
     u->Ts = v->Ts;
+    if ((st = sm_require_number("deadtime_comp_voltage", v->deadtime_comp_voltage, 1, 0.0, 1, msg, msg_len))) {
+        return st;
+    }
+    u->deadtime_comp = v->deadtime_comp_voltage;
     u->stop_time = INFINITY;
     u->V_dc = u->link = v->V_dc;
     for (j = 0; j < SM_CONTROLLER_N_OUT; ++j) {
@@ -157,6 +161,9 @@ static int sample(sm_controller *u, const double in[SM_CONTROLLER_N_IN], char *m
     if ((st = sm_drive_step(&u->drive, in, in[SM_CONTROLLER_IN_omega_ref], in[SM_CONTROLLER_IN_psi_ref],
                             in[SM_CONTROLLER_IN_T_load], &d, msg, msg_len))) {
         return st;
+    }
+    if (u->deadtime_comp > 0.0) { /* dead-time compensation from the measured currents (0: off, as before) */
+        sm_deadtime_compensate(&d.v_s_alpha, &d.v_s_beta, in[SM_MEAS_I_S_A], in[SM_MEAS_I_S_B], u->deadtime_comp);
     }
     u->out[0] = d.v_s_alpha;
     u->out[1] = d.v_s_beta;

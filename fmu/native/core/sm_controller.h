@@ -9,6 +9,7 @@
 #include <stddef.h>
 
 #include "sm_drive.h"
+#include "sm_inverter.h" /* sm_deadtime_compensate */
 
 #include "sm_params.h" /* generated: sm_controller_params, sm_motor_params, SM_CONTROLLER_N_IN/OUT */
 
@@ -23,6 +24,7 @@ typedef struct {
     char warning[256];
     double V_dc, link; /* [V] the parameter V_dc; the link voltage the drive now uses (the v_dc input) */
     double Ts;
+    double deadtime_comp; /* [V] deadtime_comp_voltage (0: off) */
     double stop_time; /* the host's stop time [s], +inf when it gave none (set after sm_controller_init);
                        * the tests find it just before out */
     double out[SM_CONTROLLER_N_OUT]; /* Integer and Boolean outputs as 0/1 values */

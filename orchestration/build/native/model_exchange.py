@@ -41,6 +41,13 @@ FILE = f"{NAME}.fmu"
 DIRS = {"2.0": "native-me", "3.0": "native-me-fmi3"}
 STATES = ("psi_s_alpha", "psi_s_beta", "psi_r_alpha", "psi_r_beta", "omega_m", "theta_m")  # core order
 FLUXES = STATES[:4]
+# outputs that are an input as it is (the average-value inverter's step-average voltage): direct feedthrough
+FEEDTHROUGH = {"v_avg_alpha": ("v_s_alpha",), "v_avg_beta": ("v_s_beta",)}
+
+
+def _output_dependencies(name):
+    """What an output depends on: a state itself, a fed-through input, else the four fluxes."""
+    return (name,) if name in STATES else FEEDTHROUGH.get(name, FLUXES)
 # what each derivative reads besides the parameters (sm_plant_derivatives): every flux through the
 # magnetizing current; the stator voltage of its axis; the speed; the load torque
 DERIVATIVE_DEPENDENCIES = {
@@ -164,7 +171,7 @@ def fmi2(guid="{GUID}"):
     outputs, initial = ms.find("Outputs"), ms.find("InitialUnknowns")
     for u in outputs:
         name = svs[int(u.get("index")) - 1].get("name")
-        u.set("dependencies", " ".join(str(index[d]) for d in ((name,) if name in STATES else FLUXES)))
+        u.set("dependencies", " ".join(str(index[d]) for d in _output_dependencies(name)))
     ders = ET.Element("Derivatives")
     for s in STATES:
         ET.SubElement(ders, "Unknown", {"index": str(index[der_name(s)]), "dependencies": " ".join(
@@ -205,7 +212,7 @@ def fmi3(token="{GUID}"):
     for el in old:
         if el.tag == "Output":
             name = name_of[el.get("valueReference")]
-            deps = (name,) if name in STATES else () if name in CONSTANT_OUTPUTS else FLUXES
+            deps = () if name in CONSTANT_OUTPUTS else _output_dependencies(name)
             el.set("dependencies", " ".join(str(vrs[d]) for d in deps))
             ms.append(el)
     for s in STATES:

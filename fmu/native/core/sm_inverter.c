@@ -1,0 +1,329 @@
+/* satmotor/machine/inverter.py (InverterParams, duties, half_edges, PwmInverter) and
+ * satmotor/control/deadtime.py in C99: the same operations in the same order. */
+#include "sm_inverter.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+
+int sm_inverter_init(sm_inverter *inv, const sm_plant_params *pp, double V_dc, char *msg, size_t msg_len)
+{
+    sm_inverter q;
+    char v[40], b[40], r[128], s[SM_STR_MAX + 8];
+    if (msg != NULL && msg_len > 0) msg[0] = '\0';
+    if (inv == NULL || pp == NULL) return SM_ERR_ARG;
+    memset(&q, 0, sizeof q);
+    if (strcmp(pp->inverter, "pwm") == 0) {
+        q.pwm = 1;
+    } else if (strcmp(pp->inverter, "average") != 0) {
+        return sm_param_error(msg, msg_len, NULL, "inverter", sm_repr_str(pp->inverter, s, sizeof s),
+                              "must be one of average, pwm");
+    }
+    if (sm_require_number("V_dc", V_dc, 1, 0.0, 0, msg, msg_len)) return SM_ERR_PARAM;
+    if (sm_require_number("f_sw", pp->f_sw, 1, 0.0, 0, msg, msg_len)) return SM_ERR_PARAM;
+    if (sm_require_number("t_dead", pp->t_dead, 1, 0.0, 1, msg, msg_len)) return SM_ERR_PARAM;
+    if (!(pp->t_dead < 0.5 / pp->f_sw)) {
+        snprintf(r, sizeof r, "must be less than half the carrier period 1/(2 f_sw) = %s s",
+                 sm_repr_double(0.5 / pp->f_sw, b, sizeof b));
+        return sm_param_error(msg, msg_len, NULL, "t_dead", sm_repr_double(pp->t_dead, v, sizeof v), r);
+    }
+    if (sm_require_number("v_on", pp->v_on, 1, 0.0, 1, msg, msg_len)) return SM_ERR_PARAM;
+    if (!(pp->v_on < 0.5 * V_dc)) {
+        snprintf(r, sizeof r, "must be less than V_dc/2 = %s V", sm_repr_double(0.5 * V_dc, b, sizeof b));
+        return sm_param_error(msg, msg_len, NULL, "v_on", sm_repr_double(pp->v_on, v, sizeof v), r);
+    }
+    q.V_dc = V_dc;
+    q.f_sw = pp->f_sw;
+    q.t_dead = pp->t_dead;
+    q.v_on = pp->v_on;
+    q.T_h = 0.5 / pp->f_sw;
+    q.eps = SM_INV_MERGE_REL * q.T_h;
+    sm_inverter_reset(&q);
+    memcpy(inv, &q, sizeof q);
+    return SM_CORE_OK;
+}
+
+void sm_inverter_reset(sm_inverter *inv)
+{
+    int j;
+    if (inv == NULL) return;
+    inv->have = 0;
+    inv->k = 0;
+    for (j = 0; j < 3; ++j) {
+        inv->d[j] = 0.5;
+        inv->s[j] = -1;
+        inv->dead[j] = 0;
+        inv->dead_until[j] = 0.0;
+        inv->dead_v[j] = 0.0;
+    }
+}
+
+double sm_inverter_link_voltage(const sm_inverter *inv)
+{
+    return inv->V_dc;
+}
+
+static const double SQRT3_2_FACTOR = 0.5; /* _SQRT3_2 = 0.5 * sqrt(3.0) */
+
+void sm_inverter_duties(double v_alpha, double v_beta, double V_dc, double d[3])
+{
+    double s32 = SQRT3_2_FACTOR * sqrt(3.0), v[3], hi, lo, z, dx;
+    int j;
+    v[0] = v_alpha;
+    v[1] = -0.5 * v_alpha + s32 * v_beta;
+    v[2] = -0.5 * v_alpha - s32 * v_beta;
+    hi = v[0] > v[1] ? v[0] : v[1];
+    hi = hi > v[2] ? hi : v[2];
+    lo = v[0] < v[1] ? v[0] : v[1];
+    lo = lo < v[2] ? lo : v[2];
+    z = -0.5 * (hi + lo);
+    for (j = 0; j < 3; ++j) {
+        dx = 0.5 + (v[j] + z) / V_dc;
+        d[j] = dx < 0.0 ? 0.0 : dx > 1.0 ? 1.0 : dx;
+    }
+}
+
+static void phase_currents(double ia, double ib, double c[3])
+{
+    double s32 = SQRT3_2_FACTOR * sqrt(3.0);
+    c[0] = ia;
+    c[1] = -0.5 * ia + s32 * ib;
+    c[2] = -0.5 * ia - s32 * ib;
+}
+
+static void alpha_beta(double va, double vb, double vc, double *a, double *b)
+{
+    *a = (2.0 * va - vb - vc) / 3.0;
+    *b = (vb - vc) / sqrt(3.0);
+}
+
+double sm_inverter_intervals_bound(const sm_inverter *inv, double dt)
+{
+    return (double)SM_INV_EVENTS_PER_HALF * (ceil(dt / inv->T_h) + 1.0) + 1.0;
+}
+
+typedef struct {
+    double t;
+    int order, phase, state;
+} edge;
+
+/* half_edges: the ideal edges of half period k, sorted by (time, order); returns their number */
+static int half_edges(long long k, double T_h, const double d[3], edge ev[6])
+{
+    double ts = (double)k * T_h;
+    int n = 0, even = k % 2 == 0, x, i, j;
+    edge e;
+    for (x = 0; x < 3; ++x) {
+        double dx = d[x];
+        ev[n].t = ts;
+        ev[n].order = x;
+        ev[n].phase = x;
+        ev[n].state = even ? (dx > 0.0 ? 1 : 0) : (dx < 1.0 ? 0 : 1);
+        ++n;
+        if (0.0 < dx && dx < 1.0) {
+            ev[n].t = even ? ts + dx * T_h : ts + (1.0 - dx) * T_h;
+            ev[n].order = 3 + x;
+            ev[n].phase = x;
+            ev[n].state = even ? 0 : 1;
+            ++n;
+        }
+    }
+    for (i = 1; i < n; ++i) { /* insertion sort by (t, order): the order of Python's tuple sort */
+        e = ev[i];
+        j = i - 1;
+        while (j >= 0 && (ev[j].t > e.t || (ev[j].t == e.t && ev[j].order > e.order))) {
+            ev[j + 1] = ev[j];
+            --j;
+        }
+        ev[j + 1] = e;
+    }
+    return n;
+}
+
+/* PwmInverter._volts: out = (v_alpha, v_beta, v_a, v_b, v_c); cur (have_cur) the phase currents at x */
+static int volts(const sm_inverter *q, const sm_motor *p, sm_solve_memo *memo, const double x[6], double half,
+                 double cur[3], int *have_cur, double out[5])
+{
+    double v[3];
+    int j, st;
+    for (j = 0; j < 3; ++j) v[j] = q->dead[j] ? q->dead_v[j] : q->s[j] == 1 ? half : -half;
+    if (q->v_on > 0.0) {
+        if (!*have_cur) {
+            sm_plant_outputs o;
+            if ((st = sm_plant_outputs_memo(p, memo, x, 0.0, 0.0, &o)) != SM_CORE_OK) return st;
+            phase_currents(o.i_s_alpha, o.i_s_beta, cur);
+            *have_cur = 1;
+        }
+        for (j = 0; j < 3; ++j) {
+            if (cur[j] > 0.0) {
+                v[j] = v[j] - q->v_on;
+            } else if (cur[j] < 0.0) {
+                v[j] = v[j] + q->v_on;
+            }
+        }
+    }
+    alpha_beta(v[0], v[1], v[2], &out[0], &out[1]);
+    out[2] = v[0];
+    out[3] = v[1];
+    out[4] = v[2];
+    return SM_CORE_OK;
+}
+
+/* PwmInverter._integrate */
+static int integrate(const sm_motor *p, sm_solve_memo *memo, double x[6], double t, double L, const double vo[5],
+                     double T_load, double *trace, size_t trace_cap, size_t *trace_n)
+{
+    double q = ceil(L / p->h_int - 1e-9);
+    int n = q > 1.0 ? (int)q : 1;
+    if (trace_n != NULL) {
+        if (trace != NULL && *trace_n < trace_cap) {
+            double *row = trace + *trace_n * SM_INV_TRACE_WIDTH;
+            row[0] = t;
+            row[1] = L;
+            memcpy(row + 2, vo, 5 * sizeof(double));
+        }
+        ++*trace_n;
+    }
+    return sm_plant_step_memo(p, memo, x, vo[0], vo[1], T_load, L, n);
+}
+
+int sm_inverter_step(sm_inverter *inv, const sm_motor *p, double x[6], double t0, double dt, double v_alpha,
+                     double v_beta, double T_load, double v_avg[2], double *trace, size_t trace_cap,
+                     size_t *trace_n)
+{
+    return sm_inverter_step_memo(inv, p, NULL, x, t0, dt, v_alpha, v_beta, T_load, v_avg, trace, trace_cap,
+                                 trace_n);
+}
+
+int sm_inverter_step_memo(sm_inverter *inv, const sm_motor *p, sm_solve_memo *memo, double x[6], double t0,
+                          double dt, double v_alpha, double v_beta, double T_load, double v_avg[2], double *trace,
+                          size_t trace_cap, size_t *trace_n)
+{
+    sm_inverter q;
+    edge evs[6];
+    double xs[6], T_h, eps, V, half, t1, end, start, tp, sa = 0.0, sb = 0.0, cur[3] = {0.0, 0.0, 0.0};
+    double vo[5] = {0.0, 0.0, 0.0, 0.0, 0.0}, te, tn;
+    long long k;
+    int n_ev = 0, ei = 0, have_cur = 0, have_volts = 0, st, j, xd;
+    size_t n_local = 0;
+    if (inv == NULL || p == NULL || x == NULL || v_avg == NULL) return SM_ERR_ARG;
+    if (!isfinite(t0) || !isfinite(dt) || !isfinite(v_alpha) || !isfinite(v_beta)) return SM_ERR_NONFINITE;
+    if (trace_n == NULL) trace_n = &n_local;
+    *trace_n = 0;
+    memcpy(&q, inv, sizeof q);
+    memcpy(xs, x, sizeof xs);
+    T_h = q.T_h;
+    eps = q.eps;
+    V = sm_inverter_link_voltage(&q);
+    half = 0.5 * V;
+    t1 = t0 + dt;
+    end = t1 - eps;
+    start = t0 - eps;
+    k = (long long)floor(start / T_h);
+    tp = t0;
+    for (;;) {
+        while (ei == n_ev && (double)k * T_h < end) {
+            if (!q.have || k != q.k) {
+                sm_inverter_duties(v_alpha, v_beta, V, q.d);
+                q.k = k;
+                q.have = 1;
+            }
+            n_ev = half_edges(k, T_h, q.d, evs);
+            ei = 0;
+            ++k;
+        }
+        te = ei < n_ev ? evs[ei].t : INFINITY;
+        tn = INFINITY;
+        xd = -1;
+        for (j = 0; j < 3; ++j) {
+            if (q.dead[j] && q.dead_until[j] < tn) {
+                tn = q.dead_until[j];
+                xd = j;
+            }
+        }
+        if (tn > te) { /* dead-interval ends first at a tie */
+            tn = te;
+            xd = -1;
+        }
+        if (!(tn < end)) break;
+        if (xd < 0 && q.s[evs[ei].phase] == evs[ei].state && tn >= start) { /* an edge that changes nothing */
+            ++ei;
+            continue;
+        }
+        if (tn - tp >= eps) {
+            if (!have_volts) {
+                if ((st = volts(&q, p, memo, xs, half, cur, &have_cur, vo)) != SM_CORE_OK) return st;
+                have_volts = 1;
+            }
+            if ((st = integrate(p, memo, xs, tp, tn - tp, vo, T_load, trace, trace_cap, trace_n)) != SM_CORE_OK)
+                return st;
+            sa += vo[0] * (tn - tp);
+            sb += vo[1] * (tn - tp);
+            tp = tn;
+            have_cur = 0;
+            have_volts = 0;
+        }
+        if (xd >= 0) {
+            q.dead[xd] = 0;
+            have_volts = 0;
+            continue;
+        }
+        {
+            double e = evs[ei].t;
+            int jj = evs[ei].phase, nw = evs[ei].state;
+            ++ei;
+            if (q.s[jj] < 0 || e < start) { /* unknown state, or an edge of the last step: no dead interval */
+                q.s[jj] = nw;
+                have_volts = 0;
+                continue;
+            }
+            if (nw == q.s[jj]) continue;
+            q.s[jj] = nw;
+            have_volts = 0;
+            if (q.t_dead > 0.0) {
+                double i;
+                if (!have_cur) {
+                    sm_plant_outputs o;
+                    if ((st = sm_plant_outputs_memo(p, memo, xs, 0.0, 0.0, &o)) != SM_CORE_OK) return st;
+                    phase_currents(o.i_s_alpha, o.i_s_beta, cur);
+                    have_cur = 1;
+                }
+                i = cur[jj];
+                q.dead[jj] = 1;
+                q.dead_until[jj] = e + q.t_dead;
+                q.dead_v[jj] = i > 0.0 ? -half : i < 0.0 ? half : (nw ? half : -half);
+            }
+        }
+    }
+    if (!have_volts) {
+        if ((st = volts(&q, p, memo, xs, half, cur, &have_cur, vo)) != SM_CORE_OK) return st;
+    }
+    if ((st = integrate(p, memo, xs, tp, t1 - tp, vo, T_load, trace, trace_cap, trace_n)) != SM_CORE_OK) return st;
+    sa += vo[0] * (t1 - tp);
+    sb += vo[1] * (t1 - tp);
+    v_avg[0] = sa / dt;
+    v_avg[1] = sb / dt;
+    memcpy(x, xs, sizeof xs);
+    memcpy(inv, &q, sizeof q);
+    return SM_CORE_OK;
+}
+
+static double sign_times(double i, double v)
+{
+    return i > 0.0 ? v : i < 0.0 ? -v : 0.0;
+}
+
+void sm_deadtime_compensate(double *v_alpha, double *v_beta, double i_alpha, double i_beta, double V_comp)
+{
+    double c[3], ca, cb;
+    if (V_comp == 0.0) return;
+    phase_currents(i_alpha, i_beta, c);
+    alpha_beta(sign_times(c[0], V_comp), sign_times(c[1], V_comp), sign_times(c[2], V_comp), &ca, &cb);
+    *v_alpha = *v_alpha + ca;
+    *v_beta = *v_beta + cb;
+}
+
+size_t sm_inverter_size(void)
+{
+    return sizeof(sm_inverter);
+}

@@ -1,0 +1,282 @@
+"""The plant's voltage source inverter: average-value (today's ideal voltages) or carrier-comparison PWM.
+
+``average``: the plant applies the commanded alpha/beta voltage as it is (the average-value model).
+
+``pwm``: a two-level, three-leg inverter on a DC link of voltage ``V_dc`` [V], the star point of the
+machine floating.  Everything below is on the absolute time axis ``t`` [s]:
+
+* **Carrier**: symmetric triangle of frequency ``f_sw`` [Hz], aligned with t = 0: a valley at every
+  ``t = 2 j T_h`` and a peak at every ``t = (2 j + 1) T_h`` with ``T_h = 0.5 / f_sw`` the half carrier
+  period.  Half period ``k`` is ``[k T_h, (k + 1) T_h)``: rising (valley to peak) for even ``k``,
+  falling for odd ``k``.
+* **Modulator** (regular sampling, double update): at the start of each half period (a peak or a
+  valley) the duty cycles are taken from the commanded voltage ``(v_s_alpha, v_s_beta)`` held at that
+  instant: phase references ``v_a = v_alpha``, ``v_b,c = -v_alpha/2 +- sqrt(3)/2 v_beta``, min-max
+  zero-sequence injection ``v_0 = -(max + min) / 2``, duty ``d = 1/2 + (v_x + v_0) / V_dc`` clipped to
+  [0, 1] (the linear range is the circle ``|v_s| <= V_dc / sqrt(3)``).  A leg is high (upper device,
+  ``+V_dc/2`` against the link's midpoint) while the carrier (0 at a valley, 1 at a peak) is below
+  ``d``: in a rising half ``[k T_h, k T_h + d T_h)``, in a falling one ``[k T_h + (1 - d) T_h,
+  (k + 1) T_h)``.  Over a half period with zero dead time and zero drops the leg averages
+  ``(d - 1/2) V_dc = v_x + v_0`` and the floating star point removes ``v_0``: the average is the
+  command (the exactness the tests check).
+* **Dead time** ``t_dead`` [s]: at every edge of a leg's ideal switching function the turning-on
+  device is delayed by ``t_dead``: over ``[edge, edge + t_dead)`` (cut short by the leg's next edge)
+  both devices are off and a diode conducts, chosen by the sign of that phase current at the start of
+  the interval (from the state there): positive (out of the leg) -> lower diode -> ``-V_dc/2``,
+  negative -> upper diode -> ``+V_dc/2``, exactly zero -> the new state's voltage (no error; at rest
+  the currents are zero).  Approximation: if the current crosses zero inside the dead interval, the
+  diode chosen at its start is taken to conduct to its end (the real leg would clamp the current at
+  zero and follow the other diode).  To first order the average phase error is
+  ``-sign(i) t_dead f_sw V_dc`` (one lost ``t_dead V_dc`` per carrier period).
+* **On-state drop** ``v_on`` [V] of a conducting device or diode: every constant interval's phase
+  voltage less ``sign(i) v_on``, the sign of the phase current at the interval's start.
+* **Integration**: within a communication step the plant integrates the piecewise-constant
+  alpha/beta voltage (``v_alpha = (2 v_a - v_b - v_c) / 3``, ``v_beta = (v_b - v_c) / sqrt(3)``) to
+  the switching instants (edges and dead-interval ends), each constant interval of length ``L`` by
+  the plant's RK4 with ``max(1, ceil(L / h_int - 1e-9))`` equal sub-steps.  **Merging**: an event
+  closer than ``eps = MERGE_REL T_h`` after the start of the current interval is applied at that
+  start (so no interval is shorter than eps; the event moves earlier by less than eps, a
+  voltage-second error below ``eps V_dc``); an event within eps before the step's end is left to the
+  next step, which applies it at its start.  An edge that changes nothing (a leg held across a
+  half-period boundary) does not split an interval.  An edge belongs to the step ``[t0, t1)`` with
+  ``t0 - eps <= edge < t1 - eps``; a half period's duty cycles are computed once (when it is first
+  reached) and kept until the next half period, across step boundaries.
+
+The C core's ``fmu/native/core/sm_inverter.c`` is the same algorithm (the same floats).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from satmotor.errors import ParameterError, require_number
+
+INVERTERS = ("average", "pwm")
+MERGE_REL = 1e-6  # [1] events closer than MERGE_REL T_h are merged (module docstring)
+EVENTS_PER_HALF = 12  # at most 2 edges and 2 dead-interval ends per leg and half period
+_SQRT3 = math.sqrt(3.0)
+_SQRT3_2 = 0.5 * _SQRT3
+_INF = math.inf
+
+
+@dataclass(frozen=True)
+class InverterParams:
+    """The plant's inverter (SI).  ``V_dc`` [V] has no default here: the plant's is the controller's
+    default link voltage (:mod:`satmotor.interface`, one number).
+
+    inverter 'average' (ideal voltages) or 'pwm'; f_sw [Hz] carrier frequency (> 0); t_dead [s] dead
+    time, 0 <= t_dead < 1 / (2 f_sw); v_on [V] device on-state drop, 0 <= v_on < V_dc / 2.
+    """
+
+    V_dc: float
+    inverter: str = "average"
+    f_sw: float = 5000.0
+    t_dead: float = 0.0
+    v_on: float = 0.0
+
+    def __post_init__(self):
+        if self.inverter not in INVERTERS:
+            raise ParameterError("inverter", self.inverter, f"must be one of {', '.join(INVERTERS)}")
+        require_number("V_dc", self.V_dc, 0)
+        require_number("f_sw", self.f_sw, 0)
+        require_number("t_dead", self.t_dead, 0, inclusive=True)
+        if not self.t_dead < 0.5 / self.f_sw:
+            raise ParameterError("t_dead", self.t_dead, f"must be less than half the carrier period "
+                                 f"1/(2 f_sw) = {0.5 / self.f_sw!r} s")
+        require_number("v_on", self.v_on, 0, inclusive=True)
+        if not self.v_on < 0.5 * self.V_dc:
+            raise ParameterError("v_on", self.v_on, f"must be less than V_dc/2 = {0.5 * self.V_dc!r} V")
+
+
+def duties(v_alpha, v_beta, V_dc):
+    """Duty cycles ``(d_a, d_b, d_c)`` in [0, 1] of the command [V] on a link of ``V_dc`` [V]: min-max
+    zero-sequence injection, clipped."""
+    a = v_alpha
+    b = -0.5 * v_alpha + _SQRT3_2 * v_beta
+    c = -0.5 * v_alpha - _SQRT3_2 * v_beta
+    hi = a if a > b else b
+    hi = hi if hi > c else c
+    lo = a if a < b else b
+    lo = lo if lo < c else c
+    z = -0.5 * (hi + lo)
+    out = []
+    for v in (a, b, c):
+        d = 0.5 + (v + z) / V_dc
+        out.append(0.0 if d < 0.0 else 1.0 if d > 1.0 else d)
+    return tuple(out)
+
+
+def phase_currents(i_alpha, i_beta):
+    """Phase currents [A] of an alpha/beta current (amplitude-invariant Clarke, no zero sequence)."""
+    return (i_alpha, -0.5 * i_alpha + _SQRT3_2 * i_beta, -0.5 * i_alpha - _SQRT3_2 * i_beta)
+
+
+def alpha_beta(va, vb, vc):
+    """Alpha/beta voltage [V] of phase voltages [V] (the star point floating: zero sequence removed)."""
+    return (2.0 * va - vb - vc) / 3.0, (vb - vc) / _SQRT3
+
+
+def half_edges(k, T_h, d):
+    """The ideal edges of half period ``k`` [(time [s], order, phase, new state)] sorted: the state at
+    its start (time ``k T_h``, order = phase) and the mid-half edge (order 3 + phase) of each leg."""
+    ts = k * T_h
+    out = []
+    even = k % 2 == 0
+    for x in range(3):
+        dx = d[x]
+        if even:
+            out.append((ts, x, x, 1 if dx > 0.0 else 0))
+            if 0.0 < dx < 1.0:
+                out.append((ts + dx * T_h, 3 + x, x, 0))
+        else:
+            out.append((ts, x, x, 0 if dx < 1.0 else 1))
+            if 0.0 < dx < 1.0:
+                out.append((ts + (1.0 - dx) * T_h, 3 + x, x, 1))
+    out.sort()
+    return out
+
+
+class PwmInverter:
+    """The ``pwm`` inverter of one plant: its settings and switching state (see the module docstring).
+
+    State (:meth:`get_state`, floats): whether a half period's duties are held and which (``k``), the
+    duties, each leg's ideal state (or unknown before the first step), dead flags, their ends [s] and
+    voltages [V]."""
+
+    N_STATE = 17
+
+    def __init__(self, params):
+        self.params = params
+        self.f_sw, self.t_dead, self.v_on = params.f_sw, params.t_dead, params.v_on
+        self.T_h = 0.5 / params.f_sw
+        self.eps = MERGE_REL * self.T_h
+        self._V_dc = params.V_dc
+        self.reset()
+
+    def reset(self):
+        self.have = False  # duties of half period self.k held
+        self.k = 0
+        self.d = [0.5, 0.5, 0.5]
+        self.s = [-1, -1, -1]  # ideal leg states; -1: unknown (before the first step)
+        self.dead = [False, False, False]
+        self.dead_until = [0.0, 0.0, 0.0]
+        self.dead_v = [0.0, 0.0, 0.0]
+
+    def link_voltage(self):
+        """The DC-link voltage [V] the inverter switches (the one place the plant reads it)."""
+        return self._V_dc
+
+    def get_state(self):
+        return (float(self.have), float(self.k), *self.d, *(float(s) for s in self.s),
+                *(float(b) for b in self.dead), *self.dead_until, *self.dead_v)
+
+    def set_state(self, st):
+        st = [float(v) for v in st]
+        self.have, self.k = st[0] != 0.0, int(st[1])
+        self.d = st[2:5]
+        self.s = [int(v) for v in st[5:8]]
+        self.dead = [v != 0.0 for v in st[8:11]]
+        self.dead_until = st[11:14]
+        self.dead_v = st[14:17]
+
+    def intervals_bound(self, dt):
+        """An upper bound of the constant intervals of a step of ``dt`` [s]."""
+        return EVENTS_PER_HALF * (math.ceil(dt / self.T_h) + 1) + 1
+
+    def step(self, plant, t0, x, v_alpha, v_beta, T_load, dt, h_int, trace=None):
+        """Advance the plant state ``x`` from ``t0`` over ``dt`` [s] with the command held; returns
+        ``(x, v_avg_alpha, v_avg_beta)``, the step averages [V] of the applied alpha/beta voltage.
+        ``trace``: a list that receives ``(t_start, length, v_alpha, v_beta, v_a, v_b, v_c)`` of every
+        constant interval integrated."""
+        T_h, eps, t_dead = self.T_h, self.eps, self.t_dead
+        V = self.link_voltage()
+        half = 0.5 * V
+        t1 = t0 + dt
+        end = t1 - eps
+        start = t0 - eps
+        s, dead, dead_until, dead_v = self.s, self.dead, self.dead_until, self.dead_v
+        k = math.floor(start / T_h)
+        evs, ei = [], 0
+        tp = t0
+        cur = None  # the phase currents at tp, once computed
+        volts = None  # the interval's (v_alpha, v_beta, v_a, v_b, v_c), once computed
+        sa = sb = 0.0
+        while True:
+            while ei == len(evs) and k * T_h < end:
+                if not self.have or k != self.k:
+                    self.d = list(duties(v_alpha, v_beta, V))
+                    self.k, self.have = k, True
+                evs, ei = half_edges(k, T_h, self.d), 0
+                k += 1
+            te = evs[ei][0] if ei < len(evs) else _INF
+            tn, xd = _INF, -1
+            for j in range(3):
+                if dead[j] and dead_until[j] < tn:
+                    tn, xd = dead_until[j], j
+            if tn > te:  # dead-interval ends first at a tie
+                tn, xd = te, -1
+            if not tn < end:
+                break
+            if xd < 0:  # an edge that changes nothing (a leg held over a half-period boundary): no interval
+                _, _, j, new = evs[ei]
+                if s[j] == new and tn >= start:
+                    ei += 1
+                    continue
+            if tn - tp >= eps:
+                if volts is None:
+                    volts, cur = self._volts(plant, x, cur, half)
+                x = self._integrate(plant, x, tp, tn - tp, volts, T_load, h_int, trace)
+                sa += volts[0] * (tn - tp)
+                sb += volts[1] * (tn - tp)
+                tp, cur, volts = tn, None, None
+            if xd >= 0:
+                dead[xd] = False
+                volts = None
+                continue
+            e, _, j, new = evs[ei]
+            ei += 1
+            if s[j] < 0 or e < start:  # unknown state, or an edge of the last step: no dead interval
+                s[j] = new
+                volts = None
+                continue
+            if new == s[j]:
+                continue
+            s[j] = new
+            volts = None
+            if t_dead > 0.0:
+                if cur is None:
+                    cur = phase_currents(*plant.outputs(x)[:2])
+                i = cur[j]
+                dead[j] = True
+                dead_until[j] = e + t_dead
+                dead_v[j] = -half if i > 0.0 else half if i < 0.0 else (half if new else -half)
+        if volts is None:
+            volts, cur = self._volts(plant, x, cur, half)
+        x = self._integrate(plant, x, tp, t1 - tp, volts, T_load, h_int, trace)
+        sa += volts[0] * (t1 - tp)
+        sb += volts[1] * (t1 - tp)
+        return x, sa / dt, sb / dt
+
+    def _volts(self, plant, x, cur, half):
+        """The constant interval's voltages from the legs' states, dead flags and (v_on) currents."""
+        v = [0.0, 0.0, 0.0]
+        for j in range(3):
+            v[j] = self.dead_v[j] if self.dead[j] else half if self.s[j] == 1 else -half
+        if self.v_on > 0.0:
+            if cur is None:
+                cur = phase_currents(*plant.outputs(x)[:2])
+            for j in range(3):
+                if cur[j] > 0.0:
+                    v[j] = v[j] - self.v_on
+                elif cur[j] < 0.0:
+                    v[j] = v[j] + self.v_on
+        va, vb = alpha_beta(v[0], v[1], v[2])
+        return (va, vb, v[0], v[1], v[2]), cur
+
+    @staticmethod
+    def _integrate(plant, x, t, L, volts, T_load, h_int, trace):
+        n = max(1, math.ceil(L / h_int - 1e-9))
+        if trace is not None:
+            trace.append((t, L, *volts))
+        return plant.step(t, x, volts[0], volts[1], T_load, L, n)
