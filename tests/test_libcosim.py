@@ -46,6 +46,12 @@ DECIMATED = ROOT / "scenarios" / "deep_saturation.yaml"  # step 50 us, controlle
 # itself matters far more: the master's Jacobi and Gauss-Seidel runs of the default scenario differ
 # by 5e-2 of the column's scale (median over the columns)
 RTOL = 1e-10
+# A pwm plant integrates each communication step interval by interval between the carrier's edges,
+# and the last interval ends at t + dt: the dt perturbation moves that end, so the switched
+# voltages' sub-intervals differ at rounding level in every step (tens of RK4 stages instead of
+# four).  Measured on pwm_low_speed's first 0.3 s: 4.7e-10 of e2's largest magnitude (absolute
+# 2.6e-12), 10x the average-value plant's; bounded at 1e-8, still 1e-6 of the coupling effect above.
+RTOL_PWM = 1e-8
 DISCRETE = ("controller.phase", "controller.voltage_limited", "controller.current_limited",
             "controller.singular_limited")
 VARIANTS = ("native", "python")
@@ -113,9 +119,10 @@ def test_every_library_scenario_runs_as_the_jacobi_master_or_is_refused_for_its_
     assert found == []
     ref, got = _pair(sc, fmu_dir, "native")
     assert list(got.columns) == list(ref.columns) and len(got) == len(ref)
+    rtol = RTOL_PWM if dict(sc.plant).get("inverter") == "pwm" else RTOL
     for c in ref.columns:
         a, b = ref[c].to_numpy(), got[c].to_numpy()
-        assert np.max(np.abs(a - b)) <= RTOL * max(np.max(np.abs(a)), 1e-300), c
+        assert np.max(np.abs(a - b)) <= rtol * max(np.max(np.abs(a)), 1e-300), c
 
 
 def test_the_system_libcosim_loads_is_the_ssp_description_with_no_worker_thread(tmp_path, fmu_dir):
