@@ -148,32 +148,23 @@ def _motor_option(name, raw):
     return v
 
 
-def points_from_file(path, R_s, l_s, copper_tol=None, l_r=None):
+def points_from_file(path, R_s, l_s, copper_tol=None, l_r=None, rel_sigma=None):
     """``(MagnetizingPoints, lines, has_P_in, losses)`` of a no-load file (``losses``: the
-    :class:`~satmotor.identify.noload.LossSeparation`, None without P_in); :class:`InputError` on bad
-    input."""
+    :class:`~satmotor.identify.noload.LossSeparation`, None without P_in; the points carry their
+    covariance from ``rel_sigma``, :func:`satmotor.identify.uncertainty.noload_points`);
+    :class:`InputError` on bad input."""
     from satmotor.errors import ParameterError
-    from satmotor.identify.noload import (
-        COPPER_TOL,
-        magnetizing_points,
-        plant_core_loss_resistance,
-        separate_losses,
-    )
+    from satmotor.identify.noload import COPPER_TOL
+    from satmotor.identify.uncertainty import REL_SIGMA, noload_points
 
     cols, lines = read_noload(path)
     tol = COPPER_TOL if copper_tol is None else copper_tol
-    args = (cols["V_ll_rms"], cols["I_rms"], cols["f"], R_s, l_s, cols.get("P_in"), l_r, tol)
-    losses = None
     try:
-        pts = magnetizing_points(*args)
-        if "P_in" in cols:  # the core-loss current is not rotor current: out of the leakage correction
-            losses = separate_losses(pts.E_m, pts.P_loss, cols["P_in"])
-            pts = magnetizing_points(*args, R_fe=losses.R_fe)
-            # the plant puts R_fe across v_s - R_s i_s, not across E_m: its own R_fe for the same loss
-            losses = losses._replace(R_fe_plant=plant_core_loss_resistance(losses.R_fe, pts.E_m, pts.E_s))
+        pts, losses = noload_points(cols["V_ll_rms"], cols["I_rms"], cols["f"], R_s, l_s, cols.get("P_in"),
+                                    l_r, tol, REL_SIGMA if rel_sigma is None else rel_sigma)
     except ParameterError as exc:
         field = exc.field
-        if "[" in field:
+        if "[" in field and field.split("[")[1].rstrip("]").isdigit():
             k = int(field.split("[")[1].rstrip("]"))
             raise InputError(f"{path}: line {lines[k]}: {field.split('[')[0]} = {exc.value!r}: "
                              f"{exc.reason}") from None
@@ -313,7 +304,7 @@ def leakage_from_locked_rotor(path, R_s, test, ratio, tol):
 
     def identify_at(l_s):
         pts, _, _, losses = points_from_file(path, R_s, l_s, tol, ratio * l_s)
-        fits, _ = fit_all(pts.i_mu, pts.psi_m, least_squares)
+        fits, _ = fit_all(pts.i_mu, pts.psi_m, least_squares, pts.cov)
         if not fits:
             raise InputError(f"{path}: no curve family could be fitted at l_s = {l_s!r} H")
         return choose(fits).curve, (losses.R_fe if losses is not None else 0.0)
@@ -358,7 +349,7 @@ def run(path, R_s, l_s, out=DEFAULT_OUT, stream=None, copper_tol=None, motor_yam
     l_s = _float_option("--l-s", l_s)
     pts, lines, has_p, losses = points_from_file(path, R_s, l_s, tol, motor.get("l_r"))
     try:
-        fits, failures = fit_all(pts.i_mu, pts.psi_m, least_squares)
+        fits, failures = fit_all(pts.i_mu, pts.psi_m, least_squares, pts.cov)
         table = monotone_table(pts.i_mu, pts.psi_m)
     except ParameterError as exc:
         raise InputError(f"{path}: lines {lines[0]}-{lines[-1]}: {exc}") from None
