@@ -32,6 +32,12 @@ With ``P_in``: a row whose ``P_in`` is below the stator copper loss by less than
 refused.  The no-load loss ``P_in - 3 R_s I_rms^2`` is split into core loss (``R_fe``) and friction
 (:func:`satmotor.identify.noload.separate_losses`), in ``fit.yaml`` under ``core_loss``.
 
+``--rel-sigma V,I,F,P`` (default 1 % each): the relative standard uncertainty of the columns.  The
+fits weight each point by its uncertainty carried from the readings (errors in both i_mu and psi_m,
+:mod:`satmotor.identify.uncertainty`); ``fit.yaml`` gives each family's chi-square and, under
+``uncertainty``, the chosen curve's 1-sigma relative uncertainty over the measured current range
+and the families the data cannot tell from it (``rivals``, with their largest difference).
+
 Exit codes: 0 written; 2 an input problem (the message names the file, the line and the value) or
 ``--out`` cannot be written.
 """
@@ -178,7 +184,8 @@ def _overrides(fit):
             **{k: (int(v) if k == "poly_n" else float(v)) for k, v in fit.params.items()}}
 
 
-def write_outputs(out, source, pts, has_p, fits, failures, best, table, R_s, l_s, losses=None, rotor=None):
+def write_outputs(out, source, pts, has_p, fits, failures, best, table, R_s, l_s, losses=None, rotor=None,
+                  uncertainty=None):
     import yaml
 
     out = Path(out)
@@ -194,10 +201,13 @@ def write_outputs(out, source, pts, has_p, fits, failures, best, table, R_s, l_s
         "plant": ov,
         "controller": dict(ov),
         "chosen": best.family,
-        "fits": {name: {"rms_Wb": f.rms, "max_abs_Wb": f.max_abs, "params": _overrides(f)}
+        "fits": {name: {"rms_Wb": f.rms, "max_abs_Wb": f.max_abs, "chi2": f.chi2, "sigma_rel": f.sigma_rel,
+                        "params": _overrides(f)}
                  for name, f in sorted(fits.items(), key=lambda kv: kv[1].rms)},
         "input": {"file": str(source), "rows": int(pts.i_mu.size), "P_in": has_p, "R_s": R_s, "l_s": l_s},
     }
+    if uncertainty is not None:
+        doc["uncertainty"] = uncertainty
     if rotor is not None:
         doc["locked_rotor"] = {"l_s_H": rotor.l_s, "l_r_H": rotor.l_r, "R_r_Ohm": rotor.R_r,
                                "psi_m_Wb": rotor.psi_m}
@@ -251,6 +261,21 @@ def _figure(path, source, pts, fits, best):
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
+
+
+def _rel_sigma_option(raw):
+    from satmotor.identify.uncertainty import REL_SIGMA
+
+    if raw is None:
+        return REL_SIGMA
+    try:
+        v = tuple(float(x) for x in str(raw).split(","))
+    except ValueError:
+        v = ()
+    if len(v) != 4 or not all(math.isfinite(x) and x > 0.0 for x in v):
+        raise InputError(f"--rel-sigma = {raw!r}: must be four relative uncertainties > 0, for V_ll_rms, "
+                         "I_rms, f and P_in (e.g. 0.01,0.01,0.001,0.01)")
+    return v
 
 
 MOTOR_OPTIONS = ("l_r", "R_r", "n_p", "J", "B")  # the motor parameters a no-load test does not give
@@ -318,21 +343,23 @@ def leakage_from_locked_rotor(path, R_s, test, ratio, tol):
 
 
 def run(path, R_s, l_s, out=DEFAULT_OUT, stream=None, copper_tol=None, motor_yaml=None, motor=None,
-        locked_rotor=None, leakage_ratio=None):
+        locked_rotor=None, leakage_ratio=None, rel_sigma=None):
     """Fit the no-load file ``path`` and write the outputs; returns the chosen :class:`Fit`.
     ``copper_tol`` [1] (default ``COPPER_TOL``); ``motor_yaml``: also write the motor section there;
     ``motor``: ``{name: value}`` of :data:`MOTOR_OPTIONS` (None: not given); ``locked_rotor``:
     ``"V_ll_rms,I_rms,P_in,f"`` of a locked-rotor test, which then gives l_s (``l_s`` None), l_r and
-    R_r with ``l_r = leakage_ratio l_s`` (default 1).
+    R_r with ``l_r = leakage_ratio l_s`` (default 1); ``rel_sigma``: ``"V,I,F,P"`` relative uncertainties
+    (default 1 % each).
     Raises :class:`InputError` for bad input or an unwritable ``out``."""
     from scipy.optimize import least_squares
 
     from satmotor.errors import ParameterError
-    from satmotor.identify.curve_fit import choose, fit_all, monotone_table
+    from satmotor.identify.curve_fit import RIVAL_CHI2, choose, fit_all, monotone_table, rivals
 
     stream = sys.stdout if stream is None else stream
     R_s = _float_option("--R-s", R_s)
     tol = None if copper_tol is None else _float_option("--copper-tol", copper_tol)
+    sig = _rel_sigma_option(rel_sigma)
     motor = {k: (None if v is None else _motor_option(k, v)) for k, v in (motor or {}).items()}
     rb = None
     if locked_rotor is not None:
@@ -347,7 +374,7 @@ def run(path, R_s, l_s, out=DEFAULT_OUT, stream=None, copper_tol=None, motor_yam
     elif l_s is None:
         raise InputError("--l-s is needed (or --locked-rotor, which gives it)")
     l_s = _float_option("--l-s", l_s)
-    pts, lines, has_p, losses = points_from_file(path, R_s, l_s, tol, motor.get("l_r"))
+    pts, lines, has_p, losses = points_from_file(path, R_s, l_s, tol, motor.get("l_r"), sig)
     try:
         fits, failures = fit_all(pts.i_mu, pts.psi_m, least_squares, pts.cov)
         table = monotone_table(pts.i_mu, pts.psi_m)
@@ -356,9 +383,12 @@ def run(path, R_s, l_s, out=DEFAULT_OUT, stream=None, copper_tol=None, motor_yam
     if not fits:
         raise InputError(f"{path}: no curve family could be fitted: {failures}")
     best = choose(fits)
+    rv = rivals(fits, best, float(pts.i_mu.min()), float(pts.i_mu.max()))
+    unc = {"rel_sigma": dict(zip(("V_ll_rms", "I_rms", "f", "P_in"), sig)), "sigma_rel": best.sigma_rel,
+           "rivals": rv}
     try:
         Path(out).mkdir(parents=True, exist_ok=True)
-        write_outputs(out, path, pts, has_p, fits, failures, best, table, R_s, l_s, losses, rb)
+        write_outputs(out, path, pts, has_p, fits, failures, best, table, R_s, l_s, losses, rb, unc)
     except OSError as exc:
         raise InputError(f"--out {out}: cannot write the results: {exc}") from None
     if motor_yaml is not None:
@@ -381,6 +411,12 @@ def run(path, R_s, l_s, out=DEFAULT_OUT, stream=None, copper_tol=None, motor_yam
               + ("  <- chosen" if f is best else ""), file=stream)
     for name, why in failures.items():
         print(f"  {name:12s} not fitted: {why}", file=stream)
+    print(f"  uncertainty: the chosen curve within {100 * best.sigma_rel:.2g} % (1 sigma, largest over "
+          f"i_mu {pts.i_mu.min():.4g}-{pts.i_mu.max():.4g} A) for readings within "
+          + "/".join(f"{100 * v:.2g}" for v in sig) + " % (V_ll_rms/I_rms/f/P_in)"
+          + ("" if not rv else f"; fitting the data as well (chi-square within {RIVAL_CHI2:g}): "
+             + ", ".join(f"{k} (up to {100 * v:.2g} % off the chosen)" for k, v in rv.items())),
+          file=stream)
     if pts.i_mu.size < 5:
         print(f"  only {pts.i_mu.size} points: the 3-parameter families are barely determined; "
               "measure 6-10 voltage levels", file=stream)
