@@ -291,7 +291,9 @@ def test_the_installed_command_exits_2_on_a_bad_file(tmp_path):
     assert r.returncode == 2 and "line 3" in r.stderr and "abc" in r.stderr
 
 
-@pytest.mark.parametrize("opt,value", [("--R-s", "-1"), ("--R-s", "nan"), ("--l-s", "inf"), ("--l-s", "x")])
+@pytest.mark.parametrize("opt,value", [("--R-s", "-1"), ("--R-s", "nan"), ("--l-s", "inf"), ("--l-s", "x"),
+                                       ("--rel-sigma", "0.01,0.01,0.01"), ("--rel-sigma", "0.01,0,0.01,0.01"),
+                                       ("--rel-sigma", "0.01,x,0.01,0.01")])
 def test_bad_options_exit_2(tmp_path, capsys, opt, value):
     f = tmp_path / "good.csv"
     f.write_text(GOOD)
