@@ -203,7 +203,7 @@ def write_outputs(out, source, pts, has_p, fits, failures, best, table, R_s, l_s
         "chosen": best.family,
         "fits": {name: {"rms_Wb": f.rms, "max_abs_Wb": f.max_abs, "chi2": f.chi2, "sigma_rel": f.sigma_rel,
                         "params": _overrides(f)}
-                 for name, f in sorted(fits.items(), key=lambda kv: kv[1].rms)},
+                 for name, f in sorted(fits.items(), key=lambda kv: kv[1].score())},
         "input": {"file": str(source), "rows": int(pts.i_mu.size), "P_in": has_p, "R_s": R_s, "l_s": l_s},
     }
     if uncertainty is not None:
@@ -221,7 +221,8 @@ def write_outputs(out, source, pts, has_p, fits, failures, best, table, R_s, l_s
             "# Paste `plant:` and `controller:` into a scenario (both units use the same curve).\n"
             "# To use the measured points instead: {curve: table, table_file: <curve_table.csv of this\n"
             "# directory, relative to the scenario file>}.  `fits`: every family, RMS and largest residual\n"
-            "# of psi_m [Wb], best first.\n")
+            "# of psi_m [Wb] and chi-square, best (smallest chi-square) first; `uncertainty`: the chosen\n"
+            "# curve's 1-sigma and the families the data cannot tell from it.\n")
     (out / "fit.yaml").write_text(head + yaml.safe_dump(doc, sort_keys=False, default_flow_style=None),
                                   encoding="utf-8")
     _figure(out / "fit.png", source, pts, fits, best)
@@ -241,7 +242,7 @@ def _figure(path, source, pts, fits, best):
     # residual axis: the families within 10x the best RMS set the scale, the others may run off it
     near = [f for f in fits.values() if f.rms <= 10.0 * best.rms] or [best]
     lim = 1.2e3 * max(max(f.max_abs for f in near), 1e-9)
-    for name, f in sorted(fits.items(), key=lambda kv: kv[1].rms):
+    for name, f in sorted(fits.items(), key=lambda kv: kv[1].score()):
         style = "-" if f is best else "--"
         lw = 2.0 if f is best else 1.0
         ax.plot(grid, [f.curve.psi(float(g)) for g in grid], style, lw=lw,
@@ -318,7 +319,7 @@ def _locked_rotor_option(raw):
     return LockedRotorTest(*v)
 
 
-def leakage_from_locked_rotor(path, R_s, test, ratio, tol):
+def leakage_from_locked_rotor(path, R_s, test, ratio, tol, rel_sigma=None):
     """``(l_s, l_r, R_r)`` from the locked-rotor test and the no-load file (the curve and R_fe
     identified at each trial l_s; :func:`satmotor.identify.locked_rotor.leakage_from_tests`)."""
     from scipy.optimize import brentq, least_squares
@@ -328,7 +329,7 @@ def leakage_from_locked_rotor(path, R_s, test, ratio, tol):
     from satmotor.identify.locked_rotor import leakage_from_tests
 
     def identify_at(l_s):
-        pts, _, _, losses = points_from_file(path, R_s, l_s, tol, ratio * l_s)
+        pts, _, _, losses = points_from_file(path, R_s, l_s, tol, ratio * l_s, rel_sigma)
         fits, _ = fit_all(pts.i_mu, pts.psi_m, least_squares, pts.cov)
         if not fits:
             raise InputError(f"{path}: no curve family could be fitted at l_s = {l_s!r} H")
@@ -368,7 +369,7 @@ def run(path, R_s, l_s, out=DEFAULT_OUT, stream=None, copper_tol=None, motor_yam
         ratio = 1.0 if leakage_ratio is None else _float_option("--leakage-ratio", leakage_ratio)
         if ratio <= 0.0:
             raise InputError(f"--leakage-ratio = {leakage_ratio!r}: must be > 0")
-        rb = leakage_from_locked_rotor(path, R_s, _locked_rotor_option(locked_rotor), ratio, tol)
+        rb = leakage_from_locked_rotor(path, R_s, _locked_rotor_option(locked_rotor), ratio, tol, sig)
         l_s = rb.l_s
         motor.update(l_r=rb.l_r, R_r=rb.R_r)
     elif l_s is None:
@@ -404,10 +405,10 @@ def run(path, R_s, l_s, out=DEFAULT_OUT, stream=None, copper_tol=None, motor_yam
              "at low voltage, where friction and iron-loss current are a large part of it: record P_in, or "
              "leave out the rows below about half the rated voltage)"),
           file=stream)
-    print(f"  {'family':12s} {'RMS [mWb]':>10s} {'max [mWb]':>10s}  parameters", file=stream)
-    for name, f in sorted(fits.items(), key=lambda kv: kv[1].rms):
+    print(f"  {'family':12s} {'RMS [mWb]':>10s} {'max [mWb]':>10s} {'chi2':>9s}  parameters", file=stream)
+    for name, f in sorted(fits.items(), key=lambda kv: kv[1].score()):
         params = ", ".join(f"{k}={v:.6g}" for k, v in f.params.items())
-        print(f"  {name:12s} {f.rms * 1e3:10.4g} {f.max_abs * 1e3:10.4g}  {params}"
+        print(f"  {name:12s} {f.rms * 1e3:10.4g} {f.max_abs * 1e3:10.4g} {f.chi2:9.4g}  {params}"
               + ("  <- chosen" if f is best else ""), file=stream)
     for name, why in failures.items():
         print(f"  {name:12s} not fitted: {why}", file=stream)
