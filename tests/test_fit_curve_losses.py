@@ -22,6 +22,7 @@ docs/model.md ("How good a fit noisy data allow"), not from these draws.  ``--lo
 
 from __future__ import annotations
 
+import functools
 import math
 import re
 
@@ -137,9 +138,10 @@ TAIL_IN_SIGMAS = 3.4  # the same quantile in units of the largest pointwise 1-si
 SEEDS = range(30)
 
 
+@functools.cache
 def _noisy_fits():
     """Seeds 0-29 through fit-curve's own steps (satmotor.identify.uncertainty.noload_points, fit_all,
-    choose, rivals: what ``run`` does before writing)."""
+    choose, rivals: what ``run`` does before writing); computed once, read by two tests."""
     from scipy.optimize import least_squares
 
     from satmotor.identify.curve_fit import choose, fit_all, rivals
@@ -199,7 +201,7 @@ def test_fit_yaml_states_the_uncertainty_and_the_rivals(tmp_path, capsys):
     rows, xs, out = _noisy_fits()
     seed = next(s for s, (_, b, rv, _) in zip(SEEDS, out) if b.family != "arctan")
     r = rows * (1.0 + 0.01 * np.random.default_rng(seed).standard_normal(rows.shape))
-    code, doc, _ = _fit(tmp_path, r)
+    code, doc, _ = _fit(tmp_path, r, "--motor-yaml", str(tmp_path / "motor.yaml"))
     assert code == 0
     unc = doc["uncertainty"]
     assert unc["rel_sigma"] == {"V_ll_rms": 0.01, "I_rms": 0.01, "f": 0.01, "P_in": 0.01}
@@ -208,6 +210,7 @@ def test_fit_yaml_states_the_uncertainty_and_the_rivals(tmp_path, capsys):
     assert doc["fits"]["arctan"]["chi2"] - doc["fits"][doc["chosen"]]["chi2"] <= 4.0
     text = capsys.readouterr().out
     assert "uncertainty: the chosen curve within" in text and "arctan (up to" in text
+    assert "the data fit arctan (up to" in (tmp_path / "motor.yaml").read_text()
     # a better frequency meter: --rel-sigma is taken and reported
     code, doc, _ = _fit(tmp_path, r, "--rel-sigma", "0.01,0.01,0.0001,0.01")
     assert code == 0 and doc["uncertainty"]["rel_sigma"]["f"] == 0.0001

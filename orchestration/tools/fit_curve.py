@@ -282,7 +282,7 @@ def _rel_sigma_option(raw):
 MOTOR_OPTIONS = ("l_r", "R_r", "n_p", "J", "B")  # the motor parameters a no-load test does not give
 
 
-def write_motor_yaml(path, source, best, R_s, l_s, losses, motor=None):
+def write_motor_yaml(path, source, best, R_s, l_s, losses, motor=None, rivals=None):
     """The ``motor:`` section of the fitted motor (with the plant's ``R_fe``), to paste into a scenario."""
     import yaml
 
@@ -302,6 +302,11 @@ def write_motor_yaml(path, source, best, R_s, l_s, losses, motor=None):
         head += (f"# Core loss: R_fe = {losses.R_fe!r} Ohm across E_m (the no-load separation; 0: none "
                  f"found), the plant's (across v_s - R_s i_s, ahead of l_s) R_fe = {section['R_fe']!r} Ohm; "
                  f"friction and windage at no load P_fw = {losses.P_fw:.6g} W.\n")
+    if best.sigma_rel is not None:
+        also = ", ".join(f"{k} (up to {100 * v:.2g} % off)" for k, v in (rivals or {}).items())
+        head += (f"# Curve ({best.family}): 1-sigma {100 * best.sigma_rel:.2g} % of psi_m over the measured "
+                 "current range, for the readings' stated uncertainty"
+                 + (f"; the data fit {also} as well" if also else "") + ".\n")
     Path(path).write_text(head + yaml.safe_dump(doc, sort_keys=False, default_flow_style=False),
                           encoding="utf-8")
 
@@ -394,7 +399,7 @@ def run(path, R_s, l_s, out=DEFAULT_OUT, stream=None, copper_tol=None, motor_yam
         raise InputError(f"--out {out}: cannot write the results: {exc}") from None
     if motor_yaml is not None:
         try:
-            write_motor_yaml(motor_yaml, path, best, R_s, l_s, losses, motor)
+            write_motor_yaml(motor_yaml, path, best, R_s, l_s, losses, motor, rv)
         except OSError as exc:
             raise InputError(f"--motor-yaml {motor_yaml}: cannot write: {exc}") from None
     for line, text in pts.warnings:
