@@ -15,7 +15,7 @@ into ``--out`` (default ``results/fit_curve``):
   scenario, plus ``chosen``, ``fits`` (every family's parameters and residuals) and ``input``;
 * ``curve_table.csv``: the points ``i_mu, psi_m`` for ``curve: table`` (made strictly increasing,
   see :func:`satmotor.identify.curve_fit.monotone_table`);
-* ``fit.png``: the points, every fit, and the residuals;
+* ``fit.png``: the points, every fit, the residuals, and the chosen fit's 1-sigma band;
 * with ``--motor-yaml FILE``: a ready ``motor:`` section (the chosen curve, ``R_s``, ``l_s``, and
   ``l_r``, ``R_r``, ``n_p``, ``J``, ``B`` when given as options; the others keep the default motor's
   values, which a comment lists) and the core-loss resistance ``R_fe`` as the plant needs it (across
@@ -242,6 +242,13 @@ def _figure(path, source, pts, fits, best):
     # residual axis: the families within 10x the best RMS set the scale, the others may run off it
     near = [f for f in fits.values() if f.rms <= 10.0 * best.rms] or [best]
     lim = 1.2e3 * max(max(f.max_abs for f in near), 1e-9)
+    if best.band is not None:
+        mid = np.array([best.curve.psi(float(g)) for g in grid])
+        b = best.band(np.maximum(grid, 1e-3 * float(i.max())))
+        ax.fill_between(grid, mid * (1.0 - b), mid * (1.0 + b), color="C0", alpha=0.2, lw=0,
+                        label="chosen fit +- 1 sigma")
+        ar.fill_between(grid, -1e3 * mid * b, 1e3 * mid * b, color="C0", alpha=0.15, lw=0,
+                        label="1 sigma of the chosen fit")
     for name, f in sorted(fits.items(), key=lambda kv: kv[1].score()):
         style = "-" if f is best else "--"
         lw = 2.0 if f is best else 1.0

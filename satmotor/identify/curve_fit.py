@@ -61,6 +61,7 @@ class Fit(NamedTuple):
     curve: object  # the curve object
     chi2: float | None = None  # [1] sum of squared weighted residuals (None: fitted unweighted)
     sigma_rel: float | None = None  # [1] largest 1-sigma relative uncertainty of psi_fit over the range
+    band: object = None  # band(x): the 1-sigma relative uncertainty [1] of psi_fit at currents x [A]
 
     @property
     def n_params(self):
@@ -78,31 +79,37 @@ def _psi(curve, i):
 
 def _finish(family, params, i, psi, res=None, model=None):
     """The Fit; with the solver result ``res`` of a weighted fit and ``model(p, x)`` the fitted
-    psi(x) in the solver's parameters, also ``chi2`` and ``sigma_rel``."""
+    psi(x) in the solver's parameters, also ``chi2``, ``band`` and ``sigma_rel``."""
     curve = make_curve(family, **params)
     r = _psi(curve, i) - psi
-    chi2 = sig = None
+    chi2 = sig = band = None
     if res is not None:
         chi2 = float(2.0 * res.cost)
-        sig = _sigma_rel(model, np.asarray(res.x, dtype=float), res.jac, i)
-    return Fit(family, params, float(math.sqrt(np.mean(r * r))), float(np.max(np.abs(r))), curve, chi2, sig)
+        band = _band(model, np.asarray(res.x, dtype=float), res.jac)
+        sig = float(np.max(band(np.linspace(float(i.min()), float(i.max()), 200))))
+    return Fit(family, params, float(math.sqrt(np.mean(r * r))), float(np.max(np.abs(r))), curve, chi2, sig,
+               band)
 
 
-def _sigma_rel(model, p, jac, i):
-    """Largest 1-sigma relative uncertainty of ``model(p, x)`` over ``x`` in [min i, max i]: the
-    parameters' covariance ``(J^T J)^-1`` (J the weighted residuals' Jacobian) carried to psi."""
+def _band(model, p, jac):
+    """``band(x)``: the 1-sigma relative uncertainty of ``model(p, x)``, the parameters' covariance
+    ``(J^T J)^-1`` (J the weighted residuals' Jacobian) carried to psi by central differences."""
     J = np.asarray(jac, dtype=float)
     C = np.linalg.pinv(J.T @ J)
-    x = np.linspace(float(i.min()), float(i.max()), 200)
-    G = np.empty((x.size, p.size))
-    for k in range(p.size):
-        h = 1e-6 * max(abs(p[k]), 1e-12)
-        up, dn = p.copy(), p.copy()
-        up[k] += h
-        dn[k] -= h
-        G[:, k] = (model(up, x) - model(dn, x)) / (2.0 * h)
-    var = np.einsum("xk,kl,xl->x", G, C, G)
-    return float(np.max(np.sqrt(np.maximum(var, 0.0)) / model(p, x)))
+    floor = 1e-3 * float(np.max(np.abs(p)))  # a parameter at its bound (near 0) still gets a usable step
+
+    def band(x):
+        x = np.asarray(x, dtype=float)
+        G = np.empty((x.size, p.size))
+        for k in range(p.size):
+            h = 1e-6 * max(abs(p[k]), floor)
+            up, dn = p.copy(), p.copy()
+            up[k] += h
+            dn[k] -= h
+            G[:, k] = (model(up, x) - model(dn, x)) / (2.0 * h)
+        var = np.einsum("xk,kl,xl->x", G, C, G)
+        return np.sqrt(np.maximum(var, 0.0)) / model(p, x)
+    return band
 
 
 def _residual(model, slope, i, psi, cov):
