@@ -6,7 +6,9 @@ Measured (8 levels, 20 %-120 % of rated voltage, 50 Hz):
 * fitted arctan vs the true curve over the tested current range, with P_in: 3e-5 (max relative);
 * without P_in the line current is taken as magnetizing: at 20 % (40 %) voltage the friction's rotor
   current makes i_mu 46 % (3 %) too high and the fit is off by 5 %; from 50 % voltage up: 0.5 %;
-* 1 % Gaussian noise on V_ll_rms and I_rms, with P_in: median 1.2 %, worst 3.1 % over 20 seeds.
+* 1 % Gaussian noise on V_ll_rms and I_rms, with P_in, 20 seeds (the fit weighted by the propagated
+  uncertainty): median 1.3 %, worst 5.5 % (the polynomial family chosen on 2 draws; the unweighted fit
+  on the same draws: median 1.4 %, worst 6.3 %).  Seed 0: 1.6 %.
 """
 
 from __future__ import annotations
@@ -163,7 +165,9 @@ def test_fit_curve_with_one_percent_noise(noload, tmp_path):
     code, out = _fit(tmp_path, noisy)
     assert code == 0
     curve, _ = _curve_of(out)
-    assert _max_rel_error(curve, truth[0, 0], truth[-1, 0]) < 0.035  # worst of 20 seeds: 3.1 %
+    # seed 0: 1.6 %.  For comparison, the Cramer-Rao bound of the 10-level sweep with 1 % on every column
+    # (docs/model.md) puts 99 % of draws within 3.7 %; here 8 levels, noise on V and I only
+    assert _max_rel_error(curve, truth[0, 0], truth[-1, 0]) < 0.035
     make_curve("table", table_file=str(out / "curve_table.csv"))
 
 
@@ -291,7 +295,9 @@ def test_the_installed_command_exits_2_on_a_bad_file(tmp_path):
     assert r.returncode == 2 and "line 3" in r.stderr and "abc" in r.stderr
 
 
-@pytest.mark.parametrize("opt,value", [("--R-s", "-1"), ("--R-s", "nan"), ("--l-s", "inf"), ("--l-s", "x")])
+@pytest.mark.parametrize("opt,value", [("--R-s", "-1"), ("--R-s", "nan"), ("--l-s", "inf"), ("--l-s", "x"),
+                                       ("--rel-sigma", "0.01,0.01,0.01"), ("--rel-sigma", "0.01,0,0.01,0.01"),
+                                       ("--rel-sigma", "0.01,x,0.01,0.01")])
 def test_bad_options_exit_2(tmp_path, capsys, opt, value):
     f = tmp_path / "good.csv"
     f.write_text(GOOD)

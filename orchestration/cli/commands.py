@@ -342,7 +342,7 @@ def cmd_fit_curve(args):
     try:
         run(args.noload, args.R_s, args.l_s, args.out, copper_tol=args.copper_tol, motor_yaml=args.motor_yaml,
             motor={k: getattr(args, k) for k in ("l_r", "R_r", "n_p", "J", "B")},
-            locked_rotor=args.locked_rotor, leakage_ratio=args.leakage_ratio)
+            locked_rotor=args.locked_rotor, leakage_ratio=args.leakage_ratio, rel_sigma=args.rel_sigma)
     except InputError as exc:
         print(exc, file=sys.stderr)
         return INVALID
@@ -460,6 +460,9 @@ def parser(prog="satmotor-cosim"):
     fc.add_argument("--copper-tol", dest="copper_tol", default=None, metavar="REL",
                     help="P_in this far (relative) below the stator copper loss is taken as lossless, with a "
                     "warning; further below, the row is refused (default 0.05)")
+    fc.add_argument("--rel-sigma", dest="rel_sigma", default=None, metavar="V,I,F,P",
+                    help="relative standard uncertainty of each column V_ll_rms, I_rms, f, P_in (default "
+                    "0.01,0.01,0.01,0.01): weights the fit and sets the reported uncertainty")
     fc.add_argument("--motor-yaml", dest="motor_yaml", default=None, metavar="FILE",
                     help="also write a ready motor: section (and plant: {R_fe: ...}) for a scenario")
     for opt, dest, unit, what in (("--l-r", "l_r", "H", "rotor leakage inductance (default: l_s)"),

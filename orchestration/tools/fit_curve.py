@@ -15,7 +15,7 @@ into ``--out`` (default ``results/fit_curve``):
   scenario, plus ``chosen``, ``fits`` (every family's parameters and residuals) and ``input``;
 * ``curve_table.csv``: the points ``i_mu, psi_m`` for ``curve: table`` (made strictly increasing,
   see :func:`satmotor.identify.curve_fit.monotone_table`);
-* ``fit.png``: the points, every fit, and the residuals;
+* ``fit.png``: the points, every fit, the residuals, and the chosen fit's 1-sigma band;
 * with ``--motor-yaml FILE``: a ready ``motor:`` section (the chosen curve, ``R_s``, ``l_s``, and
   ``l_r``, ``R_r``, ``n_p``, ``J``, ``B`` when given as options; the others keep the default motor's
   values, which a comment lists) and the core-loss resistance ``R_fe`` as the plant needs it (across
@@ -31,6 +31,12 @@ With ``P_in``: a row whose ``P_in`` is below the stator copper loss by less than
 (relative, default 5 %) is taken as lossless, with a warning naming its line; further below it is
 refused.  The no-load loss ``P_in - 3 R_s I_rms^2`` is split into core loss (``R_fe``) and friction
 (:func:`satmotor.identify.noload.separate_losses`), in ``fit.yaml`` under ``core_loss``.
+
+``--rel-sigma V,I,F,P`` (default 1 % each): the relative standard uncertainty of the columns.  The
+fits weight each point by its uncertainty carried from the readings (errors in both i_mu and psi_m,
+:mod:`satmotor.identify.uncertainty`); ``fit.yaml`` gives each family's chi-square and, under
+``uncertainty``, the chosen curve's 1-sigma relative uncertainty over the measured current range
+and the families the data cannot tell from it (``rivals``, with their largest difference).
 
 Exit codes: 0 written; 2 an input problem (the message names the file, the line and the value) or
 ``--out`` cannot be written.
@@ -148,32 +154,23 @@ def _motor_option(name, raw):
     return v
 
 
-def points_from_file(path, R_s, l_s, copper_tol=None, l_r=None):
+def points_from_file(path, R_s, l_s, copper_tol=None, l_r=None, rel_sigma=None):
     """``(MagnetizingPoints, lines, has_P_in, losses)`` of a no-load file (``losses``: the
-    :class:`~satmotor.identify.noload.LossSeparation`, None without P_in); :class:`InputError` on bad
-    input."""
+    :class:`~satmotor.identify.noload.LossSeparation`, None without P_in; the points carry their
+    covariance from ``rel_sigma``, :func:`satmotor.identify.uncertainty.noload_points`);
+    :class:`InputError` on bad input."""
     from satmotor.errors import ParameterError
-    from satmotor.identify.noload import (
-        COPPER_TOL,
-        magnetizing_points,
-        plant_core_loss_resistance,
-        separate_losses,
-    )
+    from satmotor.identify.noload import COPPER_TOL
+    from satmotor.identify.uncertainty import REL_SIGMA, noload_points
 
     cols, lines = read_noload(path)
     tol = COPPER_TOL if copper_tol is None else copper_tol
-    args = (cols["V_ll_rms"], cols["I_rms"], cols["f"], R_s, l_s, cols.get("P_in"), l_r, tol)
-    losses = None
     try:
-        pts = magnetizing_points(*args)
-        if "P_in" in cols:  # the core-loss current is not rotor current: out of the leakage correction
-            losses = separate_losses(pts.E_m, pts.P_loss, cols["P_in"])
-            pts = magnetizing_points(*args, R_fe=losses.R_fe)
-            # the plant puts R_fe across v_s - R_s i_s, not across E_m: its own R_fe for the same loss
-            losses = losses._replace(R_fe_plant=plant_core_loss_resistance(losses.R_fe, pts.E_m, pts.E_s))
+        pts, losses = noload_points(cols["V_ll_rms"], cols["I_rms"], cols["f"], R_s, l_s, cols.get("P_in"),
+                                    l_r, tol, REL_SIGMA if rel_sigma is None else rel_sigma)
     except ParameterError as exc:
         field = exc.field
-        if "[" in field:
+        if "[" in field and field.split("[")[1].rstrip("]").isdigit():
             k = int(field.split("[")[1].rstrip("]"))
             raise InputError(f"{path}: line {lines[k]}: {field.split('[')[0]} = {exc.value!r}: "
                              f"{exc.reason}") from None
@@ -187,7 +184,8 @@ def _overrides(fit):
             **{k: (int(v) if k == "poly_n" else float(v)) for k, v in fit.params.items()}}
 
 
-def write_outputs(out, source, pts, has_p, fits, failures, best, table, R_s, l_s, losses=None, rotor=None):
+def write_outputs(out, source, pts, has_p, fits, failures, best, table, R_s, l_s, losses=None, rotor=None,
+                  uncertainty=None):
     import yaml
 
     out = Path(out)
@@ -203,10 +201,13 @@ def write_outputs(out, source, pts, has_p, fits, failures, best, table, R_s, l_s
         "plant": ov,
         "controller": dict(ov),
         "chosen": best.family,
-        "fits": {name: {"rms_Wb": f.rms, "max_abs_Wb": f.max_abs, "params": _overrides(f)}
-                 for name, f in sorted(fits.items(), key=lambda kv: kv[1].rms)},
+        "fits": {name: {"rms_Wb": f.rms, "max_abs_Wb": f.max_abs, "chi2": f.chi2, "sigma_rel": f.sigma_rel,
+                        "params": _overrides(f)}
+                 for name, f in sorted(fits.items(), key=lambda kv: kv[1].score())},
         "input": {"file": str(source), "rows": int(pts.i_mu.size), "P_in": has_p, "R_s": R_s, "l_s": l_s},
     }
+    if uncertainty is not None:
+        doc["uncertainty"] = uncertainty
     if rotor is not None:
         doc["locked_rotor"] = {"l_s_H": rotor.l_s, "l_r_H": rotor.l_r, "R_r_Ohm": rotor.R_r,
                                "psi_m_Wb": rotor.psi_m}
@@ -220,52 +221,34 @@ def write_outputs(out, source, pts, has_p, fits, failures, best, table, R_s, l_s
             "# Paste `plant:` and `controller:` into a scenario (both units use the same curve).\n"
             "# To use the measured points instead: {curve: table, table_file: <curve_table.csv of this\n"
             "# directory, relative to the scenario file>}.  `fits`: every family, RMS and largest residual\n"
-            "# of psi_m [Wb], best first.\n")
+            "# of psi_m [Wb] and chi-square, best (smallest chi-square) first; `uncertainty`: the chosen\n"
+            "# curve's 1-sigma and the families the data cannot tell from it.\n")
     (out / "fit.yaml").write_text(head + yaml.safe_dump(doc, sort_keys=False, default_flow_style=None),
                                   encoding="utf-8")
-    _figure(out / "fit.png", source, pts, fits, best)
+    from orchestration.tools.fit_curve_figure import figure
+
+    figure(out / "fit.png", source, pts, fits, best)
 
 
-def _figure(path, source, pts, fits, best):
-    import matplotlib
+def _rel_sigma_option(raw):
+    from satmotor.identify.uncertainty import REL_SIGMA
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    order = np.argsort(pts.i_mu)
-    i, psi = pts.i_mu[order], pts.psi_m[order]
-    grid = np.linspace(0.0, 1.05 * float(i.max()), 200)
-    fig, (ax, ar) = plt.subplots(2, 1, figsize=(7, 7), sharex=True, gridspec_kw={"height_ratios": [3, 2]})
-    ax.plot(i, psi, "ko", label="no-load points")
-    # residual axis: the families within 10x the best RMS set the scale, the others may run off it
-    near = [f for f in fits.values() if f.rms <= 10.0 * best.rms] or [best]
-    lim = 1.2e3 * max(max(f.max_abs for f in near), 1e-9)
-    for name, f in sorted(fits.items(), key=lambda kv: kv[1].rms):
-        style = "-" if f is best else "--"
-        lw = 2.0 if f is best else 1.0
-        ax.plot(grid, [f.curve.psi(float(g)) for g in grid], style, lw=lw,
-                label=f"{name} (RMS {f.rms * 1e3:.3g} mWb){' chosen' if f is best else ''}")
-        ar.plot(i, [1e3 * (f.curve.psi(float(a)) - b) for a, b in zip(i, psi)], style + "o", lw=lw, ms=3,
-                label=name + ("" if f in near else " (off scale)"))
-    ar.set_ylim(-lim, lim)
-    ar.legend(fontsize=7, ncol=2)
-    ax.set_ylabel("psi_m [Wb] (peak)")
-    ax.set_title(f"Magnetizing curve from {Path(source).name}")
-    ax.grid(True, alpha=0.3)
-    ax.legend(fontsize=8)
-    ar.axhline(0.0, color="k", lw=0.5)
-    ar.set_xlabel("i_mu [A] (peak)")
-    ar.set_ylabel("fit - point [mWb]")
-    ar.grid(True, alpha=0.3)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    if raw is None:
+        return REL_SIGMA
+    try:
+        v = tuple(float(x) for x in str(raw).split(","))
+    except ValueError:
+        v = ()
+    if len(v) != 4 or not all(math.isfinite(x) and x > 0.0 for x in v):
+        raise InputError(f"--rel-sigma = {raw!r}: must be four relative uncertainties > 0, for V_ll_rms, "
+                         "I_rms, f and P_in (e.g. 0.01,0.01,0.001,0.01)")
+    return v
 
 
 MOTOR_OPTIONS = ("l_r", "R_r", "n_p", "J", "B")  # the motor parameters a no-load test does not give
 
 
-def write_motor_yaml(path, source, best, R_s, l_s, losses, motor=None):
+def write_motor_yaml(path, source, best, R_s, l_s, losses, motor=None, rivals=None):
     """The ``motor:`` section of the fitted motor (with the plant's ``R_fe``), to paste into a scenario."""
     import yaml
 
@@ -285,6 +268,11 @@ def write_motor_yaml(path, source, best, R_s, l_s, losses, motor=None):
         head += (f"# Core loss: R_fe = {losses.R_fe!r} Ohm across E_m (the no-load separation; 0: none "
                  f"found), the plant's (across v_s - R_s i_s, ahead of l_s) R_fe = {section['R_fe']!r} Ohm; "
                  f"friction and windage at no load P_fw = {losses.P_fw:.6g} W.\n")
+    if best.sigma_rel is not None:
+        also = ", ".join(f"{k} (up to {100 * v:.2g} % off)" for k, v in (rivals or {}).items())
+        head += (f"# Curve ({best.family}): 1-sigma {100 * best.sigma_rel:.2g} % of psi_m over the measured "
+                 "current range, for the readings' stated uncertainty"
+                 + (f"; the data fit {also} as well" if also else "") + ".\n")
     Path(path).write_text(head + yaml.safe_dump(doc, sort_keys=False, default_flow_style=False),
                           encoding="utf-8")
 
@@ -302,7 +290,7 @@ def _locked_rotor_option(raw):
     return LockedRotorTest(*v)
 
 
-def leakage_from_locked_rotor(path, R_s, test, ratio, tol):
+def leakage_from_locked_rotor(path, R_s, test, ratio, tol, rel_sigma=None):
     """``(l_s, l_r, R_r)`` from the locked-rotor test and the no-load file (the curve and R_fe
     identified at each trial l_s; :func:`satmotor.identify.locked_rotor.leakage_from_tests`)."""
     from scipy.optimize import brentq, least_squares
@@ -312,8 +300,8 @@ def leakage_from_locked_rotor(path, R_s, test, ratio, tol):
     from satmotor.identify.locked_rotor import leakage_from_tests
 
     def identify_at(l_s):
-        pts, _, _, losses = points_from_file(path, R_s, l_s, tol, ratio * l_s)
-        fits, _ = fit_all(pts.i_mu, pts.psi_m, least_squares)
+        pts, _, _, losses = points_from_file(path, R_s, l_s, tol, ratio * l_s, rel_sigma)
+        fits, _ = fit_all(pts.i_mu, pts.psi_m, least_squares, pts.cov)
         if not fits:
             raise InputError(f"{path}: no curve family could be fitted at l_s = {l_s!r} H")
         return choose(fits).curve, (losses.R_fe if losses is not None else 0.0)
@@ -327,21 +315,23 @@ def leakage_from_locked_rotor(path, R_s, test, ratio, tol):
 
 
 def run(path, R_s, l_s, out=DEFAULT_OUT, stream=None, copper_tol=None, motor_yaml=None, motor=None,
-        locked_rotor=None, leakage_ratio=None):
+        locked_rotor=None, leakage_ratio=None, rel_sigma=None):
     """Fit the no-load file ``path`` and write the outputs; returns the chosen :class:`Fit`.
     ``copper_tol`` [1] (default ``COPPER_TOL``); ``motor_yaml``: also write the motor section there;
     ``motor``: ``{name: value}`` of :data:`MOTOR_OPTIONS` (None: not given); ``locked_rotor``:
     ``"V_ll_rms,I_rms,P_in,f"`` of a locked-rotor test, which then gives l_s (``l_s`` None), l_r and
-    R_r with ``l_r = leakage_ratio l_s`` (default 1).
+    R_r with ``l_r = leakage_ratio l_s`` (default 1); ``rel_sigma``: ``"V,I,F,P"`` relative uncertainties
+    (default 1 % each).
     Raises :class:`InputError` for bad input or an unwritable ``out``."""
     from scipy.optimize import least_squares
 
     from satmotor.errors import ParameterError
-    from satmotor.identify.curve_fit import choose, fit_all, monotone_table
+    from satmotor.identify.curve_fit import RIVAL_CHI2, choose, fit_all, monotone_table, rivals
 
     stream = sys.stdout if stream is None else stream
     R_s = _float_option("--R-s", R_s)
     tol = None if copper_tol is None else _float_option("--copper-tol", copper_tol)
+    sig = _rel_sigma_option(rel_sigma)
     motor = {k: (None if v is None else _motor_option(k, v)) for k, v in (motor or {}).items()}
     rb = None
     if locked_rotor is not None:
@@ -350,29 +340,32 @@ def run(path, R_s, l_s, out=DEFAULT_OUT, stream=None, copper_tol=None, motor_yam
         ratio = 1.0 if leakage_ratio is None else _float_option("--leakage-ratio", leakage_ratio)
         if ratio <= 0.0:
             raise InputError(f"--leakage-ratio = {leakage_ratio!r}: must be > 0")
-        rb = leakage_from_locked_rotor(path, R_s, _locked_rotor_option(locked_rotor), ratio, tol)
+        rb = leakage_from_locked_rotor(path, R_s, _locked_rotor_option(locked_rotor), ratio, tol, sig)
         l_s = rb.l_s
         motor.update(l_r=rb.l_r, R_r=rb.R_r)
     elif l_s is None:
         raise InputError("--l-s is needed (or --locked-rotor, which gives it)")
     l_s = _float_option("--l-s", l_s)
-    pts, lines, has_p, losses = points_from_file(path, R_s, l_s, tol, motor.get("l_r"))
+    pts, lines, has_p, losses = points_from_file(path, R_s, l_s, tol, motor.get("l_r"), sig)
     try:
-        fits, failures = fit_all(pts.i_mu, pts.psi_m, least_squares)
+        fits, failures = fit_all(pts.i_mu, pts.psi_m, least_squares, pts.cov)
         table = monotone_table(pts.i_mu, pts.psi_m)
     except ParameterError as exc:
         raise InputError(f"{path}: lines {lines[0]}-{lines[-1]}: {exc}") from None
     if not fits:
         raise InputError(f"{path}: no curve family could be fitted: {failures}")
     best = choose(fits)
+    rv = rivals(fits, best, float(pts.i_mu.min()), float(pts.i_mu.max()))
+    unc = {"rel_sigma": dict(zip(("V_ll_rms", "I_rms", "f", "P_in"), sig)), "sigma_rel": best.sigma_rel,
+           "rivals": rv}
     try:
         Path(out).mkdir(parents=True, exist_ok=True)
-        write_outputs(out, path, pts, has_p, fits, failures, best, table, R_s, l_s, losses, rb)
+        write_outputs(out, path, pts, has_p, fits, failures, best, table, R_s, l_s, losses, rb, unc)
     except OSError as exc:
         raise InputError(f"--out {out}: cannot write the results: {exc}") from None
     if motor_yaml is not None:
         try:
-            write_motor_yaml(motor_yaml, path, best, R_s, l_s, losses, motor)
+            write_motor_yaml(motor_yaml, path, best, R_s, l_s, losses, motor, rv)
         except OSError as exc:
             raise InputError(f"--motor-yaml {motor_yaml}: cannot write: {exc}") from None
     for line, text in pts.warnings:
@@ -383,13 +376,19 @@ def run(path, R_s, l_s, out=DEFAULT_OUT, stream=None, copper_tol=None, motor_yam
              "at low voltage, where friction and iron-loss current are a large part of it: record P_in, or "
              "leave out the rows below about half the rated voltage)"),
           file=stream)
-    print(f"  {'family':12s} {'RMS [mWb]':>10s} {'max [mWb]':>10s}  parameters", file=stream)
-    for name, f in sorted(fits.items(), key=lambda kv: kv[1].rms):
+    print(f"  {'family':12s} {'RMS [mWb]':>10s} {'max [mWb]':>10s} {'chi2':>9s}  parameters", file=stream)
+    for name, f in sorted(fits.items(), key=lambda kv: kv[1].score()):
         params = ", ".join(f"{k}={v:.6g}" for k, v in f.params.items())
-        print(f"  {name:12s} {f.rms * 1e3:10.4g} {f.max_abs * 1e3:10.4g}  {params}"
+        print(f"  {name:12s} {f.rms * 1e3:10.4g} {f.max_abs * 1e3:10.4g} {f.chi2:9.4g}  {params}"
               + ("  <- chosen" if f is best else ""), file=stream)
     for name, why in failures.items():
         print(f"  {name:12s} not fitted: {why}", file=stream)
+    print(f"  uncertainty: the chosen curve within {100 * best.sigma_rel:.2g} % (1 sigma, largest over "
+          f"i_mu {pts.i_mu.min():.4g}-{pts.i_mu.max():.4g} A) for readings within "
+          + "/".join(f"{100 * v:.2g}" for v in sig) + " % (V_ll_rms/I_rms/f/P_in)"
+          + ("" if not rv else f"; fitting the data as well (chi-square within {RIVAL_CHI2:g}): "
+             + ", ".join(f"{k} (up to {100 * v:.2g} % off the chosen)" for k, v in rv.items())),
+          file=stream)
     if pts.i_mu.size < 5:
         print(f"  only {pts.i_mu.size} points: the 3-parameter families are barely determined; "
               "measure 6-10 voltage levels", file=stream)

@@ -5,4 +5,6 @@
   and friction.
 * :mod:`~satmotor.identify.locked_rotor` -- a locked-rotor test: rotor resistance and the leakages.
 * :mod:`~satmotor.identify.curve_fit` -- every curve family fitted to those points (least squares).
+* :mod:`~satmotor.identify.uncertainty` -- the readings' uncertainty carried into each point's covariance
+  (the weights of the fits).
 """

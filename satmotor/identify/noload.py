@@ -78,6 +78,8 @@ class MagnetizingPoints(NamedTuple):
     warnings: tuple = ()  # ((row index, message), ...): rows taken as lossless (step 6)
     E_s: np.ndarray | None = None  # [V] peak stator emf |V - R_s I| (the plant's core-loss voltage; None
     # without P_in)
+    cov: np.ndarray | None = None  # (n, 2, 2) covariance of (i_mu [A], psi_m [Wb]) of each point, from the
+    # readings' uncertainty (satmotor.identify.uncertainty.noload_points; None: not computed)
 
 
 class LossSeparation(NamedTuple):
@@ -195,18 +197,35 @@ def magnetizing_points(V_ll_rms, I_rms, f, R_s, l_s, P_in=None, l_r=None, copper
 CORE_LOSS_FLOOR = 1e-6  # [1] a core loss below this share of the input power (top row) is none
 
 
-def separate_losses(E_m, P_loss, P_in):
+def separate_losses(E_m, P_loss, P_in, cov=None):
     """Core loss and friction from the no-load loss: least squares of ``P_loss = 3/2 E_m^2 / R_fe +
     P_fw`` over the rows (``E_m`` [V] peak EMF, ``P_loss`` [W], as :class:`MagnetizingPoints` gives
     them; ``P_in`` [W] the input power); :class:`LossSeparation`.  No loss growing with the voltage
     (a slope <= 0, or a core loss at the highest EMF below ``CORE_LOSS_FLOOR`` of that row's input
-    power) gives ``R_fe = 0`` (none) and ``P_fw`` the mean loss.  At least 2 rows."""
+    power) gives ``R_fe = 0`` (none) and ``P_fw`` the mean loss.  At least 2 rows.
+
+    ``cov`` [(n, 2, 2)]: the covariance of ``(E_m^2, P_loss)`` of each row
+    (:mod:`satmotor.identify.uncertainty`); None: all rows weighted alike, no error in ``E_m^2``.
+    With it, both variables carry errors, and each row is weighted by its effective variance
+    ``var(P_loss) + a^2 var(E_m^2) - 2 a cov(E_m^2, P_loss)`` along the line of slope ``a``
+    (errors in variables, the line's maximum likelihood for Gaussian errors): the weighted least
+    squares is repeated with the weights of the last slope until the slope stops changing."""
     E2 = np.asarray(E_m, dtype=float) ** 2
     y = np.asarray(P_loss, dtype=float)
     if E2.size < 2 or y.size != E2.size:
         raise ParameterError("P_in", y.size, "needs at least 2 rows to separate core and friction loss")
     A = np.column_stack([E2, np.ones_like(E2)])
     (slope, P_fw), *_ = np.linalg.lstsq(A, y, rcond=None)
+    if cov is not None:
+        c = np.asarray(cov, dtype=float)
+        for _ in range(200):
+            var = c[:, 1, 1] + slope * slope * c[:, 0, 0] - 2.0 * slope * c[:, 0, 1]
+            w = 1.0 / np.sqrt(np.maximum(var, 1e-300))
+            (s2, P_fw), *_ = np.linalg.lstsq(A * w[:, None], y * w, rcond=None)
+            done = abs(s2 - slope) <= 1e-13 * abs(slope)
+            slope = s2
+            if done:
+                break
     top = int(np.argmax(E2))
     if not slope * E2[top] > CORE_LOSS_FLOOR * float(np.asarray(P_in, dtype=float)[top]):
         P_fw = float(np.mean(y))
