@@ -56,7 +56,7 @@ from satmotor.control.measurements import (
 )
 from satmotor.control.observer import RotorFluxObserver
 from satmotor.control.references import REF_RATE, REF_VALUE, ReferenceShaper
-from satmotor.errors import ParameterError, require_number
+from satmotor.errors import ParameterError, require_choice, require_number
 
 PREMAG, RUN = 0, 1
 FLUX_SOURCES = ("measured", "observer")
@@ -120,16 +120,12 @@ class DriveConfig:
         require_number("premag_gain", self.premag_gain, 0)
         require_number("premag_time_max", self.premag_time_max, 0)
         require_number("premag_speed_tol", self.premag_speed_tol, 0)
-        if self.flux_source not in FLUX_SOURCES:
-            raise ParameterError("flux_source", self.flux_source, f"must be one of {', '.join(FLUX_SOURCES)}")
+        require_choice("flux_source", self.flux_source, FLUX_SOURCES)
         if self.delay_samples not in (0, 1) or isinstance(self.delay_samples, bool):
             raise ParameterError("delay_samples", self.delay_samples, "must be 0 or 1")
         require_number("speed_bandwidth", self.speed_bandwidth, 0)
-        if self.observer not in OBSERVERS:
-            raise ParameterError("observer", self.observer, f"must be one of {', '.join(OBSERVERS)}")
-        if self.speed_source not in SPEED_SOURCES:
-            raise ParameterError("speed_source", self.speed_source,
-                                 f"must be one of {', '.join(SPEED_SOURCES)}")
+        require_choice("observer", self.observer, OBSERVERS)
+        require_choice("speed_source", self.speed_source, SPEED_SOURCES)
         closed_loop = self.flux_source == "observer" and self.observer == "closed_loop"
         if self.speed_source == "estimated" and not closed_loop:
             raise ParameterError("speed_source", self.speed_source, "needs flux_source = observer and "
