@@ -123,6 +123,20 @@ def test_the_generated_inputs_and_outputs_follow_the_tables():
             assert f"#define SM_VR_{v.name} {vr[v.name]}\n" in head
 
 
+def _c_constants(tmp_path, names):
+    """The values of the C constants ``names`` of the generated ``sm_params.h`` (written into ``tmp_path``),
+    compiled into a program that prints them."""
+    native_tables.core_files(tmp_path)
+    (tmp_path / "p.c").write_text('#include <stdio.h>\n#include "sm_params.h"\nint main(void)\n{\n'
+                                  + "".join(f'    printf("%d\\n", (int){n});\n' for n in names)
+                                  + "    return 0;\n}\n")
+    exe = tmp_path / "p"
+    subprocess.run([shutil.which("gcc"), "-std=c99", "-Wall", "-Werror", f"-I{tmp_path}", "-o", str(exe),
+                    str(tmp_path / "p.c")], check=True)
+    run = subprocess.run([str(exe)], check=True, capture_output=True, text=True)
+    return [int(s) for s in run.stdout.split()]
+
+
 MEAS = {"SM_MEAS_I_S_A": "i_s_alpha", "SM_MEAS_I_S_B": "i_s_beta", "SM_MEAS_PSI_R_A": "psi_r_alpha",
         "SM_MEAS_PSI_R_B": "psi_r_beta", "SM_MEAS_PSI_S_A": "psi_s_alpha", "SM_MEAS_PSI_S_B": "psi_s_beta",
         "SM_MEAS_OMEGA_M": "omega_m"}
@@ -132,16 +146,7 @@ def test_the_c_measurement_layout_is_the_controllers_input_order_and_the_pythons
     """SM_MEAS_* (compiled from the generated sm_params.h and printed) are the positions of their inputs
     in CONTROLLER_INPUTS and equal measurements.MEAS_*: sm_controller.c passes its inputs through."""
     from satmotor.control import measurements
-    native_tables.core_files(tmp_path)
-    (tmp_path / "m.c").write_text('#include <stdio.h>\n#include "sm_params.h"\nint main(void)\n{\n'
-                                  + "".join(f'    printf("%d\\n", (int){n});\n'
-                                            for n in (*MEAS, "SM_MEAS_LEN"))
-                                  + "    return 0;\n}\n")
-    exe = tmp_path / "m"
-    subprocess.run([shutil.which("gcc"), "-std=c99", "-Wall", "-Werror", f"-I{tmp_path}", "-o", str(exe),
-                    str(tmp_path / "m.c")], check=True)
-    run = subprocess.run([str(exe)], check=True, capture_output=True, text=True)
-    got = [int(s) for s in run.stdout.split()]
+    got = _c_constants(tmp_path, (*MEAS, "SM_MEAS_LEN"))
     names = [v.name for v in itf.CONTROLLER_INPUTS]
     assert got[:-1] == [names.index(n) for n in MEAS.values()]
     assert got[:-1] == [getattr(measurements, n[3:]) for n in MEAS]
@@ -207,17 +212,8 @@ def test_the_c_parser_takes_every_choice_of_the_tables_and_refuses_the_rest_nami
 def test_the_c_choice_enums_are_the_positions_in_the_tables(tmp_path):
     """SM_CHOICE_<name>_<value> and SM_CHOICE_PARAM_<name> (compiled from the generated sm_params.h and
     printed): each value its position in the table's choices, each parameter the parser's number of it."""
-    native_tables.core_files(tmp_path)
     consts = [f"SM_CHOICE_{n}_{c}" for n, cs in CHOICES.items() for c in cs]
-    params = [f"SM_CHOICE_PARAM_{n}" for n in CHOICES]
-    (tmp_path / "c.c").write_text('#include <stdio.h>\n#include "sm_params.h"\nint main(void)\n{\n'
-                                  + "".join(f'    printf("%d\\n", (int){n});\n' for n in (*consts, *params))
-                                  + "    return 0;\n}\n")
-    exe = tmp_path / "c"
-    subprocess.run([shutil.which("gcc"), "-std=c99", "-Wall", "-Werror", f"-I{tmp_path}", "-o", str(exe),
-                    str(tmp_path / "c.c")], check=True)
-    run = subprocess.run([str(exe)], check=True, capture_output=True, text=True)
-    got = [int(s) for s in run.stdout.split()]
+    got = _c_constants(tmp_path, (*consts, *(f"SM_CHOICE_PARAM_{n}" for n in CHOICES)))
     assert got[:len(consts)] == [j for cs in CHOICES.values() for j in range(len(cs))]
     assert got[len(consts):] == list(range(len(CHOICES)))
 
