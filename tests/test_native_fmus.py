@@ -213,7 +213,6 @@ def test_the_native_fmus_under_valgrind_touch_no_bad_memory(variant, fmu_dir, tm
         sys.path.insert(0, {str(ROOT)!r})
         from orchestration.run.master import run
         from orchestration.scenario.load import load_scenario
-from satmotor.interface import CONTROLLER_PARAMETERS, PLANT_PARAMETERS
         sc = dataclasses.replace(load_scenario({str(scenario)!r}), stop_time=0.02)
         r = run(sc, {str(plant)!r}, {str(ctrl)!r})
         print(r.status, len(r.frame))
