@@ -50,3 +50,13 @@ def require_integer(field, value, lower=None):
     if isinstance(value, bool) or not isinstance(value, int) or (lower is not None and value < lower):
         raise ParameterError(field, value, "must be an integer" + ("" if lower is None else f" >= {lower}"))
     return value
+
+
+def require_choice(field, value, choices):
+    """``value`` when it is one of ``choices`` (a String parameter's closed set of values, as
+    ``satmotor.interface`` lists them in ``Variable.choices``); otherwise a :class:`ParameterError`
+    naming the field, the value and the choices (the native core's generated ``sm_choice_parse``
+    writes the same text)."""
+    if not isinstance(value, str) or value not in choices:
+        raise ParameterError(field, value, f"must be one of {', '.join(choices)}")
+    return value

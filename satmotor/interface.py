@@ -14,12 +14,20 @@ import math
 import sys
 from typing import NamedTuple
 
-from satmotor.control.backstepping import BacksteppingGains, ControllerConfig
+from satmotor.control.backstepping import LOAD_MODES, BacksteppingGains, ControllerConfig
 from satmotor.control.deadtime import compensate
-from satmotor.control.drive import HOST_DELAY_MAX, BacksteppingDrive, DriveConfig, IFOCDrive
+from satmotor.control.drive import (
+    FLUX_SOURCES,
+    HOST_DELAY_MAX,
+    OBSERVERS,
+    SPEED_SOURCES,
+    BacksteppingDrive,
+    DriveConfig,
+    IFOCDrive,
+)
 from satmotor.control.ifoc import IFOCGains
 from satmotor.control.measurements import MEAS_I_S_A, MEAS_I_S_B, MEAS_LEN, MEAS_OMEGA_M
-from satmotor.errors import ParameterError, require_integer, require_number
+from satmotor.errors import ParameterError, require_choice, require_integer, require_number
 from satmotor.machine.dc_link import (
     DC_LINK_MODES,
     DC_SOURCES,
@@ -30,7 +38,7 @@ from satmotor.machine.dc_link import (
     DCLinkParams,
     over_voltage_message,
 )
-from satmotor.machine.inverter import InverterParams, PwmInverter
+from satmotor.machine.inverter import INVERTERS, InverterParams, PwmInverter
 from satmotor.machine.magnetics import ArctanCurve, LinearCurve, PolynomialCurve
 from satmotor.machine.params import CURVE_NAMES, MotorParams, make_curve
 from satmotor.machine.plant import (
@@ -50,7 +58,10 @@ class Variable(NamedTuple):
     """One exposed variable: name, causality (input/output/parameter), type (Real, Integer,
     String), start value, unit, description and, for a parameter, the C parameter struct of the
     native core whose member of the same name it fills (``c_struct``: ``motor`` is
-    ``sm_motor_params``; see ``orchestration/build/native/tables.py``)."""
+    ``sm_motor_params``; see ``orchestration/build/native/tables.py``).  ``choices``: a String
+    parameter's closed set of values (empty: any text, a file name); the checks in Python use the
+    same tuple, the native core a C enum and parser generated from it (``sm_choice_parse``), the
+    scenario loader refuses any other value."""
 
     name: str
     causality: str
@@ -59,6 +70,7 @@ class Variable(NamedTuple):
     unit: str
     description: str
     c_struct: str = ""
+    choices: tuple[str, ...] = ()
 
 
 def _in_struct(c_struct, variables):
@@ -66,8 +78,8 @@ def _in_struct(c_struct, variables):
     return tuple(v._replace(c_struct=c_struct) for v in variables)
 
 
-def _v(name, causality, start, unit, description, type_="Real"):
-    return Variable(name, causality, type_, start, unit, description)
+def _v(name, causality, start, unit, description, type_="Real", choices=()):
+    return Variable(name, causality, type_, start, unit, description, choices=tuple(choices))
 
 
 # max_substeps' default: one doStep(0, 5 s) at the limit (h_int = 1e-4 s) took 1.35-1.40 s on the
@@ -94,7 +106,8 @@ MOTOR_PARAMETERS = _in_struct("motor", (
     _v("n_p", "parameter", _M.n_p, "1", "pole pairs", "Integer"),
     _v("J", "parameter", _M.J, "kg m2", "rotor and load inertia"),
     _v("B", "parameter", _M.B, "N m s", "viscous friction"),
-    _v("curve", "parameter", "arctan", "", "magnetizing curve: " + ", ".join(CURVE_NAMES), "String"),
+    _v("curve", "parameter", "arctan", "", "magnetizing curve: " + ", ".join(CURVE_NAMES), "String",
+       CURVE_NAMES),
     _v("L_m0", "parameter", _A.L_m0, "H", "unsaturated magnetizing inductance (all curves)"),
     _v("L_m_inf", "parameter", _A.L_m_inf, "H", "saturated slope (arctan, exponential)"),
     _v("I_par", "parameter", _A.I_par, "A", "knee current scale (arctan, exponential)"),
@@ -164,14 +177,14 @@ PLANT_PARAMETERS = MOTOR_PARAMETERS + _in_struct("plant", (
 ) + _in_struct("dclink", (  # the DC link (satmotor.machine.dc_link.DCLinkParams), last
     _v("dc_link", "parameter", _L.dc_link, "", "DC link: " + ", ".join(DC_LINK_MODES) + " (ideal: a constant "
        "V_dc, the command applied as it is; capacitor: C_dc fed by dc_source, |v_s| bounded by v_dc/sqrt(3))",
-       "String"),
+       "String", DC_LINK_MODES),
     _v("V_dc", "parameter", _L.V_dc, "V", "DC-link voltage (ideal; the one the pwm inverter switches), or "
        "the capacitor's initial voltage and the dc source's voltage (capacitor), > 0; default the "
        "controller's V_dc"),
     _v("C_dc", "parameter", _L.C_dc, "F", "DC-link capacitance, > 0 (capacitor)"),
     _v("dc_source", "parameter", _L.dc_source, "", "what feeds the capacitor through a diode and R_src: "
        + ", ".join(DC_SOURCES) + " (dc: the voltage V_dc; rectifier: a six-pulse diode bridge on the grid "
-       "V_grid, f_grid)", "String"),
+       "V_grid, f_grid)", "String", DC_SOURCES),
     _v("R_src", "parameter", _L.R_src, "Ohm", "source resistance, > 0 (capacitor)"),
     _v("V_grid", "parameter", _L.V_grid, "V", "grid voltage, line-to-line rms (dc_source = rectifier), > 0"),
     _v("f_grid", "parameter", _L.f_grid, "Hz", "grid frequency (dc_source = rectifier), > 0"),
@@ -205,7 +218,7 @@ PLANT_PARAMETERS = MOTOR_PARAMETERS + _in_struct("plant", (
     _v("inverter", "parameter", _INV.inverter, "", "stator voltage source: average (the commanded voltage as "
        "it is, the average-value model) or pwm (carrier-comparison PWM inverter on the link voltage V_dc, "
        "switching instants integrated exactly; co-simulation only; dc_link = ideal, R_fe = 0 and thermal "
-       "= false only)", "String"),
+       "= false only)", "String", INVERTERS),
     _v("f_sw", "parameter", _INV.f_sw, "Hz", "pwm: switching (triangular carrier) frequency, > 0; the duty "
        "cycles are sampled at every carrier peak and valley"),
     _v("t_dead", "parameter", _INV.t_dead, "s", "pwm: dead time of every leg, 0 <= t_dead < 1/(2 f_sw); "
@@ -278,8 +291,10 @@ CONTROLLER_PARAMETERS = _in_struct("controller", (
     _v("d0", "parameter", _G.d0, "1/s2", "speed integral gain (0: no integral action, the seed's law)"),
     _v("Ts", "parameter", _C.Ts, "s", "sample period; one sample per doStep (dt must equal Ts)"),
     _v("mode", "parameter", "saturated", "", "law: saturated (backstepping with the curve), "
-       "constant_m (same law, m = L_m0), pi (indirect field-oriented PI baseline)", "String"),
-    _v("load_mode", "parameter", "known", "", "load torque: known (input T_load) or estimated", "String"),
+       "constant_m (same law, m = L_m0), pi (indirect field-oriented PI baseline)", "String",
+       CONTROLLER_MODES),
+    _v("load_mode", "parameter", "known", "", "load torque: known (input T_load) or estimated", "String",
+       LOAD_MODES),
     _v("V_dc", "parameter", _C.V_dc, "V", "DC-link voltage; |v_s| <= V_dc / sqrt(3)"),
     _v("ref_bandwidth", "parameter", _D.ref_bandwidth, "rad/s", "reference shaper bandwidth"),
     _v("g_theta", "parameter", _C.g_theta, "1/s2", "adaptation gain of the load estimate"),
@@ -288,17 +303,17 @@ CONTROLLER_PARAMETERS = _in_struct("controller", (
        "the law's virtual controls, the measured current (current_limit_gain)"),
     _v("flux_source", "parameter", _D.flux_source, "", "rotor flux: measured (the psi_r/psi_s inputs, "
        "the seed's assumption) or observer (estimated from i_s and omega_m; the psi inputs are ignored)",
-       "String"),
+       "String", FLUX_SOURCES),
     _v("delay_samples", "parameter", _D.delay_samples, "1", "computational delay: 0 (voltage applied at "
        "the sample) or 1 (applied one sample later, compensated by prediction)", "Integer"),
     _v("use_stator_flux", "parameter", _C.use_stator_flux, "", "magnetizing state from the measured "
        "stator flux too (seed H1, eqs 18-19) instead of the curve alone", "Boolean"),
     _v("observer", "parameter", _D.observer, "", "flux observer with flux_source = observer: closed_loop "
        "(current and voltage models blended by a speed-dependent gain, the curve inside) or current_model "
-       "(open loop, from i_s and omega_m)", "String"),
+       "(open loop, from i_s and omega_m)", "String", OBSERVERS),
     _v("speed_source", "parameter", _D.speed_source, "", "mechanical speed: measured (the omega_m input) or "
        "estimated (speed-adaptive closed-loop observer, the omega_m input is not read; needs flux_source = "
-       "observer, observer = closed_loop)", "String"),
+       "observer, observer = closed_loop)", "String", SPEED_SOURCES),
     _v("field_weakening", "parameter", _D.field_weakening, "", "automatic field weakening: psi_ref is the "
        "nominal flux, lowered (on the magnetizing curve) where the steady stator voltage at the present "
        "torque and speed would exceed fw_voltage_ratio V_dc/sqrt(3); false: psi_ref as it is", "Boolean"),
@@ -611,8 +626,7 @@ class ControllerUnit:
         p = motor_params(values)
         f = {v.name: _number(values, v) for v in CONTROLLER_PARAMETERS}
         mode = f["mode"]
-        if mode not in CONTROLLER_MODES:
-            raise ParameterError("mode", mode, f"must be one of {', '.join(CONTROLLER_MODES)}")
+        require_choice("mode", mode, CONTROLLER_MODES)
         if f["flux_source"] == "observer" and f["use_stator_flux"]:
             raise ParameterError("use_stator_flux", True, "needs measured fluxes: not with flux_source = "
                                  "observer")

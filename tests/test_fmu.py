@@ -30,7 +30,13 @@ from fmu_helpers import (
 
 from satmotor.control.backstepping import BacksteppingGains, ControllerConfig
 from satmotor.control.drive import PREMAG, RUN, DriveConfig
-from satmotor.interface import ControllerUnit, PlantUnit, motor_params
+from satmotor.interface import (
+    CONTROLLER_PARAMETERS,
+    PLANT_PARAMETERS,
+    ControllerUnit,
+    PlantUnit,
+    motor_params,
+)
 from satmotor.machine.magnetics import PolynomialCurve
 from satmotor.machine.params import MotorParams, RatedData
 from satmotor.simulate import RampScenario
@@ -417,6 +423,27 @@ def test_bad_parameters_are_refused_at_initialization_naming_the_value(new):
             assert "exitInitializationMode refused its parameters" in s.messages(min_status=3), s.log
     s = new("SaturatedInductionMotor")  # the host goes on: a fresh instance runs
     assert np.array(run_plant(s, 0, 20))[-1].tolist() == [plant_reference()[n][20] for n in PLANT_OUT]
+
+
+# every String parameter with a closed set of values (satmotor.interface Variable.choices), by unit
+CHOICE_PARAMETERS = [(unit, v.name, v.choices) for unit, table in (
+    ("SaturatedInductionMotor", PLANT_PARAMETERS), ("BacksteppingController", CONTROLLER_PARAMETERS))
+    for v in table if v.choices]
+
+
+@pytest.mark.parametrize("name, parameter, choices", CHOICE_PARAMETERS,
+                         ids=[f"{u[:5]}-{n}" for u, n, _ in CHOICE_PARAMETERS])
+def test_a_string_parameter_outside_its_choices_is_refused_naming_them(new, name, parameter, choices):
+    """An unknown text (a near miss: another case) refused at initialization, the log naming the
+    parameter, the value and every allowed value, in the table's order."""
+    s = new(name, initialize=False)
+    bad = choices[-1].capitalize()
+    s.set({parameter: bad})
+    s.fmu.setupExperiment(startTime=0.0)
+    s.fmu.enterInitializationMode()
+    s.fmu.exitInitializationMode()
+    log = s.messages(min_status=3)
+    assert f"{parameter} = {bad!r}: must be one of {', '.join(choices)}" in log, s.log
 
 
 def test_non_finite_input_is_discarded_with_a_message_and_the_step_can_be_redone(new):

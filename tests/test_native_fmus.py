@@ -20,6 +20,7 @@ from orchestration.build import fmus
 from orchestration.run.fmu_instance import FMUInstance
 from orchestration.run.master import run
 from orchestration.scenario.load import load_scenario
+from satmotor.interface import CONTROLLER_PARAMETERS, PLANT_PARAMETERS
 
 pytestmark = pytest.mark.slow
 ROOT = Path(__file__).resolve().parents[1]
@@ -76,6 +77,29 @@ def test_a_bad_parameter_is_an_error_with_its_name_and_a_new_instance_works(vari
     good.initialize(0.0)
     good.do_step(0.0, 1e-4)
     good.close()
+
+
+# every String parameter with a closed set of values (satmotor.interface Variable.choices):
+# (unit: 0 plant, 1 controller; name; choices)
+_TABLES = (PLANT_PARAMETERS, CONTROLLER_PARAMETERS)
+CHOICE_PARAMETERS = [(j, v.name, v.choices) for j, table in enumerate(_TABLES) for v in table if v.choices]
+
+
+@pytest.mark.parametrize("variant", NATIVE)
+@pytest.mark.parametrize("unit, parameter, choices", CHOICE_PARAMETERS,
+                         ids=[f"{('plant', 'ctrl')[u]}-{n}" for u, n, _ in CHOICE_PARAMETERS])
+def test_a_string_parameter_outside_its_choices_is_an_error_naming_them(variant, fmu_dir, unit, parameter,
+                                                                        choices):
+    """The generated parser's refusal (sm_choice_parse) reaches the host: fmi2Error / fmi3Error at
+    initialization, the message naming the parameter, the value and every allowed value."""
+    inst = _open(fmus.paths(fmu_dir, variant)[unit], "bad")
+    bad = choices[-1].capitalize()
+    inst.set_parameters({parameter: bad})
+    with pytest.raises(Exception) as exc:
+        inst.initialize(0.0)
+    assert exc.value.status == 3 and not inst.fatal
+    assert f"{parameter} = {bad!r}: must be one of {', '.join(choices)}" in inst.first_error()
+    inst.close()
 
 
 @pytest.mark.parametrize("variant", NATIVE)

@@ -37,7 +37,7 @@ from orchestration.build import fmus, reference_results
 from orchestration.build.native import model_exchange as native_me
 from orchestration.run.master import run
 from orchestration.scenario.load import load_scenario
-from satmotor.interface import PlantUnit
+from satmotor.interface import PLANT_PARAMETERS, PlantUnit
 
 pytestmark = pytest.mark.slow
 ROOT = Path(__file__).resolve().parents[1]
@@ -167,6 +167,22 @@ def test_the_me_plant_refuses_the_pwm_inverter(fmu_dir, version):
     good = MEPlant(me_path(fmu_dir, version), "average")
     good.initialize({"inverter": "average", "t_dead": 1e-6})
     good.close()
+
+
+@pytest.mark.parametrize("version", VERSIONS)
+@pytest.mark.parametrize("parameter", [v.name for v in PLANT_PARAMETERS if v.choices])
+def test_a_string_parameter_outside_its_choices_is_an_error_naming_them(fmu_dir, version, parameter):
+    """The generated parser's refusal (sm_choice_parse) in the ME plant: an error at initialization,
+    the message naming the parameter, the value and every allowed value."""
+    choices = next(v.choices for v in PLANT_PARAMETERS if v.name == parameter)
+    me = MEPlant(me_path(fmu_dir, version), "bad")
+    bad = choices[-1].capitalize()
+    with pytest.raises(FMICallException) as exc:
+        me.initialize({parameter: bad})
+    assert exc.value.status == 3  # fmi2Error / fmi3Error, not fatal
+    text = " ".join(m for _, m in me.log)
+    assert f"{parameter} = {bad!r}: must be one of {', '.join(choices)}" in text, text
+    me.fmu.freeInstance()
 
 
 def _random_states(rng, n):

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import ctypes
 import dataclasses
+import re
 import shutil
 import subprocess
 
@@ -122,6 +123,20 @@ def test_the_generated_inputs_and_outputs_follow_the_tables():
             assert f"#define SM_VR_{v.name} {vr[v.name]}\n" in head
 
 
+def _c_constants(tmp_path, names):
+    """The values of the C constants ``names`` of the generated ``sm_params.h`` (written into ``tmp_path``),
+    compiled into a program that prints them."""
+    native_tables.core_files(tmp_path)
+    (tmp_path / "p.c").write_text('#include <stdio.h>\n#include "sm_params.h"\nint main(void)\n{\n'
+                                  + "".join(f'    printf("%d\\n", (int){n});\n' for n in names)
+                                  + "    return 0;\n}\n")
+    exe = tmp_path / "p"
+    subprocess.run([shutil.which("gcc"), "-std=c99", "-Wall", "-Werror", f"-I{tmp_path}", "-o", str(exe),
+                    str(tmp_path / "p.c")], check=True)
+    run = subprocess.run([str(exe)], check=True, capture_output=True, text=True)
+    return [int(s) for s in run.stdout.split()]
+
+
 MEAS = {"SM_MEAS_I_S_A": "i_s_alpha", "SM_MEAS_I_S_B": "i_s_beta", "SM_MEAS_PSI_R_A": "psi_r_alpha",
         "SM_MEAS_PSI_R_B": "psi_r_beta", "SM_MEAS_PSI_S_A": "psi_s_alpha", "SM_MEAS_PSI_S_B": "psi_s_beta",
         "SM_MEAS_OMEGA_M": "omega_m"}
@@ -131,16 +146,7 @@ def test_the_c_measurement_layout_is_the_controllers_input_order_and_the_pythons
     """SM_MEAS_* (compiled from the generated sm_params.h and printed) are the positions of their inputs
     in CONTROLLER_INPUTS and equal measurements.MEAS_*: sm_controller.c passes its inputs through."""
     from satmotor.control import measurements
-    native_tables.core_files(tmp_path)
-    (tmp_path / "m.c").write_text('#include <stdio.h>\n#include "sm_params.h"\nint main(void)\n{\n'
-                                  + "".join(f'    printf("%d\\n", (int){n});\n'
-                                            for n in (*MEAS, "SM_MEAS_LEN"))
-                                  + "    return 0;\n}\n")
-    exe = tmp_path / "m"
-    subprocess.run([shutil.which("gcc"), "-std=c99", "-Wall", "-Werror", f"-I{tmp_path}", "-o", str(exe),
-                    str(tmp_path / "m.c")], check=True)
-    run = subprocess.run([str(exe)], check=True, capture_output=True, text=True)
-    got = [int(s) for s in run.stdout.split()]
+    got = _c_constants(tmp_path, (*MEAS, "SM_MEAS_LEN"))
     names = [v.name for v in itf.CONTROLLER_INPUTS]
     assert got[:-1] == [names.index(n) for n in MEAS.values()]
     assert got[:-1] == [getattr(measurements, n[3:]) for n in MEAS]
@@ -153,3 +159,69 @@ def test_the_generation_fails_when_the_python_layout_leaves_the_input_order(monk
                                                      "omega_m", "psi_s_alpha", "psi_s_beta"))
     with pytest.raises(ValueError, match="not the controller's first inputs"):
         native_tables.core_header()
+
+
+# --- the String parameters' choices (Variable.choices -> sm_params.h enums and sm_choice_parse) ---------
+
+STRING_PARAMETERS = {v.name: v for table in (itf.PLANT_PARAMETERS, itf.CONTROLLER_PARAMETERS)
+                     for v in table if v.type == "String"}
+CHOICES = {n: v.choices for n, v in STRING_PARAMETERS.items() if v.choices}
+SM_ERR_PARAM, SM_ERR_ARG = 1, 4  # sm_common.h
+
+
+def test_every_string_parameter_but_the_file_name_has_choices_and_its_description_names_them():
+    assert {n for n, v in STRING_PARAMETERS.items() if not v.choices} == {"table_file"}  # any path
+    assert set(CHOICES) == {"curve", "dc_link", "dc_source", "inverter", "mode", "load_mode", "flux_source",
+                            "observer", "speed_source"}
+    for name, choices in CHOICES.items():
+        words = set(re.findall(r"[A-Za-z_]+", STRING_PARAMETERS[name].description))
+        assert set(choices) <= words, (name, choices)
+        assert STRING_PARAMETERS[name].start in choices, name
+
+
+def _parse(lib, param, value):
+    out, msg = ctypes.c_int(-7), ctypes.create_string_buffer(512)
+    st = lib.sm_choice_parse(param, value, ctypes.byref(out), msg, ctypes.sizeof(msg))
+    return st, out.value, msg.value.decode()
+
+
+def test_the_c_parser_takes_every_choice_of_the_tables_and_refuses_the_rest_naming_them(lib):
+    """Every choice of every String parameter parsed through ctypes to its position in the table's
+    tuple; near misses (case, a blank, empty, a quote) refused with "name = 'value': must be one of
+    a, b" (written out here from the tables), the output left as it was."""
+    lib.sm_choice_param_name.restype = lib.sm_choice_text.restype = ctypes.c_char_p
+    names = []
+    while (name := lib.sm_choice_param_name(len(names))) is not None:
+        names.append(name.decode())
+    assert sorted(names) == sorted(CHOICES)
+    for k, name in enumerate(names):
+        choices = CHOICES[name]
+        assert lib.sm_choice_count(k) == len(choices)
+        assert [lib.sm_choice_text(k, j).decode() for j in range(len(choices))] == list(choices)
+        assert lib.sm_choice_text(k, len(choices)) is None and lib.sm_choice_text(k, -1) is None
+        for j, c in enumerate(choices):
+            assert _parse(lib, k, c.encode()) == (0, j, ""), (name, c)
+        for bad in (choices[0].upper(), choices[-1] + " ", "", "it's"):
+            st, out, msg = _parse(lib, k, bad.encode())
+            assert (st, out) == (SM_ERR_PARAM, -7), (name, bad)
+            assert msg == f"{name} = {bad!r}: must be one of {', '.join(choices)}"
+    assert _parse(lib, len(names), b"x")[0] == SM_ERR_ARG and lib.sm_choice_count(len(names)) == 0
+    assert lib.sm_choice_param_name(-1) is None
+
+
+def test_the_c_choice_enums_are_the_positions_in_the_tables(tmp_path):
+    """SM_CHOICE_<name>_<value> and SM_CHOICE_PARAM_<name> (compiled from the generated sm_params.h and
+    printed): each value its position in the table's choices, each parameter the parser's number of it."""
+    consts = [f"SM_CHOICE_{n}_{c}" for n, cs in CHOICES.items() for c in cs]
+    got = _c_constants(tmp_path, (*consts, *(f"SM_CHOICE_PARAM_{n}" for n in CHOICES)))
+    assert got[:len(consts)] == [j for cs in CHOICES.values() for j in range(len(cs))]
+    assert got[len(consts):] == list(range(len(CHOICES)))
+
+
+def test_choices_on_a_number_or_not_a_c_name_fail_the_generation(monkeypatch):
+    for bad in (itf.Variable("R_s", "parameter", "Real", 1.0, "Ohm", "", "motor", ("a", "b")),
+                itf.Variable("curve", "parameter", "String", "a b", "", "", "motor", ("a b", "c"))):
+        units = {"plant": (itf.PLANT_INPUTS, itf.PLANT_OUTPUTS, (bad,))}
+        monkeypatch.setattr(native_tables, "UNITS", units)
+        with pytest.raises(ValueError, match="choices"):
+            native_tables._choices()

@@ -454,6 +454,25 @@ def test_bad_motor_section(tmp_path, text, field, words):
     assert words in problems[0].message and str(path) in str(problems[0])
 
 
+@pytest.mark.parametrize("section, name, bad, choices", [
+    ("plant", "dc_link", "capacitr", "ideal, capacitor"), ("plant", "dc_source", "grid", "dc, rectifier"),
+    ("plant", "inverter", "PWM", "average, pwm"),
+    ("controller", "flux_source", "estimated", "measured, observer"),
+    ("controller", "observer", "closed-loop", "closed_loop, current_model"),
+    ("controller", "speed_source", "observer", "measured, estimated"),
+    ("controller", "load_mode", "Known", "known, estimated"),
+])
+def test_a_string_parameter_outside_its_choices_is_a_problem_of_the_file(tmp_path, section, name, bad,
+                                                                        choices):
+    """Every String parameter with choices (satmotor.interface Variable.choices) is checked when the file
+    is read, naming the field, the value and the choices (written out here)."""
+    path = tmp_path / "s.yaml"
+    path.write_text(BASE + f"{section}: {{{name}: {bad}}}\n")
+    (problem,) = validate_scenario_file(path)
+    assert (problem.field, problem.value) == (f"{section}.{name}", bad)
+    assert problem.message == f"must be one of {choices}"
+
+
 def test_schema_problems_and_bad_values_are_reported_in_one_pass(tmp_path):
     path = tmp_path / "all.yaml"
     path.write_text(BASE + "colour: red\nplant: {R_s: abc, l_s: -1.0e-3}\ncontroller: {I_max: -3}\n"

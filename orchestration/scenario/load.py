@@ -174,13 +174,12 @@ def motor_variables(variables=None):
 
 
 def _choices():
-    """Allowed values of String parameters, by (unit, name)."""
-    from satmotor.control.backstepping import LOAD_MODES
-    from satmotor.interface import CONTROLLER_MODES
-    from satmotor.machine.params import CURVE_NAMES
+    """Allowed values of String parameters, by (unit, name): the interface tables' ``choices``."""
+    from satmotor.interface import CONTROLLER_PARAMETERS, PLANT_PARAMETERS
 
-    return {("controller", "mode"): CONTROLLER_MODES, ("controller", "load_mode"): tuple(LOAD_MODES),
-            ("plant", "curve"): CURVE_NAMES, ("controller", "curve"): CURVE_NAMES}
+    return {(unit, v.name): v.choices for unit, table in (("plant", PLANT_PARAMETERS),
+                                                           ("controller", CONTROLLER_PARAMETERS))
+            for v in table if v.choices}
 
 
 def _plant_motor_names():

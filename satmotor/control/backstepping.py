@@ -89,7 +89,7 @@ from satmotor.control.measurements import (
     from_rotor_flux,
     from_stator_flux,
 )
-from satmotor.errors import ParameterError, require_number
+from satmotor.errors import ParameterError, require_choice, require_number
 
 _SQRT3 = math.sqrt(3.0)
 _W_REL_FLOOR = 1e-12
@@ -154,8 +154,7 @@ class ControllerConfig:
         require_number("V_dc", self.V_dc, 0)
         require_number("Ts", self.Ts, 0, inclusive=True)
         require_number("phi_min", self.phi_min, 0)
-        if self.load_mode not in LOAD_MODES:
-            raise ParameterError("load_mode", self.load_mode, f"must be one of {LOAD_MODES}")
+        require_choice("load_mode", self.load_mode, LOAD_MODES)
         require_number("g_theta", self.g_theta, 0)
         require_number("theta_max", self.theta_max, 0)
         for name in ("use_stator_flux", "true_i_mu"):

@@ -5,7 +5,8 @@ set-points, and returns the stator voltages to hold over the next period (zero-o
 hold).  It owns every internal state (phase, reference shapers, load estimate, the
 baseline's integrators), all exposed by ``get_state``/``set_state`` for FMU rollback.
 
-Start from standstill (the backstepping law is singular at Phi_rd = 0):
+Start from standstill (the backstepping law is singular at Phi_rd = 0; steps 1 and 2 are
+:mod:`satmotor.control.startup`; the settings and the output record :mod:`satmotor.control.drive_config`):
 
 1. *Pre-magnetization*: a proportional current loop with resistive feed-forward holds the
    stator current on the alpha axis at ``premag_boost`` times the magnetizing current of the
@@ -36,15 +37,22 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from dataclasses import dataclass
-from typing import NamedTuple
 
-from satmotor.control.backstepping import D_SHARE, BacksteppingGains, ControllerConfig, control
+from satmotor.control.backstepping import BacksteppingGains, ControllerConfig, control
 from satmotor.control.current_limit import CurrentLimiter
 from satmotor.control.delay import DelayCompensator
+from satmotor.control.drive_config import (  # re-exported: the drive's callers import them from here
+    FLUX_SOURCES,
+    HOST_DELAY_MAX,
+    OBSERVERS,
+    PREMAG,
+    RUN,
+    SPEED_SOURCES,
+    DriveConfig,
+    DriveOutput,
+)
 from satmotor.control.field_weakening import FieldWeakening
 from satmotor.control.flux_observer import ClosedLoopObserver
-from satmotor.control.fo_model import flux_rate, model_constants
 from satmotor.control.ifoc import IFOCController, IFOCGains
 from satmotor.control.measurements import (
     MEAS_I_S_A,
@@ -52,122 +60,16 @@ from satmotor.control.measurements import (
     MEAS_OMEGA_M,
     MEAS_PSI_R_A,
     MEAS_PSI_R_B,
-    from_rotor_flux,
 )
 from satmotor.control.observer import RotorFluxObserver
 from satmotor.control.references import REF_RATE, REF_VALUE, ReferenceShaper
+from satmotor.control.startup import premag_output, switch_now, switch_state
 from satmotor.errors import ParameterError, require_number
 
-PREMAG, RUN = 0, 1
-FLUX_SOURCES = ("measured", "observer")
-OBSERVERS = ("closed_loop", "current_model")
-SPEED_SOURCES = ("measured", "estimated")
-HOST_DELAY_MAX = 3  # [samples] most coupling delay a host may add (a Jacobi master adds 1)
+__all__ = ["PREMAG", "RUN", "FLUX_SOURCES", "OBSERVERS", "SPEED_SOURCES", "HOST_DELAY_MAX", "DriveConfig",
+           "DriveOutput", "BacksteppingDrive", "IFOCDrive"]
+
 _SQRT3 = math.sqrt(3.0)
-_FRAME_MIN = 1e-3  # [1] below this fraction of the set-point the premag current stays on alpha
-
-
-@dataclass(frozen=True)
-class DriveConfig:
-    """Settings of the drive around the control law (SI units).
-
-    ref_bandwidth [rad/s] of both reference shapers (10-90 % rise 4.22/ref_bandwidth);
-    I_max [A] current limit (pre-magnetization current, flux set-points, the law's virtual
-    controls); premag_fraction [1] of the flux set-point at which the law takes over;
-    premag_min_fraction [1]: the law takes over from this fraction on if the rotor moves by more
-    than premag_speed_tol [rad/s] or premag_time_max [s] has passed, never below it;
-    premag_boost [1]; premag_gain [Ohm] K_pm of the pre-magnetization current loop;
-    flux_source 'measured' (the psi_r inputs, the seed's assumption) or 'observer'
-    (from i_s, omega_m and the applied v_s); observer 'closed_loop'
-    (:class:`satmotor.control.flux_observer.ClosedLoopObserver`, current and voltage models blended) or
-    'current_model' (:class:`satmotor.control.observer.RotorFluxObserver`, open loop);
-    speed_source 'measured' (the omega_m input) or 'estimated' (the closed-loop observer's speed
-    estimate; the omega_m input is not read; needs flux_source 'observer', observer 'closed_loop');
-    speed_bandwidth [rad/s] of the speed estimate's adaptation; delay_samples 0 or 1
-    (:mod:`satmotor.control.delay`); host_delay_samples 0 to HOST_DELAY_MAX: the samples of coupling
-    delay the host adds between the controller's output and the plant's input (a Jacobi master: 1),
-    compensated with delay_samples by one prediction over both; current_limit_gain [1/s] of the
-    measured-current limiter (0: off, the law's model currents alone are bounded;
-    :mod:`satmotor.control.current_limit`); field_weakening: the flux set-point psi_ref is the nominal flux,
-    lowered where the steady stator voltage would exceed fw_voltage_ratio [1] of V_dc/sqrt(3)
-    (:mod:`satmotor.control.field_weakening`); False: psi_ref as it is (the drive before it).
-    """
-
-    ref_bandwidth: float = 40.0
-    I_max: float = 30.0
-    premag_fraction: float = 0.9
-    premag_boost: float = 1.5
-    premag_gain: float = 20.0
-    premag_time_max: float = 0.4
-    premag_min_fraction: float = 0.5
-    premag_speed_tol: float = 2.0
-    flux_source: str = "measured"
-    delay_samples: int = 0
-    observer: str = "closed_loop"
-    speed_source: str = "measured"
-    speed_bandwidth: float = 200.0
-    field_weakening: bool = True
-    fw_voltage_ratio: float = 0.95
-    current_limit_gain: float = 200.0
-    host_delay_samples: int = 0
-
-    def __post_init__(self):
-        require_number("ref_bandwidth", self.ref_bandwidth, 0)
-        require_number("I_max", self.I_max, 0)
-        require_number("premag_fraction", self.premag_fraction, 0, upper=1)
-        require_number("premag_min_fraction", self.premag_min_fraction, 0, upper=self.premag_fraction)
-        require_number("premag_boost", self.premag_boost, 1, inclusive=True)
-        require_number("premag_gain", self.premag_gain, 0)
-        require_number("premag_time_max", self.premag_time_max, 0)
-        require_number("premag_speed_tol", self.premag_speed_tol, 0)
-        if self.flux_source not in FLUX_SOURCES:
-            raise ParameterError("flux_source", self.flux_source, f"must be one of {', '.join(FLUX_SOURCES)}")
-        if self.delay_samples not in (0, 1) or isinstance(self.delay_samples, bool):
-            raise ParameterError("delay_samples", self.delay_samples, "must be 0 or 1")
-        require_number("speed_bandwidth", self.speed_bandwidth, 0)
-        if self.observer not in OBSERVERS:
-            raise ParameterError("observer", self.observer, f"must be one of {', '.join(OBSERVERS)}")
-        if self.speed_source not in SPEED_SOURCES:
-            raise ParameterError("speed_source", self.speed_source,
-                                 f"must be one of {', '.join(SPEED_SOURCES)}")
-        closed_loop = self.flux_source == "observer" and self.observer == "closed_loop"
-        if self.speed_source == "estimated" and not closed_loop:
-            raise ParameterError("speed_source", self.speed_source, "needs flux_source = observer and "
-                                 "observer = closed_loop (the speed estimate is the closed-loop observer's)")
-        if not isinstance(self.field_weakening, bool):
-            raise ParameterError("field_weakening", self.field_weakening, "must be a bool")
-        require_number("fw_voltage_ratio", self.fw_voltage_ratio, 0, upper=1)
-        require_number("current_limit_gain", self.current_limit_gain, 0, inclusive=True)
-        if (isinstance(self.host_delay_samples, bool) or not isinstance(self.host_delay_samples, int)
-                or not 0 <= self.host_delay_samples <= HOST_DELAY_MAX):
-            raise ParameterError("host_delay_samples", self.host_delay_samples,
-                                 f"must be an integer from 0 to {HOST_DELAY_MAX}")
-
-
-class DriveOutput(NamedTuple):
-    """One sample of a drive (SI units); errors are 0 during pre-magnetization.  With a delay,
-    v_s_alpha/beta are the voltages applied now (computed one sample earlier); the other fields
-    belong to this sample's computation (v_sd, v_sq: the command applied from the next sample)."""
-
-    v_s_alpha: float  # [V]
-    v_s_beta: float  # [V]
-    v_sd: float  # [V] flux frame
-    v_sq: float  # [V]
-    e1: float  # [Wb]
-    e2: float  # [Wb/s]
-    z1: float  # [rad/s]
-    z2: float  # [rad/s^2]
-    V: float  # Lyapunov function
-    W: float  # det Lambda (0 where not defined)
-    T_load_est: float  # [N m] load used by the law (estimate in the estimated mode)
-    omega_ref_shaped: float  # [rad/s] shaped speed reference (pre-magnetization: the shaper at rest, 0)
-    psi_ref_shaped: float  # [Wb] shaped flux reference (pre-magnetization: the shaper at rest, 0)
-    phase: int  # PREMAG or RUN
-    voltage_limited: bool
-    singular_limited: bool
-    current_limited: bool
-    psi_r_hat_alpha: float  # [Wb] rotor flux the drive used (estimate, or the measurement)
-    psi_r_hat_beta: float  # [Wb]
 
 
 class _Drive:
@@ -276,9 +178,11 @@ class _Drive:
         self._w_used = meas[MEAS_OMEGA_M]
         if self._phase == PREMAG:
             phi = math.hypot(meas[MEAS_PSI_R_A], meas[MEAS_PSI_R_B])
-            if not self._switch_now(phi, psi_ref, meas[MEAS_OMEGA_M]):
+            if not switch_now(self.dcfg, phi, psi_ref, meas[MEAS_OMEGA_M], self._n, self._n_switch):
                 self._n += 1
-                return self._delayed(self._premag(meas, I_set, phi, psi_ref))
+                out = premag_output(self.params, self.dcfg, meas, I_set, phi, psi_ref, self._V_max,
+                                    self._speed.value[REF_VALUE], self._flux.value[REF_VALUE])
+                return self._delayed(out)
             self._switch(meas)
         i_meas = math.hypot(meas[MEAS_I_S_A], meas[MEAS_I_S_B])  # the measured current (never predicted)
         self._i_lim = self._limiter.bound(i_meas)
@@ -318,50 +222,9 @@ class _Drive:
         va, vb = self._delay.push(out.v_s_alpha, out.v_s_beta, self.dcfg.delay_samples == 1)
         return out._replace(v_s_alpha=va, v_s_beta=vb)
 
-    def _switch_now(self, phi, psi_ref, omega_m):
-        """The law takes over at premag_fraction of the set-point; from premag_min_fraction on when
-        the rotor moves or the time is up; never below (no law at near-zero flux)."""
-        c = self.dcfg
-        if phi >= c.premag_fraction * psi_ref:
-            return True
-        return phi >= c.premag_min_fraction * psi_ref and (
-            self._n >= self._n_switch or abs(omega_m) > c.premag_speed_tol)
-
-    def _premag(self, meas, I_set, phi, psi_ref):
-        """Current loop in the rotor-flux frame (on alpha until there is a flux to align with):
-        i_sd -> min(boost I_set, I_max), i_sq -> 0, whatever the rotor does; when a load drives the
-        rotor (|omega_m| > premag_speed_tol) i_sd -> D_SHARE I_max, the fastest flux build-up the
-        limit allows, so that the law can take over and hold the rotor sooner.
-
-        The shaped-reference outputs are the reference shapers' values: the shapers do not run before
-        the law does (they are at rest where :meth:`reset` put them, 0), and the switch starts them at
-        the measured state (:meth:`_switch`); no measured value is reported as a reference.  e1 is
-        the flux against the raw set-point (``|psi_r| - psi_ref``: how far the build-up has come)."""
-        p, cfg = self.params, self.dcfg
-        K = cfg.premag_gain
-        bounded = cfg.premag_boost * I_set > cfg.I_max
-        i_ref = min(cfg.premag_boost * I_set, cfg.I_max)
-        if abs(meas[MEAS_OMEGA_M]) > cfg.premag_speed_tol:
-            i_ref = max(i_ref, D_SHARE * cfg.I_max)
-        pa, pb = meas[MEAS_PSI_R_A], meas[MEAS_PSI_R_B]
-        c, s = (pa / phi, pb / phi) if phi > _FRAME_MIN * psi_ref else (1.0, 0.0)
-        ia, ib = meas[MEAS_I_S_A], meas[MEAS_I_S_B]
-        vd = p.R_s * i_ref + K * (i_ref - (c * ia + s * ib))
-        vq = -K * (c * ib - s * ia)
-        vn = math.hypot(vd, vq)
-        lim = vn > self._V_max
-        if lim:
-            vd, vq = vd * self._V_max / vn, vq * self._V_max / vn
-        return DriveOutput(c * vd - s * vq, s * vd + c * vq, vd, vq, phi - psi_ref, 0.0, 0.0, 0.0, 0.0,
-                           0.0, 0.0, self._speed.value[REF_VALUE], self._flux.value[REF_VALUE], PREMAG, lim,
-                           False, bounded, pa, pb)
-
     def _switch(self, meas):
-        p = self.params
-        ms = from_rotor_flux(meas[MEAS_I_S_A], meas[MEAS_I_S_B], meas[MEAS_PSI_R_A], meas[MEAS_PSI_R_B], p)
-        c = model_constants(p)
-        dphi = flux_rate(c.a, c.k, ms.Phi_rd, ms.i_mu_d, ms.m)
-        self._flux.set_state((ms.Phi_rd, dphi, 0.0))
+        flux_state, ms = switch_state(self.params, meas)
+        self._flux.set_state(flux_state)
         self._speed.reset(meas[MEAS_OMEGA_M])
         self._phase = RUN
         self._on_switch(ms)

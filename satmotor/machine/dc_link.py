@@ -38,7 +38,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from satmotor.errors import ParameterError, require_number
+from satmotor.errors import ParameterError, require_choice, require_number
 from satmotor.machine.integrate import rk4
 
 DC_LINK_MODES = ("ideal", "capacitor")
@@ -73,10 +73,8 @@ class DCLinkParams:
     V_dc_max: float = 800.0
 
     def __post_init__(self):
-        if self.dc_link not in DC_LINK_MODES:
-            raise ParameterError("dc_link", self.dc_link, f"must be one of {', '.join(DC_LINK_MODES)}")
-        if self.dc_source not in DC_SOURCES:
-            raise ParameterError("dc_source", self.dc_source, f"must be one of {', '.join(DC_SOURCES)}")
+        require_choice("dc_link", self.dc_link, DC_LINK_MODES)
+        require_choice("dc_source", self.dc_source, DC_SOURCES)
         for name in ("V_dc", "C_dc", "R_src", "V_grid", "f_grid"):
             require_number(name, getattr(self, name), 0)
         require_number("R_chop", self.R_chop, 0, inclusive=True)

@@ -50,7 +50,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from satmotor.errors import ParameterError, require_number
+from satmotor.errors import ParameterError, require_choice, require_number
 
 INVERTERS = ("average", "pwm")
 MERGE_REL = 1e-6  # [1] events closer than MERGE_REL T_h are merged (module docstring)
@@ -76,8 +76,7 @@ class InverterParams:
     v_on: float = 0.0
 
     def __post_init__(self):
-        if self.inverter not in INVERTERS:
-            raise ParameterError("inverter", self.inverter, f"must be one of {', '.join(INVERTERS)}")
+        require_choice("inverter", self.inverter, INVERTERS)
         require_number("V_dc", self.V_dc, 0)
         require_number("f_sw", self.f_sw, 0)
         require_number("t_dead", self.t_dead, 0, inclusive=True)

@@ -35,7 +35,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
-from satmotor.errors import ParameterError, require_integer, require_number
+from satmotor.errors import ParameterError, require_choice, require_integer, require_number
 from satmotor.machine.magnetics import ArctanCurve, ExponentialCurve, LinearCurve, PolynomialCurve
 from satmotor.machine.table_curve import TableCurve
 
@@ -143,6 +143,7 @@ def make_curve(name, L_m0=0.2772, L_m_inf=0.01, I_par=3.31, poly_b=2.46, poly_n=
 
     Raises :class:`ParameterError` naming ``curve`` or the offending coefficient.
     """
+    require_choice("curve", name, CURVE_NAMES)
     if name == "arctan":
         return ArctanCurve(L_m0, L_m_inf, I_par)
     if name == "exponential":
@@ -151,8 +152,6 @@ def make_curve(name, L_m0=0.2772, L_m_inf=0.01, I_par=3.31, poly_b=2.46, poly_n=
         return PolynomialCurve(L_m0, poly_b, poly_n)
     if name == "linear":
         return LinearCurve(L_m0)
-    if name == "table":
-        if not table_file:
-            raise ParameterError("table_file", table_file, "is required when curve = 'table'")
-        return TableCurve.from_csv(table_file)
-    raise ParameterError("curve", name, f"must be one of {', '.join(CURVE_NAMES)}")
+    if not table_file:  # the table curve
+        raise ParameterError("table_file", table_file, "is required when curve = 'table'")
+    return TableCurve.from_csv(table_file)

@@ -13,12 +13,6 @@ size_t sm_controller_size(void)
     return sizeof(sm_controller);
 }
 
-static int str_error(char *msg, size_t len, const char *field, const char *value, const char *reason)
-{
-    char repr[SM_STR_MAX + 8];
-    return sm_param_error(msg, len, NULL, field, sm_repr_str(value, repr, sizeof repr), reason);
-}
-
 int sm_controller_init(sm_controller *u, const sm_controller_params *v, const sm_motor_params *m, char *msg,
                        size_t msg_len)
 {
@@ -28,7 +22,7 @@ int sm_controller_init(sm_controller *u, const sm_controller_params *v, const sm
     sm_ifoc_gains ig;
     sm_drive_config dc;
     sm_mode mode;
-    int st, j;
+    int st, j, k;
     if (u == NULL || v == NULL || m == NULL) {
         return SM_ERR_ARG;
     }
@@ -40,35 +34,24 @@ int sm_controller_init(sm_controller *u, const sm_controller_params *v, const sm
     if ((st = sm_controller_params_require_finite(v, msg, msg_len))) { /* interface._number: finite */
         return st;
     }
-    if (strcmp(v->mode, "saturated") == 0) {
-        mode = SM_MODE_SATURATED;
-    } else if (strcmp(v->mode, "constant_m") == 0) {
-        mode = SM_MODE_CONSTANT_M;
-    } else if (strcmp(v->mode, "pi") == 0) {
-        mode = SM_MODE_PI;
-    } else {
-        return str_error(msg, msg_len, "mode", v->mode, "must be one of saturated, constant_m, pi");
+    /* the String parameters by the generated parser (sm_params.h: their choices in satmotor/interface.py) */
+    if ((st = sm_choice_parse(SM_CHOICE_PARAM_mode, v->mode, &k, msg, msg_len))) {
+        return st;
     }
+    mode = (sm_mode)k;
     sm_drive_config_default(&dc);
-    if (strcmp(v->flux_source, "observer") == 0) {
-        dc.observer = 1;
-    } else if (strcmp(v->flux_source, "measured") != 0) {
-        return str_error(msg, msg_len, "flux_source", v->flux_source, "must be one of measured, observer");
+    if ((st = sm_choice_parse(SM_CHOICE_PARAM_flux_source, v->flux_source, &k, msg, msg_len))) {
+        return st;
     }
-    if (strcmp(v->observer, "closed_loop") == 0) {
-        dc.closed_loop = 1;
-    } else if (strcmp(v->observer, "current_model") == 0) {
-        dc.closed_loop = 0;
-    } else {
-        return str_error(msg, msg_len, "observer", v->observer, "must be one of closed_loop, current_model");
+    dc.observer = k == SM_CHOICE_flux_source_observer;
+    if ((st = sm_choice_parse(SM_CHOICE_PARAM_observer, v->observer, &k, msg, msg_len))) {
+        return st;
     }
-    if (strcmp(v->speed_source, "estimated") == 0) {
-        dc.speed_estimated = 1;
-    } else if (strcmp(v->speed_source, "measured") == 0) {
-        dc.speed_estimated = 0;
-    } else {
-        return str_error(msg, msg_len, "speed_source", v->speed_source, "must be one of measured, estimated");
+    dc.closed_loop = k == SM_CHOICE_observer_closed_loop;
+    if ((st = sm_choice_parse(SM_CHOICE_PARAM_speed_source, v->speed_source, &k, msg, msg_len))) {
+        return st;
     }
+    dc.speed_estimated = k == SM_CHOICE_speed_source_estimated;
     if (dc.observer && v->use_stator_flux) {
         return sm_param_error(msg, msg_len, NULL, "use_stator_flux", "True",
                               "needs measured fluxes: not with flux_source = observer");
@@ -101,12 +84,13 @@ int sm_controller_init(sm_controller *u, const sm_controller_params *v, const sm
     sm_law_config_default(&cfg);
     cfg.V_dc = v->V_dc;
     cfg.Ts = v->Ts;
-    if (strcmp(v->load_mode, "estimated") == 0) {
-        cfg.load_estimated = 1;
-    } else if (strcmp(v->load_mode, "known") != 0) {
-        if (mode != SM_MODE_PI) {
-            return str_error(msg, msg_len, "load_mode", v->load_mode, "must be one of ('known', 'estimated')");
-        }
+    /* load_mode is the law's: mode pi takes any text (as ControllerUnit, which builds no ControllerConfig) */
+    if (sm_choice_parse(SM_CHOICE_PARAM_load_mode, v->load_mode, &k, msg, msg_len) == SM_CORE_OK) {
+        cfg.load_estimated = k == SM_CHOICE_load_mode_estimated;
+    } else if (mode != SM_CHOICE_mode_pi) {
+        return SM_ERR_PARAM;
+    } else if (msg != NULL && msg_len > 0) {
+        msg[0] = '\0';
     }
     cfg.g_theta = v->g_theta;
     cfg.theta_max = v->theta_max;

@@ -1,6 +1,7 @@
 /* Magnetizing curves: satmotor/machine/magnetics.py and satmotor/machine/table_curve.py transcribed to C99.
  * Also the helpers of sm_common.h (Python-style messages).  No global mutable state. */
 #include "sm_curves.h"
+#include "sm_params.h" /* generated: sm_choice_parse */
 
 #include <errno.h>
 #include <float.h>
@@ -959,31 +960,33 @@ int sm_curve_init(sm_curve *c, const char *name, double L_m0, double L_m_inf, do
                   double poly_b, int poly_n, const char *table_path, char *msg, size_t msg_len)
 {
     char v[1200];
-    int st;
+    int st, k;
     if (msg != NULL && msg_len > 0) msg[0] = '\0';
     if (c == NULL) {
         if (msg != NULL && msg_len > 0) snprintf(msg, msg_len, "sm_curve_init: NULL curve");
         return SM_ERR_ARG;
     }
     if (name == NULL) name = "";
-    if (strcmp(name, "table") == 0) {
+    /* the generated parser (sm_params.h: the choices of the parameter curve in satmotor/interface.py) */
+    if ((st = sm_choice_parse(SM_CHOICE_PARAM_curve, name, &k, msg, msg_len))) return st;
+    switch ((sm_curve_choice)k) {
+    case SM_CHOICE_curve_table:
         if (table_path == NULL || table_path[0] == '\0')
             return sm_param_error(msg, msg_len, NULL, "table_file", sm_repr_str(table_path, v, sizeof v),
                                   "is required when curve = 'table'");
         return table_from_csv(c, table_path, msg, msg_len);
-    }
-    if (strcmp(name, "arctan") == 0 || strcmp(name, "exponential") == 0) {
+    case SM_CHOICE_curve_arctan:
+    case SM_CHOICE_curve_exponential:
         st = check_saturating(L_m0, L_m_inf, I_par, msg, msg_len);
         if (st) return st;
         memset(c, 0, sizeof *c);
-        c->kind = name[0] == 'a' ? SM_CURVE_ARCTAN : SM_CURVE_EXPONENTIAL;
+        c->kind = k == SM_CHOICE_curve_arctan ? SM_CURVE_ARCTAN : SM_CURVE_EXPONENTIAL;
         c->L_m0 = L_m0;
         c->L_m_inf = L_m_inf;
         c->I_par = I_par;
         c->m0 = L_m0;
         return SM_CORE_OK;
-    }
-    if (strcmp(name, "polynomial") == 0) {
+    case SM_CHOICE_curve_polynomial:
         if (sm_require_number("L_m0", L_m0, 1, 0.0, 0, msg, msg_len)) return SM_ERR_PARAM;
         if (sm_require_number("poly_b", poly_b, 1, 0.0, 1, msg, msg_len)) return SM_ERR_PARAM;
         if (sm_require_integer("poly_n", poly_n, 2, msg, msg_len)) return SM_ERR_PARAM;
@@ -994,8 +997,7 @@ int sm_curve_init(sm_curve *c, const char *name, double L_m0, double L_m_inf, do
         c->poly_n = poly_n;
         c->m0 = L_m0;
         return SM_CORE_OK;
-    }
-    if (strcmp(name, "linear") == 0) {
+    case SM_CHOICE_curve_linear:
         if (sm_require_number("L_m0", L_m0, 1, 0.0, 0, msg, msg_len)) return SM_ERR_PARAM;
         memset(c, 0, sizeof *c);
         c->kind = SM_CURVE_LINEAR;
@@ -1003,8 +1005,7 @@ int sm_curve_init(sm_curve *c, const char *name, double L_m0, double L_m_inf, do
         c->m0 = L_m0;
         return SM_CORE_OK;
     }
-    return sm_param_error(msg, msg_len, NULL, "curve", sm_repr_str(name, v, sizeof v),
-                          "must be one of arctan, exponential, polynomial, table, linear");
+    return SM_ERR_ARG; /* not reached: sm_choice_parse returned one of the choices */
 }
 
 /* ------------------------------------------------------------------ CPython's math.hypot */

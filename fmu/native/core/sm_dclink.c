@@ -7,18 +7,6 @@
 
 #define SM_DCLINK_PI 3.141592653589793 /* math.pi */
 
-static int one_of(const char *field, const char *value, const char *a, const char *b, int *is_a, char *msg,
-                  size_t msg_len)
-{
-    char rep[SM_STR_MAX + 8], reason[64];
-    if (strcmp(value, a) == 0 || strcmp(value, b) == 0) {
-        *is_a = strcmp(value, a) == 0;
-        return SM_CORE_OK;
-    }
-    snprintf(reason, sizeof reason, "must be one of %s, %s", a, b);
-    return sm_param_error(msg, msg_len, NULL, field, sm_repr_str(value, rep, sizeof rep), reason);
-}
-
 int sm_dclink_init(sm_dclink *l, const sm_dclink_params *pp, char *msg, size_t msg_len)
 {
     sm_dclink q;
@@ -29,10 +17,10 @@ int sm_dclink_init(sm_dclink *l, const sm_dclink_params *pp, char *msg, size_t m
     if (l == NULL || pp == NULL) return SM_ERR_ARG;
     if (sm_dclink_params_require_finite(pp, msg, msg_len)) return SM_ERR_PARAM;
     memset(&q, 0, sizeof q);
-    if ((st = one_of("dc_link", pp->dc_link, "ideal", "capacitor", &i, msg, msg_len)) != SM_CORE_OK) return st;
-    q.capacitor = !i;
-    if ((st = one_of("dc_source", pp->dc_source, "dc", "rectifier", &q.src_dc, msg, msg_len)) != SM_CORE_OK)
-        return st;
+    if ((st = sm_choice_parse(SM_CHOICE_PARAM_dc_link, pp->dc_link, &i, msg, msg_len)) != SM_CORE_OK) return st;
+    q.capacitor = i == SM_CHOICE_dc_link_capacitor;
+    if ((st = sm_choice_parse(SM_CHOICE_PARAM_dc_source, pp->dc_source, &i, msg, msg_len)) != SM_CORE_OK) return st;
+    q.src_dc = i == SM_CHOICE_dc_source_dc;
     vals[0] = pp->V_dc;
     vals[1] = pp->C_dc;
     vals[2] = pp->R_src;

@@ -102,13 +102,13 @@ int sm_drive_init(sm_drive *d, sm_mode mode, const sm_motor *p, const sm_gains *
     d->g = *g;
     d->cfg = *cfg;
     d->dc = *dc;
-    if (mode == SM_MODE_CONSTANT_M) { /* the same law with the line m = m(0) */
+    if (mode == SM_CHOICE_mode_constant_m) { /* the same law with the line m = m(0) */
         if ((st = sm_curve_init(&d->p.curve, "linear", p->curve.m0, 0.01, 3.31, 2.46, 7, "", msg, msg_len))) {
             return st;
         }
         d->p.m0 = d->p.curve.m0;
     }
-    if (mode == SM_MODE_PI) {
+    if (mode == SM_CHOICE_mode_pi) {
         double L_m = sm_curve_m(&p->curve, 5.7); /* RatedData().I_mu_n, until the switch (IFOCDrive) */
         if ((st = sm_ifoc_init(&d->ifoc, p->R_s, p->R_r, p->l_s, p->l_r, p->k, p->n_p, p->J, ig, cfg->Ts, L_m,
                                msg, msg_len))) {
@@ -165,7 +165,7 @@ void sm_drive_set_link_voltage(sm_drive *d, double V_dc)
         d->fw.V_lim = d->V_max * d->dc.fw_voltage_ratio;
         d->fw.V_bd = 0.5 * (d->fw.V_lim + d->V_max);
     }
-    if (d->mode == SM_MODE_PI) { /* IFOCController.set_link_voltage */
+    if (d->mode == SM_CHOICE_mode_pi) { /* IFOCController.set_link_voltage */
         d->ifoc.V_max = V_dc / sqrt(3.0);
         d->ifoc.V_max2 = d->ifoc.V_max * d->ifoc.V_max;
     } else {
@@ -189,7 +189,7 @@ void sm_drive_reset(sm_drive *d)
     }
     sm_current_limit_reset(&d->limiter);
     d->theta_hat = d->e0 = d->z0 = 0.0;
-    if (d->mode == SM_MODE_PI) {
+    if (d->mode == SM_CHOICE_mode_pi) {
         (void)sm_ifoc_reset(&d->ifoc, 0.0, 0.0, NULL, 0);
     }
 }
@@ -292,7 +292,7 @@ static int do_switch(sm_drive *d, const double meas[SM_MEAS_LEN])
         return st;
     }
     d->phase = SM_RUN;
-    if (d->mode == SM_MODE_PI) { /* IFOCDrive._on_switch: L_m at the raw set-point of this sample */
+    if (d->mode == SM_CHOICE_mode_pi) { /* IFOCDrive._on_switch: L_m at the raw set-point of this sample */
         if (sm_ifoc_set_inductance(&d->ifoc, d->checked_psi / d->p.k / d->checked_I, NULL, 0)) {
             return SM_ERR_PARAM;
         }
@@ -303,7 +303,7 @@ static int do_switch(sm_drive *d, const double meas[SM_MEAS_LEN])
 
 static double model_load(const sm_drive *d, double T_load)
 {
-    if (d->mode == SM_MODE_PI) {
+    if (d->mode == SM_CHOICE_mode_pi) {
         return 0.0;
     }
     return d->cfg.load_estimated ? d->theta_hat * d->p.J : T_load;
@@ -313,7 +313,7 @@ static int run(sm_drive *d, const double meas[SM_MEAS_LEN], const double psi_ref
                const double omega_ref_shaped[3], double T_load, sm_drive_output *o, char *msg, size_t len)
 {
     memset(o, 0, sizeof *o);
-    if (d->mode == SM_MODE_PI) {
+    if (d->mode == SM_CHOICE_mode_pi) {
         double w = meas[SM_MEAS_OMEGA_M], va, vb;
         sm_ifoc_diagnostics dg;
         int st = sm_ifoc_step(&d->ifoc, meas[SM_MEAS_I_S_A], meas[SM_MEAS_I_S_B], w, omega_ref_shaped[0],

@@ -14,9 +14,10 @@
 #include "sm_ifoc.h"
 #include "sm_law.h"
 #include "sm_observer.h"
+#include "sm_params.h" /* generated: sm_mode_choice */
 #include "sm_references.h"
 
-typedef enum { SM_MODE_SATURATED = 0, SM_MODE_CONSTANT_M = 1, SM_MODE_PI = 2 } sm_mode;
+typedef sm_mode_choice sm_mode; /* the controller's parameter mode: SM_CHOICE_mode_saturated, ... */
 enum { SM_PREMAG = 0, SM_RUN = 1 };
 
 /* drive.DriveConfig */

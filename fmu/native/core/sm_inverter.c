@@ -9,16 +9,13 @@
 int sm_inverter_init(sm_inverter *inv, const sm_plant_params *pp, double V_dc, char *msg, size_t msg_len)
 {
     sm_inverter q;
-    char v[40], b[40], r[128], s[SM_STR_MAX + 8];
+    char v[40], b[40], r[128];
+    int k;
     if (msg != NULL && msg_len > 0) msg[0] = '\0';
     if (inv == NULL || pp == NULL) return SM_ERR_ARG;
     memset(&q, 0, sizeof q);
-    if (strcmp(pp->inverter, "pwm") == 0) {
-        q.pwm = 1;
-    } else if (strcmp(pp->inverter, "average") != 0) {
-        return sm_param_error(msg, msg_len, NULL, "inverter", sm_repr_str(pp->inverter, s, sizeof s),
-                              "must be one of average, pwm");
-    }
+    if (sm_choice_parse(SM_CHOICE_PARAM_inverter, pp->inverter, &k, msg, msg_len)) return SM_ERR_PARAM;
+    q.pwm = k == SM_CHOICE_inverter_pwm;
     if (sm_require_number("V_dc", V_dc, 1, 0.0, 0, msg, msg_len)) return SM_ERR_PARAM;
     if (sm_require_number("f_sw", pp->f_sw, 1, 0.0, 0, msg, msg_len)) return SM_ERR_PARAM;
     if (sm_require_number("t_dead", pp->t_dead, 1, 0.0, 1, msg, msg_len)) return SM_ERR_PARAM;

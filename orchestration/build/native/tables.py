@@ -13,7 +13,13 @@ One generator for every native model; nothing below is written by hand in C:
   layout ``SM_MEAS_*`` (:mod:`satmotor.control.measurements`: ``MEAS_*``, the controller's first
   inputs in their order; the generation fails if they disagree) and the defaults of the core's
   structs of the Python settings
-  dataclasses (:data:`DATACLASS_STRUCTS`: ``sm_gains_default`` from ``BacksteppingGains()``, ...);
+  dataclasses (:data:`DATACLASS_STRUCTS`: ``sm_gains_default`` from ``BacksteppingGains()``, ...),
+  and per String parameter with a closed set of values (``Variable.choices``, :data:`CHOICES`) an
+  enum ``sm_<name>_choice`` (``SM_CHOICE_<name>_<value>``, the choices' order) and its parameter's
+  place ``SM_CHOICE_PARAM_<name>`` in the one parser ``sm_choice_parse`` (text -> enum value, or
+  ``SM_ERR_PARAM`` with the message of ``satmotor.errors.require_choice``: "mode = 'fuzzy': must be
+  one of saturated, constant_m, pi"), with ``sm_choice_text`` / ``sm_choice_count`` /
+  ``sm_choice_param_name`` back;
 * per model (:func:`model_files`): ``sm_vars.h`` (declarations only) and ``sm_vars.c``: the value
   reference of each variable (``SM_VR_<name>``: its position in the model's table, as the model
   descriptions number them; ``SM_VR_time`` last unless the table has an ``independent`` variable
@@ -77,6 +83,25 @@ def _structs():
 STRUCTS = _structs()  # c_struct -> its parameters (Variables) in member order
 
 
+def _choices():
+    out: dict[str, tuple[str, ...]] = {}
+    for unit, (_, _, params) in UNITS.items():
+        for v in params:
+            if not v.choices:
+                continue
+            if v.type != "String":
+                raise ValueError(f"{unit}.{v.name}: choices on a {v.type} variable (String only)")
+            bad = [c for c in v.choices if not c.isidentifier()]
+            if bad or len(set(v.choices)) != len(v.choices):
+                raise ValueError(f"{unit}.{v.name}: choices {v.choices} must be distinct C identifiers")
+            if out.setdefault(v.name, v.choices) != v.choices:
+                raise ValueError(f"{unit}.{v.name}: choices {v.choices}, another unit's {out[v.name]}")
+    return out
+
+
+CHOICES = _choices()  # String parameter name -> its choices, in table order (plant, then controller)
+
+
 def struct_members(c_struct):
     """``[(member name, type)]`` of ``sm_<c_struct>_params``, ``type`` the interface type (Real,
     Integer, Boolean: a C ``int``, String: ``char[STRING_MAX]``)."""
@@ -121,6 +146,84 @@ def _meas_enum():
             f"    SM_MEAS_LEN = {m.MEAS_LEN}", "};", ""]
 
 
+_CHOICE_DECLARATIONS = """
+/* The text value of the String parameter param as its enum value (sm_<name>_choice) in *out:
+ * SM_CORE_OK; any other text (or NULL): SM_ERR_PARAM, *out unchanged, msg as
+ * satmotor.errors.require_choice ("mode = 'fuzzy': must be one of saturated, constant_m, pi");
+ * param out of range or out NULL: SM_ERR_ARG. */
+int sm_choice_parse(sm_choice_param param, const char *value, int *out, char *msg, size_t msg_len);
+/* the parameter's name ("mode"; NULL: param out of range) */
+const char *sm_choice_param_name(int param);
+/* how many choices param has (0: param out of range) */
+int sm_choice_count(int param);
+/* the text of choice value of param (NULL: out of range) */
+const char *sm_choice_text(int param, int value);
+"""
+_CHOICE_DEFINITIONS = """
+int sm_choice_parse(sm_choice_param param, const char *value, int *out, char *msg, size_t msg_len)
+{
+    char repr[SM_STR_MAX + 8];
+    const sm_choice_table *t;
+    int j;
+    if ((int)param < 0 || (int)param >= SM_N_CHOICE_PARAMS || out == NULL) {
+        return SM_ERR_ARG;
+    }
+    t = &SM_CHOICE_TABLE[(int)param];
+    for (j = 0; value != NULL && j < t->n; ++j) {
+        if (strcmp(value, t->texts[j]) == 0) {
+            *out = j;
+            return SM_CORE_OK;
+        }
+    }
+    return sm_param_error(msg, msg_len, NULL, t->name, sm_repr_str(value, repr, sizeof repr), t->reason);
+}
+
+const char *sm_choice_param_name(int param)
+{
+    return param >= 0 && param < SM_N_CHOICE_PARAMS ? SM_CHOICE_TABLE[param].name : NULL;
+}
+
+int sm_choice_count(int param)
+{
+    return param >= 0 && param < SM_N_CHOICE_PARAMS ? SM_CHOICE_TABLE[param].n : 0;
+}
+
+const char *sm_choice_text(int param, int value)
+{
+    if (param < 0 || param >= SM_N_CHOICE_PARAMS || value < 0 || value >= SM_CHOICE_TABLE[param].n) {
+        return NULL;
+    }
+    return SM_CHOICE_TABLE[param].texts[value];
+}
+"""
+
+
+def _choice_header():
+    """The enums of :data:`CHOICES` and the parser's declarations."""
+    lines = ["/* the String parameters with a closed set of values (satmotor/interface.py Variable.choices):",
+             " * an enum each, its values in the order of the choices */"]
+    for name, choices in CHOICES.items():
+        lines += ["typedef enum {", *(f"    SM_CHOICE_{name}_{c} = {j}, /* {_c_string(c)} */"
+                                      for j, c in enumerate(choices)), f"}} sm_{name}_choice;"]
+    lines += ["", "/* the parameters sm_choice_parse knows */", "typedef enum {",
+              *(f"    SM_CHOICE_PARAM_{n} = {j}," for j, n in enumerate(CHOICES)), "} sm_choice_param;",
+              f"#define SM_N_CHOICE_PARAMS {len(CHOICES)}", *_CHOICE_DECLARATIONS.split("\n")]
+    return lines
+
+
+def _choice_source():
+    """The definitions of :func:`_choice_header`: a table of the choices and the parser."""
+    lines = [f"static const char *const SM_CHOICES_{name}[{len(choices)}] = {{"
+             + ", ".join(map(_c_string, choices)) + "};" for name, choices in CHOICES.items()]
+    lines += ["", "typedef struct {", "    const char *name;", "    const char *const *texts;", "    int n;",
+              "    const char *reason; /* as satmotor.errors.require_choice */", "} sm_choice_table;", "",
+              "static const sm_choice_table SM_CHOICE_TABLE[SM_N_CHOICE_PARAMS] = {"]
+    for n, c in CHOICES.items():
+        reason = _c_string("must be one of " + ", ".join(c))
+        lines.append(f"    {{{_c_string(n)}, SM_CHOICES_{n}, {len(c)}, {reason}}},")
+    return [*lines, "};", *_CHOICE_DEFINITIONS.split("\n")]
+
+
 def core_header():
     """``sm_params.h``: the parameter structs, their defaults and sizes, the units' input/output
     counts and names (declarations)."""
@@ -148,6 +251,7 @@ def core_header():
                   f"extern const char *const SM_{u}_OUTPUT_NAMES[SM_{u}_N_OUT];", ""]
         lines += [f"#define SM_{u}_IN_{v.name} {j}" for j, v in enumerate(inputs)] + [""]
     lines += _meas_enum()
+    lines += _choice_header()
     lines += ["#endif", ""]
     return "\n".join(lines)
 
@@ -178,7 +282,7 @@ def core_source():
     """``sm_params.c``: the definitions of :func:`core_header`, and the defaults of the core's structs
     of the Python settings dataclasses (:data:`DATACLASS_STRUCTS`, declared in the core's headers)."""
     lines = [f"/* {_ORIGIN} */", '#include "sm_params.h"', "", "#include <string.h>", "",
-             '#include "sm_common.h"', '#include "sm_drive.h"', "", *_dataclass_defaults()]
+             '#include "sm_common.h"', '#include "sm_drive.h"', "", *_dataclass_defaults(), *_choice_source()]
     for s, members in STRUCTS.items():
         lines += [f"void sm_{s}_params_default(sm_{s}_params *p)", "{", "    memset(p, 0, sizeof *p);"]
         for v in members:
