@@ -308,3 +308,30 @@ def test_options_off_pwm_ideal_link_is_unchanged():
         u.step(k * 1e-4, 1e-4, (va, vb, tl))
         x, *_ = inv.step(plant, k * 1e-4, x, va, vb, tl, 1e-4, u.h_int)
         assert u.x == x
+
+
+# ---- the scenario -------------------------------------------------------------------------------------
+
+@pytest.mark.slow
+def test_the_pwm_capacitor_stop_scenario(fmu_dir):
+    """scenarios/pwm_capacitor_stop.yaml through the native FMUs and the master: its acceptance holds, no
+    fault, the chopper takes part and holds the link between its thresholds and the fault level, and the
+    chopper burns less than the kinetic energy 1/2 J w^2 the stop releases."""
+    from orchestration.build import fmus
+    from orchestration.results.writer import check_acceptance, compute_metrics
+    from orchestration.run.master import run
+    from orchestration.scenario.load import load_scenario
+
+    sc = load_scenario(Path(__file__).resolve().parents[1] / "scenarios" / "pwm_capacitor_stop.yaml")
+    p, c = fmus.paths(fmu_dir, "native")
+    res = run(sc, str(p), str(c))
+    assert res.ok, res.message
+    m = compute_metrics(res.frame, sc)
+    verdicts = check_acceptance(m, sc)
+    kinetic = 0.5 * 0.075 * 150.0**2
+    print(f"E_regen {m['E_regen']:.2f} J, E_chop {m['E_chop']:.2f} J, peak v_dc {m['peak_v_dc']:.2f} V, "
+          f"kinetic {kinetic:.2f} J; {verdicts}")
+    assert set(verdicts) >= {"peak_v_dc", "ss_speed", "ss_flux"} and all(v["pass"] for v in verdicts.values())
+    assert m["dc_fault"] == 0.0
+    assert sc.plant["V_chop_off"] < m["peak_v_dc"] < sc.plant["V_dc_max"]
+    assert 0.0 < m["E_chop"] < m["E_regen"] < kinetic
