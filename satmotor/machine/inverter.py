@@ -246,7 +246,7 @@ class PwmInverter:
                     sa += volts[0] * (tn - tp)
                     sb += volts[1] * (tn - tp)
                 else:
-                    x, ia, ib = self._integrate_link(lk, x, tp, tn - tp, cur, T_load, h_int, trace)
+                    x, ia, ib = pwm_link.interval(self, lk, x, tp, tn - tp, cur, T_load, h_int, trace)
                     sa += ia
                     sb += ib
                 tp, cur, volts = tn, None, None
@@ -278,34 +278,11 @@ class PwmInverter:
             sa += volts[0] * (t1 - tp)
             sb += volts[1] * (t1 - tp)
         else:
-            x, ia, ib = self._integrate_link(lk, x, tp, t1 - tp, cur, T_load, h_int, trace)
+            x, ia, ib = pwm_link.interval(self, lk, x, tp, t1 - tp, cur, T_load, h_int, trace)
             sa += ia
             sb += ib
             self.link_out = tuple(lk[1:])
         return x, sa / dt, sb / dt
-
-    def _integrate_link(self, lk, x, t, L, cur, T_load, h_int, trace):
-        """One constant interval on the capacitor link (:func:`pwm_link.step`); ``cur``: the phase
-        currents at ``x`` (the drops' signs; :meth:`_volts` computed them when v_on > 0).  Returns
-        ``(x, int_v_alpha, int_v_beta)`` and updates ``lk``'s chopper, fault and fault time."""
-        link = lk[0]
-        sig = [0.0, 0.0, 0.0]
-        dl = [0.0, 0.0, 0.0]
-        for j in range(3):
-            up = self.dead_v[j] > 0.0 if self.dead[j] else self.s[j] == 1  # the upper device or diode
-            sig[j] = 1.0 if up else -1.0
-            if self.v_on > 0.0:
-                dl[j] = -self.v_on if cur[j] > 0.0 else self.v_on if cur[j] < 0.0 else 0.0
-        n = max(1, math.ceil(L / h_int - 1e-9))
-        if trace is not None:
-            half = 0.5 * x[link.iv]
-            v = [sig[j] * half + dl[j] for j in range(3)]
-            trace.append((t, L, *alpha_beta(*v), *v))
-        x, lk[1], fault, t_fault, ia, ib = pwm_link.step(link, t, x, sig, dl, T_load, L, n, lk[1], lk[2])
-        if t_fault is not None and lk[3] is None:
-            lk[3] = t_fault
-        lk[2] = fault
-        return x, ia, ib
 
     def _volts(self, plant, x, cur, half):
         """The constant interval's voltages from the legs' states, dead flags and (v_on) currents."""

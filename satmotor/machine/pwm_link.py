@@ -82,3 +82,27 @@ def step(link, t, x, sig, dl, T_load, h, n_sub, chop, fault):
         if not fault and V_max > 0.0 and y[iv] > V_max:
             fault, t_fault = True, tj + dt
     return y[:iv + 3], chop, fault, t_fault, y[iv + 3], y[iv + 4]
+
+
+def interval(inv, lk, x, t, L, cur, T_load, h_int, trace):
+    """One constant interval of :meth:`PwmInverter.step` on the capacitor link: the legs' signs and drops
+    from the switching state of ``inv``; ``cur`` the phase currents at ``x`` (read when v_on > 0);
+    ``lk`` = ``[link, chop, fault, t_fault]``, updated.  Returns ``(x, int_v_alpha, int_v_beta)``."""
+    link = lk[0]
+    sig = [0.0, 0.0, 0.0]
+    dl = [0.0, 0.0, 0.0]
+    for j in range(3):
+        up = inv.dead_v[j] > 0.0 if inv.dead[j] else inv.s[j] == 1  # the upper device or diode
+        sig[j] = 1.0 if up else -1.0
+        if inv.v_on > 0.0:
+            dl[j] = -inv.v_on if cur[j] > 0.0 else inv.v_on if cur[j] < 0.0 else 0.0
+    n = max(1, math.ceil(L / h_int - 1e-9))
+    if trace is not None:
+        half = 0.5 * x[link.iv]
+        v = [sig[j] * half + dl[j] for j in range(3)]
+        trace.append((t, L, *_alpha_beta(*v), *v))
+    x, lk[1], fault, t_fault, ia, ib = step(link, t, x, sig, dl, T_load, L, n, lk[1], lk[2])
+    if t_fault is not None and lk[3] is None:
+        lk[3] = t_fault
+    lk[2] = fault
+    return x, ia, ib

@@ -189,42 +189,6 @@ static int integrate(const sm_motor *p, sm_solve_memo *memo, double *x, double t
     return sm_plant_step_memo(p, memo, x, vo[0], vo[1], T_load, L, n);
 }
 
-/* the link's running state over a pwm step on the capacitor link (PwmInverter.step's lk) */
-typedef struct {
-    const sm_dclink *l;
-    int chop, fault;
-    double t_fault;
-} link_run;
-
-/* PwmInverter._integrate_link: one constant interval on the capacitor link */
-static int integrate_link(const sm_inverter *q, const sm_motor *p, link_run *lk, double *x, double t, double L,
-                          const double cur[3], double T_load, double *trace, size_t trace_cap, size_t *trace_n,
-                          double v_int[2])
-{
-    double sig[3], dl[3], qn = ceil(L / p->h_int - 1e-9), tf;
-    int j, st, n = qn > 1.0 ? (int)qn : 1, f = lk->fault;
-    for (j = 0; j < 3; ++j) {
-        sig[j] = q->dead[j] ? (q->dead_v[j] > 0.0 ? 1.0 : -1.0) : q->s[j] == 1 ? 1.0 : -1.0;
-        dl[j] = 0.0;
-        if (q->v_on > 0.0) dl[j] = cur[j] > 0.0 ? -q->v_on : cur[j] < 0.0 ? q->v_on : 0.0;
-    }
-    if (trace_n != NULL) {
-        if (trace != NULL && *trace_n < trace_cap) {
-            double *row = trace + *trace_n * SM_INV_TRACE_WIDTH, half = 0.5 * x[sm_dclink_iv(p)];
-            row[0] = t;
-            row[1] = L;
-            for (j = 0; j < 3; ++j) row[4 + j] = sig[j] * half + dl[j];
-            alpha_beta(row[4], row[5], row[6], &row[2], &row[3]);
-        }
-        ++*trace_n;
-    }
-    st = sm_pwm_link_step(p, lk->l, t, x, sig, dl, T_load, L, n, &lk->chop, &f, &tf, v_int);
-    if (st != SM_CORE_OK) return st;
-    if (!isnan(tf) && isnan(lk->t_fault)) lk->t_fault = tf;
-    lk->fault = f;
-    return SM_CORE_OK;
-}
-
 /* PwmInverter.step on the ideal link (l NULL) or the capacitor link l (x then has p->n_states + 3 entries;
  * *chop, *fault, *t_fault: DCLink.step's) */
 static int step_any(sm_inverter *inv, const sm_motor *p, const sm_dclink *l, sm_solve_memo *memo, double *x,
@@ -233,7 +197,7 @@ static int step_any(sm_inverter *inv, const sm_motor *p, const sm_dclink *l, sm_
 {
     sm_inverter q;
     edge evs[6];
-    link_run lk;
+    sm_pwm_link_run lk;
     double xs[SM_N_LINK_STATES_MAX], T_h, eps, V, half, t1, end, start, tp, sa = 0.0, sb = 0.0;
     double cur[3] = {0.0, 0.0, 0.0}, vo[5] = {0.0, 0.0, 0.0, 0.0, 0.0}, vi[2], te, tn;
     long long k;
@@ -301,7 +265,7 @@ static int step_any(sm_inverter *inv, const sm_motor *p, const sm_dclink *l, sm_
                 sa += vo[0] * (tn - tp);
                 sb += vo[1] * (tn - tp);
             } else {
-                st = integrate_link(&q, p, &lk, xs, tp, tn - tp, cur, T_load, trace, trace_cap, trace_n, vi);
+                st = sm_pwm_link_interval(&q, p, &lk, xs, tp, tn - tp, cur, T_load, trace, trace_cap, trace_n, vi);
                 if (st != SM_CORE_OK) return st;
                 sa += vi[0];
                 sb += vi[1];
@@ -351,7 +315,7 @@ static int step_any(sm_inverter *inv, const sm_motor *p, const sm_dclink *l, sm_
         sa += vo[0] * (t1 - tp);
         sb += vo[1] * (t1 - tp);
     } else {
-        st = integrate_link(&q, p, &lk, xs, tp, t1 - tp, cur, T_load, trace, trace_cap, trace_n, vi);
+        st = sm_pwm_link_interval(&q, p, &lk, xs, tp, t1 - tp, cur, T_load, trace, trace_cap, trace_n, vi);
         if (st != SM_CORE_OK) return st;
         sa += vi[0];
         sb += vi[1];

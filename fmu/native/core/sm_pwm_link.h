@@ -5,7 +5,10 @@
 #ifndef SM_PWM_LINK_H
 #define SM_PWM_LINK_H
 
+#include <stddef.h>
+
 #include "sm_dclink.h"
+#include "sm_inverter.h"
 #include "sm_plant.h"
 
 /* pwm_link.derivatives: dy of the p->n_states + 3 link states followed by the two applied-voltage
@@ -20,5 +23,19 @@ int sm_pwm_link_derivatives(const sm_motor *p, const sm_dclink *l, double t, con
 int sm_pwm_link_step(const sm_motor *p, const sm_dclink *l, double t, double *x, const double sig[3],
                      const double dl[3], double T_load, double h, int n_sub, int *chop, int *fault, double *t_fault,
                      double v_int[2]);
+
+/* the link's running state over a pwm step on the capacitor link (PwmInverter.step's lk) */
+typedef struct {
+    const sm_dclink *l;
+    int chop, fault;
+    double t_fault; /* the sub-step end where the fault was set in this step (NAN: not yet) */
+} sm_pwm_link_run;
+
+/* pwm_link.interval (PwmInverter.step's call on the capacitor link): one constant interval of length L [s]
+ * from t, the legs' signs and drops from the switching state q and the phase currents cur (read when
+ * v_on > 0); the trace row as sm_inverter_step's; v_int[2] [V s] the applied voltage's integrals. */
+int sm_pwm_link_interval(const sm_inverter *q, const sm_motor *p, sm_pwm_link_run *lk, double *x, double t, double L,
+                         const double cur[3], double T_load, double *trace, size_t trace_cap, size_t *trace_n,
+                         double v_int[2]);
 
 #endif
