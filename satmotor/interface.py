@@ -31,9 +31,6 @@ from satmotor.errors import ParameterError, require_choice, require_integer, req
 from satmotor.machine.dc_link import (
     DC_LINK_MODES,
     DC_SOURCES,
-    E_CHOP,
-    E_REGEN,
-    V_DC,
     DCLink,
     DCLinkParams,
     over_voltage_message,
@@ -436,16 +433,6 @@ def substeps_reason(n_sub, h_int, max_substeps):
             "take shorter communication steps or raise max_substeps")
 
 
-def link_refusal(R_fe, thermal):
-    """``dc_link = capacitor`` with core loss or the thermal model: refused (the capacitor link's states
-    take the places 6 to 8 the thermal ones would, and its inverter power uses the current without the
-    core branch); the native plant refuses with the same text."""
-    if R_fe > 0.0 or thermal:
-        what = "R_fe > 0 (core loss)" if R_fe > 0.0 else "thermal = true (the thermal model)"
-        raise ParameterError("dc_link", "capacitor", f"cannot be combined with {what}"
-                             " in this plant: use dc_link = ideal, or R_fe = 0 and thermal = false")
-
-
 def dc_link(values):
     """:class:`DCLinkParams` from the plant's flat values (the ``dclink`` parameters; missing names take
     their defaults)."""
@@ -456,21 +443,6 @@ def pwm_substeps_reason(n, f_sw, max_substeps):
     """Why a communication step of up to ``n`` RK4 sub-steps with the pwm inverter is refused."""
     return (f"needs up to {n} RK4 sub-steps with the pwm inverter (f_sw = {f_sw!r} Hz), more than "
             f"max_substeps = {max_substeps}: take shorter communication steps or raise max_substeps")
-
-
-def inverter_refusal(inverter, dc_link_mode, R_fe, thermal):
-    """``inverter = pwm`` with ``dc_link = capacitor``, core loss or the thermal model: refused (the pwm
-    step integrates the six-state plant between switching instants on the ideal link voltage V_dc, with
-    the phase currents at zero stator voltage); the native plant refuses with the same text."""
-    if inverter != "pwm":
-        return
-    if dc_link_mode == "capacitor":
-        raise ParameterError("inverter", "pwm", "cannot be combined with dc_link = capacitor in this plant: "
-                             "use inverter = average, or dc_link = ideal")
-    if R_fe > 0.0 or thermal:
-        what = "R_fe > 0 (core loss)" if R_fe > 0.0 else "thermal = true (the thermal model)"
-        raise ParameterError("inverter", "pwm", f"cannot be combined with {what} in this plant: use "
-                             "inverter = average, or R_fe = 0 and thermal = false")
 
 
 class PlantUnit:
@@ -502,17 +474,14 @@ class PlantUnit:
         self._v = (0.0, 0.0)
         self._thermal = self.plant.th.thermal
         self.link = dc_link(f)  # the DC link's parameters; a capacitor link integrates with the plant
-        if self.link.capacitor:
-            link_refusal(self.plant.R_fe, self._thermal)
         self._link = DCLink(self.plant, self.link) if self.link.capacitor else None
         if self._link is not None:
             self.x0 = self._link.initial_state(self.x0)
         self._chop, self._fault = False, False  # the chopper's state, the latched over-voltage fault
         self.x = self.x0
         self._dt, self._n_sub = None, 1  # the last step size and its sub-step count
-        # the inverter switches the link's V_dc (one parameter); pwm: ideal link, no core loss, no thermal
+        # the inverter switches the link's V_dc (one parameter; a capacitor link: its voltage, a state)
         inv = InverterParams(self.link.V_dc, f["inverter"], f["f_sw"], f["t_dead"], f["v_on"])
-        inverter_refusal(inv.inverter, self.link.dc_link, self.plant.R_fe, self._thermal)
         self.inverter = PwmInverter(inv) if inv.inverter == "pwm" else None  # None: average-value
 
     def step(self, t, dt, inputs):
@@ -535,20 +504,23 @@ class PlantUnit:
         if self._warn[0] > 0.0 and not self._warned[0]:
             self._plausible(0, t, v_a, v_b)
         before = None
-        if self._link is not None:
-            x, chop, fault, t_fault = self._link.step(t, self.x, v_a, v_b, T_load, dt, self._n_sub,
-                                                      self._chop, self._fault)
-            v_avg = (v_a, v_b)
-        elif self.inverter is None:
-            x = self.plant.step(t, self.x, v_a, v_b, T_load, dt, self._n_sub)
-            v_avg = (v_a, v_b)
-        else:  # the switched voltages, integrated to the switching instants (on a copy of its state)
+        if self.inverter is not None:  # the switched voltages, integrated to the switching instants
             before = self.inverter.get_state()
             try:
-                x, *v_avg = self.inverter.step(self.plant, t, self.x, v_a, v_b, T_load, dt, self.h_int)
+                x, *v_avg = self.inverter.step(self.plant, t, self.x, v_a, v_b, T_load, dt, self.h_int,
+                                               link=self._link, chop=self._chop, fault=self._fault)
             except Exception:  # a failed solve inside: the switching state as before the step
                 self.inverter.set_state(before)
                 raise
+            if self._link is not None:
+                chop, fault, t_fault = self.inverter.link_out
+        elif self._link is not None:
+            x, chop, fault, t_fault = self._link.step(t, self.x, v_a, v_b, T_load, dt, self._n_sub,
+                                                      self._chop, self._fault)
+            v_avg = (v_a, v_b)  # the command (the outputs' voltage: _held, the applied one)
+        else:
+            x = self.plant.step(t, self.x, v_a, v_b, T_load, dt, self._n_sub)
+            v_avg = (v_a, v_b)
         if not math.isfinite(sum(x)) and not all(math.isfinite(v) for v in x):
             if self.inverter is not None:
                 self.inverter.set_state(before)
@@ -556,12 +528,12 @@ class PlantUnit:
         if self._link is not None:
             self._chop, self._fault = chop, fault
             if t_fault is not None:
-                self.warnings.append(over_voltage_message(t_fault, x[V_DC], self.link.V_dc_max))
+                self.warnings.append(over_voltage_message(t_fault, x[self._link.iv], self.link.V_dc_max))
         self.x = x
         self._v = tuple(v_avg)
         self._o = None
         if self._warn[1] > 0.0 and not self._warned[1]:
-            o = self._o = self.plant.outputs(x, v_a, v_b)  # kept for outputs(): no second computation
+            o = self._o = self.plant.outputs(x, *self._held())  # kept for outputs(): no second computation
             self._plausible(1, t + dt, o.i_s_alpha, o.i_s_beta)
         if self._warn[2] > 0.0 and not self._warned[2] and abs(x[OMEGA_M]) > self._warn[2]:
             self._warned[2] = True
@@ -574,25 +546,34 @@ class PlantUnit:
             self._warned[k] = True
             self.warnings.append(plausibility_message(k, t, math.hypot(a, b), bound))
 
+    def _held(self):
+        """The stator voltage [V] the outputs take (with R_fe the terminal current and P_fe depend on it):
+        the voltage applied over the step that ended, at its end (the left limit); average inverter on a
+        capacitor link: the command as the link bounds it at the step's end, else :attr:`_v` (the
+        command; pwm: the step average)."""
+        if self._link is not None and self.inverter is None:
+            return self._link.applied(*self._v, self.x[self._link.iv])
+        return self._v
+
     def outputs(self):
         """Output values in the order of :attr:`OUTPUTS`."""
-        x, o = self.x, self._o if self._o is not None else self.plant.outputs(self.x, *self._v)
+        x, o = self.x, self._o if self._o is not None else self.plant.outputs(self.x, *self._held())
         if self._link is None:
             link = (self.link.V_dc, 0.0, 0.0, 0.0)
         else:
-            link = (x[V_DC], x[E_REGEN], x[E_CHOP], 1.0 if self._fault else 0.0)
+            iv = self._link.iv  # V_DC, E_REGEN, E_CHOP, or two places later with the thermal model
+            link = (x[iv], x[iv + 1], x[iv + 2], 1.0 if self._fault else 0.0)
         return (o.i_s_alpha, o.i_s_beta, x[PSI_S_A], x[PSI_S_B], x[PSI_R_A], x[PSI_R_B], x[OMEGA_M],
                 x[THETA_M], o.T_e, o.i_mu, *link, o.P_fe, o.T_s, o.T_r, *self._v)
 
     def get_state(self):
         """The plant state, then the held stator voltage (the outputs' with R_fe and v_avg_alpha/beta;
-        pwm: the step average), then (pwm) the inverter's; with a capacitor link the nine states, the
-        chopper, the fault, then the held voltage."""
-        if self._link is not None:
-            return (*self.x, float(self._chop), float(self._fault), *self._v)
+        pwm: the step average), then (pwm) the inverter's; with a capacitor link the states (motor,
+        thermal, link), the chopper, the fault, then the held voltage (then the inverter's)."""
+        link = (float(self._chop), float(self._fault)) if self._link is not None else ()
         if self.inverter is None:
-            return (*self.x, *self._v)
-        return (*self.x, *self._v, *self.inverter.get_state())
+            return (*self.x, *link, *self._v)
+        return (*self.x, *link, *self._v, *self.inverter.get_state())
 
     def set_state(self, state):
         state = tuple(float(v) for v in state)

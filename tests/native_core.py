@@ -127,6 +127,8 @@ def declare(lib):
                                  ctypes.POINTER(S)]),
         "sm_inverter_step_memo": (I, [ctypes.c_void_p, ctypes.c_void_p, P, P, D, D, D, D, D, P, P, S,
                                        ctypes.POINTER(S)]),
+        "sm_inverter_step_link": (I, [ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p, P, P, D, D, D, D, D,
+                                       P, ctypes.POINTER(I), ctypes.POINTER(I), P, P, S, ctypes.POINTER(S)]),
         "sm_deadtime_compensate": (None, [P, P, D, D, D]),
     }
     for struct in (MotorParams, PlantParams, ControllerParams, DCLinkParams):

@@ -424,32 +424,30 @@ def test_energy_balance_through_the_fmu(fmu_dir, variant):
 
 
 @pytest.mark.parametrize("param", [{"R_fe": 500.0}, {"thermal": True}])
-def test_the_capacitor_link_refuses_core_loss_and_the_thermal_model(param):
-    """dc_link = capacitor with R_fe > 0 or the thermal model: a ParameterError naming dc_link and what it
-    cannot be combined with (the link's states would take the thermal ones' places 6 to 8)."""
-    with pytest.raises(ParameterError) as err:
-        PlantUnit({"dc_link": "capacitor", **param})
-    assert err.value.field == "dc_link"
-    assert ("R_fe > 0" if "R_fe" in param else "thermal = true") in str(err.value)
-    PlantUnit({"dc_link": "ideal", **param})  # the ideal link takes both
+def test_the_capacitor_link_takes_core_loss_and_the_thermal_model(param):
+    """dc_link = capacitor with R_fe > 0 or the thermal model (refused until issue 19 item 5 was made
+    whole): accepted; the link's states follow the motor's (two places later with the thermal model)."""
+    u = PlantUnit({"dc_link": "capacitor", **param})
+    assert u._link.iv == (8 if "thermal" in param else 6)
+    assert u.x[u._link.iv:] == (540.0, 0.0, 0.0)
 
 
 @pytest.mark.parametrize("variant", ["native", "python"])
 @pytest.mark.parametrize("param", [("R_fe", 500.0), ("thermal", True)])
-def test_the_plant_fmu_refuses_the_capacitor_link_with_them_in_the_python_text(fmu_dir, variant, param):
-    """The co-simulation plant FMUs: an error with PlantUnit's text, not a crash (native: at
-    initialization; pythonfmu: logged at initialization, every doStep then refused)."""
-    from fmpy.fmi1 import FMICallException
+def test_the_plant_fmu_takes_the_capacitor_link_with_them(fmu_dir, variant, param):
+    """The co-simulation plant FMUs initialize and step with the capacitor link and each of them, their
+    outputs bit for bit PlantUnit's."""
     from fmu_helpers import Slave, open_fmu
 
     path = fmu_dir / ("native" if variant == "native" else "") / "SaturatedInductionMotor.fmu"
     s = Slave(open_fmu(path), initialize=False)
-    with pytest.raises(ParameterError) as err:
-        PlantUnit({"dc_link": "capacitor", param[0]: param[1]})
-    with pytest.raises(FMICallException):
-        s.initialize({"dc_link": "capacitor", param[0]: param[1]})
-        s.step(0.0, 1e-4)
-    assert str(err.value) in s.messages(), s.messages()
+    values = {"dc_link": "capacitor", param[0]: param[1], "psi_r0": 0.8}
+    s.initialize(values)
+    u = PlantUnit(values)
+    for k in range(5):
+        s.step(k * 1e-4, 1e-4, {"v_s_alpha": 200.0, "v_s_beta": -50.0, "T_load": 1.0})
+        u.step(k * 1e-4, 1e-4, (200.0, -50.0, 1.0))
+    assert s.get(list(PlantUnit.OUTPUTS)) == list(u.outputs()), s.messages()
     s.free()
 
 
@@ -480,8 +478,8 @@ def test_the_general_path_warm_starts_stages_2_to_4(label, values):
     assert all(v > 0.0 for i, v in enumerate(g) if i % 4)
 
 
-def test_a_scenario_with_the_capacitor_link_and_the_thermal_model_is_refused_naming_file_and_field(tmp_path):
-    """The scenario check reports the combination with the file, plant.dc_link and its value."""
+def test_a_scenario_with_the_capacitor_link_and_the_thermal_model_is_accepted(tmp_path):
+    """The scenario check takes the capacitor link with the thermal model (no refusal naming dc_link)."""
     from orchestration.scenario.validate import validate_scenario_file
 
     src = (Path(__file__).resolve().parents[1] / "scenarios" / "regenerative_stop.yaml").read_text()
@@ -489,4 +487,4 @@ def test_a_scenario_with_the_capacitor_link_and_the_thermal_model_is_refused_nam
     path = tmp_path / "combo.yaml"
     path.write_text(src.replace("\nplant:\n", "\nplant:\n  thermal: true\n", 1))
     text = "\n".join(str(p) for p in validate_scenario_file(path))
-    assert str(path) in text and "plant.dc_link = 'capacitor': cannot be combined with thermal = true" in text
+    assert "cannot be combined" not in text and "plant.dc_link" not in text, text

@@ -17,9 +17,9 @@ typedef struct {
     sm_values v; /* first: the generated value store */
     sm_motor p;
     sm_dclink link;                  /* the DC link (satmotor/machine/dc_link.py) */
-    /* the motor's six states, then: the thermal ones (p.n_states of them in all), or (capacitor: refused
-     * with the core-loss/thermal model, interface.link_refusal) v_dc, E_regen, E_chop */
-    double x[(int)SM_N_LINK_STATES > (int)SM_N_STATES_MAX ? (int)SM_N_LINK_STATES : (int)SM_N_STATES_MAX];
+    /* the motor's six states, then the thermal ones (p.n_states of them in all), then (capacitor) v_dc,
+     * E_regen, E_chop at sm_dclink_iv(&p) */
+    double x[SM_N_LINK_STATES_MAX];
     int chop, fault;                 /* the chopper's state, the latched over-voltage fault */
     sm_solve_memo memo; /* the outputs' solve at x, reused by the next step's first stage */
     sm_inverter inv; /* the stator voltage source (average-value or pwm, with its switching state) */
@@ -84,9 +84,10 @@ static void publish(plant_data *d, double v_a, double v_b)
     r[SM_VR_T_e] = o.T_e;
     r[SM_VR_i_mu] = o.i_mu;
     if (d->link.capacitor) {
-        r[SM_VR_v_dc] = d->x[SM_V_DC];
-        r[SM_VR_E_regen] = d->x[SM_E_REGEN];
-        r[SM_VR_E_chop] = d->x[SM_E_CHOP];
+        int iv = sm_dclink_iv(&d->p);
+        r[SM_VR_v_dc] = d->x[iv];
+        r[SM_VR_E_regen] = d->x[iv + 1];
+        r[SM_VR_E_chop] = d->x[iv + 2];
     } else {
         r[SM_VR_v_dc] = d->link.V_dc;
         r[SM_VR_E_regen] = 0.0;
@@ -141,28 +142,8 @@ fg_status fg_model_exit_initialization(fg_instance *inst, void *data, double sta
         fg_log(inst, FG_ERROR, "logStatusError", "%s", msg);
         return FG_ERROR;
     }
-    if (d->link.capacitor && d->p.ext) { /* interface.link_refusal, the same text */
-        sm_param_error(msg, sizeof msg, NULL, "dc_link", "'capacitor'",
-                       d->p.R_fe > 0.0 ? "cannot be combined with R_fe > 0 (core loss) in this plant: use dc_link "
-                                         "= ideal, or R_fe = 0 and thermal = false"
-                                       : "cannot be combined with thermal = true (the thermal model) in this plant: "
-                                         "use dc_link = ideal, or R_fe = 0 and thermal = false");
-        fg_log(inst, FG_ERROR, "logStatusError", "%s", msg);
-        return FG_ERROR;
-    }
-    /* the inverter switches the link's V_dc (one parameter), then interface.inverter_refusal, the same text */
+    /* the inverter switches the link's V_dc (one parameter; a capacitor link: its voltage, a state) */
     st = sm_inverter_init(&d->inv, &plant, d->link.V_dc, msg, sizeof msg);
-    if (st == 0 && d->inv.pwm && d->link.capacitor) {
-        st = sm_param_error(msg, sizeof msg, NULL, "inverter", "'pwm'",
-                            "cannot be combined with dc_link = capacitor in this plant: use inverter = average, "
-                            "or dc_link = ideal");
-    } else if (st == 0 && d->inv.pwm && d->p.ext) {
-        st = sm_param_error(msg, sizeof msg, NULL, "inverter", "'pwm'",
-                            d->p.R_fe > 0.0 ? "cannot be combined with R_fe > 0 (core loss) in this plant: use "
-                                              "inverter = average, or R_fe = 0 and thermal = false"
-                                            : "cannot be combined with thermal = true (the thermal model) in this "
-                                              "plant: use inverter = average, or R_fe = 0 and thermal = false");
-    }
     if (st != 0) {
         fg_log(inst, FG_ERROR, "logStatusError", "%s", msg);
         return FG_ERROR;
@@ -171,10 +152,11 @@ fg_status fg_model_exit_initialization(fg_instance *inst, void *data, double sta
     for (st = 0; st < SM_N_STATES_MAX; ++st) {
         d->x[st] = d->p.x0[st];
     }
-    if (d->link.capacitor) { /* DCLink.initial_state (the thermal model is refused with it) */
-        d->x[SM_V_DC] = d->link.V_dc;
-        d->x[SM_E_REGEN] = 0.0;
-        d->x[SM_E_CHOP] = 0.0;
+    if (d->link.capacitor) { /* DCLink.initial_state: after the motor's states (with the thermal ones) */
+        int iv = sm_dclink_iv(&d->p);
+        d->x[iv] = d->link.V_dc;
+        d->x[iv + 1] = 0.0;
+        d->x[iv + 2] = 0.0;
     }
     d->chop = 0;
     d->fault = 0;
@@ -188,7 +170,7 @@ fg_status fg_model_do_step(fg_instance *inst, void *data, double t, double h)
 {
     plant_data *d = (plant_data *)data;
     const double *r = d->v.r;
-    double x[(int)SM_N_LINK_STATES > (int)SM_N_STATES_MAX ? (int)SM_N_LINK_STATES : (int)SM_N_STATES_MAX], v_avg[2], t_fault = NAN;
+    double x[SM_N_LINK_STATES_MAX], v_avg[2], v_held[2], t_fault = NAN;
     char msg[SM_MSG_LEN];
     int n_sub = 1, st, j, chop = d->chop, fault = d->fault;
     if (!d->ready) {
@@ -224,7 +206,11 @@ fg_status fg_model_do_step(fg_instance *inst, void *data, double t, double h)
     for (j = 0; j < (int)(sizeof x / sizeof x[0]); ++j) {
         x[j] = d->x[j];
     }
-    if (d->inv.pwm) { /* the switched voltages to the switching instants; d->inv changes only on success */
+    if (d->inv.pwm && d->link.capacitor) { /* the switched stage on the link (satmotor/machine/pwm_link.py) */
+        st = sm_inverter_step_link(&d->inv, &d->p, &d->link, &d->memo, x, t, h, r[SM_VR_v_s_alpha],
+                                   r[SM_VR_v_s_beta], r[SM_VR_T_load], v_avg, &chop, &fault, &t_fault, NULL, 0,
+                                   NULL);
+    } else if (d->inv.pwm) { /* the switched voltages to the switching instants; d->inv changes only on success */
         st = sm_inverter_step_memo(&d->inv, &d->p, &d->memo, x, t, h, r[SM_VR_v_s_alpha], r[SM_VR_v_s_beta],
                                    r[SM_VR_T_load], v_avg, NULL, 0, NULL);
     } else if (d->link.capacitor) { /* (the memo is for the motor's step alone: publish refills it) */
@@ -253,13 +239,17 @@ fg_status fg_model_do_step(fg_instance *inst, void *data, double t, double h)
     d->chop = chop;
     d->fault = fault;
     if (!isnan(t_fault)) { /* set in this step: once per run (the fault is latched) */
-        sm_dclink_over_voltage_message(t_fault, x[SM_V_DC], d->link.V_dc_max, msg, sizeof msg);
+        sm_dclink_over_voltage_message(t_fault, x[sm_dclink_iv(&d->p)], d->link.V_dc_max, msg, sizeof msg);
         fg_log(inst, FG_WARNING, "logStatusWarning", "%s", msg);
     }
     d->v_avg[0] = v_avg[0];
     d->v_avg[1] = v_avg[1];
     d->v.r[SM_VR_time] = t + h;
-    publish(d, v_avg[0], v_avg[1]);
+    v_held[0] = v_avg[0];
+    v_held[1] = v_avg[1];
+    if (d->link.capacitor && !d->inv.pwm) /* PlantUnit._held: the command as the link bounds it at the end */
+        sm_dclink_applied(v_avg[0], v_avg[1], x[sm_dclink_iv(&d->p)], &v_held[0], &v_held[1]);
+    publish(d, v_held[0], v_held[1]);
     plausible(inst, d, 1, t + h);
     plausible(inst, d, 2, t + h);
     return FG_OK;

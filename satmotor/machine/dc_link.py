@@ -9,6 +9,11 @@ states by the same RK4 and sub-steps (:meth:`DCLink.step`)::
 
     C_dc d v_dc/dt = i_src - i_dc - i_chop
     i_dc   = 3/2 v_s . i_s / v_dc               (lossless inverter, amplitude-invariant Clarke)
+
+``i_s`` is the terminal current at the applied voltage: with core loss (``R_fe > 0``) it includes the
+core branch's current, so the link feeds the core loss too.  With the thermal model on, the motor's
+state has its two temperatures after the six (``plant.T_S``, ``plant.T_R``) and the link's three states
+follow them (:attr:`DCLink.iv`: 6, or 8 with the thermal model); they integrate together by one RK4.
     i_src  = max(0, (v_source(t) - v_dc) / R_src)   (a diode: no regeneration into the source)
     i_chop = v_dc / R_chop while the chopper is on, else 0
 
@@ -43,7 +48,9 @@ from satmotor.machine.integrate import rk4
 
 DC_LINK_MODES = ("ideal", "capacitor")
 DC_SOURCES = ("dc", "rectifier")
-V_DC, E_REGEN, E_CHOP = 6, 7, 8  # the link's states after the motor's six (plant.PSI_S_A .. THETA_M)
+# the link's states after the motor's six (plant.PSI_S_A .. THETA_M); with the thermal model on they
+# follow T_s, T_r: two places later (DCLink.iv, the one place the offset is derived)
+V_DC, E_REGEN, E_CHOP = 6, 7, 8
 N_LINK_STATES = 3
 _SQRT3 = math.sqrt(3.0)
 
@@ -100,15 +107,17 @@ def over_voltage_message(t, v_dc, V_dc_max):
 class DCLink:
     """The capacitor link bound to a :class:`~satmotor.machine.plant.Plant` (``dc_link = capacitor``).
 
-    The state is the plant's six followed by ``(v_dc, E_regen, E_chop)`` (:data:`V_DC` ...); the
-    chopper's on/off state and the latched fault are held in :meth:`step`'s arguments and results."""
+    The state is the plant's (six, or eight with the thermal model) followed by ``(v_dc, E_regen,
+    E_chop)`` at :attr:`iv`, ``iv + 1``, ``iv + 2``; the chopper's on/off state and the latched fault are
+    held in :meth:`step`'s arguments and results."""
 
-    __slots__ = ("plant", "p", "_src_dc", "_V_src", "_inv_R_src", "_inv_C", "_chop", "_inv_R_chop",
+    __slots__ = ("plant", "p", "iv", "_src_dc", "_V_src", "_inv_R_src", "_inv_C", "_chop", "_inv_R_chop",
                  "_amp", "_omega_g", "_third", "_sixth")
 
     def __init__(self, plant, params):
         self.plant = plant
         self.p = params
+        self.iv = V_DC + len(plant.thermal_state())  # v_dc's place: after the motor's states
         self._src_dc = params.dc_source == "dc"
         self._V_src = params.V_dc
         self._inv_R_src = 1.0 / params.R_src
@@ -147,10 +156,12 @@ class DCLink:
 
     def currents(self, t, x, v_a, v_b, chop):
         """``(v_applied_alpha, v_applied_beta, p_inv, i_src, i_dc, i_chop)`` at state ``x`` (nine states)
-        [V, V, W, A, A, A]; ``p_inv = 3/2 v_s . i_s`` the power into the motor."""
-        v_dc = x[V_DC]
+        [V, V, W, A, A, A]; ``p_inv = 3/2 v_s . i_s`` the power into the motor (``i_s`` the terminal
+        current at the applied voltage: with R_fe it includes the core branch's)."""
+        n = self.iv
+        v_dc = x[n]
         va, vb = self.applied(v_a, v_b, v_dc)
-        o = self.plant.outputs(x[:V_DC])
+        o = self.plant.outputs(x[:n], va, vb)
         p_inv = 1.5 * (va * o.i_s_alpha + vb * o.i_s_beta)
         i_dc = p_inv / v_dc if v_dc > 0.0 else 0.0
         i_src = (self.source_voltage(t) - v_dc) * self._inv_R_src
@@ -163,8 +174,9 @@ class DCLink:
         """``dx/dt`` of the nine states for the command ``(v_a, v_b)`` [V], ``T_load`` [N m] and the
         chopper state ``chop`` (bool) held."""
         va, vb, p_inv, i_src, i_dc, i_chop = self.currents(t, x, v_a, v_b, chop)
-        d = self.plant.derivatives(t, x[:V_DC], va, vb, T_load)
-        v_dc = x[V_DC]
+        n = self.iv
+        d = self.plant.derivatives(t, x[:n], va, vb, T_load)
+        v_dc = x[n]
         return (*d, (i_src - i_dc - i_chop) * self._inv_C, -p_inv if p_inv < 0.0 else 0.0, v_dc * i_chop)
 
     def switch(self, v_dc, chop):
@@ -185,10 +197,11 @@ class DCLink:
         dt = h / n_sub
         t_fault = None
         V_max = self.p.V_dc_max
+        iv = self.iv
         for j in range(n_sub):
             tj = t + j * dt
             x = rk4(self.derivatives, tj, x, dt, 1, (v_a, v_b, T_load, chop))
-            chop = self.switch(x[V_DC], chop)
-            if not fault and V_max > 0.0 and x[V_DC] > V_max:
+            chop = self.switch(x[iv], chop)
+            if not fault and V_max > 0.0 and x[iv] > V_max:
                 fault, t_fault = True, tj + dt
         return x, chop, fault, t_fault

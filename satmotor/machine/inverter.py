@@ -42,6 +42,13 @@ machine floating.  Everything below is on the absolute time axis ``t`` [s]:
   ``t0 - eps <= edge < t1 - eps``; a half period's duty cycles are computed once (when it is first
   reached) and kept until the next half period, across step boundaries.
 
+With core loss or the thermal model the plant's states (eight with the thermal model) integrate over
+each interval alike; the phase currents that choose the dead-interval diode and the drops' signs are the
+plant's outputs at zero voltage, whose signs are those of the current through the stator leakage (the
+terminal current less the core branch's, which follows the voltage instantly: at zero voltage the
+terminal current is that current times R_fe / (R_fe + R_s)).  On a capacitor link (``link``) each
+interval integrates the link's voltage with the motor: :mod:`satmotor.machine.pwm_link`.
+
 The C core's ``fmu/native/core/sm_inverter.c`` is the same algorithm (the same floats).
 """
 
@@ -51,6 +58,7 @@ import math
 from dataclasses import dataclass
 
 from satmotor.errors import ParameterError, require_choice, require_number
+from satmotor.machine import pwm_link
 
 INVERTERS = ("average", "pwm")
 MERGE_REL = 1e-6  # [1] events closer than MERGE_REL T_h are merged (module docstring)
@@ -183,13 +191,20 @@ class PwmInverter:
         """An upper bound of the constant intervals of a step of ``dt`` [s]."""
         return EVENTS_PER_HALF * (math.ceil(dt / self.T_h) + 1) + 1
 
-    def step(self, plant, t0, x, v_alpha, v_beta, T_load, dt, h_int, trace=None):
+    def step(self, plant, t0, x, v_alpha, v_beta, T_load, dt, h_int, trace=None, link=None, chop=False,
+             fault=False):
         """Advance the plant state ``x`` from ``t0`` over ``dt`` [s] with the command held; returns
         ``(x, v_avg_alpha, v_avg_beta)``, the step averages [V] of the applied alpha/beta voltage.
         ``trace``: a list that receives ``(t_start, length, v_alpha, v_beta, v_a, v_b, v_c)`` of every
-        constant interval integrated."""
+        constant interval integrated (on a capacitor link: its voltages at the interval's start).
+        ``link``: None (the ideal link), or the :class:`~satmotor.machine.dc_link.DCLink` whose state
+        ``x`` is (:mod:`~satmotor.machine.pwm_link`), with the chopper's state ``chop`` and the latched
+        ``fault``; then :attr:`link_out` is ``(chop, fault, t_fault)`` after the step."""
         T_h, eps, t_dead = self.T_h, self.eps, self.t_dead
-        V = self.link_voltage()
+        V = self.link_voltage() if link is None else x[link.iv]  # the modulator's link voltage
+        if not V > 0.0:  # a collapsed link applies nothing (pwm_link); the duties then use V_dc
+            V = self.link_voltage()
+        lk = None if link is None else [link, chop, fault, None]  # the link's running (chop, fault, t_fault)
         half = 0.5 * V
         t1 = t0 + dt
         end = t1 - eps
@@ -225,9 +240,14 @@ class PwmInverter:
             if tn - tp >= eps:
                 if volts is None:
                     volts, cur = self._volts(plant, x, cur, half)
-                x = self._integrate(plant, x, tp, tn - tp, volts, T_load, h_int, trace)
-                sa += volts[0] * (tn - tp)
-                sb += volts[1] * (tn - tp)
+                if lk is None:
+                    x = self._integrate(plant, x, tp, tn - tp, volts, T_load, h_int, trace)
+                    sa += volts[0] * (tn - tp)
+                    sb += volts[1] * (tn - tp)
+                else:
+                    x, ia, ib = pwm_link.interval(self, lk, x, tp, tn - tp, cur, T_load, h_int, trace)
+                    sa += ia
+                    sb += ib
                 tp, cur, volts = tn, None, None
             if xd >= 0:
                 dead[xd] = False
@@ -252,9 +272,15 @@ class PwmInverter:
                 dead_v[j] = -half if i > 0.0 else half if i < 0.0 else (half if new else -half)
         if volts is None:
             volts, cur = self._volts(plant, x, cur, half)
-        x = self._integrate(plant, x, tp, t1 - tp, volts, T_load, h_int, trace)
-        sa += volts[0] * (t1 - tp)
-        sb += volts[1] * (t1 - tp)
+        if lk is None:
+            x = self._integrate(plant, x, tp, t1 - tp, volts, T_load, h_int, trace)
+            sa += volts[0] * (t1 - tp)
+            sb += volts[1] * (t1 - tp)
+        else:
+            x, ia, ib = pwm_link.interval(self, lk, x, tp, t1 - tp, cur, T_load, h_int, trace)
+            sa += ia
+            sb += ib
+            self.link_out = tuple(lk[1:])
         return x, sa / dt, sb / dt
 
     def _volts(self, plant, x, cur, half):

@@ -97,19 +97,20 @@ void sm_dclink_applied(double v_a, double v_b, double v_dc, double *out_a, doubl
     *out_b = v_b;
 }
 
-int sm_dclink_derivatives(const sm_motor *p, const sm_dclink *l, double t, const double x[SM_N_LINK_STATES],
-                          double v_a, double v_b, double T_load, int chop, double dx[SM_N_LINK_STATES])
+int sm_dclink_derivatives(const sm_motor *p, const sm_dclink *l, double t, const double *x, double v_a,
+                          double v_b, double T_load, int chop, double *dx)
 {
     sm_plant_outputs o;
     double va, vb, v_dc, p_inv, i_dc, i_src, i_chop;
-    int st, i;
+    int st, i, iv;
     if (p == NULL || l == NULL || x == NULL || dx == NULL) return SM_ERR_ARG;
-    v_dc = x[SM_V_DC];
+    iv = sm_dclink_iv(p);
+    v_dc = x[iv];
     sm_dclink_applied(v_a, v_b, v_dc, &va, &vb);
-    st = sm_plant_outputs_of(p, x, &o);
+    st = sm_plant_outputs_v(p, x, va, vb, &o); /* the terminal current at the applied voltage */
     if (st == SM_CORE_OK) st = sm_plant_derivatives(p, x, va, vb, T_load, dx);
     if (st != SM_CORE_OK || !isfinite(v_dc)) {
-        for (i = 0; i < SM_N_LINK_STATES; ++i) dx[i] = NAN;
+        for (i = 0; i < iv + 3; ++i) dx[i] = NAN;
         return st != SM_CORE_OK ? st : SM_ERR_NONFINITE;
     }
     p_inv = 1.5 * (va * o.i_s_alpha + vb * o.i_s_beta);
@@ -117,10 +118,10 @@ int sm_dclink_derivatives(const sm_motor *p, const sm_dclink *l, double t, const
     i_src = (sm_dclink_source_voltage(l, t) - v_dc) * l->inv_R_src;
     if (!(i_src > 0.0)) i_src = 0.0;
     i_chop = chop ? v_dc * l->inv_R_chop : 0.0;
-    dx[SM_V_DC] = (i_src - i_dc - i_chop) * l->inv_C;
-    dx[SM_E_REGEN] = p_inv < 0.0 ? -p_inv : 0.0;
-    dx[SM_E_CHOP] = v_dc * i_chop;
-    for (i = SM_N_STATES; i < SM_N_LINK_STATES; ++i)
+    dx[iv] = (i_src - i_dc - i_chop) * l->inv_C;
+    dx[iv + 1] = p_inv < 0.0 ? -p_inv : 0.0;
+    dx[iv + 2] = v_dc * i_chop;
+    for (i = iv; i < iv + 3; ++i)
         if (!isfinite(dx[i])) return SM_ERR_NONFINITE;
     return SM_CORE_OK;
 }
@@ -133,14 +134,16 @@ int sm_dclink_switch(const sm_dclink *l, double v_dc, int chop)
     return chop;
 }
 
-int sm_dclink_step(const sm_motor *p, const sm_dclink *l, double t, double x[SM_N_LINK_STATES], double v_a,
+int sm_dclink_step(const sm_motor *p, const sm_dclink *l, double t, double *x, double v_a,
                    double v_b, double T_load, double dt, int n_sub, int *chop, int *fault, double *t_fault)
 {
-    enum { N = SM_N_LINK_STATES };
-    double xc[N], xt[N], k1[N], k2[N], k3[N], k4[N], h, half, sixth, tj;
-    int j, i, st, c, f;
+    enum { NM = SM_N_LINK_STATES_MAX };
+    double xc[NM], xt[NM], k1[NM], k2[NM], k3[NM], k4[NM], h, half, sixth, tj;
+    int j, i, st, c, f, N, iv;
     if (p == NULL || l == NULL || x == NULL || chop == NULL || fault == NULL || t_fault == NULL || n_sub < 1)
         return SM_ERR_ARG;
+    iv = sm_dclink_iv(p);
+    N = iv + 3;
     *t_fault = NAN;
     if (!isfinite(dt)) return SM_ERR_NONFINITE;
     h = dt / (double)n_sub;
@@ -148,7 +151,7 @@ int sm_dclink_step(const sm_motor *p, const sm_dclink *l, double t, double x[SM_
     sixth = h / 6.0;
     c = *chop;
     f = *fault;
-    memcpy(xc, x, sizeof xc);
+    memcpy(xc, x, (size_t)N * sizeof xc[0]);
     for (j = 0; j < n_sub; ++j) {
         tj = t + (double)j * h;
         if ((st = sm_dclink_derivatives(p, l, tj, xc, v_a, v_b, T_load, c, k1)) != SM_CORE_OK) return st;
@@ -159,15 +162,15 @@ int sm_dclink_step(const sm_motor *p, const sm_dclink *l, double t, double x[SM_
         for (i = 0; i < N; ++i) xt[i] = xc[i] + h * k3[i];
         if ((st = sm_dclink_derivatives(p, l, tj + h, xt, v_a, v_b, T_load, c, k4)) != SM_CORE_OK) return st;
         for (i = 0; i < N; ++i) xc[i] = xc[i] + sixth * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]);
-        c = sm_dclink_switch(l, xc[SM_V_DC], c);
-        if (!f && l->V_dc_max > 0.0 && xc[SM_V_DC] > l->V_dc_max) {
+        c = sm_dclink_switch(l, xc[iv], c);
+        if (!f && l->V_dc_max > 0.0 && xc[iv] > l->V_dc_max) {
             f = 1;
             *t_fault = tj + h;
         }
     }
     for (i = 0; i < N; ++i)
         if (!isfinite(xc[i])) return SM_ERR_NONFINITE;
-    memcpy(x, xc, sizeof xc);
+    memcpy(x, xc, (size_t)N * sizeof xc[0]);
     *chop = c;
     *fault = f;
     return SM_CORE_OK;

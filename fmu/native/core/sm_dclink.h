@@ -1,9 +1,11 @@
 /* The DC link inside the plant (satmotor/machine/dc_link.py), in C99: a capacitor fed by a DC source
  * or a six-pulse diode rectifier through a diode and R_src, a lossless average-value inverter whose
  * voltage is bounded by v_dc/sqrt(3), a brake chopper with hysteresis switched at sub-step ends, and a
- * latched over-voltage fault.  The state is the motor's six (sm_plant.h) followed by
- * x[SM_V_DC] = v_dc [V], x[SM_E_REGEN] = E_regen [J], x[SM_E_CHOP] = E_chop [J].  Caller-owned struct,
- * no pointers inside; the same floats as the Python. */
+ * latched over-voltage fault.  The state is the motor's (sm_plant.h: p->n_states, six or eight with the
+ * thermal model) followed by v_dc [V], E_regen [J], E_chop [J] at sm_dclink_iv(p) = p->n_states, +1, +2
+ * (SM_V_DC, SM_E_REGEN, SM_E_CHOP without the thermal model); the terminal current that sets the link's
+ * current includes the core branch's with R_fe.  Caller-owned struct, no pointers inside; the same
+ * floats as the Python. */
 #ifndef SM_DCLINK_H
 #define SM_DCLINK_H
 
@@ -14,6 +16,10 @@
 #include "sm_plant.h"
 
 enum { SM_V_DC = SM_N_STATES, SM_E_REGEN, SM_E_CHOP, SM_N_LINK_STATES };
+enum { SM_N_LINK_STATES_MAX = SM_N_STATES_MAX + 3 }; /* with the thermal model: 11 */
+
+/* DCLink.iv: v_dc's place in the state, after the motor's p->n_states */
+#define sm_dclink_iv(p) ((p)->n_states)
 
 typedef struct {
     int capacitor;    /* dc_link = capacitor (0: ideal, today's plant) */
@@ -38,18 +44,18 @@ double sm_dclink_source_voltage(const sm_dclink *l, double t);
 /* DCLink.applied: the command, scaled onto |v| = v_dc/sqrt(3) beyond it; 0 for v_dc <= 0 */
 void sm_dclink_applied(double v_a, double v_b, double v_dc, double *out_a, double *out_b);
 
-/* DCLink.derivatives: dx of the nine states with the chopper state chop held.  Statuses of
+/* DCLink.derivatives: dx of the p->n_states + 3 states with the chopper state chop held.  Statuses of
  * sm_plant_derivatives (dx NaN on failure). */
-int sm_dclink_derivatives(const sm_motor *p, const sm_dclink *l, double t, const double x[SM_N_LINK_STATES],
-                          double v_a, double v_b, double T_load, int chop, double dx[SM_N_LINK_STATES]);
+int sm_dclink_derivatives(const sm_motor *p, const sm_dclink *l, double t, const double *x, double v_a,
+                          double v_b, double T_load, int chop, double *dx);
 
 /* DCLink.switch: the chopper's state after a sub-step ending at v_dc (hysteresis) */
 int sm_dclink_switch(const sm_dclink *l, double v_dc, int chop);
 
 /* DCLink.step: RK4 over dt in n_sub sub-steps, the chopper switching and the fault latching at the
- * sub-step ends; x, *chop, *fault updated only on success; *t_fault the sub-step end where the fault
- * was set in this call (NAN otherwise).  Statuses of sm_plant_step. */
-int sm_dclink_step(const sm_motor *p, const sm_dclink *l, double t, double x[SM_N_LINK_STATES], double v_a,
+ * sub-step ends; x (p->n_states + 3 entries), *chop, *fault updated only on success; *t_fault the
+ * sub-step end where the fault was set in this call (NAN otherwise).  Statuses of sm_plant_step. */
+int sm_dclink_step(const sm_motor *p, const sm_dclink *l, double t, double *x, double v_a,
                    double v_b, double T_load, double dt, int n_sub, int *chop, int *fault, double *t_fault);
 
 /* dc_link.over_voltage_message */

@@ -2,6 +2,8 @@
  * satmotor/control/deadtime.py in C99: the same operations in the same order. */
 #include "sm_inverter.h"
 
+#include "sm_pwm_link.h"
+
 #include <math.h>
 #include <stdio.h>
 #include <string.h>
@@ -138,7 +140,7 @@ static int half_edges(long long k, double T_h, const double d[3], edge ev[6])
 }
 
 /* PwmInverter._volts: out = (v_alpha, v_beta, v_a, v_b, v_c); cur (have_cur) the phase currents at x */
-static int volts(const sm_inverter *q, const sm_motor *p, sm_solve_memo *memo, const double x[6], double half,
+static int volts(const sm_inverter *q, const sm_motor *p, sm_solve_memo *memo, const double *x, double half,
                  double cur[3], int *have_cur, double out[5])
 {
     double v[3];
@@ -167,7 +169,7 @@ static int volts(const sm_inverter *q, const sm_motor *p, sm_solve_memo *memo, c
 }
 
 /* PwmInverter._integrate */
-static int integrate(const sm_motor *p, sm_solve_memo *memo, double x[6], double t, double L, const double vo[5],
+static int integrate(const sm_motor *p, sm_solve_memo *memo, double *x, double t, double L, const double vo[5],
                      double T_load, double *trace, size_t trace_cap, size_t *trace_n)
 {
     double q = ceil(L / p->h_int - 1e-9);
@@ -184,34 +186,36 @@ static int integrate(const sm_motor *p, sm_solve_memo *memo, double x[6], double
     return sm_plant_step_memo(p, memo, x, vo[0], vo[1], T_load, L, n);
 }
 
-int sm_inverter_step(sm_inverter *inv, const sm_motor *p, double x[6], double t0, double dt, double v_alpha,
-                     double v_beta, double T_load, double v_avg[2], double *trace, size_t trace_cap,
-                     size_t *trace_n)
-{
-    return sm_inverter_step_memo(inv, p, NULL, x, t0, dt, v_alpha, v_beta, T_load, v_avg, trace, trace_cap,
-                                 trace_n);
-}
-
-int sm_inverter_step_memo(sm_inverter *inv, const sm_motor *p, sm_solve_memo *memo, double x[6], double t0,
-                          double dt, double v_alpha, double v_beta, double T_load, double v_avg[2], double *trace,
-                          size_t trace_cap, size_t *trace_n)
+/* PwmInverter.step on the ideal link (l NULL) or the capacitor link l (x then has p->n_states + 3 entries;
+ * *chop, *fault, *t_fault: DCLink.step's) */
+static int step_any(sm_inverter *inv, const sm_motor *p, const sm_dclink *l, sm_solve_memo *memo, double *x,
+                    double t0, double dt, double v_alpha, double v_beta, double T_load, double v_avg[2], int *chop,
+                    int *fault, double *t_fault, double *trace, size_t trace_cap, size_t *trace_n)
 {
     sm_inverter q;
     edge evs[6];
-    double xs[6], T_h, eps, V, half, t1, end, start, tp, sa = 0.0, sb = 0.0, cur[3] = {0.0, 0.0, 0.0};
-    double vo[5] = {0.0, 0.0, 0.0, 0.0, 0.0}, te, tn;
+    sm_pwm_link_run lk;
+    double xs[SM_N_LINK_STATES_MAX], T_h, eps, V, half, t1, end, start, tp, sa = 0.0, sb = 0.0;
+    double cur[3] = {0.0, 0.0, 0.0}, vo[5] = {0.0, 0.0, 0.0, 0.0, 0.0}, vi[2], te, tn;
     long long k;
-    int n_ev = 0, ei = 0, have_cur = 0, have_volts = 0, st, j, xd;
+    int n_ev = 0, ei = 0, have_cur = 0, have_volts = 0, st, j, xd, nx;
     size_t n_local = 0;
     if (inv == NULL || p == NULL || x == NULL || v_avg == NULL) return SM_ERR_ARG;
+    if (l != NULL && (chop == NULL || fault == NULL || t_fault == NULL)) return SM_ERR_ARG;
     if (!isfinite(t0) || !isfinite(dt) || !isfinite(v_alpha) || !isfinite(v_beta)) return SM_ERR_NONFINITE;
     if (trace_n == NULL) trace_n = &n_local;
     *trace_n = 0;
+    nx = p->n_states + (l != NULL ? 3 : 0);
     memcpy(&q, inv, sizeof q);
-    memcpy(xs, x, sizeof xs);
+    memcpy(xs, x, (size_t)nx * sizeof xs[0]);
+    lk.l = l;
+    lk.chop = l != NULL ? *chop : 0;
+    lk.fault = l != NULL ? *fault : 0;
+    lk.t_fault = NAN;
     T_h = q.T_h;
     eps = q.eps;
-    V = sm_inverter_link_voltage(&q);
+    V = l == NULL ? sm_inverter_link_voltage(&q) : xs[sm_dclink_iv(p)]; /* the modulator's link voltage */
+    if (!(V > 0.0)) V = sm_inverter_link_voltage(&q);                  /* a collapsed link: V_dc */
     half = 0.5 * V;
     t1 = t0 + dt;
     end = t1 - eps;
@@ -252,10 +256,17 @@ int sm_inverter_step_memo(sm_inverter *inv, const sm_motor *p, sm_solve_memo *me
                 if ((st = volts(&q, p, memo, xs, half, cur, &have_cur, vo)) != SM_CORE_OK) return st;
                 have_volts = 1;
             }
-            if ((st = integrate(p, memo, xs, tp, tn - tp, vo, T_load, trace, trace_cap, trace_n)) != SM_CORE_OK)
-                return st;
-            sa += vo[0] * (tn - tp);
-            sb += vo[1] * (tn - tp);
+            if (l == NULL) {
+                if ((st = integrate(p, memo, xs, tp, tn - tp, vo, T_load, trace, trace_cap, trace_n)) != SM_CORE_OK)
+                    return st;
+                sa += vo[0] * (tn - tp);
+                sb += vo[1] * (tn - tp);
+            } else {
+                st = sm_pwm_link_interval(&q, p, &lk, xs, tp, tn - tp, cur, T_load, trace, trace_cap, trace_n, vi);
+                if (st != SM_CORE_OK) return st;
+                sa += vi[0];
+                sb += vi[1];
+            }
             tp = tn;
             have_cur = 0;
             have_volts = 0;
@@ -295,15 +306,53 @@ int sm_inverter_step_memo(sm_inverter *inv, const sm_motor *p, sm_solve_memo *me
     if (!have_volts) {
         if ((st = volts(&q, p, memo, xs, half, cur, &have_cur, vo)) != SM_CORE_OK) return st;
     }
-    if ((st = integrate(p, memo, xs, tp, t1 - tp, vo, T_load, trace, trace_cap, trace_n)) != SM_CORE_OK) return st;
-    sa += vo[0] * (t1 - tp);
-    sb += vo[1] * (t1 - tp);
+    if (l == NULL) {
+        if ((st = integrate(p, memo, xs, tp, t1 - tp, vo, T_load, trace, trace_cap, trace_n)) != SM_CORE_OK)
+            return st;
+        sa += vo[0] * (t1 - tp);
+        sb += vo[1] * (t1 - tp);
+    } else {
+        st = sm_pwm_link_interval(&q, p, &lk, xs, tp, t1 - tp, cur, T_load, trace, trace_cap, trace_n, vi);
+        if (st != SM_CORE_OK) return st;
+        sa += vi[0];
+        sb += vi[1];
+        *chop = lk.chop;
+        *fault = lk.fault;
+        *t_fault = lk.t_fault;
+    }
     v_avg[0] = sa / dt;
     v_avg[1] = sb / dt;
-    memcpy(x, xs, sizeof xs);
+    memcpy(x, xs, (size_t)nx * sizeof xs[0]);
     memcpy(inv, &q, sizeof q);
     return SM_CORE_OK;
 }
+
+int sm_inverter_step(sm_inverter *inv, const sm_motor *p, double *x, double t0, double dt, double v_alpha,
+                     double v_beta, double T_load, double v_avg[2], double *trace, size_t trace_cap,
+                     size_t *trace_n)
+{
+    return step_any(inv, p, NULL, NULL, x, t0, dt, v_alpha, v_beta, T_load, v_avg, NULL, NULL, NULL, trace,
+                    trace_cap, trace_n);
+}
+
+int sm_inverter_step_memo(sm_inverter *inv, const sm_motor *p, sm_solve_memo *memo, double *x, double t0,
+                          double dt, double v_alpha, double v_beta, double T_load, double v_avg[2], double *trace,
+                          size_t trace_cap, size_t *trace_n)
+{
+    return step_any(inv, p, NULL, memo, x, t0, dt, v_alpha, v_beta, T_load, v_avg, NULL, NULL, NULL, trace,
+                    trace_cap, trace_n);
+}
+
+int sm_inverter_step_link(sm_inverter *inv, const sm_motor *p, const sm_dclink *l, sm_solve_memo *memo, double *x,
+                          double t0, double dt, double v_alpha, double v_beta, double T_load, double v_avg[2],
+                          int *chop, int *fault, double *t_fault, double *trace, size_t trace_cap, size_t *trace_n)
+{
+    if (l == NULL) return SM_ERR_ARG;
+    return step_any(inv, p, l, memo, x, t0, dt, v_alpha, v_beta, T_load, v_avg, chop, fault, t_fault, trace,
+                    trace_cap, trace_n);
+}
+
+
 
 static double sign_times(double i, double v)
 {

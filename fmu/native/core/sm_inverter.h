@@ -8,6 +8,7 @@
 #include <stddef.h>
 
 #include "sm_common.h"
+#include "sm_dclink.h"
 #include "sm_params.h" /* generated: sm_plant_params */
 #include "sm_plant.h"
 
@@ -44,20 +45,27 @@ void sm_inverter_duties(double v_alpha, double v_beta, double V_dc, double d[3])
 /* PwmInverter.intervals_bound(dt): 12 (ceil(dt / T_h) + 1) + 1, as a double. */
 double sm_inverter_intervals_bound(const sm_inverter *inv, double dt);
 
-/* PwmInverter.step: x (the plant state) advanced from t0 over dt [s] with the command (v_alpha, v_beta)
+/* PwmInverter.step: x (the plant state, p->n_states entries) advanced from t0 over dt [s] with the command (v_alpha, v_beta)
  * [V] and T_load [N m] held; v_avg the step averages [V] of the applied alpha/beta voltage.  trace
  * (may be NULL): up to trace_cap rows of SM_INV_TRACE_WIDTH doubles, one per integrated interval;
  * *trace_n (may be NULL) the number of intervals (also beyond trace_cap).  On any failure (a status
  * of sm_plant_step or sm_plant_outputs_of) x and inv are unchanged. */
-int sm_inverter_step(sm_inverter *inv, const sm_motor *p, double x[6], double t0, double dt, double v_alpha,
+int sm_inverter_step(sm_inverter *inv, const sm_motor *p, double *x, double t0, double dt, double v_alpha,
                      double v_beta, double T_load, double v_avg[2], double *trace, size_t trace_cap,
                      size_t *trace_n);
 
 /* sm_inverter_step with the plant's solve memo (NULL: none; sm_plant_step_memo, sm_plant_outputs_memo):
  * the same results, fewer curve solves (the currents at an interval's start and its first RK4 stage). */
-int sm_inverter_step_memo(sm_inverter *inv, const sm_motor *p, sm_solve_memo *memo, double x[6], double t0,
+int sm_inverter_step_memo(sm_inverter *inv, const sm_motor *p, sm_solve_memo *memo, double *x, double t0,
                           double dt, double v_alpha, double v_beta, double T_load, double v_avg[2], double *trace,
                           size_t trace_cap, size_t *trace_n);
+
+/* PwmInverter.step on the capacitor link l (satmotor/machine/pwm_link.py): x has p->n_states + 3 entries
+ * (the link's v_dc, E_regen, E_chop last); *chop, *fault as sm_dclink_step's, *t_fault the sub-step end
+ * where the fault was set in this step (NAN otherwise).  On failure nothing is changed. */
+int sm_inverter_step_link(sm_inverter *inv, const sm_motor *p, const sm_dclink *l, sm_solve_memo *memo, double *x,
+                          double t0, double dt, double v_alpha, double v_beta, double T_load, double v_avg[2],
+                          int *chop, int *fault, double *t_fault, double *trace, size_t trace_cap, size_t *trace_n);
 
 /* deadtime.compensate: (v_alpha, v_beta) [V] with sign(i_phase) V_comp added per phase from the measured
  * (i_alpha, i_beta) [A]; unchanged for V_comp = 0. */

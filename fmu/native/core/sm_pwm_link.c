@@ -1,0 +1,126 @@
+/* satmotor/machine/pwm_link.py in C99 (see sm_pwm_link.h). */
+#include "sm_pwm_link.h"
+
+#include <math.h>
+#include <string.h>
+
+/* inverter.alpha_beta (the same operations) */
+static void alpha_beta(double va, double vb, double vc, double *a, double *b)
+{
+    *a = (2.0 * va - vb - vc) / 3.0;
+    *b = (vb - vc) / sqrt(3.0);
+}
+
+int sm_pwm_link_derivatives(const sm_motor *p, const sm_dclink *l, double t, const double *y, const double sig[3],
+                            const double dl[3], double T_load, int chop, double *dy)
+{
+    sm_plant_outputs o;
+    double v_dc, half, g[3], ga, gb, va, vb, p_dc, i_dc, i_src, i_chop;
+    int st, i, iv;
+    if (p == NULL || l == NULL || y == NULL || sig == NULL || dl == NULL || dy == NULL) return SM_ERR_ARG;
+    iv = sm_dclink_iv(p);
+    v_dc = y[iv];
+    if (v_dc > 0.0) {
+        half = 0.5 * v_dc;
+        for (i = 0; i < 3; ++i) g[i] = sig[i] * half;
+        alpha_beta(g[0], g[1], g[2], &ga, &gb);
+        alpha_beta(g[0] + dl[0], g[1] + dl[1], g[2] + dl[2], &va, &vb);
+    } else {
+        ga = gb = va = vb = 0.0;
+    }
+    st = sm_plant_outputs_v(p, y, va, vb, &o);
+    if (st == SM_CORE_OK) st = sm_plant_derivatives(p, y, va, vb, T_load, dy);
+    if (st != SM_CORE_OK || !isfinite(v_dc)) {
+        for (i = 0; i < iv + 5; ++i) dy[i] = NAN;
+        return st != SM_CORE_OK ? st : SM_ERR_NONFINITE;
+    }
+    p_dc = 1.5 * (ga * o.i_s_alpha + gb * o.i_s_beta);
+    i_dc = v_dc > 0.0 ? p_dc / v_dc : 0.0;
+    i_src = (sm_dclink_source_voltage(l, t) - v_dc) * l->inv_R_src;
+    if (!(i_src > 0.0)) i_src = 0.0;
+    i_chop = chop ? v_dc * l->inv_R_chop : 0.0;
+    dy[iv] = (i_src - i_dc - i_chop) * l->inv_C;
+    dy[iv + 1] = p_dc < 0.0 ? -p_dc : 0.0;
+    dy[iv + 2] = v_dc * i_chop;
+    dy[iv + 3] = va;
+    dy[iv + 4] = vb;
+    for (i = iv; i < iv + 5; ++i)
+        if (!isfinite(dy[i])) return SM_ERR_NONFINITE;
+    return SM_CORE_OK;
+}
+
+int sm_pwm_link_step(const sm_motor *p, const sm_dclink *l, double t, double *x, const double sig[3],
+                     const double dl[3], double T_load, double h, int n_sub, int *chop, int *fault, double *t_fault,
+                     double v_int[2])
+{
+    enum { NM = SM_N_LINK_STATES_MAX + 2 };
+    double yc[NM], yt[NM], k1[NM], k2[NM], k3[NM], k4[NM], dt, half, sixth, tj;
+    int j, i, st, c, f, N, iv;
+    if (p == NULL || l == NULL || x == NULL || chop == NULL || fault == NULL || t_fault == NULL || v_int == NULL ||
+        n_sub < 1)
+        return SM_ERR_ARG;
+    *t_fault = NAN;
+    if (!isfinite(h)) return SM_ERR_NONFINITE;
+    iv = sm_dclink_iv(p);
+    N = iv + 5;
+    dt = h / (double)n_sub;
+    half = 0.5 * dt;
+    sixth = dt / 6.0;
+    c = *chop;
+    f = *fault;
+    memcpy(yc, x, (size_t)(iv + 3) * sizeof yc[0]);
+    yc[iv + 3] = 0.0;
+    yc[iv + 4] = 0.0;
+    for (j = 0; j < n_sub; ++j) {
+        tj = t + (double)j * dt;
+        if ((st = sm_pwm_link_derivatives(p, l, tj, yc, sig, dl, T_load, c, k1)) != SM_CORE_OK) return st;
+        for (i = 0; i < N; ++i) yt[i] = yc[i] + half * k1[i];
+        if ((st = sm_pwm_link_derivatives(p, l, tj + half, yt, sig, dl, T_load, c, k2)) != SM_CORE_OK) return st;
+        for (i = 0; i < N; ++i) yt[i] = yc[i] + half * k2[i];
+        if ((st = sm_pwm_link_derivatives(p, l, tj + half, yt, sig, dl, T_load, c, k3)) != SM_CORE_OK) return st;
+        for (i = 0; i < N; ++i) yt[i] = yc[i] + dt * k3[i];
+        if ((st = sm_pwm_link_derivatives(p, l, tj + dt, yt, sig, dl, T_load, c, k4)) != SM_CORE_OK) return st;
+        for (i = 0; i < N; ++i) yc[i] = yc[i] + sixth * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]);
+        c = sm_dclink_switch(l, yc[iv], c);
+        if (!f && l->V_dc_max > 0.0 && yc[iv] > l->V_dc_max) {
+            f = 1;
+            *t_fault = tj + dt;
+        }
+    }
+    for (i = 0; i < N; ++i)
+        if (!isfinite(yc[i])) return SM_ERR_NONFINITE;
+    memcpy(x, yc, (size_t)(iv + 3) * sizeof yc[0]);
+    v_int[0] = yc[iv + 3];
+    v_int[1] = yc[iv + 4];
+    *chop = c;
+    *fault = f;
+    return SM_CORE_OK;
+}
+
+int sm_pwm_link_interval(const sm_inverter *q, const sm_motor *p, sm_pwm_link_run *lk, double *x, double t, double L,
+                         const double cur[3], double T_load, double *trace, size_t trace_cap, size_t *trace_n,
+                         double v_int[2])
+{
+    double sig[3], dl[3], qn = ceil(L / p->h_int - 1e-9), tf;
+    int j, st, n = qn > 1.0 ? (int)qn : 1, f = lk->fault;
+    for (j = 0; j < 3; ++j) {
+        sig[j] = q->dead[j] ? (q->dead_v[j] > 0.0 ? 1.0 : -1.0) : q->s[j] == 1 ? 1.0 : -1.0;
+        dl[j] = 0.0;
+        if (q->v_on > 0.0) dl[j] = cur[j] > 0.0 ? -q->v_on : cur[j] < 0.0 ? q->v_on : 0.0;
+    }
+    if (trace_n != NULL) {
+        if (trace != NULL && *trace_n < trace_cap) {
+            double *row = trace + *trace_n * SM_INV_TRACE_WIDTH, half = 0.5 * x[sm_dclink_iv(p)];
+            row[0] = t;
+            row[1] = L;
+            for (j = 0; j < 3; ++j) row[4 + j] = sig[j] * half + dl[j];
+            alpha_beta(row[4], row[5], row[6], &row[2], &row[3]);
+        }
+        ++*trace_n;
+    }
+    st = sm_pwm_link_step(p, lk->l, t, x, sig, dl, T_load, L, n, &lk->chop, &f, &tf, v_int);
+    if (st != SM_CORE_OK) return st;
+    if (!isnan(tf) && isnan(lk->t_fault)) lk->t_fault = tf;
+    lk->fault = f;
+    return SM_CORE_OK;
+}

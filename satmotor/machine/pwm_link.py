@@ -1,0 +1,108 @@
+"""The pwm inverter on the capacitor DC link (``inverter = pwm`` with ``dc_link = capacitor``).
+
+Formulation (the switched stage draws its current from the link, whose voltage moves within a step):
+
+* Between two switching instants (one constant interval of :class:`~satmotor.machine.inverter.PwmInverter`)
+  each leg ``j`` is fixed: its sign ``sigma_j`` (+1 upper device or upper diode, -1 lower) and its
+  on-state drop term ``delta_j`` (``-v_on`` for a positive phase current, ``+v_on`` for a negative
+  one, 0 without drops; the sign of the current at the interval's start, as on the ideal link).  The
+  phase voltage is ``v_j = sigma_j v_dc / 2 + delta_j`` with the link voltage ``v_dc`` **a state**:
+  the motor, the thermal states and the link ``(v_dc, E_regen, E_chop)`` integrate together over the
+  interval by RK4 (``max(1, ceil(L / h_int - 1e-9))`` sub-steps), every stage evaluating the voltages at
+  its own ``v_dc``.  The chopper switches and the fault latches at the sub-step ends
+  (:class:`~satmotor.machine.dc_link.DCLink`'s rules).
+* The link's current: ``i_dc = p_dc / v_dc`` with ``p_dc = 3/2 g . i_s``, ``g`` the alpha/beta vector of
+  the legs' ``sigma_j v_dc / 2`` (the current the upper devices carry; the floating star point makes
+  the phase currents sum to zero).  ``p_dc - 3/2 v_s . i_s = -3/2 delta . i_s`` is the devices'
+  conduction loss.  ``E_regen`` integrates ``max(0, -p_dc)``: the instantaneous power back into the
+  link, which with switching includes the reactive energy that flows back within a carrier period.
+* The modulator normalizes its duty cycles with the link voltage sampled at the start of the
+  communication step that first reaches a half period (a controller's once-per-step measurement);
+  the dead-interval diode is chosen as on the ideal link (the sign of the phase current; its voltage
+  follows ``v_dc``).
+* The step-average voltage (outputs ``v_avg_alpha/beta``) is the RK4 quadrature of the applied voltage
+  over the intervals: two integrator entries carried through the interval's RK4 and dropped after.
+* ``v_dc <= 0``: no voltage is applied and no current drawn (as :meth:`DCLink.applied`).
+
+The C port is ``fmu/native/core/sm_pwm_link.c`` (the same floats).
+"""
+
+from __future__ import annotations
+
+import math
+
+from satmotor.machine.integrate import rk4
+
+_SQRT3 = math.sqrt(3.0)
+
+
+def _alpha_beta(va, vb, vc):
+    """inverter.alpha_beta (the same operations)."""
+    return (2.0 * va - vb - vc) / 3.0, (vb - vc) / _SQRT3
+
+
+def derivatives(t, y, link, sig, dl, T_load, chop):
+    """``dy/dt`` of the link's state (motor, thermal, link) followed by the two voltage integrals, for
+    the legs' signs ``sig`` and drop terms ``dl`` [V] held (module docstring)."""
+    iv = link.iv
+    x = y[:iv + 3]
+    v_dc = x[iv]
+    if v_dc > 0.0:
+        half = 0.5 * v_dc
+        g = (sig[0] * half, sig[1] * half, sig[2] * half)
+        ga, gb = _alpha_beta(*g)
+        va, vb = _alpha_beta(g[0] + dl[0], g[1] + dl[1], g[2] + dl[2])
+    else:
+        ga = gb = va = vb = 0.0
+    plant = link.plant
+    o = plant.outputs(x[:iv], va, vb)
+    d = plant.derivatives(t, x[:iv], va, vb, T_load)
+    p_dc = 1.5 * (ga * o.i_s_alpha + gb * o.i_s_beta)
+    i_dc = p_dc / v_dc if v_dc > 0.0 else 0.0
+    i_src = (link.source_voltage(t) - v_dc) * link._inv_R_src
+    if not i_src > 0.0:
+        i_src = 0.0
+    i_chop = v_dc * link._inv_R_chop if chop else 0.0
+    return (*d, (i_src - i_dc - i_chop) * link._inv_C, -p_dc if p_dc < 0.0 else 0.0, v_dc * i_chop, va, vb)
+
+
+def step(link, t, x, sig, dl, T_load, h, n_sub, chop, fault):
+    """Advance the link's state ``x`` over one constant interval of ``h`` [s] in ``n_sub`` RK4 sub-steps
+    (times ``t + j h / n_sub``).  Returns ``(x, chop, fault, t_fault, int_va, int_vb)``: ``t_fault`` as
+    :meth:`DCLink.step`, ``int_va``, ``int_vb`` [V s] the integrals of the applied voltage."""
+    dt = h / n_sub
+    t_fault = None
+    V_max = link.p.V_dc_max
+    iv = link.iv
+    y = (*x, 0.0, 0.0)
+    for j in range(n_sub):
+        tj = t + j * dt
+        y = rk4(derivatives, tj, y, dt, 1, (link, sig, dl, T_load, chop))
+        chop = link.switch(y[iv], chop)
+        if not fault and V_max > 0.0 and y[iv] > V_max:
+            fault, t_fault = True, tj + dt
+    return y[:iv + 3], chop, fault, t_fault, y[iv + 3], y[iv + 4]
+
+
+def interval(inv, lk, x, t, L, cur, T_load, h_int, trace):
+    """One constant interval of :meth:`PwmInverter.step` on the capacitor link: the legs' signs and drops
+    from the switching state of ``inv``; ``cur`` the phase currents at ``x`` (read when v_on > 0);
+    ``lk`` = ``[link, chop, fault, t_fault]``, updated.  Returns ``(x, int_v_alpha, int_v_beta)``."""
+    link = lk[0]
+    sig = [0.0, 0.0, 0.0]
+    dl = [0.0, 0.0, 0.0]
+    for j in range(3):
+        up = inv.dead_v[j] > 0.0 if inv.dead[j] else inv.s[j] == 1  # the upper device or diode
+        sig[j] = 1.0 if up else -1.0
+        if inv.v_on > 0.0:
+            dl[j] = -inv.v_on if cur[j] > 0.0 else inv.v_on if cur[j] < 0.0 else 0.0
+    n = max(1, math.ceil(L / h_int - 1e-9))
+    if trace is not None:
+        half = 0.5 * x[link.iv]
+        v = [sig[j] * half + dl[j] for j in range(3)]
+        trace.append((t, L, *_alpha_beta(*v), *v))
+    x, lk[1], fault, t_fault, ia, ib = step(link, t, x, sig, dl, T_load, L, n, lk[1], lk[2])
+    if t_fault is not None and lk[3] is None:
+        lk[3] = t_fault
+    lk[2] = fault
+    return x, ia, ib
