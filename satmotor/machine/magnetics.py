@@ -27,6 +27,7 @@ import math
 from dataclasses import dataclass
 
 from satmotor.errors import ParameterError, require_integer, require_number
+from satmotor.machine.atan import atan
 
 _REL_TOL = 4.0e-16
 _MAX_ITER = 200
@@ -148,6 +149,9 @@ def _check_saturating(L_m0, L_m_inf, I_par):
 class ArctanCurve(_Curve):
     """``psi = L_m_inf I + (L_m0 - L_m_inf) I_par atan(I / I_par)``.
 
+    ``atan`` is :func:`satmotor.machine.atan.atan` (within 0.61 ulp of the exact arc tangent, the
+    floats of the C core's ``sm_atan``), not the platform's ``math.atan``.
+
     The form of the Modelica Standard Library's
     ``Modelica.Electrical.Analog.Basic.SaturatingInductor``.  Slope ``L_m0`` at
     the origin, ``L_m_inf`` far in saturation, knee near ``I_par``.
@@ -177,14 +181,14 @@ class ArctanCurve(_Curve):
     def _psi_dpsi(self, I):
         x = I / self.I_par
         d = self.L_m0 - self.L_m_inf
-        return (self.L_m_inf * I + d * self.I_par * math.atan(x), self.L_m_inf + d / (1.0 + x * x))
+        return (self.L_m_inf * I + d * self.I_par * atan(x), self.L_m_inf + d / (1.0 + x * x))
 
     def solve(self, a, c, guess=0.0):
         """:meth:`_Curve.solve` with ``_psi_dpsi`` written out: the same operations in the same order
         (so the same iterates and the same root, bit for bit), without a call per iterate."""
         if c <= 0.0:
             return 0.0, 0.0
-        atan, inf = math.atan, math.inf
+        inf = math.inf
         L_inf, I_par = self.L_m_inf, self.I_par
         d = self.L_m0 - L_inf
         dI = d * I_par
@@ -220,7 +224,7 @@ class ArctanCurve(_Curve):
             x2 = x * x
             g = 1.0 - x2 * (1.0 / 3.0 - x2 * (1.0 / 5.0 - x2 * (1.0 / 7.0 - x2 / 9.0)))
         else:
-            g = math.atan(x) / x
+            g = atan(x) / x
         return self.L_m_inf + (self.L_m0 - self.L_m_inf) * g
 
     def dm_dI(self, I):
@@ -229,14 +233,14 @@ class ArctanCurve(_Curve):
             x2 = x * x
             dg = -x * (2.0 / 3.0 - x2 * (4.0 / 5.0 - x2 * (6.0 / 7.0 - x2 * 8.0 / 9.0)))
         else:
-            dg = (x / (1.0 + x * x) - math.atan(x)) / (x * x)
+            dg = (x / (1.0 + x * x) - atan(x)) / (x * x)
         return (self.L_m0 - self.L_m_inf) * dg / self.I_par
 
     def coenergy(self, I):
         x = I / self.I_par
         d = self.L_m0 - self.L_m_inf
         return 0.5 * self.L_m_inf * I * I + d * self.I_par**2 * (
-            x * math.atan(x) - 0.5 * math.log1p(x * x)
+            x * atan(x) - 0.5 * math.log1p(x * x)
         )
 
 

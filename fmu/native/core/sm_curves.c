@@ -2,6 +2,8 @@
  * Also the helpers of sm_common.h (Python-style messages).  No global mutable state. */
 #include "sm_curves.h"
 
+#include "sm_atan.h"
+
 #include <errno.h>
 #include <float.h>
 #include <locale.h>
@@ -202,7 +204,7 @@ static void psi_dpsi(const sm_curve *c, double I, double *psi, double *dpsi)
     case SM_CURVE_ARCTAN:
         x = I / c->I_par;
         d = c->L_m0 - c->L_m_inf;
-        *psi = c->L_m_inf * I + d * c->I_par * atan(x);
+        *psi = c->L_m_inf * I + d * c->I_par * sm_atan(x);
         *dpsi = c->L_m_inf + d / (1.0 + x * x);
         return;
     case SM_CURVE_EXPONENTIAL:
@@ -257,7 +259,7 @@ double sm_curve_m(const sm_curve *c, double I)
             x2 = x * x;
             g = 1.0 - x2 * (1.0 / 3.0 - x2 * (1.0 / 5.0 - x2 * (1.0 / 7.0 - x2 / 9.0)));
         } else {
-            g = atan(x) / x;
+            g = sm_atan(x) / x;
         }
         return c->L_m_inf + (c->L_m0 - c->L_m_inf) * g;
     case SM_CURVE_EXPONENTIAL:
@@ -288,7 +290,7 @@ double sm_curve_dm_dI(const sm_curve *c, double I)
             x2 = x * x;
             dg = -x * (2.0 / 3.0 - x2 * (4.0 / 5.0 - x2 * (6.0 / 7.0 - x2 * 8.0 / 9.0)));
         } else {
-            dg = (x / (1.0 + x * x) - atan(x)) / (x * x);
+            dg = (x / (1.0 + x * x) - sm_atan(x)) / (x * x);
         }
         return (c->L_m0 - c->L_m_inf) * dg / c->I_par;
     case SM_CURVE_EXPONENTIAL:
