@@ -149,7 +149,7 @@ def _check_saturating(L_m0, L_m_inf, I_par):
 class ArctanCurve(_Curve):
     """``psi = L_m_inf I + (L_m0 - L_m_inf) I_par atan(I / I_par)``.
 
-    ``atan`` is :func:`satmotor.machine.atan.atan` (within 0.61 ulp of the exact arc tangent, the
+    ``atan`` is :func:`satmotor.machine.atan.atan` (within 0.62 ulp of the exact arc tangent, the
     floats of the C core's ``sm_atan``), not the platform's ``math.atan``.
 
     The form of the Modelica Standard Library's
