@@ -4,11 +4,14 @@ Against independent values: the exact arc tangent computed here in 60-digit deci
 (argument halving and the Taylor series, pi from Machin's formula), the tables' entries and the
 polynomial's coefficients from the same, and the platform's ``math.atan`` over 10^6 points.  The C
 function against the Python bit for bit (ctypes), and the C source's table literals against the
-Python's.  Last, the arctan curve's solve with the own atan against the same Newton iteration written
-here with ``math.atan``: the roots differ by less than the equation's rounding bound."""
+Python's.  The arctan curve: its solve (which writes the atan's main branch out) and its evaluate (one
+atan for psi, m, dm_dI) against the generic ones, and the C curve against the Python, bit for bit;
+its solve with the own atan against the same Newton iteration written here with ``math.atan``: the
+roots differ by less than the equation's rounding bound."""
 
 from __future__ import annotations
 
+import ctypes
 import math
 import random
 import re
@@ -22,7 +25,7 @@ from pathlib import Path
 import pytest
 
 from satmotor.machine.atan import ACOT_K64, ATAN_K64, COEFFICIENTS, atan
-from satmotor.machine.magnetics import ArctanCurve
+from satmotor.machine.magnetics import ArctanCurve, _Curve
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import native_core as nc  # noqa: E402
@@ -226,3 +229,58 @@ def test_the_curve_solve_moves_less_than_its_rounding_bound():
         worst = max(worst, abs(got - ref) / bound)
     print(f"largest change of the root: {worst:.3f} of the rounding bound")
     assert worst <= 1.0
+
+
+def _solve_cases(n, seed):
+    """(a, c, guess): a = 0, the leakage-like 0.0165 and random; c over the flux range and tiny; guesses
+    cold (0), near the root, far above and below it, nan and inf."""
+    rnd = random.Random(seed)
+    out = []
+    for i in range(n):
+        a = (0.0, 0.0165, rnd.uniform(0.0, 0.05), 10.0 ** rnd.uniform(-4, 1))[i % 4]
+        c = rnd.uniform(0.0, 2.5) if i % 7 else 10.0 ** rnd.uniform(-12, 1)
+        guess = (0.0, rnd.uniform(0.0, 40.0), 1e9, math.nan, math.inf, -1.0)[i % 6]
+        out.append((a, c, guess))
+    return out + [(0.01, 0.0, 0.0), (0.01, -1.0, 0.0), (0.0, 5e-324, 0.0), (0.0, 1e-300, 0.0)]
+
+
+def test_the_written_out_solve_and_evaluate_equal_the_generic_ones():
+    """ArctanCurve.solve (atan's main branch written out) against _Curve.solve on _psi_dpsi, and
+    ArctanCurve.evaluate against psi, m, dm_dI, L_dyn one by one: the same floats."""
+    for curve in (ArctanCurve(), ArctanCurve(L_m0=0.5, L_m_inf=0.2, I_par=0.7)):
+        for a, c, guess in _solve_cases(20_000, 7):
+            got, ref = curve.solve(a, c, guess), _Curve.solve(curve, a, c, guess)
+            assert all(same_bits(x, y) for x, y in zip(got, ref)), (a, c, guess, got, ref)
+        rnd = random.Random(8)
+        for I in [0.0, 1e-300, 0.033, 0.0331, 1e3] + [rnd.uniform(0.0, 30.0) for _ in range(5000)]:
+            psi, dpsi = curve._psi_dpsi(I)
+            got, ref = curve.evaluate(I), (psi, curve.m(I), curve.dm_dI(I), dpsi)
+            assert all(same_bits(x, y) for x, y in zip(got, ref)), (I, got, ref)
+
+
+@pytest.mark.skipif(shutil.which("gcc") is None, reason="needs gcc")
+def test_the_c_arctan_curve_equals_the_python_bit_for_bit():
+    """sm_curve_solve_from, sm_curve_evaluate, sm_curve_psi/m/dm_dI/L_dyn of the arctan curve against
+    ArctanCurve: the same floats (the cross tests of test_native_core_plant.py allow 1e-12)."""
+    lib = nc.load()
+    D = ctypes.c_double
+    for kw in ({}, {"L_m0": 0.5, "L_m_inf": 0.2, "I_par": 0.7}):
+        py = ArctanCurve(**kw)
+        c = nc.new_curve(lib)
+        msg = ctypes.create_string_buffer(256)
+        assert lib.sm_curve_init(c, b"arctan", py.L_m0, py.L_m_inf, py.I_par, 2.46, 7, b"", msg, 256) == 0
+        I, psi = D(), D()
+        for a, cc, guess in _solve_cases(10_000, 9):
+            assert lib.sm_curve_solve_from(c, a, cc, guess, I, psi) == 0
+            ref = py.solve(a, cc, guess)
+            assert same_bits(I.value, ref[0]) and same_bits(psi.value, ref[1]), (a, cc, guess)
+        rnd = random.Random(10)
+        out = [D() for _ in range(4)]
+        for x in [0.0, 1e-300, 0.033, 0.0331, 1e3, 7e20] + [rnd.uniform(0.0, 30.0) for _ in range(5000)]:
+            lib.sm_curve_evaluate(c, x, *out)
+            ref = py.evaluate(x)
+            assert all(same_bits(o.value, r) for o, r in zip(out, ref)), (x, [o.value for o in out], ref)
+            one = (lib.sm_curve_psi(c, x), lib.sm_curve_m(c, x), lib.sm_curve_dm_dI(c, x),
+                   lib.sm_curve_L_dyn(c, x))
+            ref = (py.psi(x), py.m(x), py.dm_dI(x), py.L_dyn(x))
+            assert all(same_bits(o, r) for o, r in zip(one, ref)), x

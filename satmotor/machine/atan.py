@@ -179,11 +179,14 @@ COEFFICIENTS = tuple(float.fromhex(c) for c in (
     "-0x1.745d1745d1746p-4", "0x1.3b13b13b13b14p-4", "-0x1.1111111111111p-4"))
 
 _C1, _C2, _C3, _C4, _C5, _C6, _C7 = COEFFICIENTS
-_HI = tuple(h for h, _ in ATAN_K64)
-_LO = tuple(lo for _, lo in ATAN_K64)
-_COT_HI = tuple(h for h, _ in ACOT_K64)
-_COT_LO = tuple(lo for _, lo in ACOT_K64)
+# the tables keyed by the float k (a dict lookup is cheaper in CPython than int(k) and two indexings;
+# the C indexes its arrays with (int)k: the same entries)
+_ATAN = {float(k): pair for k, pair in enumerate(ATAN_K64)}
+_ACOT = {float(k): pair for k, pair in enumerate(ACOT_K64)}
+# for the copy of the main branch in magnetics.ArctanCurve.solve
+TABLE, C1, C2, C3 = _ATAN, _C1, _C2, _C3
 _ROUND = 6755399441055744.0  # 1.5 2**52; (y + _ROUND) - _ROUND: y rounded to an integer, for 0 <= y < 2**51
+ROUND = _ROUND
 _TINY = 2.0**-28
 _HUGE = 2.0**60
 
@@ -195,11 +198,11 @@ def atan(x):
     if 0.0625 <= a <= 4.0:
         y = a * 64.0
         n = (y + _ROUND) - _ROUND
-        k = int(n)
+        hi, lo = _ATAN[n]
         t = (y - n) / (64.0 + a * n)
         z = t * t
         w = t * z * ((_C1 + z * _C2) + (z * z) * _C3)
-        r = _HI[k] + ((t + _LO[k]) + w)
+        r = hi + ((t + lo) + w)
     elif a < 0.0625:
         if a < _TINY:
             return x
@@ -209,13 +212,13 @@ def atan(x):
     elif a <= _HUGE:
         y = 64.0 / a
         n = (y + _ROUND) - _ROUND
-        k = int(n)
+        hi, lo = _ACOT[n]
         t = (64.0 - a * n) / (a * 64.0 + n)
         z = t * t
         w = t * z * ((_C1 + z * _C2) + (z * z) * _C3)
-        r = _COT_HI[k] - ((t - _COT_LO[k]) + w)
+        r = hi - ((t - lo) + w)
     elif a > _HUGE:
-        r = _COT_HI[0]
+        r = ACOT_K64[0][0]
     else:
         return x + x  # NaN
     return -r if x < 0.0 else r

@@ -327,6 +327,21 @@ void sm_curve_evaluate(const sm_curve *c, double I, double *psi, double *m, doub
         mm = poly_m_of_psi(c, p);
         l = poly_ldyn_of_psi(c, p);
         d = -mm * mm * c->poly_b * (double)(n - 1) * pow(p, (double)(n - 2)) * l;
+    } else if (c->kind == SM_CURVE_ARCTAN) {
+        /* ArctanCurve.evaluate: one atan for psi, m and dm_dI, the same floats as the three apart */
+        double x = I / c->I_par, dd = c->L_m0 - c->L_m_inf, at = sm_atan(x), g, dg, x2;
+        p = c->L_m_inf * I + dd * c->I_par * at;
+        l = c->L_m_inf + dd / (1.0 + x * x);
+        if (x < 1e-2) {
+            x2 = x * x;
+            g = 1.0 - x2 * (1.0 / 3.0 - x2 * (1.0 / 5.0 - x2 * (1.0 / 7.0 - x2 / 9.0)));
+            dg = -x * (2.0 / 3.0 - x2 * (4.0 / 5.0 - x2 * (6.0 / 7.0 - x2 * 8.0 / 9.0)));
+        } else {
+            g = at / x;
+            dg = (x / (1.0 + x * x) - at) / (x * x);
+        }
+        mm = c->L_m_inf + dd * g;
+        d = dd * dg / c->I_par;
     } else {
         psi_dpsi(c, I, &p, &l);
         mm = sm_curve_m(c, I);
