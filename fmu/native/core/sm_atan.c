@@ -6,7 +6,7 @@
  * |x| < 1/16:  the Taylor polynomial x - x^3/3 + ... - x^15/15 (the next term is below 2^-64 x).
  * |x| <= 4:    c = k/64 the nearest multiple of 1/64, atan(a) = atan(c) + atan(t),
  *              t = (a - c) / (1 + a c), |t| <= 1/128, atan(t) = t - t^3/3 + t^5/5 - t^7/7
- *              (the next term is below 2^-66 t); atan(c) from a table, as the double hi nearest to
+ *              (the next term is below 2^-59 t); atan(c) from a table, as the double hi nearest to
  *              it plus the double lo nearest to the rest.
  * |x| > 4:     c = k/64 the nearest multiple of 1/64 to 1/a, atan(a) = pi/2 - atan(c) - atan(t),
  *              t = (1/a - c) / (1 + c/a) = (1 - a c) / (a + c), the same polynomial, and
