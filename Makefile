@@ -54,6 +54,7 @@ bench: $(STAMP)
 	$(PY) bench/bench_controller_step.py
 	$(PY) bench/bench_observer.py
 	$(PY) bench/bench_floor.py
+	$(PY) bench/bench_atan.py
 	$(PY) bench/bench_forms.py
 	$(PY) bench/bench_cosim.py
 	$(PY) bench/bench_native.py

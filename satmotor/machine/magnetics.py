@@ -27,6 +27,8 @@ import math
 from dataclasses import dataclass
 
 from satmotor.errors import ParameterError, require_integer, require_number
+from satmotor.machine import atan as _atan
+from satmotor.machine.atan import atan
 
 _REL_TOL = 4.0e-16
 _MAX_ITER = 200
@@ -148,6 +150,9 @@ def _check_saturating(L_m0, L_m_inf, I_par):
 class ArctanCurve(_Curve):
     """``psi = L_m_inf I + (L_m0 - L_m_inf) I_par atan(I / I_par)``.
 
+    ``atan`` is :func:`satmotor.machine.atan.atan` (within 0.62 ulp of the exact arc tangent, the
+    floats of the C core's ``sm_atan``), not the platform's ``math.atan``.
+
     The form of the Modelica Standard Library's
     ``Modelica.Electrical.Analog.Basic.SaturatingInductor``.  Slope ``L_m0`` at
     the origin, ``L_m_inf`` far in saturation, knee near ``I_par``.
@@ -177,25 +182,45 @@ class ArctanCurve(_Curve):
     def _psi_dpsi(self, I):
         x = I / self.I_par
         d = self.L_m0 - self.L_m_inf
-        return (self.L_m_inf * I + d * self.I_par * math.atan(x), self.L_m_inf + d / (1.0 + x * x))
+        return (self.L_m_inf * I + d * self.I_par * atan(x), self.L_m_inf + d / (1.0 + x * x))
 
     def solve(self, a, c, guess=0.0):
         """:meth:`_Curve.solve` with ``_psi_dpsi`` written out: the same operations in the same order
-        (so the same iterates and the same root, bit for bit), without a call per iterate."""
+        (so the same iterates and the same root, bit for bit), without a call per iterate; the main
+        branch of :func:`~satmotor.machine.atan.atan` (1/16 <= u <= 4, where the iterates of the
+        curve's working range are) is written out too (``tests/test_atan.py`` checks that this equals
+        :meth:`_Curve.solve` bit for bit)."""
         if c <= 0.0:
             return 0.0, 0.0
-        atan, inf = math.atan, math.inf
+        inf = math.inf
         L_inf, I_par = self.L_m_inf, self.I_par
         d = self.L_m0 - L_inf
         dI = d * I_par
+        table, c1, c2, c3, rnd = _atan.TABLE, _atan.C1, _atan.C2, _atan.C3, _atan.ROUND
         lo = 0.0
         x = c / (a + self.m0)
         hi = inf
         if x < guess < hi:
             x = guess
-        u = x / I_par
-        psi, dpsi = L_inf * x + dI * atan(u), L_inf + d / (1.0 + u * u)
-        for _ in range(_MAX_ITER):
+        it, step = 0, 0.0
+        while True:
+            u = x / I_par
+            if 0.0625 <= u <= 4.0:  # atan(u), its main branch
+                y = u * 64.0
+                n = (y + rnd) - rnd
+                at_hi, at_lo = table[n]
+                t = (y - n) / (64.0 + u * n)
+                z = t * t
+                at = at_hi + ((t + at_lo) + t * z * ((c1 + z * c2) + (z * z) * c3))
+            else:
+                at = atan(u)
+            psi = L_inf * x + dI * at
+            if it:
+                if abs(step) <= _REL_TOL * x:
+                    return x, psi
+                if it == _MAX_ITER:
+                    break
+            it += 1
             g = a * x + psi - c
             if g > 0.0:
                 hi = x
@@ -203,16 +228,28 @@ class ArctanCurve(_Curve):
                 lo = x
             else:
                 return x, psi
-            x_new = x - g / (a + dpsi)
+            x_new = x - g / (a + (L_inf + d / (1.0 + u * u)))
             if not (lo < x_new < hi):
                 x_new = 0.5 * (lo + hi) if hi < inf else 2.0 * x
             step = x_new - x
             x = x_new
-            u = x / I_par
-            psi, dpsi = L_inf * x + dI * atan(u), L_inf + d / (1.0 + u * u)
-            if abs(step) <= _REL_TOL * x:
-                return x, psi
         raise ArithmeticError(f"{self.name}: no convergence solving a I + psi(I) = c (a={a}, c={c})")
+
+    def evaluate(self, I):
+        """:meth:`_Curve.evaluate` with one ``atan`` for psi, m and dm_dI (the same floats as the
+        three one by one)."""
+        x = I / self.I_par
+        d = self.L_m0 - self.L_m_inf
+        at = atan(x)
+        psi, ldyn = self.L_m_inf * I + d * self.I_par * at, self.L_m_inf + d / (1.0 + x * x)
+        if x < 1e-2:
+            x2 = x * x
+            g = 1.0 - x2 * (1.0 / 3.0 - x2 * (1.0 / 5.0 - x2 * (1.0 / 7.0 - x2 / 9.0)))
+            dg = -x * (2.0 / 3.0 - x2 * (4.0 / 5.0 - x2 * (6.0 / 7.0 - x2 * 8.0 / 9.0)))
+        else:
+            g = at / x
+            dg = (x / (1.0 + x * x) - at) / (x * x)
+        return psi, self.L_m_inf + d * g, d * dg / self.I_par, ldyn
 
     def m(self, I):
         x = I / self.I_par
@@ -220,7 +257,7 @@ class ArctanCurve(_Curve):
             x2 = x * x
             g = 1.0 - x2 * (1.0 / 3.0 - x2 * (1.0 / 5.0 - x2 * (1.0 / 7.0 - x2 / 9.0)))
         else:
-            g = math.atan(x) / x
+            g = atan(x) / x
         return self.L_m_inf + (self.L_m0 - self.L_m_inf) * g
 
     def dm_dI(self, I):
@@ -229,14 +266,14 @@ class ArctanCurve(_Curve):
             x2 = x * x
             dg = -x * (2.0 / 3.0 - x2 * (4.0 / 5.0 - x2 * (6.0 / 7.0 - x2 * 8.0 / 9.0)))
         else:
-            dg = (x / (1.0 + x * x) - math.atan(x)) / (x * x)
+            dg = (x / (1.0 + x * x) - atan(x)) / (x * x)
         return (self.L_m0 - self.L_m_inf) * dg / self.I_par
 
     def coenergy(self, I):
         x = I / self.I_par
         d = self.L_m0 - self.L_m_inf
         return 0.5 * self.L_m_inf * I * I + d * self.I_par**2 * (
-            x * math.atan(x) - 0.5 * math.log1p(x * x)
+            x * atan(x) - 0.5 * math.log1p(x * x)
         )
 
 

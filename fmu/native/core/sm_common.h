@@ -3,8 +3,9 @@
  * The functions declared here are defined in sm_curves.c.
  *
  * Same floats as the Python package: the core evaluates the Python's formulas in the Python's
- * order in IEEE double, and calls the libm CPython's math module calls (atan, exp, expm1, pow);
- * math.hypot is CPython's own algorithm (sm_hypot).  That holds when the compiler neither fuses
+ * order in IEEE double, and calls the libm CPython's math module calls (atan2, exp, expm1, pow);
+ * math.hypot is CPython's own algorithm (sm_hypot), the arctan curve's atan the package's own
+ * (sm_atan, satmotor/machine/atan.py).  That holds when the compiler neither fuses
  * a*b+c into an fma nor keeps excess precision: build with -std=c99 (GCC: -ffp-contract=off then)
  * or pass -ffp-contract=off explicitly (needed on aarch64 with gnu modes), SSE2 math on 32-bit
  * x86 (-msse2 -mfpmath=sse), never -ffast-math.  The results then equal the Python's on the same

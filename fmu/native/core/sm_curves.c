@@ -3,6 +3,8 @@
 #include "sm_curves.h"
 #include "sm_params.h" /* generated: sm_choice_parse */
 
+#include "sm_atan.h"
+
 #include <errno.h>
 #include <float.h>
 #include <locale.h>
@@ -203,7 +205,7 @@ static void psi_dpsi(const sm_curve *c, double I, double *psi, double *dpsi)
     case SM_CURVE_ARCTAN:
         x = I / c->I_par;
         d = c->L_m0 - c->L_m_inf;
-        *psi = c->L_m_inf * I + d * c->I_par * atan(x);
+        *psi = c->L_m_inf * I + d * c->I_par * sm_atan(x);
         *dpsi = c->L_m_inf + d / (1.0 + x * x);
         return;
     case SM_CURVE_EXPONENTIAL:
@@ -258,7 +260,7 @@ double sm_curve_m(const sm_curve *c, double I)
             x2 = x * x;
             g = 1.0 - x2 * (1.0 / 3.0 - x2 * (1.0 / 5.0 - x2 * (1.0 / 7.0 - x2 / 9.0)));
         } else {
-            g = atan(x) / x;
+            g = sm_atan(x) / x;
         }
         return c->L_m_inf + (c->L_m0 - c->L_m_inf) * g;
     case SM_CURVE_EXPONENTIAL:
@@ -289,7 +291,7 @@ double sm_curve_dm_dI(const sm_curve *c, double I)
             x2 = x * x;
             dg = -x * (2.0 / 3.0 - x2 * (4.0 / 5.0 - x2 * (6.0 / 7.0 - x2 * 8.0 / 9.0)));
         } else {
-            dg = (x / (1.0 + x * x) - atan(x)) / (x * x);
+            dg = (x / (1.0 + x * x) - sm_atan(x)) / (x * x);
         }
         return (c->L_m0 - c->L_m_inf) * dg / c->I_par;
     case SM_CURVE_EXPONENTIAL:
@@ -326,6 +328,21 @@ void sm_curve_evaluate(const sm_curve *c, double I, double *psi, double *m, doub
         mm = poly_m_of_psi(c, p);
         l = poly_ldyn_of_psi(c, p);
         d = -mm * mm * c->poly_b * (double)(n - 1) * pow(p, (double)(n - 2)) * l;
+    } else if (c->kind == SM_CURVE_ARCTAN) {
+        /* ArctanCurve.evaluate: one atan for psi, m and dm_dI, the same floats as the three apart */
+        double x = I / c->I_par, dd = c->L_m0 - c->L_m_inf, at = sm_atan(x), g, dg, x2;
+        p = c->L_m_inf * I + dd * c->I_par * at;
+        l = c->L_m_inf + dd / (1.0 + x * x);
+        if (x < 1e-2) {
+            x2 = x * x;
+            g = 1.0 - x2 * (1.0 / 3.0 - x2 * (1.0 / 5.0 - x2 * (1.0 / 7.0 - x2 / 9.0)));
+            dg = -x * (2.0 / 3.0 - x2 * (4.0 / 5.0 - x2 * (6.0 / 7.0 - x2 * 8.0 / 9.0)));
+        } else {
+            g = at / x;
+            dg = (x / (1.0 + x * x) - at) / (x * x);
+        }
+        mm = c->L_m_inf + dd * g;
+        d = dd * dg / c->I_par;
     } else {
         psi_dpsi(c, I, &p, &l);
         mm = sm_curve_m(c, I);
