@@ -86,15 +86,23 @@ def test_an_overload_beyond_the_breakdown_torque_slows_the_drive_without_loss_of
 
 
 @pytest.mark.parametrize("variant", ["native", "native-fmi3"])
-def test_a_diverging_plant_makes_the_controller_fail_with_a_readable_message(fmu_dir, variant):
-    """An inertia so small that the plant's RK4 at 100 us diverges after the speed step: the field
-    weakening's steady-state search meets a non-finite value one sample before the plant does; the
-    controller discards with a message in words (before: an uninitialized buffer reached the host)."""
+def test_a_diverging_plant_makes_the_first_unit_to_meet_it_fail_with_a_readable_message(fmu_dir, variant):
+    """An inertia so small that the plant's RK4 at 100 us diverges after the speed step.  Which unit
+    meets the non-finite value first is a race within one sample: with libm's atan the field
+    weakening's steady-state search met it one sample before the plant; since the arctan curve's
+    evaluation changed (the own atan, satmotor/machine/atan.py, computed once for psi, m and dm/dI) the
+    plant's state turns NaN in the step where it overflows and the plant discards first (J = 5e-8 to
+    3e-7 alike).  Either way the unit discards with a message in words
+    (before: an uninitialized buffer reached the host)."""
     sc = dataclasses.replace(load_scenario(ROOT / "scenarios" / "ramp_rated_load.yaml"), stop_time=0.3,
                              plant={"J": 1.0e-7})
     plant, ctrl = fmus.paths(fmu_dir, variant)
     res = run(sc, str(plant), str(ctrl), algorithm="jacobi")
-    assert res.status == "discard" and res.failed_unit == "controller", res.message
-    assert res.message.endswith("the control computation failed at the measured state: a value became "
-                                "non-finite"), res.message
+    assert res.status == "discard" and res.failed_unit in ("plant", "controller"), res.message
+    if res.failed_unit == "controller":
+        assert res.message.endswith("the control computation failed at the measured state: a value "
+                                    "became non-finite"), res.message
+    else:
+        assert "the plant state became non-finite over [" in res.message, res.message
+    assert 0.2 < res.t_end < 0.25, res.t_end  # after the speed step, not at the start
     assert res.message.isprintable() or "\n" in res.message
