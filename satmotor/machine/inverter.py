@@ -240,14 +240,9 @@ class PwmInverter:
             if tn - tp >= eps:
                 if volts is None:
                     volts, cur = self._volts(plant, x, cur, half)
-                if lk is None:
-                    x = self._integrate(plant, x, tp, tn - tp, volts, T_load, h_int, trace)
-                    sa += volts[0] * (tn - tp)
-                    sb += volts[1] * (tn - tp)
-                else:
-                    x, ia, ib = pwm_link.interval(self, lk, x, tp, tn - tp, cur, T_load, h_int, trace)
-                    sa += ia
-                    sb += ib
+                x, ia, ib = self._advance(plant, lk, x, tp, tn - tp, volts, cur, T_load, h_int, trace)
+                sa += ia
+                sb += ib
                 tp, cur, volts = tn, None, None
             if xd >= 0:
                 dead[xd] = False
@@ -272,14 +267,10 @@ class PwmInverter:
                 dead_v[j] = -half if i > 0.0 else half if i < 0.0 else (half if new else -half)
         if volts is None:
             volts, cur = self._volts(plant, x, cur, half)
-        if lk is None:
-            x = self._integrate(plant, x, tp, t1 - tp, volts, T_load, h_int, trace)
-            sa += volts[0] * (t1 - tp)
-            sb += volts[1] * (t1 - tp)
-        else:
-            x, ia, ib = pwm_link.interval(self, lk, x, tp, t1 - tp, cur, T_load, h_int, trace)
-            sa += ia
-            sb += ib
+        x, ia, ib = self._advance(plant, lk, x, tp, t1 - tp, volts, cur, T_load, h_int, trace)
+        sa += ia
+        sb += ib
+        if lk is not None:
             self.link_out = tuple(lk[1:])
         return x, sa / dt, sb / dt
 
@@ -298,6 +289,13 @@ class PwmInverter:
                     v[j] = v[j] + self.v_on
         va, vb = alpha_beta(v[0], v[1], v[2])
         return (va, vb, v[0], v[1], v[2]), cur
+
+    def _advance(self, plant, lk, x, t, L, volts, cur, T_load, h_int, trace):
+        """One constant interval of ``L`` [s] from ``t``: ``(x, integral of v_alpha, of v_beta)`` [V s],
+        on the ideal link (``lk`` None) or integrated with the capacitor link (:mod:`pwm_link`)."""
+        if lk is None:
+            return self._integrate(plant, x, t, L, volts, T_load, h_int, trace), volts[0] * L, volts[1] * L
+        return pwm_link.interval(self, lk, x, t, L, cur, T_load, h_int, trace)
 
     @staticmethod
     def _integrate(plant, x, t, L, volts, T_load, h_int, trace):
