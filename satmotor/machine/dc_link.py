@@ -154,30 +154,29 @@ class DCLink:
             return v_a * g, v_b * g
         return v_a, v_b
 
-    def currents(self, t, x, v_a, v_b, chop):
-        """``(v_applied_alpha, v_applied_beta, p_inv, i_src, i_dc, i_chop)`` at state ``x`` (nine states)
-        [V, V, W, A, A, A]; ``p_inv = 3/2 v_s . i_s`` the power into the motor (``i_s`` the terminal
-        current at the applied voltage: with R_fe it includes the core branch's)."""
-        n = self.iv
-        v_dc = x[n]
-        va, vb = self.applied(v_a, v_b, v_dc)
-        o = self.plant.outputs(x[:n], va, vb)
-        p_inv = 1.5 * (va * o.i_s_alpha + vb * o.i_s_beta)
+    def rates(self, t, v_dc, p_inv, chop):
+        """``(d v_dc/dt, d E_regen/dt, d E_chop/dt)`` [V/s, W, W] at link voltage ``v_dc`` [V] with the
+        power ``p_inv`` [W] drawn by the inverter and the chopper state ``chop`` (bool): the link's
+        equations of the module docstring, for the average inverter and the pwm one alike
+        (:mod:`satmotor.machine.pwm_link`)."""
         i_dc = p_inv / v_dc if v_dc > 0.0 else 0.0
         i_src = (self.source_voltage(t) - v_dc) * self._inv_R_src
         if not i_src > 0.0:
             i_src = 0.0
         i_chop = v_dc * self._inv_R_chop if chop else 0.0
-        return va, vb, p_inv, i_src, i_dc, i_chop
+        return (i_src - i_dc - i_chop) * self._inv_C, -p_inv if p_inv < 0.0 else 0.0, v_dc * i_chop
 
     def derivatives(self, t, x, v_a, v_b, T_load, chop):
         """``dx/dt`` of the nine states for the command ``(v_a, v_b)`` [V], ``T_load`` [N m] and the
-        chopper state ``chop`` (bool) held."""
-        va, vb, p_inv, i_src, i_dc, i_chop = self.currents(t, x, v_a, v_b, chop)
+        chopper state ``chop`` (bool) held; ``p_inv = 3/2 v_s . i_s`` is the power into the motor (``i_s``
+        the terminal current at the applied voltage: with R_fe it includes the core branch's)."""
         n = self.iv
-        d = self.plant.derivatives(t, x[:n], va, vb, T_load)
         v_dc = x[n]
-        return (*d, (i_src - i_dc - i_chop) * self._inv_C, -p_inv if p_inv < 0.0 else 0.0, v_dc * i_chop)
+        va, vb = self.applied(v_a, v_b, v_dc)
+        o = self.plant.outputs(x[:n], va, vb)
+        p_inv = 1.5 * (va * o.i_s_alpha + vb * o.i_s_beta)
+        d = self.plant.derivatives(t, x[:n], va, vb, T_load)
+        return (*d, *self.rates(t, v_dc, p_inv, chop))
 
     def switch(self, v_dc, chop):
         """The chopper's state after a sub-step ending at ``v_dc`` [V] (hysteresis)."""
@@ -196,12 +195,19 @@ class DCLink:
         fault was first set in this call (None otherwise)."""
         dt = h / n_sub
         t_fault = None
-        V_max = self.p.V_dc_max
         iv = self.iv
         for j in range(n_sub):
             tj = t + j * dt
             x = rk4(self.derivatives, tj, x, dt, 1, (v_a, v_b, T_load, chop))
-            chop = self.switch(x[iv], chop)
-            if not fault and V_max > 0.0 and x[iv] > V_max:
-                fault, t_fault = True, tj + dt
+            chop, fault, t_fault = self.substep_end(x[iv], tj + dt, chop, fault, t_fault)
         return x, chop, fault, t_fault
+
+    def substep_end(self, v_dc, t_end, chop, fault, t_fault):
+        """At a sub-step's end ``t_end`` [s] with link voltage ``v_dc`` [V]: the chopper's new state
+        (:meth:`switch`) and the over-voltage fault latched, ``t_fault`` set where it is first set:
+        ``(chop, fault, t_fault)``."""
+        chop = self.switch(v_dc, chop)
+        V_max = self.p.V_dc_max
+        if not fault and V_max > 0.0 and v_dc > V_max:
+            return chop, True, t_end
+        return chop, fault, t_fault

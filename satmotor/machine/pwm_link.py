@@ -58,12 +58,7 @@ def derivatives(t, y, link, sig, dl, T_load, chop):
     o = plant.outputs(x[:iv], va, vb)
     d = plant.derivatives(t, x[:iv], va, vb, T_load)
     p_dc = 1.5 * (ga * o.i_s_alpha + gb * o.i_s_beta)
-    i_dc = p_dc / v_dc if v_dc > 0.0 else 0.0
-    i_src = (link.source_voltage(t) - v_dc) * link._inv_R_src
-    if not i_src > 0.0:
-        i_src = 0.0
-    i_chop = v_dc * link._inv_R_chop if chop else 0.0
-    return (*d, (i_src - i_dc - i_chop) * link._inv_C, -p_dc if p_dc < 0.0 else 0.0, v_dc * i_chop, va, vb)
+    return (*d, *link.rates(t, v_dc, p_dc, chop), va, vb)
 
 
 def step(link, t, x, sig, dl, T_load, h, n_sub, chop, fault):
@@ -72,15 +67,12 @@ def step(link, t, x, sig, dl, T_load, h, n_sub, chop, fault):
     :meth:`DCLink.step`, ``int_va``, ``int_vb`` [V s] the integrals of the applied voltage."""
     dt = h / n_sub
     t_fault = None
-    V_max = link.p.V_dc_max
     iv = link.iv
     y = (*x, 0.0, 0.0)
     for j in range(n_sub):
         tj = t + j * dt
         y = rk4(derivatives, tj, y, dt, 1, (link, sig, dl, T_load, chop))
-        chop = link.switch(y[iv], chop)
-        if not fault and V_max > 0.0 and y[iv] > V_max:
-            fault, t_fault = True, tj + dt
+        chop, fault, t_fault = link.substep_end(y[iv], tj + dt, chop, fault, t_fault)
     return y[:iv + 3], chop, fault, t_fault, y[iv + 3], y[iv + 4]
 
 

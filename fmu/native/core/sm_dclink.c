@@ -101,7 +101,7 @@ int sm_dclink_derivatives(const sm_motor *p, const sm_dclink *l, double t, const
                           double v_b, double T_load, int chop, double *dx)
 {
     sm_plant_outputs o;
-    double va, vb, v_dc, p_inv, i_dc, i_src, i_chop;
+    double va, vb, v_dc, p_inv;
     int st, i, iv;
     if (p == NULL || l == NULL || x == NULL || dx == NULL) return SM_ERR_ARG;
     iv = sm_dclink_iv(p);
@@ -114,16 +114,30 @@ int sm_dclink_derivatives(const sm_motor *p, const sm_dclink *l, double t, const
         return st != SM_CORE_OK ? st : SM_ERR_NONFINITE;
     }
     p_inv = 1.5 * (va * o.i_s_alpha + vb * o.i_s_beta);
-    i_dc = v_dc > 0.0 ? p_inv / v_dc : 0.0;
-    i_src = (sm_dclink_source_voltage(l, t) - v_dc) * l->inv_R_src;
-    if (!(i_src > 0.0)) i_src = 0.0;
-    i_chop = chop ? v_dc * l->inv_R_chop : 0.0;
-    dx[iv] = (i_src - i_dc - i_chop) * l->inv_C;
-    dx[iv + 1] = p_inv < 0.0 ? -p_inv : 0.0;
-    dx[iv + 2] = v_dc * i_chop;
+    sm_dclink_rates(l, t, v_dc, p_inv, chop, dx + iv);
     for (i = iv; i < iv + 3; ++i)
         if (!isfinite(dx[i])) return SM_ERR_NONFINITE;
     return SM_CORE_OK;
+}
+
+void sm_dclink_rates(const sm_dclink *l, double t, double v_dc, double p_inv, int chop, double r[3])
+{
+    double i_dc = v_dc > 0.0 ? p_inv / v_dc : 0.0, i_src, i_chop;
+    i_src = (sm_dclink_source_voltage(l, t) - v_dc) * l->inv_R_src;
+    if (!(i_src > 0.0)) i_src = 0.0;
+    i_chop = chop ? v_dc * l->inv_R_chop : 0.0;
+    r[0] = (i_src - i_dc - i_chop) * l->inv_C;
+    r[1] = p_inv < 0.0 ? -p_inv : 0.0;
+    r[2] = v_dc * i_chop;
+}
+
+void sm_dclink_substep_end(const sm_dclink *l, double v_dc, double t_end, int *chop, int *fault, double *t_fault)
+{
+    *chop = sm_dclink_switch(l, v_dc, *chop);
+    if (!*fault && l->V_dc_max > 0.0 && v_dc > l->V_dc_max) {
+        *fault = 1;
+        *t_fault = t_end;
+    }
 }
 
 int sm_dclink_switch(const sm_dclink *l, double v_dc, int chop)
@@ -162,11 +176,7 @@ int sm_dclink_step(const sm_motor *p, const sm_dclink *l, double t, double *x, d
         for (i = 0; i < N; ++i) xt[i] = xc[i] + h * k3[i];
         if ((st = sm_dclink_derivatives(p, l, tj + h, xt, v_a, v_b, T_load, c, k4)) != SM_CORE_OK) return st;
         for (i = 0; i < N; ++i) xc[i] = xc[i] + sixth * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]);
-        c = sm_dclink_switch(l, xc[iv], c);
-        if (!f && l->V_dc_max > 0.0 && xc[iv] > l->V_dc_max) {
-            f = 1;
-            *t_fault = tj + h;
-        }
+        sm_dclink_substep_end(l, xc[iv], tj + h, &c, &f, t_fault);
     }
     for (i = 0; i < N; ++i)
         if (!isfinite(xc[i])) return SM_ERR_NONFINITE;

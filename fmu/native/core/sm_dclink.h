@@ -49,8 +49,16 @@ void sm_dclink_applied(double v_a, double v_b, double v_dc, double *out_a, doubl
 int sm_dclink_derivatives(const sm_motor *p, const sm_dclink *l, double t, const double *x, double v_a,
                           double v_b, double T_load, int chop, double *dx);
 
+/* DCLink.rates: r = (d v_dc/dt, d E_regen/dt, d E_chop/dt) at link voltage v_dc [V] with the power p_inv [W]
+ * drawn by the inverter (average or pwm) and the chopper state chop held */
+void sm_dclink_rates(const sm_dclink *l, double t, double v_dc, double p_inv, int chop, double r[3]);
+
 /* DCLink.switch: the chopper's state after a sub-step ending at v_dc (hysteresis) */
 int sm_dclink_switch(const sm_dclink *l, double v_dc, int chop);
+
+/* DCLink.substep_end: at a sub-step's end t_end [s], *chop switched and the over-voltage fault latched
+ * (*t_fault = t_end where *fault is first set) */
+void sm_dclink_substep_end(const sm_dclink *l, double v_dc, double t_end, int *chop, int *fault, double *t_fault);
 
 /* DCLink.step: RK4 over dt in n_sub sub-steps, the chopper switching and the fault latching at the
  * sub-step ends; x (p->n_states + 3 entries), *chop, *fault updated only on success; *t_fault the

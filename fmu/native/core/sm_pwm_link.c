@@ -15,7 +15,7 @@ int sm_pwm_link_derivatives(const sm_motor *p, const sm_dclink *l, double t, con
                             const double dl[3], double T_load, int chop, double *dy)
 {
     sm_plant_outputs o;
-    double v_dc, half, g[3], ga, gb, va, vb, p_dc, i_dc, i_src, i_chop;
+    double v_dc, half, g[3], ga, gb, va, vb, p_dc;
     int st, i, iv;
     if (p == NULL || l == NULL || y == NULL || sig == NULL || dl == NULL || dy == NULL) return SM_ERR_ARG;
     iv = sm_dclink_iv(p);
@@ -35,13 +35,7 @@ int sm_pwm_link_derivatives(const sm_motor *p, const sm_dclink *l, double t, con
         return st != SM_CORE_OK ? st : SM_ERR_NONFINITE;
     }
     p_dc = 1.5 * (ga * o.i_s_alpha + gb * o.i_s_beta);
-    i_dc = v_dc > 0.0 ? p_dc / v_dc : 0.0;
-    i_src = (sm_dclink_source_voltage(l, t) - v_dc) * l->inv_R_src;
-    if (!(i_src > 0.0)) i_src = 0.0;
-    i_chop = chop ? v_dc * l->inv_R_chop : 0.0;
-    dy[iv] = (i_src - i_dc - i_chop) * l->inv_C;
-    dy[iv + 1] = p_dc < 0.0 ? -p_dc : 0.0;
-    dy[iv + 2] = v_dc * i_chop;
+    sm_dclink_rates(l, t, v_dc, p_dc, chop, dy + iv);
     dy[iv + 3] = va;
     dy[iv + 4] = vb;
     for (i = iv; i < iv + 5; ++i)
@@ -81,11 +75,7 @@ int sm_pwm_link_step(const sm_motor *p, const sm_dclink *l, double t, double *x,
         for (i = 0; i < N; ++i) yt[i] = yc[i] + dt * k3[i];
         if ((st = sm_pwm_link_derivatives(p, l, tj + dt, yt, sig, dl, T_load, c, k4)) != SM_CORE_OK) return st;
         for (i = 0; i < N; ++i) yc[i] = yc[i] + sixth * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]);
-        c = sm_dclink_switch(l, yc[iv], c);
-        if (!f && l->V_dc_max > 0.0 && yc[iv] > l->V_dc_max) {
-            f = 1;
-            *t_fault = tj + dt;
-        }
+        sm_dclink_substep_end(l, yc[iv], tj + dt, &c, &f, t_fault);
     }
     for (i = 0; i < N; ++i)
         if (!isfinite(yc[i])) return SM_ERR_NONFINITE;
