@@ -33,7 +33,7 @@ import numpy as np
 from orchestration.scenario.load import load_scenario
 from satmotor.control.deadtime import compensate
 from satmotor.interface import ControllerUnit, PlantUnit
-from satmotor.machine.inverter import phase_currents
+from satmotor.machine.phases import phase_currents
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENARIO = ROOT / "scenarios" / "pwm_low_speed.yaml"

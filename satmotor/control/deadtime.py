@@ -11,7 +11,7 @@ The C core's ``sm_deadtime_compensate`` (``fmu/native/core/sm_inverter.c``) is t
 
 from __future__ import annotations
 
-from satmotor.machine.inverter import alpha_beta, phase_currents
+from satmotor.machine.phases import alpha_beta, phase_currents
 
 
 def _sign_times(i, v):

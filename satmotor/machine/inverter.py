@@ -59,12 +59,12 @@ from dataclasses import dataclass
 
 from satmotor.errors import ParameterError, require_choice, require_number
 from satmotor.machine import pwm_link
+from satmotor.machine.phases import SQRT3_2 as _SQRT3_2
+from satmotor.machine.phases import alpha_beta, phase_currents
 
 INVERTERS = ("average", "pwm")
 MERGE_REL = 1e-6  # [1] events closer than MERGE_REL T_h are merged (module docstring)
 EVENTS_PER_HALF = 12  # at most 2 edges and 2 dead-interval ends per leg and half period
-_SQRT3 = math.sqrt(3.0)
-_SQRT3_2 = 0.5 * _SQRT3
 _INF = math.inf
 
 
@@ -112,16 +112,6 @@ def duties(v_alpha, v_beta, V_dc):
         d = 0.5 + (v + z) / V_dc
         out.append(0.0 if d < 0.0 else 1.0 if d > 1.0 else d)
     return tuple(out)
-
-
-def phase_currents(i_alpha, i_beta):
-    """Phase currents [A] of an alpha/beta current (amplitude-invariant Clarke, no zero sequence)."""
-    return (i_alpha, -0.5 * i_alpha + _SQRT3_2 * i_beta, -0.5 * i_alpha - _SQRT3_2 * i_beta)
-
-
-def alpha_beta(va, vb, vc):
-    """Alpha/beta voltage [V] of phase voltages [V] (the star point floating: zero sequence removed)."""
-    return (2.0 * va - vb - vc) / 3.0, (vb - vc) / _SQRT3
 
 
 def half_edges(k, T_h, d):

@@ -32,13 +32,7 @@ from __future__ import annotations
 import math
 
 from satmotor.machine.integrate import rk4
-
-_SQRT3 = math.sqrt(3.0)
-
-
-def _alpha_beta(va, vb, vc):
-    """inverter.alpha_beta (the same operations)."""
-    return (2.0 * va - vb - vc) / 3.0, (vb - vc) / _SQRT3
+from satmotor.machine.phases import alpha_beta as _alpha_beta
 
 
 def derivatives(t, y, link, sig, dl, T_load, chop):

@@ -90,7 +90,7 @@ static void phase_currents(double ia, double ib, double c[3])
     c[2] = -0.5 * ia - s32 * ib;
 }
 
-static void alpha_beta(double va, double vb, double vc, double *a, double *b)
+void sm_alpha_beta(double va, double vb, double vc, double *a, double *b)
 {
     *a = (2.0 * va - vb - vc) / 3.0;
     *b = (vb - vc) / sqrt(3.0);
@@ -161,7 +161,7 @@ static int volts(const sm_inverter *q, const sm_motor *p, sm_solve_memo *memo, c
             }
         }
     }
-    alpha_beta(v[0], v[1], v[2], &out[0], &out[1]);
+    sm_alpha_beta(v[0], v[1], v[2], &out[0], &out[1]);
     out[2] = v[0];
     out[3] = v[1];
     out[4] = v[2];
@@ -364,7 +364,7 @@ void sm_deadtime_compensate(double *v_alpha, double *v_beta, double i_alpha, dou
     double c[3], ca, cb;
     if (V_comp == 0.0) return;
     phase_currents(i_alpha, i_beta, c);
-    alpha_beta(sign_times(c[0], V_comp), sign_times(c[1], V_comp), sign_times(c[2], V_comp), &ca, &cb);
+    sm_alpha_beta(sign_times(c[0], V_comp), sign_times(c[1], V_comp), sign_times(c[2], V_comp), &ca, &cb);
     *v_alpha = *v_alpha + ca;
     *v_beta = *v_beta + cb;
 }

@@ -4,13 +4,6 @@
 #include <math.h>
 #include <string.h>
 
-/* inverter.alpha_beta (the same operations) */
-static void alpha_beta(double va, double vb, double vc, double *a, double *b)
-{
-    *a = (2.0 * va - vb - vc) / 3.0;
-    *b = (vb - vc) / sqrt(3.0);
-}
-
 int sm_pwm_link_derivatives(const sm_motor *p, const sm_dclink *l, double t, const double *y, const double sig[3],
                             const double dl[3], double T_load, int chop, double *dy)
 {
@@ -23,8 +16,8 @@ int sm_pwm_link_derivatives(const sm_motor *p, const sm_dclink *l, double t, con
     if (v_dc > 0.0) {
         half = 0.5 * v_dc;
         for (i = 0; i < 3; ++i) g[i] = sig[i] * half;
-        alpha_beta(g[0], g[1], g[2], &ga, &gb);
-        alpha_beta(g[0] + dl[0], g[1] + dl[1], g[2] + dl[2], &va, &vb);
+        sm_alpha_beta(g[0], g[1], g[2], &ga, &gb);
+        sm_alpha_beta(g[0] + dl[0], g[1] + dl[1], g[2] + dl[2], &va, &vb);
     } else {
         ga = gb = va = vb = 0.0;
     }
@@ -104,7 +97,7 @@ int sm_pwm_link_interval(const sm_inverter *q, const sm_motor *p, sm_pwm_link_ru
             row[0] = t;
             row[1] = L;
             for (j = 0; j < 3; ++j) row[4 + j] = sig[j] * half + dl[j];
-            alpha_beta(row[4], row[5], row[6], &row[2], &row[3]);
+            sm_alpha_beta(row[4], row[5], row[6], &row[2], &row[3]);
         }
         ++*trace_n;
     }
