@@ -10,7 +10,7 @@ PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed
 FMUS := build/fmus
 
-.PHONY: demo test test-fast check dist system-packages compare bench clean
+.PHONY: demo test test-slow test-all check dist system-packages compare bench clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -26,18 +26,23 @@ compare: $(STAMP)
 	$(PY) demos/compare_controllers.py --out results
 
 # the tests build the FMUs into $(FMUS) when missing or stale (tests/conftest.py), once per run (once for
-# all pytest-xdist workers: a file lock); -n auto: a worker per core
+# all pytest-xdist workers: a file lock); -n auto: a worker per core.  `make test` runs every test but
+# those marked slow (co-simulation runs, child processes, signals, sanitizers, valgrind, the cross-compiled
+# FMUs: tests/conftest.py marks the last three); `make test-slow` runs those; CI (.ci/run) runs both
 test: $(STAMP)
 	@./scripts/system_packages.sh --check
 	$(PY) -m ruff check .
-	SATMOTOR_TEST_FMUS=$(FMUS) $(PY) -m pytest -n auto
+	SATMOTOR_TEST_FMUS=$(FMUS) $(PY) -m pytest -n auto -m "not slow"
+
+test-slow: $(STAMP)
+	@./scripts/system_packages.sh --check
+	SATMOTOR_TEST_FMUS=$(FMUS) $(PY) -m pytest -n auto -m slow
+
+test-all: test test-slow
 
 check: $(STAMP)
 	$(PY) -m orchestration build --out $(FMUS) --if-stale
 	$(PY) -m orchestration check $(FMUS)/*.fmu $(FMUS)/native/*.fmu $(FMUS)/native-fmi3/*.fmu $(FMUS)/native-me/*.fmu $(FMUS)/native-me-fmi3/*.fmu --junit build/check.xml
-
-test-fast: $(STAMP)
-	SATMOTOR_TEST_FMUS=$(FMUS) $(PY) -m pytest -n auto -m "not slow"
 
 # the distributable FMUs: the native ones for Linux (glibc >= 2.17), Windows and macOS (zig cc; on a
 # fresh machine zig first compiles its C runtimes for them: minutes)

@@ -41,6 +41,21 @@ def pytest_configure(config):
         signal.signal(signal.SIGINT, signal.default_int_handler)
 
 
+#: the default set (``make test``) leaves these to ``make test-slow`` besides the tests marked ``slow`` in
+#: their files: every test that uses the cross-compiled FMUs (zig builds for Windows and macOS, minutes on a
+#: fresh machine) and every run under sanitizers or valgrind (an instrumented build, 10-50x slower steps)
+SLOW_FIXTURES = frozenset({"fmu_dir_all_platforms"})
+SLOW_WORDS = ("sanitiz", "valgrind")
+
+
+def pytest_collection_modifyitems(config, items):
+    """Marks ``slow`` what :data:`SLOW_FIXTURES` and :data:`SLOW_WORDS` (in the test's name or its
+    parameters' ids) name: CI runs both sets (``.ci/run``: ``make test``, then ``make test-slow``)."""
+    for item in items:
+        if SLOW_FIXTURES.intersection(item.fixturenames) or any(w in item.name.lower() for w in SLOW_WORDS):
+            item.add_marker(pytest.mark.slow)
+
+
 @pytest.fixture(params=list(CURVES))
 def curve(request):
     return CURVES[request.param]
