@@ -19,7 +19,8 @@
    the FMUs extracted and read once per child), with the pythonfmu ones a process each.  A row per
    variant whatever happens to its child (:func:`run_variants`).  Once the runs are over (finished,
    failed or interrupted) the sweep's table and figure go to ``OUT/<sweep name>/``
-   (:mod:`orchestration.results.sweep_table`).
+   (:mod:`orchestration.results.sweep_table`), with the study's summary, its sensitivity indices
+   (``analysis: sobol | morris``) and ``report.html`` (:mod:`orchestration.study.report`).
 5. Files (:mod:`orchestration.results.atomic`, :mod:`orchestration.results.batch_summary`):
    ``summary.csv`` is written whole before the first run (the unfinished rows ``running`` with the
    batch's pid) and again as each scenario finishes, so a batch killed even by SIGKILL leaves a
@@ -449,11 +450,13 @@ def _write_sweeps(sweeps, rows, out, plot):
     cannot be written is said on stderr, the others are still written."""
     if not sweeps:
         return
-    from orchestration.results.sweep_table import write_sweep
+    from orchestration.study.report import write_study
 
     for name, (path, sweep) in sweeps.items():
         try:
-            written = write_sweep(sweep, rows, Path(out) / name, plot, path)
+            written, lines = write_study(sweep, rows, Path(out) / name, plot, path)
+            for line in lines:  # the variants outside a bound, failed or not held: by name and parameters
+                print(line, file=sys.stderr)
             print(f"sweep {name}: {', '.join(map(str, written))}")
         except Exception as exc:  # noqa: BLE001 - the other sweeps' tables are still written
             print(f"sweep {name} ({path}): cannot write its table: {exc!r}", file=sys.stderr)

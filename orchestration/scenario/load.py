@@ -425,7 +425,10 @@ def _check(data, file, variables):
     problems = chk.problems + [p for p in problems if p not in chk.problems]
     if problems:
         return None, problems
-    notes = _mismatch_notes(sc, plant, controller, str(file)) + notes
+    sweep = data.get("sweep") if isinstance(data.get("sweep"), dict) else {}
+    varied = sweep.get("parameters") if isinstance(sweep.get("parameters"), dict) else {}
+    swept = any(str(p).startswith(("plant.", "controller.")) for p in varied)  # the variants differ
+    notes = _mismatch_notes(sc, plant, controller, str(file), swept) + notes
     return replace(sc, notes=tuple(notes)), []
 
 
@@ -437,10 +440,11 @@ def _preset_name(raw_motor):
     return name if isinstance(name, str) and name in MOTORS else ""
 
 
-def _mismatch_notes(sc, plant_over, ctrl_over, file):
+def _mismatch_notes(sc, plant_over, ctrl_over, file, swept=False):
     """One :class:`Note` per motor parameter whose value differs between the plant and the
     controller (none with ``mismatch: true``), or one saying ``mismatch: true`` has nothing to
-    allow."""
+    allow (not said when ``swept``: a sweep that varies a plant or controller parameter, whose
+    variants differ)."""
     from satmotor.interface import MOTOR_PARAMETERS
 
     notes = []
@@ -456,7 +460,7 @@ def _mismatch_notes(sc, plant_over, ctrl_over, file):
         notes.append(Note(file, where, (p, c), f"{shown[0]}, {shown[1]}: the controller's model "
                           "differs from the plant (a mismatch study? say mismatch: true to silence this)"))
     if sc.mismatch:
-        if notes:
+        if notes or swept:
             return []
         return [Note(file, "mismatch", True, "set to true, but the plant and the controller get the "
                      "same motor parameters")]
