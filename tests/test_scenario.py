@@ -92,9 +92,9 @@ def test_rotor_resistance_mismatch_overrides_only_the_plant():
 
 
 def test_every_library_mismatch_is_declared():
-    from satmotor.interface import MOTOR_PARAMETERS
-
     import yaml
+
+    from satmotor.interface import MOTOR_PARAMETERS
 
     for f in FILES:
         sc = load_scenario(f)
