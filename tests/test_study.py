@@ -102,6 +102,13 @@ def test_a_bad_study_is_refused_naming_the_field(sweep, field, words):
     assert [p.field for p in problems] == [field] and words in problems[0].message, problems
 
 
+def test_a_study_without_salib_is_refused_naming_the_pip_install(monkeypatch):
+    monkeypatch.setitem(sys.modules, "SALib", None)  # not importable, as if not installed
+    raw = {"analysis": "sobol", "samples": 4, "seed": 1, "parameters": {"motor.x1": {"uniform": [0.0, 1.0]}}}
+    (p,) = parse_sweep(raw, {"name": "f"}, "f.yaml", TABLES)[1]
+    assert p.field == "sweep.analysis" and p.message.endswith('pip install "satmotor[study]"'), p
+
+
 def test_morris_refuses_a_normal_distribution():
     raw = {"analysis": "morris", "samples": 4, "seed": 1, "parameters": {"motor.x1": {"normal": [1.0, 0.1]}}}
     (p,) = parse_sweep(raw, {"name": "f"}, "f.yaml", TABLES)[1]

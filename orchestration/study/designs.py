@@ -32,8 +32,11 @@ def missing_salib():
     """None when SALib can be imported, else the one line to say (the ``study`` extra)."""
     import importlib.util
 
-    if importlib.util.find_spec("SALib") is not None:
-        return None
+    try:
+        if importlib.util.find_spec("SALib") is not None:
+            return None
+    except (ImportError, ValueError):  # a module set to None in sys.modules: not importable
+        pass
     return ('a sensitivity study (sweep.analysis) needs SALib, which is not installed: '
             'pip install "satmotor[study]"')
 

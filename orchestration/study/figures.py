@@ -53,8 +53,8 @@ def sensitivity_figure(table, analysis, title, path):
     for ax in list(axes.flat)[len(drawn):]:
         ax.axis("off")
     axes.flat[0].legend(fontsize=7)
-    said = f"\nno index: {', '.join(left)}" if left else ""
-    fig.suptitle(textwrap.fill(title, 40 * ncol) + textwrap.fill(said, 40 * ncol), fontsize=9)
+    said = "\n" + textwrap.fill(f"no index: {', '.join(left)}", 40 * ncol) if left else ""
+    fig.suptitle(textwrap.fill(title, 40 * ncol) + said, fontsize=9)
     fig.tight_layout()
     from orchestration.results.atomic import atomic_file
 
