@@ -9,6 +9,8 @@
 #              a console .exe does not need: 24 packages, 105 MB, about 10 s on Debian 12
 #   libtbb12   Intel's oneTBB runtime, which the Ecos engine of the ecospy wheel links against
 #              (tests/test_ecos.py)
+#   chromium   a real headless browser opens a study's report.html (tests/test_study.py), without its
+#              recommends
 # Without them the tests that need them skip, each with its reason.
 #
 #   scripts/system_packages.sh          install what is missing (as root, apt-get; what .ci/run and
@@ -24,6 +26,7 @@ command -v gcc >/dev/null 2>&1 || missing+=(gcc)
 lean=()  # installed without recommends
 command -v wine64 >/dev/null 2>&1 || { command -v wine >/dev/null 2>&1 && [ -x /usr/lib/wine/wine64 ]; } \
   || lean+=(wine wine64)
+[ -x /usr/bin/chromium ] || lean+=(chromium)
 all=("${missing[@]}" "${lean[@]}")
 [ ${#all[@]} -eq 0 ] && exit 0
 cmds="apt-get update"

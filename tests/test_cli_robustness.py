@@ -163,6 +163,27 @@ def test_batch_lists_the_runs_that_do_not_hold(tmp_path, fmu_dir):
     assert sum(": note: profiles.T_load" in ln for ln in r.stderr.splitlines()) == 1
 
 
+def test_holding_the_set_points_is_an_acceptance_bound_when_the_scenario_asks(tmp_path, fmu_dir):
+    f = _loaded(tmp_path, "overload", 90.0, extra="acceptance: {holds_setpoints: true}\n")
+    r = _cli("run", f, "--out", tmp_path / "out", "--fmus", fmu_dir, "--no-build", "--no-plot")
+    assert r.returncode == 3, r.stderr
+    assert "  accept holds_setpoints      False: FAIL" in r.stdout.splitlines()
+    m = json.loads((tmp_path / "out" / "overload" / "metrics.json").read_text())
+    assert m["accepted"] is False and m["acceptance"] == {"holds_setpoints": {"limit": True, "value": False,
+                                                                              "pass": False}}
+
+
+def test_batch_names_the_variants_of_a_sweep_that_do_not_hold(tmp_path, fmu_dir):
+    sweep = "sweep:\n  parameters:\n    profiles.T_load.value: [20.0, 90.0]\n"
+    f = _loaded(tmp_path, "loads", 20.0, extra=sweep)
+    r = _cli("batch", f, "--out", tmp_path / "out", "--fmus", fmu_dir, "--jobs", 1, "--variant", "native",
+             "--no-plot")
+    assert r.returncode == 0, r.stderr
+    (line,) = [ln for ln in r.stderr.splitlines() if ln.startswith("NOT HELD")]
+    said = f"NOT HELD {f} variant loads-1 (profiles.T_load.value = 90.0) (exit 0): set-points NOT held"
+    assert line.startswith(said), line
+
+
 def test_a_plant_only_motor_parameter_is_said_by_validate_and_run(tmp_path, fmu_dir):
     f = _scenario(tmp_path, "bigger", stop_time=0.05, extra="plant: {J: 0.05}\n")
     for args in (("validate", f, "--fmus", fmu_dir),

@@ -16,10 +16,10 @@ import tomllib
 ROOT = Path(__file__).resolve().parents[1]
 # import name -> distribution name, where they differ
 DISTRIBUTION = {"yaml": "pyyaml", "fmpy": "fmpy", "pythonfmu": "pythonfmu", "distributed": "dask",
-                "fmu_manipulation_toolbox": "fmu-manipulation-toolbox"}
+                "fmu_manipulation_toolbox": "fmu-manipulation-toolbox", "SALib": "salib"}
 # import name -> extra: batch --scheduler (dask), check (its second checker), run --engine libcosim, fit-curve
 OPTIONAL = {"distributed": "dask", "dask": "dask", "fmu_manipulation_toolbox": "check",
-            "libcosimpy": "libcosim", "scipy": "fit"}
+            "libcosimpy": "libcosim", "scipy": "fit", "SALib": "study"}
 
 
 def _name(requirement):
@@ -49,10 +49,10 @@ def test_every_package_the_commands_import_is_a_dependency():
             assert dist in wanted, f"{package} imports {name}"
     assert _third_party_imports("satmotor") == {"numpy"}
     # what one command needs is its extra, not a dependency of every install; `make` installs them all
-    assert not required & {"fmu-manipulation-toolbox", "libcosimpy", "scipy", "ziglang", "dask"}
+    assert not required & {"fmu-manipulation-toolbox", "libcosimpy", "scipy", "ziglang", "dask", "salib"}
     dev = next(d for d in meta["optional-dependencies"]["dev"] if d.startswith("satmotor["))
     extras_of_dev = set(dev.split("[")[1].rstrip("]").split(","))
-    assert extras_of_dev == {"check", "libcosim", "ecos", "fit", "dask", "native"}
+    assert extras_of_dev == {"check", "libcosim", "ecos", "fit", "dask", "native", "study"}
 
 
 @pytest.mark.parametrize("args,module,extra,code", [

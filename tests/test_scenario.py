@@ -92,12 +92,18 @@ def test_rotor_resistance_mismatch_overrides_only_the_plant():
 
 
 def test_every_library_mismatch_is_declared():
+    import yaml
+
     from satmotor.interface import MOTOR_PARAMETERS
 
     for f in FILES:
         sc = load_scenario(f)
         differ = [v.name for v in MOTOR_PARAMETERS
                   if sc.plant.get(v.name, v.start) != sc.controller.get(v.name, v.start)]
+        # a study that varies the plant's motor: its variants differ from the controller's model
+        varied = (yaml.safe_load(f.read_text()).get("sweep") or {}).get("parameters") or {}
+        differ += [p for p in varied if p.split(".")[0] == "plant" and p.split(".")[1] in
+                   {v.name for v in MOTOR_PARAMETERS}]
         assert bool(differ) == sc.mismatch, (f.stem, differ)
 
 
@@ -516,3 +522,101 @@ def test_the_torque_limit_takes_the_best_flux_of_a_varying_set_point(tmp_path):
                     .replace(TL, f"  T_load: {{type: constant, value: {T!r}}}\n")
                     + "motor: {curve: linear}\ncontroller: {I_max: 20.0}\n")
     assert _notes(path) == []
+
+
+# --- a scenario that cannot be silently wrong: a key twice, values off by a unit ----------------------
+
+PLAIN = "name: s\nstop_time: 0.1\nprofiles:\n  psi_ref: {type: constant, value: 0.9}\n"
+
+
+def test_a_key_given_twice_is_refused_with_its_line(tmp_path, capsys):
+    path = tmp_path / "twice.yaml"
+    path.write_text("name: twice\nstop_time: 0.1\nmotor: {J: 0.02}\nprofiles:\n"
+                    "  psi_ref: {type: constant, value: 0.9}\n"
+                    "  T_load: {type: step, time: 0.05, value: 5.0}\n"
+                    "  T_load: {type: step, time: 0.05, value: 10.0}\n"
+                    "  omega_ref: [{type: step, time: 0.0, value: 1.0, value: 2.0}]\n"
+                    "motor:\n  R_s: 1.5\n")
+    problems = validate_scenario_file(path)
+    assert [(p.field, p.value) for p in problems] == [("profiles.T_load", "line 7"),
+                                                      ("profiles.omega_ref[0].value", "line 8"),
+                                                      ("motor", "line 9")]
+    assert "given twice (first on line 3)" in problems[2].message
+    with pytest.raises(ScenarioError, match="given twice"):
+        load_scenario(path)
+    assert cli_main(["validate", str(path), "--fmus", str(tmp_path / "no_fmus")]) == 2
+    assert f"{path}: motor = 'line 9': given twice" in capsys.readouterr().err
+
+
+def test_a_merge_key_and_an_alias_are_not_duplicates(tmp_path):
+    path = tmp_path / "merge.yaml"
+    path.write_text("name: merge\nstop_time: 0.1\nprofiles:\n  psi_ref: &flux {type: constant, value: 0.9}\n"
+                    "  T_load: {<<: *flux, value: 2.0}\n")
+    assert validate_scenario_file(path) == []
+    assert load_scenario(path).profiles["T_load"].level == 2.0
+
+
+@pytest.mark.parametrize("extra, field, words", [
+    ("plant: {T_s0: 80.0}\n", "plant.T_s0",
+     "T_s0 = 80 K is below 200 K (-193.1 degC): Celsius written for Kelvin? (80 degC = 353.15 K)"),
+    ("motor: {J: 13.1}\n", "motor.J", "J = 13.1 kg m2 is 1000 x the default motor's 0.0131 kg m2: far "
+     "outside its range (a unit prefix or a misplaced decimal point?)"),
+    ("plant: {R_s: 1405}\nmismatch: true\n", "plant.R_s",
+     "R_s = 1405 Ohm is 1000 x the default motor's 1.405 Ohm"),
+    ("motor: {R_r: 0.01}\n", "motor.R_r",
+     "R_r = 0.01 Ohm is 1/139.5 x the default motor's 1.395 Ohm: far outside its range (a typo?)"),
+    ("  omega_ref: {type: ramp, start: 0.0, end: 0.05, to: 1430.0}\n", "profiles.omega_ref",
+     "1430 rad/s is close to the motor's rated speed in rpm, 1430 rpm: rpm written for rad/s? (1430 rpm = "
+     "149.7 rad/s"),
+    ("  omega_ref: {type: step, time: 0.0, value: 500.0}\n", "profiles.omega_ref",
+     "500 rad/s is 3.34 x the motor's rated speed 149.7 rad/s (1430 rpm): far outside its range"),
+    ("plant: {omega_m0: 1500.0}\n", "plant.omega_m0",
+     "1500 rad/s is close to the motor's rated speed in rpm"),
+], ids=["celsius", "inertia", "resistance", "small_resistance", "rpm", "fast", "rpm_initial"])
+def test_a_value_off_by_a_unit_is_noted_with_the_likely_mistake(tmp_path, extra, field, words):
+    from satmotor.machine.params import MotorParams
+
+    m = MotorParams()  # the references the notes quote: the default motor and its 1430 rpm name plate
+    assert (m.J, m.R_s, m.R_r, RatedData().n_n) == (0.0131, 1.405, 1.395, 1430.0)
+    path = tmp_path / "s.yaml"
+    path.write_text(PLAIN + extra)
+    problems, notes = check_scenario_file(path)
+    assert problems == [] and [n.field for n in notes] == [field], notes
+    assert words in notes[0].message, notes[0].message
+
+
+@pytest.mark.parametrize("extra", ["plant: {T_s0: 200.0}\n", "motor: {J: 1.3}\n", "motor: {R_s: 0.0141}\n",
+                                   "  omega_ref: {type: step, time: 0.0, value: 440.0}\n",
+                                   "plant: {T_amb: 293.15, omega_m0: -440.0}\n"])
+def test_values_within_the_bounds_are_not_noted(tmp_path, extra):
+    path = tmp_path / "s.yaml"
+    path.write_text(PLAIN + extra)
+    assert check_scenario_file(path) == ([], [])
+
+
+def test_a_preset_motor_is_compared_with_its_own_values(tmp_path):
+    from satmotor.machine.library import MOTORS
+
+    name = next(n for n in MOTORS if n != "default_4kw")
+    J = MOTORS[name].values["J"]
+    path = tmp_path / "s.yaml"
+    path.write_text(PLAIN + f"motor: {{preset: {name}, J: {J * 150!r}}}\n")
+    notes = [n for n in check_scenario_file(path)[1] if n.field == "motor.J"]
+    assert len(notes) == 1 and f"the {name} motor's {J:g} kg m2" in notes[0].message
+
+
+def test_validate_a_directory_checks_what_batch_would_run(tmp_path, capsys):
+    d = tmp_path / "many"
+    d.mkdir()
+    for name in ("a", "b"):
+        (d / f"{name}.yaml").write_text(PLAIN.replace("name: s", f"name: {name}"))
+    no_fmus = str(tmp_path / "no_fmus")
+    assert cli_main(["validate", str(d), "--fmus", no_fmus]) == 0
+    out = capsys.readouterr().out
+    assert f"{d / 'a.yaml'}: valid" in out and f"{d / 'b.yaml'}: valid" in out
+    (d / "c.yaml").write_text(PLAIN.replace("name: s", "name: a"))  # batch refuses two files of one name
+    assert cli_main(["validate", str(d), "--fmus", no_fmus]) == 2
+    assert "scenario name 'a' is used by 2 files" in capsys.readouterr().err
+    (tmp_path / "empty").mkdir()
+    assert cli_main(["validate", str(tmp_path / "empty"), "--fmus", no_fmus]) == 2
+    assert cli_main(["validate", str(LIBRARY), "--fmus", no_fmus]) == 0

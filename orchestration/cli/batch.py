@@ -19,7 +19,8 @@
    the FMUs extracted and read once per child), with the pythonfmu ones a process each.  A row per
    variant whatever happens to its child (:func:`run_variants`).  Once the runs are over (finished,
    failed or interrupted) the sweep's table and figure go to ``OUT/<sweep name>/``
-   (:mod:`orchestration.results.sweep_table`).
+   (:mod:`orchestration.results.sweep_table`), with the study's summary, its sensitivity indices
+   (``analysis: sobol | morris``) and ``report.html`` (:mod:`orchestration.study.report`).
 5. Files (:mod:`orchestration.results.atomic`, :mod:`orchestration.results.batch_summary`):
    ``summary.csv`` is written whole before the first run (the unfinished rows ``running`` with the
    batch's pid) and again as each scenario finishes, so a batch killed even by SIGKILL leaves a
@@ -29,9 +30,11 @@
    batch stopped it) with the reason, e.g. ``killed (SIGKILL)``, and its ``.part`` files removed.
 
 Each row also says whether the run held its set-points (``holds_setpoints``, ``setpoints``: see
-:mod:`orchestration.results`); a row that did not is listed after the table (``NOT HELD ...``), without
-changing the exit code.  The notes of the scenarios (plant/controller mismatch, a load beyond the
-current limit's torque) are printed when the files are loaded.
+:mod:`orchestration.results`); a row that did not is listed after the table (``NOT HELD ...``, the
+variant's name and its parameters for a sweep), without changing the exit code unless the scenario
+says ``acceptance: {holds_setpoints: true}`` (:mod:`orchestration.results.writer`).  The notes of the
+scenarios (plant/controller mismatch, a load beyond the current limit's torque) are printed when the
+files are loaded.
 
 Exit code: ``128 + signum`` when interrupted, else the largest exit code of the rows (0: all ok;
 1: a run failed; 2: a file invalid; 3: a run missed its acceptance bounds; a child killed by
@@ -435,7 +438,7 @@ def run_batch(items, out, fmu_dir, jobs=2, scheduler=None, algorithm=None, stop=
                     rows.append(_row(job.file, name, "failed", 1, error) if error and not stop.signum else
                                 _row(job.file, name, "interrupted", 0,
                                      "no result: the batch was interrupted"))
-        written = _write_summary(rows, out, summary)
+        written = _write_summary(rows, out, summary, sweeps)
         _write_sweeps(sweeps, rows, out, plot)
     if stop.signum:
         return stop.exit_code
@@ -447,19 +450,30 @@ def _write_sweeps(sweeps, rows, out, plot):
     cannot be written is said on stderr, the others are still written."""
     if not sweeps:
         return
-    from orchestration.results.sweep_table import write_sweep
+    from orchestration.study.report import write_study
 
     for name, (path, sweep) in sweeps.items():
         try:
-            written = write_sweep(sweep, rows, Path(out) / name, plot, path)
+            written, lines = write_study(sweep, rows, Path(out) / name, plot, path)
+            for line in lines:  # the variants outside a bound, failed or not held: by name and parameters
+                print(line, file=sys.stderr)
             print(f"sweep {name}: {', '.join(map(str, written))}")
         except Exception as exc:  # noqa: BLE001 - the other sweeps' tables are still written
             print(f"sweep {name} ({path}): cannot write its table: {exc!r}", file=sys.stderr)
 
 
-def _write_summary(rows, out, summary):
+def variant_labels(sweeps):
+    """``{(file, variant name): "variant NAME (path = value, ...)"}`` of the sweeps' variants (``sweeps`` as
+    :func:`plan` fills it): how the screen names a variant that failed or did not hold."""
+    return {(str(path), v.name): f"variant {v.name} (" + ", ".join(f"{p} = {x!r}" for p, x in v.values) + ")"
+            for path, sweep in (sweeps or {}).values() for v in sweep.variants}
+
+
+def _write_summary(rows, out, summary, sweeps=None):
     """Write ``summary.csv`` (:class:`~orchestration.results.batch_summary.SummaryFile`: on standard
-    error when it cannot be written) and show the table; True when the file was written."""
+    error when it cannot be written) and show the table; True when the file was written.  A row that
+    failed or did not hold its set-points is listed after the table, a sweep's variant by its name and
+    its parameters (``sweeps`` as :func:`plan` fills it)."""
     import pandas as pd
 
     written = summary.write_or_print(rows)
@@ -468,11 +482,14 @@ def _write_summary(rows, out, summary):
     shown = [c for c in ("scenario", "status", "accepted", "held", *SUMMARY_METRICS, "wall_time")
              if c in table]
     print(table[shown].to_string(index=False, float_format=lambda v: f"{v:.4g}"))
+    labels = variant_labels(sweeps)
     for r in rows:
+        label = labels.get((r["file"], r["scenario"]))
+        what = f"{r['file']} {label}" if label else r["file"]
         if r["status"] != "ok" or r["exit_code"] != 0:
-            print(f"{r['status'].upper()} {r['file']} (exit {r['exit_code']}): {r.get('message', '')}",
+            print(f"{r['status'].upper()} {what} (exit {r['exit_code']}): {r.get('message', '')}",
                   file=sys.stderr)
         elif r.get("holds_setpoints") is False:
-            print(f"NOT HELD {r['file']} (exit {r['exit_code']}): {r.get('setpoints', '')}", file=sys.stderr)
+            print(f"NOT HELD {what} (exit {r['exit_code']}): {r.get('setpoints', '')}", file=sys.stderr)
     print(f"summary: {out / 'summary.csv'}" if written else "summary: on standard error (not written)")
     return written

@@ -4,7 +4,8 @@
 Exit codes: 0 success; 1 a run failed (FMI discard/error/fatal, or setup); 2 a scenario file is
 invalid, or ``--out`` cannot be written (found before anything runs); 3 a run completed but
 missed its acceptance bounds (a run that does not hold its set-points says so in its first line and
-in ``metrics.json``, ``holds_setpoints``, but exits 0 without acceptance bounds); 130 / 143
+in ``metrics.json``, ``holds_setpoints``; it exits 3 only with ``acceptance: {holds_setpoints: true}``,
+else 0: :mod:`orchestration.results.writer` says why); 130 / 143
 interrupted by SIGINT (Ctrl-C) / SIGTERM, after writing
 what was computed (status ``interrupted``).  ``batch`` exits with the largest code of its
 scenarios (see :mod:`orchestration.cli.batch`).  ``check``: 1 if a check FAILs, 2 for a path that is not an
@@ -82,10 +83,15 @@ def cmd_build(args):
 def cmd_validate(args):
     """Every problem of each file (exit 2 if any), and the notes of the valid ones (plant/controller
     mismatch, a load beyond the current limit's torque: said on stderr, exit 0)."""
-    from orchestration.scenario.validate import check_scenario_file, variant_count
+    from orchestration.cli.batch import collect
+    from orchestration.scenario.validate import check_scenario_file, scenario_name, variant_count
 
-    worst = OK
-    for path in args.scenario:
+    files = collect(args.scenario)  # the files batch would run: a directory's *.yaml
+    if not files:
+        print("no scenario files found", file=sys.stderr)
+        return INVALID
+    worst, names = OK, {}
+    for path in files:
         problems, notes = check_scenario_file(path, model_variables(args.fmus))
         for p in [*problems, *notes]:
             print(p, file=sys.stderr)
@@ -96,6 +102,13 @@ def cmd_validate(args):
             f" ({', '.join(said)})" if said else "")
         print(f"{path}: {status}")
         worst = max(worst, INVALID if problems else OK)
+        if not problems:
+            names.setdefault(scenario_name(path), []).append(str(path))
+    for name, fs in names.items():  # batch refuses them: they would write the same results directory
+        if len(fs) > 1:
+            print(f"scenario name {name!r} is used by {len(fs)} files (batch would refuse them: they would "
+                  f"write the same results directory): {', '.join(fs)}", file=sys.stderr)
+            worst = INVALID
     return worst
 
 
@@ -279,7 +292,8 @@ def _say(s, out):
     for key, v in (s.get("metrics") or {}).items():
         print(f"  {key:27s} {v:.6g}")
     for key, v in (s.get("acceptance") or {}).items():
-        print(f"  accept {key:20s} {v['value']:.4g} <= {v['limit']:.4g}: {'pass' if v['pass'] else 'FAIL'}")
+        said = f"{v['value']}" if isinstance(v["limit"], bool) else f"{v['value']:.4g} <= {v['limit']:.4g}"
+        print(f"  accept {key:20s} {said}: {'pass' if v['pass'] else 'FAIL'}")
 
 
 def cmd_batch(args):
@@ -418,7 +432,8 @@ def parser(prog="satmotor-cosim"):
     ba.set_defaults(func=cmd_batch)
     v = sub.add_parser("validate", help="check scenario files", description="Check scenario files against "
                        "the schema and the FMUs' variables; list every problem.")
-    v.add_argument("scenario", nargs="+", help="scenario YAML file(s)")
+    v.add_argument("scenario", nargs="+", help="scenario YAML files or directories (their *.yaml, as batch "
+                   "runs them)")
     v.add_argument("--fmus", default=str(fmus.DEFAULT_DIR), help="FMU directory whose variables to check")
     v.set_defaults(func=cmd_validate)
     c = sub.add_parser("check", help="check FMUs (any FMI 2.0 or 3.0 co-simulation FMU)", description="Check "

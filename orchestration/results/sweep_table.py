@@ -117,7 +117,7 @@ def figure(df, sweep, path):
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    if sweep.kind == "montecarlo":
+    if sweep.kind != "grid":  # draws: Monte Carlo, a sensitivity design
         ncol = min(4, len(metrics))
         nrow = math.ceil(len(metrics) / ncol)
         fig, axes = plt.subplots(nrow, ncol, figsize=(3.2 * ncol, 2.4 * nrow), squeeze=False)

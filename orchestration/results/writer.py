@@ -13,8 +13,10 @@ file could not be written (``no space left on device writing ...``).
 Whether a completed run held its set-points (:func:`setpoint_status`; the rule and the default
 margins in :mod:`satmotor.metrics`) is judged with or without acceptance bounds: ``metrics.json``
 has ``holds_setpoints`` (true, false, or null when not judged: a failed run, an empty window) and
-``setpoints``, one line saying what missed.  It does not change the exit code: only acceptance
-bounds do.
+``setpoints``, one line saying what missed.  It changes the exit code only when the scenario asks
+for it, ``acceptance: {holds_setpoints: true}`` (then a bound like the others: exit 3 when not held).
+Chosen on purpose: a scenario without acceptance bounds claims nothing to be judged by, and short
+runs (a smoke test that ends while the flux is still rising) do not hold their set-points by design.
 """
 
 from __future__ import annotations
@@ -206,6 +208,8 @@ def write_results(result, out_dir, plot=True, draw=None, write_error=None, disca
         df = copy.arrays() if plot and copy is not None and rows > 1 else None
     acceptance = check_acceptance(metrics, sc)
     holds, setpoints = setpoint_status(metrics, times, sc)
+    if metrics and sc.acceptance is not None and sc.acceptance.holds_setpoints:  # a bound like the others
+        acceptance["holds_setpoints"] = {"limit": True, "value": holds, "pass": holds is True}
     status, message = result.status, result.message
     if error is not None:
         for name in FILES:  # e.g. the empty record a run that failed at its start falls back to

@@ -71,7 +71,7 @@ def physics_check(sc, fields=None):
     plant = _build(PlantUnit, "plant", sc.plant, {}, file, problems, fields.get("plant"))
     ctrl = _build(ControllerUnit, "controller", sc.controller, {"Ts": sc.Ts}, file, problems,
                   fields.get("controller"))
-    notes.extend(plausibility_notes(sc, plant, ctrl, file))  # inputs far beyond the motor: said
+    notes.extend(plausibility_notes(sc, plant, ctrl, file, fields))  # inputs far beyond the motor: said
     psi = sc.profiles.get("psi_ref")
     if psi is None or sc.stop_time is None:
         return problems, notes

@@ -24,7 +24,8 @@ a multiple of ``step``, default ``step``; ``outputs``: ``plant.NAME`` /
 ``acceptance`` (bounds checked after the run: ``ss_speed``,
 ``ss_flux`` relative steady-state errors over ``ss_window: [t_from, t_to]`` [s],
 ``overshoot_speed`` relative, ``peak_current``, ``peak_current_run`` [A], ``final_overshoot_speed``
-[rad/s]), ``measurements``
+[rad/s], ``holds_setpoints: true``: a run that does not hold its set-points misses its acceptance,
+:func:`orchestration.results.writer.setpoint_status`), ``measurements``
 (noise and quantization the master applies to the plant outputs it passes to the controller:
 ``seed`` (integer >= 0, default 0), ``noise: {NAME: std}`` (Gaussian standard deviation >= 0) and
 ``quantization: {NAME: step}`` (step > 0), each in the signal's unit, NAME one of
@@ -73,7 +74,7 @@ TOP_KEYS = ("name", "description", "stop_time", "step", "controller_every", "alg
             "controller", "mismatch", "profiles", "record", "acceptance", "measurements", "sweep")
 RECORD_LEVELS = ("full", "decimated", "metrics")  # what a run keeps: orchestration.run.recorder
 ACCEPTANCE_KEYS = ("ss_speed", "ss_flux", "ss_window", "overshoot_speed", "peak_current", "peak_current_run",
-                   "final_overshoot_speed", "peak_v_dc")
+                   "final_overshoot_speed", "peak_v_dc", "holds_setpoints")
 _NAME = re.compile(r"[A-Za-z0-9_.-]+")
 _REL = 1e-9  # relative tolerance of "a multiple of step"
 #: libyaml's safe loader when PyYAML has it (the same documents, ten times faster: a sweep's variants
@@ -104,6 +105,7 @@ class Acceptance:
     peak_current_run: float | None = None  # [A] largest |i_s| once the law runs (the current limit)
     final_overshoot_speed: float | None = None  # [rad/s] beyond the final set-point after its last change
     peak_v_dc: float | None = None  # [V] largest DC-link voltage (plant dc_link: capacitor)
+    holds_setpoints: bool = False  # True: a run that does not hold its set-points misses its acceptance
 
 
 @dataclass(frozen=True)
@@ -302,6 +304,11 @@ def _acceptance(chk, raw, stop_time):
                 "final_overshoot_speed", "peak_v_dc"):
         if key in raw:
             vals[key] = chk.number(raw[key], f"acceptance.{key}", low=0.0, strict=True)
+    if "holds_setpoints" in raw:
+        if isinstance(raw["holds_setpoints"], bool):
+            vals["holds_setpoints"] = raw["holds_setpoints"]
+        else:
+            chk.add("acceptance.holds_setpoints", raw["holds_setpoints"], "must be true or false")
     if "ss_window" in raw:
         w = raw["ss_window"]
         if not (isinstance(w, list) and len(w) == 2):
@@ -418,7 +425,10 @@ def _check(data, file, variables):
     problems = chk.problems + [p for p in problems if p not in chk.problems]
     if problems:
         return None, problems
-    notes = _mismatch_notes(sc, plant, controller, str(file)) + notes
+    sweep = data.get("sweep") if isinstance(data.get("sweep"), dict) else {}
+    varied = sweep.get("parameters") if isinstance(sweep.get("parameters"), dict) else {}
+    swept = any(str(p).startswith(("plant.", "controller.")) for p in varied)  # the variants differ
+    notes = _mismatch_notes(sc, plant, controller, str(file), swept) + notes
     return replace(sc, notes=tuple(notes)), []
 
 
@@ -430,10 +440,11 @@ def _preset_name(raw_motor):
     return name if isinstance(name, str) and name in MOTORS else ""
 
 
-def _mismatch_notes(sc, plant_over, ctrl_over, file):
+def _mismatch_notes(sc, plant_over, ctrl_over, file, swept=False):
     """One :class:`Note` per motor parameter whose value differs between the plant and the
     controller (none with ``mismatch: true``), or one saying ``mismatch: true`` has nothing to
-    allow."""
+    allow (not said when ``swept``: a sweep that varies a plant or controller parameter, whose
+    variants differ)."""
     from satmotor.interface import MOTOR_PARAMETERS
 
     notes = []
@@ -449,7 +460,7 @@ def _mismatch_notes(sc, plant_over, ctrl_over, file):
         notes.append(Note(file, where, (p, c), f"{shown[0]}, {shown[1]}: the controller's model "
                           "differs from the plant (a mismatch study? say mismatch: true to silence this)"))
     if sc.mismatch:
-        if notes:
+        if notes or swept:
             return []
         return [Note(file, "mismatch", True, "set to true, but the plant and the controller get the "
                      "same motor parameters")]
@@ -464,12 +475,58 @@ def _read(path):
     except (OSError, UnicodeDecodeError) as exc:
         return None, [Problem(file, "(file)", file, f"cannot read: {exc}")]
     try:
-        return yaml.load(text, Loader=_LOADER), []
+        return _parse(text, file)
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
         where = f"line {mark.line + 1}, column {mark.column + 1}" if mark else "?"
         what = getattr(exc, "problem", None) or str(exc)
         return None, [Problem(file, "(yaml syntax)", where, f"invalid YAML: {what}")]
+
+
+def _parse(text, file):
+    """``(data, problems)`` of the YAML ``text``: a key given twice in one mapping is a problem (file,
+    line, key: YAML's last-one-wins would silently drop the first); raises :class:`yaml.YAMLError`."""
+    loader = _LOADER(text)
+    try:
+        node = loader.get_single_node()
+        if node is None:
+            return None, []
+        twice = duplicate_keys(node)
+        if twice:
+            return None, [Problem(file, path, f"line {line}", f"given twice (first on line {first}): the "
+                                  "second would silently replace the first; keep one")
+                          for path, line, first in twice]
+        return loader.construct_document(node), []
+    finally:
+        loader.dispose()
+
+
+def duplicate_keys(node, path="", seen=None):
+    """``[(key path, line, first line)]`` of the keys a YAML mapping of the node tree ``node`` gives
+    twice (lines from 1; a merge key ``<<`` is YAML's own override, not a duplicate)."""
+    seen = set() if seen is None else seen
+    if id(node) in seen:  # an alias: its node was walked where its anchor is
+        return []
+    seen.add(id(node))
+    out = []
+    if isinstance(node, yaml.MappingNode):
+        first = {}
+        for key, value in node.value:
+            if key.tag == "tag:yaml.org,2002:merge":
+                continue
+            name = key.value if isinstance(key, yaml.ScalarNode) else None
+            where = f"{path}.{name}" if path else str(name)
+            if name is not None:
+                tag = (key.tag, name)
+                if tag in first:
+                    out.append((where, key.start_mark.line + 1, first[tag]))
+                else:
+                    first[tag] = key.start_mark.line + 1
+            out += duplicate_keys(value, where, seen)
+    elif isinstance(node, yaml.SequenceNode):
+        for i, item in enumerate(node.value):
+            out += duplicate_keys(item, f"{path}[{i}]", seen)
+    return out
 
 
 def load_scenario(path, variables=None):

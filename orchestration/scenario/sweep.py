@@ -17,6 +17,12 @@ Two kinds, told apart by the key ``samples``::
         motor.J: {normal: [0.0131, 0.001]}    # normal, [mean, standard deviation]
         controller.c1: {uniform: [150, 250]}  # uniform in [low, high]
 
+A sensitivity study (``analysis: sobol`` or ``morris``, with ``samples`` and ``seed``; Morris also
+``levels``) draws its variants by the method's own design, from the same distributions as a Monte
+Carlo sweep (:mod:`orchestration.study.designs`: Saltelli's ``N (D + 2)`` variants, ``N`` a power of
+two, or ``N`` Morris trajectories of ``D + 1``); the batch then writes the indices
+(:mod:`orchestration.study`).
+
 A parameter path is ``motor.NAME``, ``plant.NAME`` or ``controller.NAME`` (a parameter of that
 section; :data:`satmotor.interface.MOTOR_PARAMETERS` for ``motor``), or ``profiles.PROFILE.KEY``
 (``profiles.PROFILE[i].KEY`` for the i-th part of a summed profile) for a key of a profile the
@@ -66,10 +72,11 @@ class Variant:
 
 @dataclass(frozen=True)
 class Sweep:
-    kind: str  # "grid" or "montecarlo"
+    kind: str  # "grid", "montecarlo", or a sensitivity analysis: "sobol", "morris"
     parameters: tuple  # the varied paths, in the file's order
     variants: tuple  # Variant, by index
-    seed: int | None = None  # Monte Carlo only
+    seed: int | None = None  # Monte Carlo and the analyses only
+    design: dict | None = None  # an analysis: orchestration.study.designs.Design (SALib's problem, N, ...)
 
 
 def _unit_tables():
@@ -236,16 +243,17 @@ def parse_sweep(raw, data, file, tables=None, only=None):
     mapping (``data`` None: the run of one variant copies the file's mapping once, not per variant)."""
     chk = Checker(file)
     tables = tables if tables is not None else _unit_tables()
-    if not chk.mapping(raw, "sweep", ("parameters",), ("samples", "seed")):
+    if not chk.mapping(raw, "sweep", ("parameters",), ("samples", "seed", "analysis", "levels")):
         return None, chk.problems
     params = raw["parameters"]
     if not isinstance(params, dict) or not params:
         chk.add("sweep.parameters", params, "must be a non-empty mapping {parameter path: values}")
         return None, chk.problems
-    montecarlo = "samples" in raw
+    analysis = _analysis(chk, raw)
+    montecarlo = "samples" in raw or analysis is not None
     samples = seed = None
     if montecarlo:
-        samples = chk.integer(raw["samples"], "sweep.samples", low=1)
+        samples = chk.integer(raw["samples"], "sweep.samples", low=1) if "samples" in raw else None
         if samples is not None and samples > MAX_VARIANTS:
             chk.add("sweep.samples", samples, f"must be <= {MAX_VARIANTS}")
             samples = None
@@ -264,10 +272,27 @@ def parse_sweep(raw, data, file, tables=None, only=None):
         located[path] = found
         specs[path] = (_distribution(chk, spec, where, found[1]) if montecarlo
                        else _grid_values(chk, spec, where))
+        if analysis == "morris" and specs[path] and specs[path][0] == "normal":
+            chk.add(f"{where}.normal", spec["normal"], "Morris moves on a grid of the unit cube, whose ends "
+                    "a "
+                    "normal distribution maps to infinity: give {uniform: [low, high]} or {tolerance: r}")
+    paths = tuple(params)
+    if analysis is not None and not chk.problems and samples is not None:
+        from orchestration.study.designs import variant_count
+
+        count = variant_count(analysis, samples, len(paths))
+        if count > MAX_VARIANTS:
+            chk.add("sweep.samples", samples, f"gives {count} variants ({analysis}, {len(paths)} "
+                    "parameters); "
+                    f"at most {MAX_VARIANTS}")
     if chk.problems:
         return None, chk.problems
-    paths = tuple(params)
-    if montecarlo:
+    design = None
+    if analysis is not None:
+        from orchestration.study.designs import draw
+
+        rows, design = draw(analysis, paths, specs, samples, seed, raw.get("levels", 4))
+    elif montecarlo:
         import numpy as np
 
         rng = np.random.default_rng(seed)
@@ -301,7 +326,43 @@ def parse_sweep(raw, data, file, tables=None, only=None):
         elif isinstance(record, dict) and "level" not in record:
             d["record"] = {**record, "level": "metrics"}
         variants.append(Variant(i, name, tuple(zip(paths, values)), d))
-    return Sweep("montecarlo" if montecarlo else "grid", paths, tuple(variants), seed), []
+    kind = analysis or ("montecarlo" if montecarlo else "grid")
+    return Sweep(kind, paths, tuple(variants), seed, design), []
+
+
+def _analysis(chk, raw):
+    """The ``analysis`` of a sweep (None: a grid or a Monte Carlo sweep), its ``samples`` and ``levels``
+    checked; None after recording why not."""
+    from orchestration.study.designs import ANALYSES, missing_salib
+
+    if "levels" in raw and raw.get("analysis") != "morris":
+        chk.add("sweep.levels", raw["levels"], "the grid levels of a Morris study: needs analysis: morris")
+    if "analysis" not in raw:
+        return None
+    analysis = raw["analysis"]
+    if analysis not in ANALYSES:
+        chk.add("sweep.analysis", analysis, f"must be one of {', '.join(ANALYSES)}")
+        return None
+    missing = missing_salib()
+    if missing:
+        chk.add("sweep.analysis", analysis, missing)
+        return None
+    if "samples" not in raw:
+        chk.add("sweep.samples", MISSING, f"a {analysis} study needs samples: " + (
+            "N base samples, a power of two (N (D + 2) variants)" if analysis == "sobol" else
+            "N trajectories (N (D + 1) variants)"))
+        return analysis
+    n = raw["samples"]
+    if analysis == "sobol" and isinstance(n, int) and not isinstance(n, bool) and (n < 2 or n & (n - 1)):
+        chk.add("sweep.samples", n, "the base samples of a Sobol' design must be a power of two >= 2 "
+                "(Saltelli's sequence: N (D + 2) variants)")
+    if analysis == "morris" and isinstance(n, int) and not isinstance(n, bool) and n < 2:
+        chk.add("sweep.samples", n, "a Morris study needs at least 2 trajectories")
+    if analysis == "morris" and "levels" in raw:
+        lv = raw["levels"]
+        if isinstance(lv, bool) or not isinstance(lv, int) or lv < 2 or lv % 2:
+            chk.add("sweep.levels", lv, "the Morris grid levels: an even integer >= 2 (default 4)")
+    return analysis
 
 
 def expand(data, file, tables=None, only=None):

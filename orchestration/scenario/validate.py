@@ -10,7 +10,7 @@ from orchestration.scenario.problems import Problem
 from orchestration.scenario.sweep import expand
 from orchestration.scenario.variants import check_sweep
 
-__all__ = ["check_scenario_file", "validate_scenario_file", "variant_count"]
+__all__ = ["check_scenario_file", "validate_scenario_file", "variant_count", "scenario_name"]
 
 
 def check_scenario_file(path, variables=None):
@@ -49,4 +49,13 @@ def variant_count(path):
         sweep = expand(data, str(path))[0]
         return None if sweep is None else len(sweep.variants)
     except Exception:  # noqa: BLE001 - a count for a status line, never a crash
+        return None
+
+
+def scenario_name(path):
+    """The ``name`` of the scenario file ``path`` (its results directory), or None.  Never raises."""
+    try:
+        data, problems = _read(path)
+        return data.get("name") if not problems and isinstance(data, dict) else None
+    except Exception:  # noqa: BLE001 - a name for a check, never a crash
         return None
