@@ -1,22 +1,26 @@
 """Test helper: the native core (``fmu/native/core/*.c`` and its generated ``sm_params.h`` / ``.c``)
 compiled with gcc into one shared library, loaded with ctypes, argument types declared.  One build per
-flag set per pytest session.  Extra compiler flags (appended) from the environment variable
-``SM_CORE_EXTRA_CFLAGS``.  The parameter structs (:data:`MotorParams`, :data:`PlantParams`,
-:data:`ControllerParams`) are ctypes structures whose fields are read from the generator's table
-(:func:`orchestration.build.native.tables.struct_members`), as the C structs are generated from it."""
+flag set, kept in ``build/native_core/`` (:data:`CACHE`: rebuilt when a source, the generated tables
+or a flag changes; no temporary folder is left behind).  Extra compiler flags (appended) from the
+environment variable ``SM_CORE_EXTRA_CFLAGS``.  The parameter structs (:data:`MotorParams`,
+:data:`PlantParams`, :data:`ControllerParams`) are ctypes structures whose fields are read from the
+generator's table (:func:`orchestration.build.native.tables.struct_members`), as the C structs are
+generated from it."""
 
 from __future__ import annotations
 
 import ctypes
+import hashlib
 import os
 import shutil
 import subprocess
-import tempfile
 from pathlib import Path
 
 from orchestration.build.native import tables as native_tables
 
-CORE = Path(__file__).resolve().parents[1] / "fmu" / "native" / "core"
+ROOT = Path(__file__).resolve().parents[1]
+CORE = ROOT / "fmu" / "native" / "core"
+CACHE = ROOT / "build" / "native_core"  # one folder per flag set: the library and what it was built from
 FLAGS = ["-std=c99", "-O2", "-fPIC", "-shared", "-Wall", "-Wextra", "-Werror", "-pedantic", "-Wconversion",
          "-Wshadow"]
 SANITIZE = ["-fsanitize=address,undefined", "-fno-sanitize-recover=undefined", "-fno-omit-frame-pointer",
@@ -62,18 +66,47 @@ def params(lib, struct, values=None):
 
 def build(extra_flags=(), out_dir=None):
     """Compile every ``fmu/native/core/*.c`` with the generated ``sm_params.c`` into one shared
-    library; return its path."""
+    library; return its path: in ``out_dir`` (built anew), or by default in :data:`CACHE`, built only
+    when what it is built from changed (the sources, the generated tables, the compiler and the flags;
+    safe with pytest-xdist: each build is written under a name of its own, then renamed)."""
     gcc = shutil.which("gcc")
     if gcc is None:
         raise RuntimeError("gcc not found")
-    out_dir = Path(out_dir or tempfile.mkdtemp(prefix="sm_native_core_"))
-    lib = out_dir / ("libsmcore_san.so" if extra_flags else "libsmcore.so")
-    gen = out_dir / ("generated_san" if extra_flags else "generated")
-    gen.mkdir(exist_ok=True)
-    generated = native_tables.core_files(gen)
-    sources = sorted(str(p) for p in CORE.glob("*.c")) + [str(p) for p in generated if p.suffix == ".c"]
     env_flags = os.environ.get("SM_CORE_EXTRA_CFLAGS", "").split()  # e.g. "-O3 -march=native"
-    cmd = [gcc, *FLAGS, *env_flags, *extra_flags, f"-I{gen}", f"-I{CORE}", "-o", str(lib), *sources, "-lm"]
+    flags = [*FLAGS, *env_flags, *extra_flags]
+    name = "libsmcore_san.so" if extra_flags else "libsmcore.so"
+    generated = {"sm_params.h": native_tables.core_header(), "sm_params.c": native_tables.core_source()}
+    if out_dir is not None:
+        return _compile(gcc, flags, Path(out_dir), Path(out_dir) / name, generated)
+    key = hashlib.sha256("\0".join([gcc, *flags]).encode())
+    for p in sorted(CORE.glob("*.[ch]")):
+        key.update(p.name.encode() + b"\0" + p.read_bytes())
+    for text in generated.values():
+        key.update(text.encode())
+    folder = CACHE / hashlib.sha256("\0".join(flags).encode()).hexdigest()[:12]
+    lib, stamp = folder / name, folder / "key"
+    if lib.exists() and stamp.exists() and stamp.read_text() == key.hexdigest():
+        return lib
+    folder.mkdir(parents=True, exist_ok=True)
+    own = folder / f"build-{os.getpid()}"
+    try:
+        _compile(gcc, flags, own, own / name, generated)
+        os.replace(own / name, lib)
+    finally:
+        shutil.rmtree(own, ignore_errors=True)
+    tmp = folder / f"key-{os.getpid()}"
+    tmp.write_text(key.hexdigest())
+    os.replace(tmp, stamp)
+    return lib
+
+
+def _compile(gcc, flags, work, lib, generated):
+    gen = work / "generated"
+    gen.mkdir(parents=True, exist_ok=True)
+    for n, text in generated.items():
+        (gen / n).write_text(text)
+    sources = sorted(str(p) for p in CORE.glob("*.c")) + [str(gen / "sm_params.c")]
+    cmd = [gcc, *flags, f"-I{gen}", f"-I{CORE}", "-o", str(lib), *sources, "-lm"]
     res = subprocess.run(cmd, capture_output=True, text=True)
     if res.returncode != 0:
         raise RuntimeError(f"native core build failed:\n{' '.join(cmd)}\n{res.stderr}")
