@@ -6,30 +6,28 @@ from __future__ import annotations
 
 import ctypes
 import dataclasses
+import random
 import re
 import shutil
 import subprocess
 
 import pytest
-from native_core import ControllerParams, MotorParams, PlantParams, load
+from native_core import BINDING, STRUCTS, ControllerParams, MotorParams, PlantParams, load, params
 
 import satmotor.interface as itf
 from orchestration.build.native import tables as native_tables
 from satmotor.control.backstepping import BacksteppingGains, ControllerConfig
 from satmotor.control.drive import DriveConfig
 from satmotor.control.ifoc import IFOCGains
+from satmotor.errors import ParameterError
 
 pytestmark = pytest.mark.skipif(shutil.which("gcc") is None, reason="needs gcc")
 
 
 @pytest.fixture(scope="module")
 def lib():
-    """The session's core library through a CDLL object of its own: the argument types other test
-    modules declare on theirs (their own ctypes classes) do not apply here."""
-    own = ctypes.CDLL(load()._name)
-    for struct in (MotorParams, PlantParams, ControllerParams):
-        getattr(own, struct.__name__ + "_size").restype = ctypes.c_size_t
-    return own
+    """The session's core library, its signatures read from the headers (native_core.declare)."""
+    return load()
 
 
 def _value(struct, name, type_):
@@ -53,28 +51,9 @@ def test_the_c_parameter_defaults_are_the_start_values_of_the_table(lib, struct,
         assert _value(p, v.name, v.type) == want, v.name
 
 
-class _Gains(ctypes.Structure):
-    _fields_ = [(n, ctypes.c_double) for n in ("c1", "c2", "d1", "d2", "c0", "d0")]
-
-
-class _LawConfig(ctypes.Structure):  # sm_law.h
-    _fields_ = [("V_dc", ctypes.c_double), ("Ts", ctypes.c_double), ("phi_min", ctypes.c_double),
-                ("load_estimated", ctypes.c_int), ("g_theta", ctypes.c_double),
-                ("theta_max", ctypes.c_double), ("use_stator_flux", ctypes.c_int)]
-
-
-class _DriveConfig(ctypes.Structure):  # sm_drive.h
-    _fields_ = [(n, ctypes.c_double) for n in ("ref_bandwidth", "I_max", "premag_fraction", "premag_boost",
-                                               "premag_gain", "premag_time_max", "premag_min_fraction",
-                                               "premag_speed_tol")] + [
-        ("observer", ctypes.c_int), ("delay_samples", ctypes.c_int), ("closed_loop", ctypes.c_int),
-        ("speed_estimated", ctypes.c_int), ("speed_bandwidth", ctypes.c_double),
-        ("field_weakening", ctypes.c_int), ("fw_voltage_ratio", ctypes.c_double),
-        ("current_limit_gain", ctypes.c_double), ("host_delay_samples", ctypes.c_int)]
-
-
-class _IFOCGains(ctypes.Structure):  # sm_ifoc.h
-    _fields_ = [(n, ctypes.c_double) for n in ("w_c", "w_speed", "I_max", "V_dc")]
+# the settings structs, read from the headers (sm_law.h, sm_drive.h, sm_ifoc.h)
+_Gains, _LawConfig = STRUCTS["sm_gains"], STRUCTS["sm_law_config"]
+_DriveConfig, _IFOCGains = STRUCTS["sm_drive_config"], STRUCTS["sm_ifoc_gains"]
 
 
 def test_the_c_defaults_of_the_settings_structs_are_the_python_dataclass_defaults(lib):
@@ -94,6 +73,65 @@ def test_the_c_defaults_of_the_settings_structs_are_the_python_dataclass_default
             want["speed_estimated"] = int(want.pop("speed_source") == "estimated")
         got = {n: getattr(c, n) for n, _ in struct._fields_}
         assert got == {k: (int(v) if isinstance(v, bool) else v) for k, v in want.items()}, fn
+
+
+def _python_setting(setting, values):
+    """The Python dataclass of ``setting`` as ControllerUnit fills it from the flat ``values``, as the C
+    struct's members (coded as DATACLASS_STRUCTS says: written out here)."""
+    got = dataclasses.asdict(itf.SETTINGS[setting](**{n: values[n] for n in itf.FILLED[setting]}))
+    got.pop("true_i_mu", None)
+    if "load_mode" in got:
+        got["load_estimated"] = int(got.pop("load_mode") == "estimated")
+    if "flux_source" in got:
+        got["closed_loop"] = int(got.pop("observer") == "closed_loop")
+        got["observer"] = int(got.pop("flux_source") == "observer")
+        got["speed_estimated"] = int(got.pop("speed_source") == "estimated")
+    return {k: (int(v) if isinstance(v, bool) else v) for k, v in got.items()}
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_the_generated_copy_into_the_settings_structs_is_the_pythons(lib, seed):
+    """sm_controller_settings (generated from Variable.fills) at random parameter values: every member of
+    the four C structs equals the field of the dataclass ControllerUnit builds from the same values."""
+    rng = random.Random(seed)
+    filled = {v for v in itf.CONTROLLER_PARAMETERS if any(v.name in names for names in itf.FILLED.values())}
+    while True:  # each number a little off its default (up or down), until the dataclasses accept them all
+        values = {v.name: rng.choice(v.choices) if v.choices else rng.random() < 0.5 if v.type == "Boolean"
+                  else rng.randrange(2) if v.type == "Integer"
+                  else v.start * (1.0 + rng.uniform(-0.1, 0.1)) + rng.uniform(0.0, 1e-3) for v in filled}
+        values["speed_source"] = rng.choice(("measured", "estimated"))
+        try:
+            for setting in itf.SETTINGS:
+                _python_setting(setting, values)
+            break
+        except ParameterError:
+            continue
+    structs = {s: STRUCTS[f"sm_{s}"]() for s in itf.SETTINGS}
+    lib.sm_controller_settings(params(lib, ControllerParams, values), *(structs[s] for s in itf.SETTINGS))
+    for s, c in structs.items():
+        assert {n: getattr(c, n) for n, _ in c._fields_} == _python_setting(s, values), s
+
+
+def test_the_header_structs_have_the_c_sizes(lib):
+    """Every struct the headers declare with a size function (sm_<x>_size, sm_<x>_params_size) has the
+    size of its ctypes class read from the headers (tests/c_binding.py: members, types, arrays)."""
+    sized = [n for n in BINDING.structs if n + "_size" in BINDING.functions]
+    assert {"sm_curve", "sm_motor", "sm_controller", "sm_drive", "sm_inverter",
+            "sm_controller_params"} <= set(sized)
+    for name in sized:
+        assert getattr(lib, name + "_size")() == ctypes.sizeof(BINDING.structs[name]), name
+
+
+def test_a_struct_pointer_takes_its_struct_or_a_buffer_and_refuses_another_struct(lib):
+    g = STRUCTS["sm_gains"]()
+    lib.sm_gains_default(g)
+    lib.sm_gains_default(ctypes.byref(g))
+    assert g.c1 == BacksteppingGains().c1
+    with pytest.raises(ctypes.ArgumentError, match="expected a sm_gains, got a sm_law_config"):
+        lib.sm_gains_default(STRUCTS["sm_law_config"]())
+    buf = (ctypes.c_double * 6)()  # a raw buffer of the struct's size
+    lib.sm_gains_default(buf)
+    assert list(buf) == [getattr(g, n) for n, _ in g._fields_]
 
 
 def test_a_parameter_added_to_a_table_reaches_the_struct_and_the_copy():
@@ -189,7 +227,6 @@ def test_the_c_parser_takes_every_choice_of_the_tables_and_refuses_the_rest_nami
     """Every choice of every String parameter parsed through ctypes to its position in the table's
     tuple; near misses (case, a blank, empty, a quote) refused with "name = 'value': must be one of
     a, b" (written out here from the tables), the output left as it was."""
-    lib.sm_choice_param_name.restype = lib.sm_choice_text.restype = ctypes.c_char_p
     names = []
     while (name := lib.sm_choice_param_name(len(names))) is not None:
         names.append(name.decode())
