@@ -22,7 +22,7 @@ import ctypes
 import re
 from pathlib import Path
 
-from pycparser import c_ast, c_parser
+from pycparser import c_ast, c_generator, c_parser
 
 _BASE = {("double",): ctypes.c_double, ("int",): ctypes.c_int, ("long",): ctypes.c_long,
          ("unsigned", "int"): ctypes.c_uint, ("unsigned",): ctypes.c_uint, ("char",): ctypes.c_char,
@@ -131,16 +131,20 @@ class _Reader:
 
     def read(self, ast):
         for node in ast.ext:
-            if isinstance(node, c_ast.Typedef):
-                self.typedef(node)
-            elif isinstance(node, c_ast.Decl) and isinstance(node.type, c_ast.FuncDecl):
-                self.functions[node.name] = self.function(node)
-            elif isinstance(node, c_ast.Decl) and isinstance(node.type, c_ast.Enum):
-                self.enum(node.type)
+            try:
+                if isinstance(node, c_ast.Typedef):
+                    self.typedef(node)
+                elif isinstance(node, c_ast.Decl) and isinstance(node.type, c_ast.FuncDecl):
+                    self.functions[node.name] = self.function(node)
+                elif isinstance(node, c_ast.Decl) and isinstance(node.type, c_ast.Enum):
+                    self.enum(node.type)
+            except ValueError as e:
+                raise ValueError(f"the declaration of {node.name or 'an enum'}: {e}") from None
         return Binding(self.structs, self.functions, {**self.constants, **self.enum_values})
 
     def fail(self, node, what):
-        raise ValueError(f"{node.coord}: {what}: no ctypes mapping in tests/c_binding.py")
+        text = c_generator.CGenerator().visit(node)
+        raise ValueError(f"{what} {text!r}: no ctypes mapping in tests/c_binding.py")
 
     def size(self, node):
         if isinstance(node, c_ast.Constant):
@@ -174,7 +178,7 @@ class _Reader:
         if cls is None:
             cls = type(name, (ctypes.Structure,), {"_fields_": fields})
         elif [(n, ctypes.sizeof(t)) for n, t in cls._fields_] != [(n, ctypes.sizeof(t)) for n, t in fields]:
-            raise ValueError(f"{struct.coord}: {name}: the header's members are not those of {cls}")
+            raise ValueError(f"{name}: the header's members are not those of {cls}")
         self.structs[name] = cls
         return cls
 

@@ -11,6 +11,7 @@ import re
 import shutil
 import subprocess
 
+import c_binding
 import pytest
 from native_core import BINDING, STRUCTS, ControllerParams, MotorParams, PlantParams, load, params
 
@@ -112,6 +113,20 @@ def test_the_generated_copy_into_the_settings_structs_is_the_pythons(lib, seed):
         assert {n: getattr(c, n) for n, _ in c._fields_} == _python_setting(s, values), s
 
 
+def test_a_fill_of_an_unknown_setting_or_field_or_of_an_uncoded_string_fails(monkeypatch):
+    c1 = itf.CONTROLLER_PARAMETERS[0]
+    monkeypatch.setattr(itf, "CONTROLLER_PARAMETERS", (c1._replace(fills=("gainz",)),))
+    with pytest.raises(ValueError, match="c1: fills 'gainz', not one of gains, law_config"):
+        itf._filled()
+    monkeypatch.setattr(itf, "CONTROLLER_PARAMETERS", (c1._replace(name="c9"),))
+    with pytest.raises(ValueError, match="c9: fills 'gains', but BacksteppingGains has no field c9"):
+        itf._filled()
+    monkeypatch.undo()
+    monkeypatch.setattr(itf, "FILLED", {**itf.FILLED, "gains": ("mode",)})
+    with pytest.raises(ValueError, match="mode fills gains: a String needs its coding"):
+        native_tables.core_source()
+
+
 def test_the_header_structs_have_the_c_sizes(lib):
     """Every struct the headers declare with a size function (sm_<x>_size, sm_<x>_params_size) has the
     size of its ctypes class read from the headers (tests/c_binding.py: members, types, arrays)."""
@@ -120,6 +135,19 @@ def test_the_header_structs_have_the_c_sizes(lib):
             "sm_controller_params"} <= set(sized)
     for name in sized:
         assert getattr(lib, name + "_size")() == ctypes.sizeof(BINDING.structs[name]), name
+
+
+def test_the_header_reader_maps_sizes_and_pointers_and_names_what_it_cannot_map():
+    b = c_binding.read([], {"x.h": "#define N 3\ntypedef struct { double a[N * 2]; int k; } sm_ok;\n"
+                                   "int f(const sm_ok *p, double x[N], char *msg, size_t n);"})
+    assert [(n, ctypes.sizeof(t)) for n, t in b.structs["sm_ok"]._fields_] == [("a", 48), ("k", 4)]
+    res, args = b.functions["f"]
+    assert res is ctypes.c_int and args[1:] == [ctypes.POINTER(ctypes.c_double), ctypes.c_char_p,
+                                                ctypes.c_size_t]
+    with pytest.raises(ValueError, match="the declaration of sm_bad: an array size 'M'"):
+        c_binding.read([], {"x.h": "typedef struct { double a[M]; } sm_bad;"})
+    with pytest.raises(ValueError, match="the declaration of sm_bad: a type '_Bool'"):
+        c_binding.read([], {"x.h": "typedef struct { _Bool b; } sm_bad;"})
 
 
 def test_a_struct_pointer_takes_its_struct_or_a_buffer_and_refuses_another_struct(lib):

@@ -14,6 +14,10 @@ One generator for every native model; nothing below is written by hand in C:
   inputs in their order; the generation fails if they disagree) and the defaults of the core's
   structs of the Python settings
   dataclasses (:data:`DATACLASS_STRUCTS`: ``sm_gains_default`` from ``BacksteppingGains()``, ...),
+  the controller's copy of its flat parameters into those structs ``sm_controller_settings`` (each
+  parameter into the members its ``Variable.fills`` names, as ``ControllerUnit`` fills the
+  dataclasses from ``interface.FILLED``) and its outputs in table order ``sm_controller_outputs_of``
+  (each output the member of its name of ``sm_drive_output``; positions ``SM_<UNIT>_OUT_<name>``),
   and per String parameter with a closed set of values (``Variable.choices``, :data:`CHOICES`) an
   enum ``sm_<name>_choice`` (``SM_CHOICE_<name>_<value>``, the choices' order) and its parameter's
   place ``SM_CHOICE_PARAM_<name>`` in the one parser ``sm_choice_parse`` (text -> enum value, or
