@@ -290,3 +290,24 @@ def test_choices_on_a_number_or_not_a_c_name_fail_the_generation(monkeypatch):
         monkeypatch.setattr(native_tables, "UNITS", units)
         with pytest.raises(ValueError, match="choices"):
             native_tables._choices()
+
+
+def test_the_core_library_is_built_into_the_cache_once_and_leaves_no_folder_behind(tmp_path, monkeypatch):
+    """tests/native_core.build: the library under build/native_core/, not compiled again on a second call
+    (nothing changed), no work folder of this process left there and nothing in the temporary folder."""
+    import os
+    import tempfile
+
+    import native_core as nc
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp_path))  # a temporary folder would land here
+    lib = nc.build()
+    assert nc.CACHE in lib.parents and lib.exists()
+
+    def compile_again(*args):
+        raise AssertionError("compiled again")
+
+    monkeypatch.setattr(nc, "_compile", compile_again)
+    assert nc.build() == lib
+    assert not (lib.parent / f"build-{os.getpid()}").exists()
+    assert not (lib.parent / f"key-{os.getpid()}").exists()
+    assert list(tmp_path.iterdir()) == []
