@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import operator
 import sys
 from typing import NamedTuple
 
@@ -23,6 +24,7 @@ from satmotor.control.drive import (
     SPEED_SOURCES,
     BacksteppingDrive,
     DriveConfig,
+    DriveOutput,
     IFOCDrive,
 )
 from satmotor.control.ifoc import IFOCGains
@@ -58,7 +60,10 @@ class Variable(NamedTuple):
     ``sm_motor_params``; see ``orchestration/build/native/tables.py``).  ``choices``: a String
     parameter's closed set of values (empty: any text, a file name); the checks in Python use the
     same tuple, the native core a C enum and parser generated from it (``sm_choice_parse``), the
-    scenario loader refuses any other value."""
+    scenario loader refuses any other value.  ``fills``: the settings (keys of :data:`SETTINGS`) whose
+    field of the parameter's name it fills, in Python (:class:`ControllerUnit`) and in C (the member of
+    that name of ``sm_<setting>``, or its coding in ``tables.DATACLASS_STRUCTS``: the copy
+    ``sm_controller_settings`` is generated from this field)."""
 
     name: str
     causality: str
@@ -68,6 +73,7 @@ class Variable(NamedTuple):
     description: str
     c_struct: str = ""
     choices: tuple[str, ...] = ()
+    fills: tuple[str, ...] = ()
 
 
 def _in_struct(c_struct, variables):
@@ -75,8 +81,15 @@ def _in_struct(c_struct, variables):
     return tuple(v._replace(c_struct=c_struct) for v in variables)
 
 
-def _v(name, causality, start, unit, description, type_="Real", choices=()):
-    return Variable(name, causality, type_, start, unit, description, choices=tuple(choices))
+def _v(name, causality, start, unit, description, type_="Real", choices=(), fills=()):
+    return Variable(name, causality, type_, start, unit, description, choices=tuple(choices), fills=fills)
+
+
+# the controller's settings dataclasses its flat parameters fill (Variable.fills), by the name of their
+# C struct (sm_gains, ...: each field the member of its name, but the coded ones of
+# orchestration/build/native/tables.py's DATACLASS_STRUCTS)
+SETTINGS = {"gains": BacksteppingGains, "law_config": ControllerConfig, "drive_config": DriveConfig,
+            "ifoc_gains": IFOCGains}
 
 
 # max_substeps' default: one doStep(0, 5 s) at the limit (h_int = 1e-4 s) took 1.35-1.40 s on the
@@ -229,9 +242,6 @@ PLANT_MOTOR_NAMES = ("R_fe", "T_ref", "alpha_s", "alpha_r", "C_th_s", "C_th_r", 
 THERMAL_NAMES = ("thermal", "T_amb", "T_s0", "T_r0", "T_ref", "alpha_s", "alpha_r", "C_th_s", "C_th_r",
                  "R_th_s", "R_th_r", "R_th_sr")
 
-# the controller's Real parameters that go into DriveConfig as they are (the start-up tolerances)
-_DRIVE_REALS = ("fw_voltage_ratio", "premag_fraction", "premag_min_fraction", "premag_speed_tol",
-                "premag_time_max", "premag_boost", "premag_gain", "current_limit_gain")
 CONTROLLER_MODES = ("saturated", "constant_m", "pi")
 CONTROLLER_INPUTS = (
     _v("i_s_alpha", "input", 0.0, "A", "measured stator current, alpha axis"),
@@ -280,67 +290,114 @@ CONTROLLER_OUTPUTS = (
        "(speed_source = estimated) or the omega_m input (measured)"),
 )
 CONTROLLER_PARAMETERS = _in_struct("controller", (
-    _v("c1", "parameter", _G.c1, "1/s", "flux error gain"),
-    _v("c2", "parameter", _G.c2, "1/s", "flux virtual-control gain"),
-    _v("d1", "parameter", _G.d1, "1/s", "speed error gain"),
-    _v("d2", "parameter", _G.d2, "1/s", "speed virtual-control gain"),
-    _v("c0", "parameter", _G.c0, "1/s2", "flux integral gain (0: no integral action, the seed's law)"),
-    _v("d0", "parameter", _G.d0, "1/s2", "speed integral gain (0: no integral action, the seed's law)"),
-    _v("Ts", "parameter", _C.Ts, "s", "sample period; one sample per doStep (dt must equal Ts)"),
+    _v("c1", "parameter", _G.c1, "1/s", "flux error gain", fills=("gains",)),
+    _v("c2", "parameter", _G.c2, "1/s", "flux virtual-control gain", fills=("gains",)),
+    _v("d1", "parameter", _G.d1, "1/s", "speed error gain", fills=("gains",)),
+    _v("d2", "parameter", _G.d2, "1/s", "speed virtual-control gain", fills=("gains",)),
+    _v("c0", "parameter", _G.c0, "1/s2", "flux integral gain (0: no integral action, the seed's law)",
+       fills=("gains",)),
+    _v("d0", "parameter", _G.d0, "1/s2", "speed integral gain (0: no integral action, the seed's law)",
+       fills=("gains",)),
+    _v("Ts", "parameter", _C.Ts, "s", "sample period; one sample per doStep (dt must equal Ts)",
+       fills=("law_config",)),
     _v("mode", "parameter", "saturated", "", "law: saturated (backstepping with the curve), "
        "constant_m (same law, m = L_m0), pi (indirect field-oriented PI baseline)", "String",
        CONTROLLER_MODES),
     _v("load_mode", "parameter", "known", "", "load torque: known (input T_load) or estimated", "String",
-       LOAD_MODES),
-    _v("V_dc", "parameter", _C.V_dc, "V", "DC-link voltage; |v_s| <= V_dc / sqrt(3)"),
-    _v("ref_bandwidth", "parameter", _D.ref_bandwidth, "rad/s", "reference shaper bandwidth"),
-    _v("g_theta", "parameter", _C.g_theta, "1/s2", "adaptation gain of the load estimate"),
-    _v("theta_max", "parameter", _C.theta_max, "rad/s2", "bound of the estimate of T_load/J"),
+       LOAD_MODES, fills=("law_config",)),
+    _v("V_dc", "parameter", _C.V_dc, "V", "DC-link voltage; |v_s| <= V_dc / sqrt(3)",
+       fills=("law_config", "ifoc_gains")),
+    _v("ref_bandwidth", "parameter", _D.ref_bandwidth, "rad/s", "reference shaper bandwidth",
+       fills=("drive_config",)),
+    _v("g_theta", "parameter", _C.g_theta, "1/s2", "adaptation gain of the load estimate",
+       fills=("law_config",)),
+    _v("theta_max", "parameter", _C.theta_max, "rad/s2", "bound of the estimate of T_load/J",
+       fills=("law_config",)),
     _v("I_max", "parameter", _D.I_max, "A", "stator current limit: pre-magnetization, flux set-points, "
-       "the law's virtual controls, the measured current (current_limit_gain)"),
+       "the law's virtual controls, the measured current (current_limit_gain)",
+       fills=("drive_config", "ifoc_gains")),
     _v("flux_source", "parameter", _D.flux_source, "", "rotor flux: measured (the psi_r/psi_s inputs, "
        "the seed's assumption) or observer (estimated from i_s and omega_m; the psi inputs are ignored)",
-       "String", FLUX_SOURCES),
+       "String", FLUX_SOURCES, fills=("drive_config",)),
     _v("delay_samples", "parameter", _D.delay_samples, "1", "computational delay: 0 (voltage applied at "
-       "the sample) or 1 (applied one sample later, compensated by prediction)", "Integer"),
+       "the sample) or 1 (applied one sample later, compensated by prediction)", "Integer",
+       fills=("drive_config",)),
     _v("use_stator_flux", "parameter", _C.use_stator_flux, "", "magnetizing state from the measured "
-       "stator flux too (seed H1, eqs 18-19) instead of the curve alone", "Boolean"),
+       "stator flux too (seed H1, eqs 18-19) instead of the curve alone", "Boolean", fills=("law_config",)),
     _v("observer", "parameter", _D.observer, "", "flux observer with flux_source = observer: closed_loop "
        "(current and voltage models blended by a speed-dependent gain, the curve inside) or current_model "
-       "(open loop, from i_s and omega_m)", "String", OBSERVERS),
+       "(open loop, from i_s and omega_m)", "String", OBSERVERS, fills=("drive_config",)),
     _v("speed_source", "parameter", _D.speed_source, "", "mechanical speed: measured (the omega_m input) or "
        "estimated (speed-adaptive closed-loop observer, the omega_m input is not read; needs flux_source = "
-       "observer, observer = closed_loop)", "String", SPEED_SOURCES),
+       "observer, observer = closed_loop)", "String", SPEED_SOURCES, fills=("drive_config",)),
     _v("field_weakening", "parameter", _D.field_weakening, "", "automatic field weakening: psi_ref is the "
        "nominal flux, lowered (on the magnetizing curve) where the steady stator voltage at the present "
-       "torque and speed would exceed fw_voltage_ratio V_dc/sqrt(3); false: psi_ref as it is", "Boolean"),
+       "torque and speed would exceed fw_voltage_ratio V_dc/sqrt(3); false: psi_ref as it is", "Boolean",
+       fills=("drive_config",)),
     _v("fw_voltage_ratio", "parameter", _D.fw_voltage_ratio, "1", "share of V_dc/sqrt(3) a steady state "
-       "may use under field weakening, in (0, 1]; the rest is the law's margin"),
+       "may use under field weakening, in (0, 1]; the rest is the law's margin", fills=("drive_config",)),
     _v("premag_fraction", "parameter", _D.premag_fraction, "1", "pre-magnetization: the law takes over at "
-       "this fraction of psi_ref, in (0, 1]"),
+       "this fraction of psi_ref, in (0, 1]", fills=("drive_config",)),
     _v("premag_min_fraction", "parameter", _D.premag_min_fraction, "1", "pre-magnetization: the law takes "
        "over from this fraction of psi_ref on (<= premag_fraction) when the rotor turns faster than "
-       "premag_speed_tol or premag_time_max has passed"),
+       "premag_speed_tol or premag_time_max has passed", fills=("drive_config",)),
     _v("premag_speed_tol", "parameter", _D.premag_speed_tol, "rad/s", "pre-magnetization: |omega_m| above "
-       "which a load is taken to turn the rotor (the flux current goes to 0.9 I_max), > 0"),
+       "which a load is taken to turn the rotor (the flux current goes to 0.9 I_max), > 0",
+       fills=("drive_config",)),
     _v("premag_time_max", "parameter", _D.premag_time_max, "s", "pre-magnetization: time after which the "
-       "law takes over from premag_min_fraction on, > 0"),
+       "law takes over from premag_min_fraction on, > 0", fills=("drive_config",)),
     _v("premag_boost", "parameter", _D.premag_boost, "1", "pre-magnetization current as a multiple of the "
-       "steady magnetizing current of psi_ref (bounded by I_max), >= 1"),
+       "steady magnetizing current of psi_ref (bounded by I_max), >= 1", fills=("drive_config",)),
     _v("premag_gain", "parameter", _D.premag_gain, "Ohm", "proportional gain of the pre-magnetization "
-       "current loop, > 0"),
+       "current loop, > 0", fills=("drive_config",)),
 )) + MOTOR_PARAMETERS + _in_struct("controller", (
     # last: the earlier variables keep their value references
     _v("current_limit_gain", "parameter", _D.current_limit_gain, "1/s", "measured-current limiter: while the "
        "measured |i_s| exceeds I_max the law's current bound is lowered by the integral of the excess times "
-       "this gain (unwound below I_max); >= 0, 0: off (the law's model currents alone are bounded)"),
+       "this gain (unwound below I_max); >= 0, 0: off (the law's model currents alone are bounded)",
+       fills=("drive_config",)),
     _v("host_delay_samples", "parameter", _D.host_delay_samples, "1", "samples of coupling delay the host "
        "adds between this output and the plant's input (a Jacobi master: 1; Gauss-Seidel: 0), 0 to "
-       f"{HOST_DELAY_MAX}; compensated with delay_samples by one prediction over both", "Integer"),
+       f"{HOST_DELAY_MAX}; compensated with delay_samples by one prediction over both", "Integer",
+       fills=("drive_config",)),
     _v("deadtime_comp_voltage", "parameter", 0.0, "V", "dead-time compensation: sign(i_phase) times this "
        "voltage added to each phase of the voltage command (from the measured currents), >= 0; 0: off "
        "(satmotor.control.deadtime)"),
 ))
+
+
+def _filled():
+    """Per setting of :data:`SETTINGS` the controller parameters that fill it (``Variable.fills``), in
+    table order; each must be a field of that setting's dataclass."""
+    out = {s: [] for s in SETTINGS}
+    for v in CONTROLLER_PARAMETERS:
+        for s in v.fills:
+            if s not in SETTINGS:
+                raise ValueError(f"CONTROLLER_PARAMETERS {v.name}: fills {s!r}, not one of "
+                                 f"{', '.join(SETTINGS)}")
+            if v.name not in {f.name for f in dataclasses.fields(SETTINGS[s])}:
+                raise ValueError(f"CONTROLLER_PARAMETERS {v.name}: fills {s!r}, but "
+                                 f"{SETTINGS[s].__name__} has no field {v.name}")
+            out[s].append(v.name)
+    return {s: tuple(names) for s, names in out.items()}
+
+
+FILLED = _filled()  # setting -> the names of the parameters that fill its fields (the C copy's too)
+
+
+def _sample_outputs():
+    """The getter of a sample's outputs in the order of CONTROLLER_OUTPUTS from the drive's output: each
+    output the field of its name of :class:`DriveOutput` but the last, ``omega_m_hat``, the drive's
+    property (C: each the member of its name of ``sm_drive_output``, copied by the generated
+    ``sm_controller_outputs_of``)."""
+    names = tuple(v.name for v in CONTROLLER_OUTPUTS)
+    if names[-1] != "omega_m_hat" or not set(names[:-1]) <= set(DriveOutput._fields):
+        raise ValueError(f"CONTROLLER_OUTPUTS {names}: each must be a field of DriveOutput "
+                         f"({', '.join(DriveOutput._fields)}) but the last, omega_m_hat")
+    return operator.itemgetter(*(DriveOutput._fields.index(n) for n in names[:-1]))  # by position: fastest
+
+
+_SAMPLE_OUTPUTS = _sample_outputs()
 
 
 
@@ -611,22 +668,16 @@ class ControllerUnit:
         if f["flux_source"] == "observer" and f["use_stator_flux"]:
             raise ParameterError("use_stator_flux", True, "needs measured fluxes: not with flux_source = "
                                  "observer")
-        dcfg = DriveConfig(ref_bandwidth=f["ref_bandwidth"], I_max=f["I_max"], flux_source=f["flux_source"],
-                           delay_samples=f["delay_samples"], host_delay_samples=f["host_delay_samples"],
-                           observer=f["observer"],
-                           speed_source=f["speed_source"], field_weakening=f["field_weakening"],
-                           **{n: f[n] for n in _DRIVE_REALS})
+        def setting(s):  # the dataclass of setting s, its fields filled from f (Variable.fills)
+            return SETTINGS[s](**{n: f[n] for n in FILLED[s]})
+
+        dcfg = setting("drive_config")
         if mode == "pi":
-            gains = dataclasses.replace(IFOCGains(), V_dc=f["V_dc"], I_max=f["I_max"])
-            self.drive = IFOCDrive(p, gains, f["Ts"], drive_cfg=dcfg)
+            self.drive = IFOCDrive(p, setting("ifoc_gains"), f["Ts"], drive_cfg=dcfg)
         else:
             if mode == "constant_m":
                 p = dataclasses.replace(p, curve=LinearCurve(p.curve.m0))
-            gains = BacksteppingGains(f["c1"], f["c2"], f["d1"], f["d2"], f["c0"], f["d0"])
-            cfg = ControllerConfig(V_dc=f["V_dc"], Ts=f["Ts"], load_mode=f["load_mode"],
-                                   g_theta=f["g_theta"], theta_max=f["theta_max"],
-                                   use_stator_flux=f["use_stator_flux"])
-            self.drive = BacksteppingDrive(p, gains, cfg, dcfg)
+            self.drive = BacksteppingDrive(p, setting("gains"), setting("law_config"), dcfg)
         self.warnings = []  # the drive's warnings, for the host's log (the FMU glue logs and removes them)
         self.Ts = f["Ts"]
         self._V_dc = self._link = f["V_dc"]  # the parameter V_dc, the link voltage the drive now uses
@@ -699,12 +750,10 @@ class ControllerUnit:
         if self.drive.warnings:  # the native FMU logs the same text
             self.warnings.extend(f"BacksteppingController: {w}" for w in self.drive.warnings)
             self.drive.warnings.clear()
-        va, vb = d.v_s_alpha, d.v_s_beta
         if self._comp > 0.0:  # dead-time compensation from the measured currents (0: off, as before)
-            va, vb = compensate(va, vb, inputs[MEAS_I_S_A], inputs[MEAS_I_S_B], self._comp)
-        self._out = (va, vb, d.v_sd, d.v_sq, d.e1, d.e2, d.z1, d.z2, d.W, d.T_load_est,
-                     d.psi_r_hat_alpha, d.psi_r_hat_beta, d.omega_ref_shaped, d.psi_ref_shaped, d.phase,
-                     d.voltage_limited, d.current_limited, d.singular_limited, self.drive.omega_m_hat)
+            va, vb = compensate(d.v_s_alpha, d.v_s_beta, inputs[MEAS_I_S_A], inputs[MEAS_I_S_B], self._comp)
+            d = d._replace(v_s_alpha=va, v_s_beta=vb)
+        self._out = _SAMPLE_OUTPUTS(d) + (self.drive.omega_m_hat,)  # in the order of CONTROLLER_OUTPUTS
 
     def outputs(self):
         """Output values in the order of :attr:`OUTPUTS` (zeros before the first sample)."""

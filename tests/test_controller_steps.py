@@ -20,7 +20,7 @@ from fmpy import simulate_fmu
 from fmpy.fmi1 import FMICallException
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from native_core import ControllerParams, MotorParams, build, params  # noqa: E402
+from native_core import ControllerParams, MotorParams, build, declare, params  # noqa: E402
 
 from satmotor.errors import ParameterError  # noqa: E402
 from satmotor.interface import CONTROLLER_OUTPUTS, STEP_ULPS, ControllerUnit  # noqa: E402
@@ -87,17 +87,7 @@ def test_the_rule_in_python_as_written_out_exactly(t, dt, stop, n):
 
 @pytest.fixture(scope="module")
 def lib():
-    so = ctypes.CDLL(str(build(())))
-    so.sm_controller_size.restype = ctypes.c_size_t
-    so.sm_controller_init.argtypes = [ctypes.c_void_p, ctypes.POINTER(ControllerParams),
-                                      ctypes.POINTER(MotorParams), ctypes.c_char_p, ctypes.c_size_t]
-    so.sm_controller_step.argtypes = [ctypes.c_void_p, ctypes.c_double, ctypes.c_double,
-                                      ctypes.POINTER(ctypes.c_double), ctypes.c_char_p, ctypes.c_size_t]
-    so.sm_controller_samples.argtypes = [ctypes.c_void_p, ctypes.c_double, ctypes.c_double]
-    so.sm_controller_samples.restype = ctypes.c_long
-    so.sm_controller_params_default.argtypes = [ctypes.POINTER(ControllerParams)]
-    so.sm_motor_params_default.argtypes = [ctypes.POINTER(MotorParams)]
-    return so
+    return declare(ctypes.CDLL(str(build(()))))  # the signatures read from the headers
 
 
 def _c_unit(lib, values, stop=math.inf):

@@ -319,11 +319,6 @@ def test_c_parameter_errors_as_python(lib, values):
 # --- the controller reads the link voltage ---------------------------------------------------------
 
 def _c_controller(lib, values):
-    lib.sm_controller_size.restype = ctypes.c_size_t
-    lib.sm_controller_init.argtypes = [ctypes.c_void_p, ctypes.POINTER(nc.ControllerParams),
-                                       ctypes.POINTER(nc.MotorParams), ctypes.c_char_p, ctypes.c_size_t]
-    lib.sm_controller_step.argtypes = [ctypes.c_void_p, ctypes.c_double, ctypes.c_double,
-                                       ctypes.POINTER(ctypes.c_double), ctypes.c_char_p, ctypes.c_size_t]
     buf = ctypes.create_string_buffer(lib.sm_controller_size())
     msg = ctypes.create_string_buffer(256)
     st = lib.sm_controller_init(buf, nc.params(lib, nc.ControllerParams, values),

@@ -29,7 +29,6 @@ from satmotor.machine.plant import OMEGA_M, Plant, initial_state
 P = MotorParams()
 V_MAX = 540.0 / math.sqrt(3.0)
 D = ctypes.c_double
-DP = ctypes.POINTER(D)
 
 
 def _plant_steady(params, v, ws, omega_m, T, phi0, t_end=2.0, h=1e-4):
@@ -135,17 +134,7 @@ def test_a_lower_voltage_ratio_weakens_earlier():
 
 @pytest.fixture(scope="module")
 def lib():
-    L = load()
-    M = ctypes.c_void_p
-    L.sm_fw_init.argtypes = [M, M, D, D, D]
-    L.sm_fw_init.restype = None
-    L.sm_fw_steady_point.argtypes = [M, D, D, D, DP]
-    L.sm_fw_steady_point_at_flux.argtypes = [M, D, D, D, DP, DP]
-    L.sm_fw_flux_at.argtypes = [M, M, D, D, D, DP]
-    L.sm_fw_torque.argtypes = [M, M, DP, DP]
-    L.sm_fw_flux_reference.argtypes = [M, M, DP, D, D, D, DP, DP]
-    L.sm_fw_set_points.argtypes = [M, M, D, D, D, D, DP, DP]
-    return L
+    return load()  # the signatures read from the headers
 
 
 def _motors(lib, tmp_path):

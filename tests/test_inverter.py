@@ -393,14 +393,7 @@ def test_plant_fmu_pwm_equals_the_plant_unit_and_restores_its_state(variant, fmu
 def test_c_controller_compensation_equals_python(lib):
     """sm_controller with deadtime_comp_voltage against ControllerUnit over a closed loop on the pwm plant
     (the outputs bit for bit); and its check of a negative value."""
-    ctl = ctypes.CDLL(lib._name)
-    ctl.sm_controller_size.restype = ctypes.c_size_t
-    ctl.sm_controller_init.argtypes = [ctypes.c_void_p, ctypes.POINTER(nc.ControllerParams),
-                                       ctypes.POINTER(nc.MotorParams), ctypes.c_char_p, ctypes.c_size_t]
-    ctl.sm_controller_step.argtypes = [ctypes.c_void_p, ctypes.c_double, ctypes.c_double,
-                                       ctypes.POINTER(ctypes.c_double), ctypes.c_char_p, ctypes.c_size_t]
-    ctl.sm_controller_params_default.argtypes = [ctypes.POINTER(nc.ControllerParams)]
-    ctl.sm_motor_params_default.argtypes = [ctypes.POINTER(nc.MotorParams)]
+    ctl = lib  # the signatures read from the headers (native_core.declare)
     msg = ctypes.create_string_buffer(256)
     bad = nc.params(ctl, nc.ControllerParams, {"deadtime_comp_voltage": -1.0})
     buf = ctypes.create_string_buffer(ctl.sm_controller_size())

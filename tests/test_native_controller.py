@@ -8,7 +8,7 @@ import math
 
 import numpy as np
 import pytest
-from native_core import ControllerParams, MotorParams, build, params
+from native_core import ControllerParams, MotorParams, build, declare, params
 
 from satmotor.interface import CONTROLLER_OUTPUTS, ControllerUnit, PlantUnit
 
@@ -16,17 +16,9 @@ from satmotor.interface import CONTROLLER_OUTPUTS, ControllerUnit, PlantUnit
 @pytest.fixture(scope="module", params=["plain", "sanitized"])
 def lib(request):
     extra = ("-fsanitize=undefined", "-fno-sanitize-recover=all") if request.param == "sanitized" else ()
-    so = ctypes.CDLL(str(build(extra)))
-    so.sm_controller_size.restype = so.sm_controller_params_size.restype = ctypes.c_size_t
-    so.sm_motor_params_size.restype = ctypes.c_size_t
+    so = declare(ctypes.CDLL(str(build(extra))))  # the signatures read from the headers
     assert so.sm_controller_params_size() == ctypes.sizeof(ControllerParams)
     assert so.sm_motor_params_size() == ctypes.sizeof(MotorParams)
-    so.sm_controller_params_default.argtypes = [ctypes.POINTER(ControllerParams)]
-    so.sm_motor_params_default.argtypes = [ctypes.POINTER(MotorParams)]
-    so.sm_controller_init.argtypes = [ctypes.c_void_p, ctypes.POINTER(ControllerParams),
-                                      ctypes.POINTER(MotorParams), ctypes.c_char_p, ctypes.c_size_t]
-    so.sm_controller_step.argtypes = [ctypes.c_void_p, ctypes.c_double, ctypes.c_double,
-                                      ctypes.POINTER(ctypes.c_double), ctypes.c_char_p, ctypes.c_size_t]
     return so
 
 

@@ -21,7 +21,7 @@ import textwrap
 from pathlib import Path
 
 import pytest
-from native_core import SANITIZE, build, load, new_motor, params
+from native_core import SANITIZE, STRUCTS, build, load, new_motor, params
 from native_core import MotorParams as CMotorParams
 
 from satmotor.control.backstepping import BacksteppingGains, ControllerConfig, control, error_system
@@ -34,101 +34,25 @@ from satmotor.machine.plant import Plant
 
 REL = 1e-12
 D = ctypes.c_double
-I = ctypes.c_int
-DP = ctypes.POINTER(D)
 CURVES = ("arctan", "exponential", "polynomial", "table", "linear")
 
 
-class Gains(ctypes.Structure):
-    _fields_ = [(n, D) for n in ("c1", "c2", "d1", "d2", "c0", "d0")]
-
-
-class LawConfig(ctypes.Structure):
-    _fields_ = [("V_dc", D), ("Ts", D), ("phi_min", D), ("load_estimated", I), ("g_theta", D),
-                ("theta_max", D), ("use_stator_flux", I)]
-
-
-class ModelConsts(ctypes.Structure):
-    _fields_ = [("k", D), ("l_s", D), ("R_s", D), ("n_p", I)] + [
-        (n, D) for n in ("a", "ak", "K", "b", "sigma", "k_lr", "k2_lr", "kls_lr")]
-
-
-FIELD_NAMES = ("F_phi", "F_d", "F_q", "F_w", "g_dd", "g_dq", "g_qq", "omega_s", "M_d", "M_q", "M_dq",
-               "i_sd", "i_sq", "psi_sd", "psi_sq", "te_J", "det_L")
-
-
-class Fields(ctypes.Structure):
-    _fields_ = [(n, D) for n in FIELD_NAMES]
-
-
-MAG_NAMES = ("i_mu_alpha", "i_mu_beta", "I", "m", "Phi_rd", "i_mu_d", "i_mu_q", "rho")
-
-
-class Magnetizing(ctypes.Structure):
-    _fields_ = [(n, D) for n in MAG_NAMES]
-
-
-class ErrorState(ctypes.Structure):
-    _fields_ = [("e1", D), ("e2", D), ("z1", D), ("z2", D), ("grad_e2", D * 4), ("grad_z2", D * 4),
-                ("dt_e2", D), ("dt_z2", D), ("beta1", D), ("beta2", D), ("Lambda", (D * 2) * 2),
-                ("W", D), ("omega_s", D), ("theta_dot", D), ("singular_limited", I),
-                ("flux_limited", I), ("torque_limited", I)]
-
-
-OUT_NAMES = ("v_s_alpha", "v_s_beta", "v_sd", "v_sq", "e1", "e2", "z1", "z2", "V", "W", "m", "i_mu",
-             "Phi_rd", "rho", "omega_s", "theta_hat_dot", "voltage_limited", "singular_limited",
-             "e0_dot", "z0_dot", "current_limited")
-OUT_FLAGS = ("voltage_limited", "singular_limited", "current_limited")
-
-
-class ControlOut(ctypes.Structure):
-    _fields_ = [(n, I if n in OUT_FLAGS else D) for n in OUT_NAMES]
-
-
-class Shaper(ctypes.Structure):
-    _fields_ = [("bandwidth", D), ("has_h", I), ("h_cached", D), ("phi", D * 9), ("z", D * 3)]
+# the structs read from the headers (native_core.STRUCTS), and the names of their members in order
+Gains, LawConfig, ModelConsts = STRUCTS["sm_gains"], STRUCTS["sm_law_config"], STRUCTS["sm_model_constants"]
+Fields, Magnetizing, ErrorState = STRUCTS["sm_fields"], STRUCTS["sm_magnetizing"], STRUCTS["sm_error_state"]
+ControlOut, Shaper = STRUCTS["sm_control_output"], STRUCTS["sm_shaper"]
+FIELD_NAMES = tuple(n for n, _ in Fields._fields_)
+MAG_NAMES = tuple(n for n, _ in Magnetizing._fields_)
+OUT_NAMES = tuple(n for n, _ in ControlOut._fields_)
+OUT_FLAGS = tuple(n for n, t in ControlOut._fields_ if t is ctypes.c_int)
 
 
 # --------------------------------------------------------------------------------------------------
 
 
-def declare_law(L):
-    """Set the ctypes signatures of the law's and the shaper's functions on L; returns L."""
-    L.sm_model_constants_of.argtypes = [ctypes.c_void_p, ctypes.POINTER(ModelConsts)]
-    L.sm_model_constants_of.restype = None
-    L.sm_flux_rate.argtypes = [D] * 5
-    L.sm_flux_rate.restype = D
-    L.sm_vector_fields.argtypes = [ctypes.POINTER(ModelConsts)] + [D] * 9 + [ctypes.POINTER(Fields)]
-    L.sm_vector_fields.restype = None
-    L.sm_from_rotor_flux.argtypes = [D] * 4 + [ctypes.c_void_p, ctypes.POINTER(Magnetizing)]
-    L.sm_from_stator_flux.argtypes = [D] * 6 + [ctypes.c_void_p, ctypes.POINTER(Magnetizing)]
-    L.sm_from_magnetizing_current.argtypes = [D] * 4 + [ctypes.c_void_p, ctypes.POINTER(Magnetizing)]
-    L.sm_gains_check.argtypes = [ctypes.POINTER(Gains), ctypes.c_char_p, ctypes.c_size_t]
-    L.sm_law_config_check.argtypes = [ctypes.POINTER(LawConfig), ctypes.c_char_p, ctypes.c_size_t]
-    L.sm_gains_default.argtypes = [ctypes.POINTER(Gains)]
-    L.sm_gains_default.restype = None
-    L.sm_law_config_default.argtypes = [ctypes.POINTER(LawConfig)]
-    L.sm_law_config_default.restype = None
-    L.sm_error_system.argtypes = [DP, DP, ctypes.c_void_p, ctypes.POINTER(Gains), D, D, D, DP, DP, D,
-                                  ctypes.POINTER(ErrorState)]
-    L.sm_control.argtypes = [DP, DP, DP, ctypes.c_void_p, ctypes.POINTER(Gains),
-                             ctypes.POINTER(LawConfig), D, DP, D, ctypes.POINTER(ControlOut)]
-    L.sm_transition_matrix.argtypes = [D, D, DP, ctypes.c_char_p, ctypes.c_size_t]
-    L.sm_rise_time_product.argtypes = []
-    L.sm_rise_time_product.restype = D
-    SP = ctypes.POINTER(Shaper)
-    L.sm_shaper_init.argtypes = [SP, D, D, ctypes.c_char_p, ctypes.c_size_t]
-    L.sm_shaper_step.argtypes = [SP, D, D, DP, ctypes.c_char_p, ctypes.c_size_t]
-    L.sm_shaper_reset.argtypes = [SP, D, ctypes.c_char_p, ctypes.c_size_t]
-    L.sm_shaper_get_state.argtypes = [SP, DP]
-    L.sm_shaper_get_state.restype = None
-    L.sm_shaper_set_state.argtypes = [SP, DP, ctypes.c_char_p, ctypes.c_size_t]
-    return L
-
-
 @pytest.fixture(scope="module")
 def lib():
-    return declare_law(load())
+    return load()  # the signatures read from the headers
 
 
 def arr(values):
@@ -661,7 +585,6 @@ SANITIZED_LAW_RUN = textwrap.dedent("""
     import native_core as nc
     import test_native_core_law as t
     lib = nc.declare(ctypes.CDLL({lib!r}))
-    t.declare_law(lib)
     D, arr = ctypes.c_double, t.arr
     msg, big = ctypes.create_string_buffer(8), ctypes.create_string_buffer(4096)
     rng = random.Random(3)

@@ -8,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from native_core import STRUCTS, declare
 
 from satmotor.control.ifoc import IFOCController, IFOCGains
 from satmotor.machine.params import MotorParams, RatedData
@@ -17,14 +18,7 @@ FLAGS = ["-std=c99", "-O2", "-fPIC", "-shared", "-Wall", "-Wextra", "-Werror", "
          "-Wshadow"]
 
 
-class Gains(ctypes.Structure):
-    _fields_ = [(n, ctypes.c_double) for n in ("w_c", "w_speed", "I_max", "V_dc")]
-
-
-class Diag(ctypes.Structure):
-    _fields_ = [(n, ctypes.c_double) for n in ("i_sd", "i_sq", "i_sd_ref", "i_sq_ref", "T_ref", "omega_slip",
-                                                "theta_f", "phi_hat", "v_sd", "v_sq")] + \
-        [("voltage_limited", ctypes.c_int), ("current_limited", ctypes.c_int)]
+Gains, Diag = STRUCTS["sm_ifoc_gains"], STRUCTS["sm_ifoc_diagnostics"]  # read from the headers
 
 
 @pytest.fixture(scope="module", params=["plain", "sanitized"])
@@ -33,14 +27,7 @@ def lib(request, tmp_path_factory):
     extra = ["-fsanitize=undefined", "-fno-sanitize-recover=all"] if request.param == "sanitized" else []
     subprocess.run(["gcc", *FLAGS, *extra, str(ROOT / "fmu/native/core/sm_ifoc.c"), "-o", str(out), "-lm"],
                    check=True)
-    so = ctypes.CDLL(str(out))
-    d = ctypes.c_double
-    so.sm_ifoc_init.argtypes = [ctypes.c_void_p, d, d, d, d, d, ctypes.c_int, d, ctypes.POINTER(Gains), d, d,
-                                ctypes.c_char_p, ctypes.c_size_t]
-    so.sm_ifoc_reset.argtypes = [ctypes.c_void_p, d, d, ctypes.c_char_p, ctypes.c_size_t]
-    so.sm_ifoc_step.argtypes = [ctypes.c_void_p, d, d, d, d, d, ctypes.POINTER(d), ctypes.POINTER(d),
-                                ctypes.POINTER(Diag), ctypes.c_char_p, ctypes.c_size_t]
-    return so
+    return declare(ctypes.CDLL(str(out)))  # the signatures read from the headers
 
 
 def _c_ifoc(lib, p, g, Ts, L_m):
@@ -119,7 +106,6 @@ def test_c_ifoc_refuses_a_bad_flux_reference_and_changes_nothing(lib):
 def test_c_set_inductance_equals_the_python_and_refuses_a_bad_one(lib):
     """IFOCController.set_inductance and sm_ifoc_set_inductance: the loops designed again for another L_m
     (the drive's switch), then the same samples as a controller built with that L_m from the start."""
-    lib.sm_ifoc_set_inductance.argtypes = [ctypes.c_void_p, ctypes.c_double, ctypes.c_char_p, ctypes.c_size_t]
     p, g, Ts = MotorParams(), IFOCGains(), 1e-4
     py = IFOCController(p, g, Ts, p.curve.m(RatedData().I_mu_n))
     buf, status, msg = _c_ifoc(lib, p, g, Ts, p.curve.m(RatedData().I_mu_n))

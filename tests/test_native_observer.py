@@ -6,7 +6,7 @@ import ctypes
 import numpy as np
 import pytest
 from conftest import CURVES
-from native_core import build
+from native_core import build, declare
 
 from satmotor.control.observer import RotorFluxObserver
 from satmotor.machine.params import MotorParams
@@ -16,16 +16,7 @@ D = ctypes.c_double
 
 @pytest.fixture(scope="module")
 def lib():
-    so = ctypes.CDLL(str(build()))
-    so.sm_curve_size.restype = so.sm_observer_size.restype = ctypes.c_size_t
-    so.sm_curve_init.argtypes = [ctypes.c_void_p, ctypes.c_char_p, D, D, D, D, ctypes.c_int, ctypes.c_char_p,
-                                 ctypes.c_char_p, ctypes.c_size_t]
-    so.sm_observer_init.argtypes = [ctypes.c_void_p, D, D, D, ctypes.c_int, D, ctypes.c_int, ctypes.c_char_p,
-                                    ctypes.c_size_t]
-    so.sm_observer_reset.argtypes = [ctypes.c_void_p, D, D, ctypes.c_char_p, ctypes.c_size_t]
-    so.sm_observer_update.argtypes = [ctypes.c_void_p, ctypes.c_void_p, D, D, D, ctypes.POINTER(D),
-                                      ctypes.POINTER(D)]
-    return so
+    return declare(ctypes.CDLL(str(build())))  # the signatures read from the headers
 
 
 def _curve(lib, curve):

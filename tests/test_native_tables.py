@@ -6,30 +6,29 @@ from __future__ import annotations
 
 import ctypes
 import dataclasses
+import random
 import re
 import shutil
 import subprocess
 
+import c_binding
 import pytest
-from native_core import ControllerParams, MotorParams, PlantParams, load
+from native_core import BINDING, STRUCTS, ControllerParams, MotorParams, PlantParams, load, params
 
 import satmotor.interface as itf
 from orchestration.build.native import tables as native_tables
 from satmotor.control.backstepping import BacksteppingGains, ControllerConfig
 from satmotor.control.drive import DriveConfig
 from satmotor.control.ifoc import IFOCGains
+from satmotor.errors import ParameterError
 
 pytestmark = pytest.mark.skipif(shutil.which("gcc") is None, reason="needs gcc")
 
 
 @pytest.fixture(scope="module")
 def lib():
-    """The session's core library through a CDLL object of its own: the argument types other test
-    modules declare on theirs (their own ctypes classes) do not apply here."""
-    own = ctypes.CDLL(load()._name)
-    for struct in (MotorParams, PlantParams, ControllerParams):
-        getattr(own, struct.__name__ + "_size").restype = ctypes.c_size_t
-    return own
+    """The session's core library, its signatures read from the headers (native_core.declare)."""
+    return load()
 
 
 def _value(struct, name, type_):
@@ -53,28 +52,9 @@ def test_the_c_parameter_defaults_are_the_start_values_of_the_table(lib, struct,
         assert _value(p, v.name, v.type) == want, v.name
 
 
-class _Gains(ctypes.Structure):
-    _fields_ = [(n, ctypes.c_double) for n in ("c1", "c2", "d1", "d2", "c0", "d0")]
-
-
-class _LawConfig(ctypes.Structure):  # sm_law.h
-    _fields_ = [("V_dc", ctypes.c_double), ("Ts", ctypes.c_double), ("phi_min", ctypes.c_double),
-                ("load_estimated", ctypes.c_int), ("g_theta", ctypes.c_double),
-                ("theta_max", ctypes.c_double), ("use_stator_flux", ctypes.c_int)]
-
-
-class _DriveConfig(ctypes.Structure):  # sm_drive.h
-    _fields_ = [(n, ctypes.c_double) for n in ("ref_bandwidth", "I_max", "premag_fraction", "premag_boost",
-                                               "premag_gain", "premag_time_max", "premag_min_fraction",
-                                               "premag_speed_tol")] + [
-        ("observer", ctypes.c_int), ("delay_samples", ctypes.c_int), ("closed_loop", ctypes.c_int),
-        ("speed_estimated", ctypes.c_int), ("speed_bandwidth", ctypes.c_double),
-        ("field_weakening", ctypes.c_int), ("fw_voltage_ratio", ctypes.c_double),
-        ("current_limit_gain", ctypes.c_double), ("host_delay_samples", ctypes.c_int)]
-
-
-class _IFOCGains(ctypes.Structure):  # sm_ifoc.h
-    _fields_ = [(n, ctypes.c_double) for n in ("w_c", "w_speed", "I_max", "V_dc")]
+# the settings structs, read from the headers (sm_law.h, sm_drive.h, sm_ifoc.h)
+_Gains, _LawConfig = STRUCTS["sm_gains"], STRUCTS["sm_law_config"]
+_DriveConfig, _IFOCGains = STRUCTS["sm_drive_config"], STRUCTS["sm_ifoc_gains"]
 
 
 def test_the_c_defaults_of_the_settings_structs_are_the_python_dataclass_defaults(lib):
@@ -94,6 +74,92 @@ def test_the_c_defaults_of_the_settings_structs_are_the_python_dataclass_default
             want["speed_estimated"] = int(want.pop("speed_source") == "estimated")
         got = {n: getattr(c, n) for n, _ in struct._fields_}
         assert got == {k: (int(v) if isinstance(v, bool) else v) for k, v in want.items()}, fn
+
+
+def _python_setting(setting, values):
+    """The Python dataclass of ``setting`` as ControllerUnit fills it from the flat ``values``, as the C
+    struct's members (coded as DATACLASS_STRUCTS says: written out here)."""
+    got = dataclasses.asdict(itf.SETTINGS[setting](**{n: values[n] for n in itf.FILLED[setting]}))
+    got.pop("true_i_mu", None)
+    if "load_mode" in got:
+        got["load_estimated"] = int(got.pop("load_mode") == "estimated")
+    if "flux_source" in got:
+        got["closed_loop"] = int(got.pop("observer") == "closed_loop")
+        got["observer"] = int(got.pop("flux_source") == "observer")
+        got["speed_estimated"] = int(got.pop("speed_source") == "estimated")
+    return {k: (int(v) if isinstance(v, bool) else v) for k, v in got.items()}
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_the_generated_copy_into_the_settings_structs_is_the_pythons(lib, seed):
+    """sm_controller_settings (generated from Variable.fills) at random parameter values: every member of
+    the four C structs equals the field of the dataclass ControllerUnit builds from the same values."""
+    rng = random.Random(seed)
+    filled = {v for v in itf.CONTROLLER_PARAMETERS if any(v.name in names for names in itf.FILLED.values())}
+    while True:  # each number a little off its default (up or down), until the dataclasses accept them all
+        values = {v.name: rng.choice(v.choices) if v.choices else rng.random() < 0.5 if v.type == "Boolean"
+                  else rng.randrange(2) if v.type == "Integer"
+                  else v.start * (1.0 + rng.uniform(-0.1, 0.1)) + rng.uniform(0.0, 1e-3) for v in filled}
+        values["speed_source"] = rng.choice(("measured", "estimated"))
+        try:
+            for setting in itf.SETTINGS:
+                _python_setting(setting, values)
+            break
+        except ParameterError:
+            continue
+    structs = {s: STRUCTS[f"sm_{s}"]() for s in itf.SETTINGS}
+    lib.sm_controller_settings(params(lib, ControllerParams, values), *(structs[s] for s in itf.SETTINGS))
+    for s, c in structs.items():
+        assert {n: getattr(c, n) for n, _ in c._fields_} == _python_setting(s, values), s
+
+
+def test_a_fill_of_an_unknown_setting_or_field_or_of_an_uncoded_string_fails(monkeypatch):
+    c1 = itf.CONTROLLER_PARAMETERS[0]
+    monkeypatch.setattr(itf, "CONTROLLER_PARAMETERS", (c1._replace(fills=("gainz",)),))
+    with pytest.raises(ValueError, match="c1: fills 'gainz', not one of gains, law_config"):
+        itf._filled()
+    monkeypatch.setattr(itf, "CONTROLLER_PARAMETERS", (c1._replace(name="c9"),))
+    with pytest.raises(ValueError, match="c9: fills 'gains', but BacksteppingGains has no field c9"):
+        itf._filled()
+    monkeypatch.undo()
+    monkeypatch.setattr(itf, "FILLED", {**itf.FILLED, "gains": ("mode",)})
+    with pytest.raises(ValueError, match="mode fills gains: a String needs its coding"):
+        native_tables.core_source()
+
+
+def test_the_header_structs_have_the_c_sizes(lib):
+    """Every struct the headers declare with a size function (sm_<x>_size, sm_<x>_params_size) has the
+    size of its ctypes class read from the headers (tests/c_binding.py: members, types, arrays)."""
+    sized = [n for n in BINDING.structs if n + "_size" in BINDING.functions]
+    assert {"sm_curve", "sm_motor", "sm_controller", "sm_drive", "sm_inverter",
+            "sm_controller_params"} <= set(sized)
+    for name in sized:
+        assert getattr(lib, name + "_size")() == ctypes.sizeof(BINDING.structs[name]), name
+
+
+def test_the_header_reader_maps_sizes_and_pointers_and_names_what_it_cannot_map():
+    b = c_binding.read([], {"x.h": "#define N 3\ntypedef struct { double a[N * 2]; int k; } sm_ok;\n"
+                                   "int f(const sm_ok *p, double x[N], char *msg, size_t n);"})
+    assert [(n, ctypes.sizeof(t)) for n, t in b.structs["sm_ok"]._fields_] == [("a", 48), ("k", 4)]
+    res, args = b.functions["f"]
+    assert res is ctypes.c_int and args[1:] == [ctypes.POINTER(ctypes.c_double), ctypes.c_char_p,
+                                                ctypes.c_size_t]
+    with pytest.raises(ValueError, match="the declaration of sm_bad: an array size 'M'"):
+        c_binding.read([], {"x.h": "typedef struct { double a[M]; } sm_bad;"})
+    with pytest.raises(ValueError, match="the declaration of sm_bad: a type '_Bool'"):
+        c_binding.read([], {"x.h": "typedef struct { _Bool b; } sm_bad;"})
+
+
+def test_a_struct_pointer_takes_its_struct_or_a_buffer_and_refuses_another_struct(lib):
+    g = STRUCTS["sm_gains"]()
+    lib.sm_gains_default(g)
+    lib.sm_gains_default(ctypes.byref(g))
+    assert g.c1 == BacksteppingGains().c1
+    with pytest.raises(ctypes.ArgumentError, match="expected a sm_gains, got a sm_law_config"):
+        lib.sm_gains_default(STRUCTS["sm_law_config"]())
+    buf = (ctypes.c_double * 6)()  # a raw buffer of the struct's size
+    lib.sm_gains_default(buf)
+    assert list(buf) == [getattr(g, n) for n, _ in g._fields_]
 
 
 def test_a_parameter_added_to_a_table_reaches_the_struct_and_the_copy():
@@ -189,7 +255,6 @@ def test_the_c_parser_takes_every_choice_of_the_tables_and_refuses_the_rest_nami
     """Every choice of every String parameter parsed through ctypes to its position in the table's
     tuple; near misses (case, a blank, empty, a quote) refused with "name = 'value': must be one of
     a, b" (written out here from the tables), the output left as it was."""
-    lib.sm_choice_param_name.restype = lib.sm_choice_text.restype = ctypes.c_char_p
     names = []
     while (name := lib.sm_choice_param_name(len(names))) is not None:
         names.append(name.decode())
@@ -225,3 +290,24 @@ def test_choices_on_a_number_or_not_a_c_name_fail_the_generation(monkeypatch):
         monkeypatch.setattr(native_tables, "UNITS", units)
         with pytest.raises(ValueError, match="choices"):
             native_tables._choices()
+
+
+def test_the_core_library_is_built_into_the_cache_once_and_leaves_no_folder_behind(tmp_path, monkeypatch):
+    """tests/native_core.build: the library under build/native_core/, not compiled again on a second call
+    (nothing changed), no work folder of this process left there and nothing in the temporary folder."""
+    import os
+    import tempfile
+
+    import native_core as nc
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp_path))  # a temporary folder would land here
+    lib = nc.build()
+    assert nc.CACHE in lib.parents and lib.exists()
+
+    def compile_again(*args):
+        raise AssertionError("compiled again")
+
+    monkeypatch.setattr(nc, "_compile", compile_again)
+    assert nc.build() == lib
+    assert not (lib.parent / f"build-{os.getpid()}").exists()
+    assert not (lib.parent / f"key-{os.getpid()}").exists()
+    assert list(tmp_path.iterdir()) == []

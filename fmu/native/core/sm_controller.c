@@ -22,7 +22,7 @@ int sm_controller_init(sm_controller *u, const sm_controller_params *v, const sm
     sm_ifoc_gains ig;
     sm_drive_config dc;
     sm_mode mode;
-    int st, j, k;
+    int st, j, k, flux_source;
     if (u == NULL || v == NULL || m == NULL) {
         return SM_ERR_ARG;
     }
@@ -39,20 +39,16 @@ int sm_controller_init(sm_controller *u, const sm_controller_params *v, const sm
         return st;
     }
     mode = (sm_mode)k;
-    sm_drive_config_default(&dc);
-    if ((st = sm_choice_parse(SM_CHOICE_PARAM_flux_source, v->flux_source, &k, msg, msg_len))) {
+    if ((st = sm_choice_parse(SM_CHOICE_PARAM_flux_source, v->flux_source, &flux_source, msg, msg_len))) {
         return st;
     }
-    dc.observer = k == SM_CHOICE_flux_source_observer;
     if ((st = sm_choice_parse(SM_CHOICE_PARAM_observer, v->observer, &k, msg, msg_len))) {
         return st;
     }
-    dc.closed_loop = k == SM_CHOICE_observer_closed_loop;
     if ((st = sm_choice_parse(SM_CHOICE_PARAM_speed_source, v->speed_source, &k, msg, msg_len))) {
         return st;
     }
-    dc.speed_estimated = k == SM_CHOICE_speed_source_estimated;
-    if (dc.observer && v->use_stator_flux) {
+    if (flux_source == SM_CHOICE_flux_source_observer && v->use_stator_flux) {
         return sm_param_error(msg, msg_len, NULL, "use_stator_flux", "True",
                               "needs measured fluxes: not with flux_source = observer");
     }
@@ -61,43 +57,18 @@ int sm_controller_init(sm_controller *u, const sm_controller_params *v, const sm
         (void)snprintf(repr, sizeof repr, "%d", v->delay_samples);
         return sm_param_error(msg, msg_len, NULL, "delay_samples", repr, "must be 0 or 1");
     }
-    dc.ref_bandwidth = v->ref_bandwidth;
-    dc.I_max = v->I_max;
-    dc.delay_samples = v->delay_samples;
-    dc.host_delay_samples = v->host_delay_samples;
-    dc.current_limit_gain = v->current_limit_gain;
-    dc.field_weakening = v->field_weakening ? 1 : 0;
-    dc.fw_voltage_ratio = v->fw_voltage_ratio;
-    dc.premag_fraction = v->premag_fraction;
-    dc.premag_min_fraction = v->premag_min_fraction;
-    dc.premag_speed_tol = v->premag_speed_tol;
-    dc.premag_time_max = v->premag_time_max;
-    dc.premag_boost = v->premag_boost;
-    dc.premag_gain = v->premag_gain;
-    sm_gains_default(&g);
-    g.c1 = v->c1;
-    g.c2 = v->c2;
-    g.d1 = v->d1;
-    g.d2 = v->d2;
-    g.c0 = v->c0;
-    g.d0 = v->d0;
-    sm_law_config_default(&cfg);
-    cfg.V_dc = v->V_dc;
-    cfg.Ts = v->Ts;
-    /* load_mode is the law's: mode pi takes any text (as ControllerUnit, which builds no ControllerConfig) */
-    if (sm_choice_parse(SM_CHOICE_PARAM_load_mode, v->load_mode, &k, msg, msg_len) == SM_CORE_OK) {
-        cfg.load_estimated = k == SM_CHOICE_load_mode_estimated;
-    } else if (mode != SM_CHOICE_mode_pi) {
-        return SM_ERR_PARAM;
-    } else if (msg != NULL && msg_len > 0) {
-        msg[0] = '\0';
+    /* load_mode is the law's: mode pi takes any text (as ControllerUnit, which builds no ControllerConfig;
+     * any other than estimated is known, the default) */
+    if (sm_choice_parse(SM_CHOICE_PARAM_load_mode, v->load_mode, &k, msg, msg_len) != SM_CORE_OK) {
+        if (mode != SM_CHOICE_mode_pi) {
+            return SM_ERR_PARAM;
+        }
+        if (msg != NULL && msg_len > 0) {
+            msg[0] = '\0';
+        }
     }
-    cfg.g_theta = v->g_theta;
-    cfg.theta_max = v->theta_max;
-    cfg.use_stator_flux = v->use_stator_flux ? 1 : 0;
-    sm_ifoc_gains_default(&ig); /* as ControllerUnit: IFOCGains() with the unit's V_dc and I_max */
-    ig.I_max = v->I_max;
-    ig.V_dc = v->V_dc;
+    /* the settings from the parameters (generated from Variable.fills: as ControllerUnit's dataclasses) */
+    sm_controller_settings(v, &g, &cfg, &dc, &ig);
     if ((st = sm_drive_init(&u->drive, mode, &p, &g, &cfg, &ig, &dc, msg, msg_len))) {
         return st;
     }
@@ -149,25 +120,7 @@ static int sample(sm_controller *u, const double in[SM_CONTROLLER_N_IN], char *m
     if (u->deadtime_comp > 0.0) { /* dead-time compensation from the measured currents (0: off, as before) */
         sm_deadtime_compensate(&d.v_s_alpha, &d.v_s_beta, in[SM_MEAS_I_S_A], in[SM_MEAS_I_S_B], u->deadtime_comp);
     }
-    u->out[0] = d.v_s_alpha;
-    u->out[1] = d.v_s_beta;
-    u->out[2] = d.v_sd;
-    u->out[3] = d.v_sq;
-    u->out[4] = d.e1;
-    u->out[5] = d.e2;
-    u->out[6] = d.z1;
-    u->out[7] = d.z2;
-    u->out[8] = d.W;
-    u->out[9] = d.T_load_est;
-    u->out[10] = d.psi_r_hat_alpha;
-    u->out[11] = d.psi_r_hat_beta;
-    u->out[12] = d.omega_ref_shaped;
-    u->out[13] = d.psi_ref_shaped;
-    u->out[14] = (double)d.phase;
-    u->out[15] = (double)d.voltage_limited;
-    u->out[16] = (double)d.current_limited;
-    u->out[17] = (double)d.singular_limited;
-    u->out[18] = d.omega_m_hat;
+    sm_controller_outputs_of(&d, u->out); /* generated: CONTROLLER_OUTPUTS' order */
     if (d.current_warning) { /* the drive's warning (Python: appended to ControllerUnit.warnings) */
         sm_current_warning(u->warning, sizeof u->warning, d.i_s_meas, u->drive.dc.I_max);
         u->has_warning = 1;

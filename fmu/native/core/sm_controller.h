@@ -47,4 +47,13 @@ int sm_controller_step(sm_controller *u, double t, double dt, const double in[SM
                        size_t msg_len);
 size_t sm_controller_size(void);
 
+/* Generated (sm_params.c, from satmotor/interface.py's tables): the settings structs from the flat
+ * parameters v, each its defaults (sm_gains_default, ...) and then every member a parameter fills
+ * (Variable.fills) its value (a Boolean as 0/1, a coded String as its flag); no check (v is checked
+ * first).  And one sample's outputs in the order of CONTROLLER_OUTPUTS, each the member of its name of
+ * the drive's output d (flags as 0/1). */
+void sm_controller_settings(const sm_controller_params *v, sm_gains *gains, sm_law_config *law_config,
+                            sm_drive_config *drive_config, sm_ifoc_gains *ifoc_gains);
+void sm_controller_outputs_of(const sm_drive_output *d, double out[SM_CONTROLLER_N_OUT]);
+
 #endif
