@@ -166,8 +166,15 @@ def test_a_refused_set_is_logged_at_the_call_and_discards_the_next_step_only(fmu
 def test_the_hosts_page_states_what_the_glue_cannot_fix_and_the_native_alternative():
     text = (ROOT / "docs" / "hosts.md").read_text()
     section = text[text.index("## pythonfmu: what the glue cannot change"):]
-    for words in ("fmi2Error", "exitInitializationMode", "fmi2Discard", "--variant native", "sys.path"):
+    for words in ("fmi2Error", "exitInitializationMode", "fmi2Discard", "--variant native", "sys.path",
+                  "refused at the next `doStep`", "`fmi2FreeInstance` twice", "fmpy unloads the library"):
         assert words in section, words
+    fmus_md = (ROOT / "docs" / "fmus.md").read_text()
+    start, end = fmus_md.index("* **Double freeInstance.**"), fmus_md.index("* **Bounded work per call.**")
+    double = fmus_md[start:end]
+    for words in ("pythonfmu FMUs abort", "second `fmi2FreeInstance`", "fmpy unloads the library",
+                  "not ours to fix", "--variant native"):
+        assert words in double.replace("Neither is ours to fix", "not ours to fix"), words
 
 
 # serialized states (issue 31): every single-bit flip, random data, another model's state, another format
