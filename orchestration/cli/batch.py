@@ -427,6 +427,26 @@ def run_batch(items, out, fmu_dir, jobs=2, scheduler=None, algorithm=None, stop=
     except OSError as exc:
         print(f"--out {out}: cannot write the results: {describe(exc)}", file=sys.stderr)
         return INVALID
+    from orchestration.results import out_lock
+
+    try:  # one batch per --out: a second one is refused naming the first
+        lock = out_lock.acquire(out, "batch " + " ".join(map(str, items)))
+    except out_lock.OutInUse as exc:
+        print(f"--out {out}: {exc}", file=sys.stderr)
+        return INVALID
+    except OSError as exc:
+        print(f"--out {out}: cannot write the results: {describe(exc)}", file=sys.stderr)
+        return INVALID
+    try:
+        return _run_locked(rows, running, runnable, summary, out, fmu_dir, jobs, scheduler, algorithm, stop,
+                           variant, command, plot, sweeps)
+    finally:
+        out_lock.release(lock)
+
+
+def _run_locked(rows, running, runnable, summary, out, fmu_dir, jobs, scheduler, algorithm, stop, variant,
+                command, plot, sweeps):
+    """The body of :func:`run_batch` once ``out`` is locked."""
     if not summary.write([*rows, *running.values()]):  # --out is writable before anything runs
         print(f"--out {out}: cannot write the results: {describe(summary.error)}", file=sys.stderr)
         return INVALID
