@@ -96,6 +96,10 @@ SETTINGS = {"gains": BacksteppingGains, "law_config": ControllerConfig, "drive_c
 # pythonfmu plant (27-28 us per sub-step; PlantUnit alone 11-12 us) and 0.03-0.13 s on the native one
 # (0.5-2.5 us, by curve), on the project's 2-core machine shared by other jobs (load average 3.5)
 MAX_SUBSTEPS = 50_000
+# max_samples' default: doStep(0, 1000 s) = 10^7 samples took 89 s on the pythonfmu controller and 1.3 s
+# on the native one (issue 31); one doStep of 100000 samples took 1.46 s and 0.03 s (load average 9). The
+# master steps the controller by Ts (one sample), so no library scenario comes near it
+MAX_STEP_SAMPLES = 100_000
 PLANT_DESCRIPTION = ("Induction motor with main-flux saturation and cross-saturation, stationary alpha-beta "
                      "frame, flux states, RK4 (Ouadi, Giri, Ikhouane model, corrected)")
 CONTROLLER_DESCRIPTION = ("Backstepping speed and rotor-flux controller for the saturated induction motor "
@@ -363,6 +367,10 @@ CONTROLLER_PARAMETERS = _in_struct("controller", (
     _v("deadtime_comp_voltage", "parameter", 0.0, "V", "dead-time compensation: sign(i_phase) times this "
        "voltage added to each phase of the voltage command (from the measured currents), >= 0; 0: off "
        "(satmotor.control.deadtime)"),
+    # issue 31 (last: the earlier variables keep their value references)
+    _v("max_samples", "parameter", MAX_STEP_SAMPLES, "1", "most samples one doStep may run, >= 1: a longer "
+       "step is discarded naming the step size and this limit (bounds the work per call; the default is "
+       "about 1 s of the pythonfmu controller, under 0.1 s of the native one)", "Integer"),
 ))
 
 
@@ -652,6 +660,13 @@ STOP_REMAINDER = 1e-6  # zero samples: a step of at most this many Ts ending at 
 _EPS = sys.float_info.epsilon
 
 
+def samples_reason(n, Ts, max_samples):
+    """Why a controller step of about ``n`` samples of ``Ts`` [s] (more than ``max_samples``) is refused
+    (as the native controller: ``n`` printed as C's ``%.17g``)."""
+    return (f"needs {float(n):.17g} samples of Ts = {Ts!r} s, more than max_samples = {max_samples}: take "
+            "shorter communication steps or raise max_samples")
+
+
 class ControllerUnit:
     """The drive controller as a co-simulation unit: n samples per step of length n Ts (:meth:`samples`).
 
@@ -682,6 +697,7 @@ class ControllerUnit:
         self.Ts = f["Ts"]
         self._V_dc = self._link = f["V_dc"]  # the parameter V_dc, the link voltage the drive now uses
         self._comp = require_number("deadtime_comp_voltage", f["deadtime_comp_voltage"], 0, inclusive=True)
+        self.max_samples = require_integer("max_samples", f["max_samples"], 1)
         self._speed_estimated = f["speed_source"] == "estimated"
         self.stop_time = math.inf
         self._out = tuple(v.start for v in CONTROLLER_OUTPUTS)
@@ -715,6 +731,9 @@ class ControllerUnit:
         first at ``t``.  The outputs are the voltages to hold over ``[t + dt - Ts, t + dt)``.  A
         refused step, a non-finite input or a failed sample changes nothing."""
         n = self.samples(t, dt)
+        if n > self.max_samples or (n < 0 and self.max_samples + 0.5 <= dt / self.Ts < math.inf):
+            raise ParameterError("communicationStepSize", dt, samples_reason(
+                math.floor(dt / self.Ts + 0.5), self.Ts, self.max_samples))
         if n < 0:
             raise ParameterError("communicationStepSize", dt,
                                  f"must be a whole multiple of the sample period Ts = {self.Ts!r} s")

@@ -5,8 +5,10 @@ child starts with nothing cached but what its FMUs load)."""
 from __future__ import annotations
 
 import gc
+import hashlib
 import json
 import re
+import struct
 import sys
 import zipfile
 from typing import NamedTuple
@@ -166,11 +168,30 @@ STATE_STEPS = 5  # plant steps of 1e-4 s at STATE_INPUTS before the states are t
 STATE_INPUTS = {"v_s_alpha": 100.0, "v_s_beta": 0.0, "T_load": 0.0}
 
 
+# a pythonfmu FMU's serialized state, written out here from its documented format (satmotor_fmu_glue:
+# magic, format version, model name, JSON length, SHA-256 of all of it before the digest and the JSON)
+STATE_HEAD = struct.Struct("<8sI64sQ")
+STATE_HEADER_SIZE = STATE_HEAD.size + 32
+
+
+def seal(model, payload, version=1, magic=b"SMPYFMU\x00"):
+    """``payload`` (JSON bytes) as the serialized state of ``model`` (format ``version``)."""
+    head = STATE_HEAD.pack(magic, version, model.encode(), len(payload))
+    return head + hashlib.sha256(head + payload).digest() + payload
+
+
+def unseal(blob):
+    """``(model, version, payload)`` of a serialized state (the checksum not checked)."""
+    _, version, name, _ = STATE_HEAD.unpack_from(blob)
+    return name.rstrip(b"\x00").decode(), version, blob[STATE_HEADER_SIZE:]
+
+
 def _forged(blob, change):
-    """``blob`` (a serialized state: JSON) with ``change(state)`` applied."""
-    state = json.loads(blob)
+    """``blob`` (a serialized state) with ``change(state)`` applied to its JSON, sealed again."""
+    model, _, payload = unseal(blob)
+    state = json.loads(payload)
     change(state)
-    return json.dumps(state).encode()
+    return seal(model, json.dumps(state).encode())
 
 
 def _status(f, *args):
@@ -229,7 +250,7 @@ def _child_state(plant_path, controller_path):
     plant_blob("truncated", own_blob[: len(own_blob) // 2])
     plant_blob("garbled", bytes(range(256)))
     plant_blob("empty", b"")
-    plant_blob("not an object", b"[1.0, 2.0]")
+    plant_blob("not an object", seal("SaturatedInductionMotor", b"[1.0, 2.0]"))
     forged("non-numeric entry", lambda st: st["_unit"].__setitem__(0, "x"))
     forged("null entry", lambda st: st["_unit"].__setitem__(1, None))
     forged("entry missing", lambda st: st["_unit"].pop())

@@ -201,6 +201,20 @@ def test_fmi3_state_declared_false_is_skipped(fmu_dir, tmp_path, capsys):
     assert code == 0 and verdicts[(copy.stem, "state")] == ("SKIP", "canGetAndSetFMUstate is false")
 
 
+def test_a_bad_parameter_refused_only_at_the_next_step_is_flagged_saying_so():
+    """pythonfmu: exitInitializationMode returns fmi2OK with the error logged, the next doStep
+    discards: KNOWN, and the detail says where the refusal comes (issue 31); a native FMU doing the
+    same FAILs."""
+    result = {"status": "logged", "param": "J = 0.0", "alive": True, "generationTool": "pythonfmu 0.7.0",
+              "where": "initialization (fmi2OK with an error logged; doStep: discard)"}
+    verdict, detail = check.judge("bad-parameter", result)
+    assert verdict == "KNOWN", detail
+    assert "refused at the next doStep" in detail and "exitInitializationMode" in detail, detail
+    assert "returns fmi2OK" in detail and "pythonfmu's limit" in detail, detail
+    verdict, _ = check.judge("bad-parameter", {**result, "generationTool": "satmotor native C glue"})
+    assert verdict == "FAIL"
+
+
 def test_fatal_for_a_bad_parameter_names_the_fmi_version():
     result = {"status": "fatal", "where": "initialization", "param": "J = 0.0", "alive": True,
               "generationTool": "satmotor native C glue", "fmi": "fmi3"}

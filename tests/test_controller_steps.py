@@ -167,6 +167,42 @@ def test_a_refused_step_names_ts_and_the_step_and_changes_nothing(lib):
     assert bytes(c) == raw
 
 
+@pytest.mark.parametrize("dt, n", [(41 * TS, 41), (41.3 * TS, 41), (1000.0, 10_000_000), (1e300, 1e300 / TS)])
+def test_a_step_beyond_max_samples_is_refused_naming_the_bound_in_python_and_c(lib, dt, n):
+    """max_samples = 40: a step of 41 Ts, or of any length above 40.5 Ts (a whole multiple or not),
+    is refused before any sample, naming the samples it needs and the bound; the same text in C.  A
+    step of 40 Ts is taken."""
+    values = {"max_samples": 40}
+    u, c = ControllerUnit(values), _c_unit(lib, values)
+    arr = (ctypes.c_double * len(_inputs()))(*_inputs())
+    msg = ctypes.create_string_buffer(256)
+    u.step(0.0, 40 * TS, _inputs())
+    assert lib.sm_controller_step(c, 0.0, 40 * TS, arr, msg, 256) == 0, msg.value
+    before, raw = u.get_state(), bytes(c)
+    with pytest.raises(ParameterError) as exc:
+        u.step(40 * TS, dt, _inputs())
+    text = (f"communicationStepSize = {dt!r}: needs {float(n):.17g} samples of Ts = 0.0001 s, more than "
+            "max_samples = 40: take shorter communication steps or raise max_samples")
+    assert str(exc.value) == text
+    assert u.get_state() == before
+    assert lib.sm_controller_step(c, 40 * TS, dt, arr, msg, 256) != 0
+    assert msg.value.decode() == text
+    assert bytes(c) == raw
+
+
+@pytest.mark.parametrize("value", [0, -3])
+def test_max_samples_below_one_is_refused_in_python_and_c(lib, value):
+    with pytest.raises(ParameterError) as exc:
+        ControllerUnit({"max_samples": value})
+    text = f"max_samples = {value}: must be an integer >= 1"
+    assert str(exc.value) == text
+    buf = ctypes.create_string_buffer(lib.sm_controller_size())
+    msg = ctypes.create_string_buffer(256)
+    assert lib.sm_controller_init(buf, params(lib, ControllerParams, {"max_samples": value}),
+                                  params(lib, MotorParams, {}), msg, 256) != 0
+    assert msg.value.decode() == text
+
+
 def test_a_failing_sample_in_a_long_step_leaves_the_controller_as_before():
     """The drive fails on the second sample of a step of 3 Ts (made to): the state before the step
     stays, as for a refused single sample."""

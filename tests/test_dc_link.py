@@ -64,6 +64,8 @@ def test_ideal_is_todays_plant_bit_for_bit():
     ({"R_src": -1.0}, "R_src"), ({"V_dc": 0.0}, "V_dc"), ({"f_grid": math.nan}, "f_grid"),
     ({"R_chop": -2.0}, "R_chop"), ({"V_dc_max": -1.0}, "V_dc_max"),
     ({"R_chop": 10.0, "V_chop_on": 700.0, "V_chop_off": 700.0}, "V_chop_off"),
+    ({"V_chop_on": 700.0, "V_chop_off": 750.0}, "V_chop_off"),  # inverted, without a chopper (issue 31)
+    ({"dc_link": "capacitor", "V_chop_on": 0.0}, "V_chop_on"),
 ])
 def test_bad_parameters_named(values, field):
     with pytest.raises(ParameterError) as e:
@@ -307,7 +309,7 @@ def test_c_source_and_clamp_bit_for_bit(lib):
 @pytest.mark.parametrize("values", [
     {"dc_link": "battery"}, {"dc_source": "grid"}, {"C_dc": 0.0}, {"R_src": -1.0}, {"V_dc_max": -1.0},
     {"R_chop": 10.0, "V_chop_on": 700.0, "V_chop_off": 700.0}, {"R_chop": 10.0, "V_chop_on": -1.0},
-    {"V_grid": math.inf},
+    {"V_grid": math.inf}, {"V_chop_on": 700.0, "V_chop_off": 750.0}, {"V_chop_off": -1.0},
 ])
 def test_c_parameter_errors_as_python(lib, values):
     with pytest.raises(ParameterError) as e:

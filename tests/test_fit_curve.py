@@ -265,6 +265,48 @@ def test_bad_input_files_exit_2_naming_file_line_and_value(tmp_path, capsys, tex
     assert not (tmp_path / "o" / "fit.yaml").exists()
 
 
+@pytest.mark.parametrize("bad, reason", [("x" * 131_073, "field larger than field limit"),
+                                         ('"1' + "y" * 140_000, "field larger than field limit")])
+def test_an_unreadable_csv_line_is_refused_naming_file_line_and_reason(tmp_path, capsys, bad, reason):
+    """Issue 31: a line over Python's csv field limit (131 072 characters) ended in a traceback."""
+    f = tmp_path / "long.csv"
+    f.write_text(GOOD.replace("200.0,2.2,50,90", f"200.0,{bad},50,90"))
+    code = main(["fit-curve", str(f), "--R-s", "1.405", "--l-s", "5.839e-3", "--out", str(tmp_path / "o")])
+    err = capsys.readouterr().err
+    assert code == 2 and "Traceback" not in err
+    assert f"{f}: line 3: not readable as CSV" in err and reason in err, err[:400]
+
+
+def test_data_that_cannot_determine_the_curve_are_warned_about_naming_what_is_missing(tmp_path, capsys):
+    """Issue 31: a test at one current level (here 3 readings of the same point, within 0.1 %) got a fit
+    selected and written without a word; now a warning names the missing current levels.  The good
+    file gets no such warning."""
+    f = tmp_path / "one_level.csv"
+    f.write_text("V_ll_rms,I_rms,f,P_in\n400.0,4.25,50,200\n400.2,4.252,50,200\n399.8,4.248,50,200\n")
+    main(["fit-curve", str(f), "--R-s", "1.405", "--l-s", "5.839e-3", "--out", str(tmp_path / "o")])
+    err = capsys.readouterr().err
+    assert f"warning: {f}: the points have 1 distinct magnetizing-current level(s)" in err, err[-800:]
+    assert "at least 3 are needed" in err
+    g = tmp_path / "good.csv"
+    g.write_text(GOOD)
+    assert main(["fit-curve", str(g), "--R-s", "1.405", "--l-s", "5.839e-3", "--out", str(tmp_path / "p")]) \
+        == 0
+    assert "warning" not in capsys.readouterr().err
+
+
+def test_a_narrow_current_span_and_a_poor_fit_are_warned_about():
+    from types import SimpleNamespace
+
+    from orchestration.tools.fit_curve import undetermined
+
+    good = SimpleNamespace(rms=0.001)
+    assert undetermined([1.0, 2.0, 4.0], [0.5, 0.8, 1.0], good) == []
+    narrow = undetermined([1.0, 1.1, 1.2], [0.5, 0.55, 0.6], good)
+    assert len(narrow) == 1 and "spans only 1-1.2 A (x1.2)" in narrow[0] and "x1.5 is needed" in narrow[0]
+    poor = undetermined([1.0, 2.0, 4.0], [0.5, 0.8, 1.0], SimpleNamespace(rms=0.1))
+    assert len(poor) == 1 and "misses the points by 13 % RMS" in poor[0] and "more than 10 %" in poor[0]
+
+
 def test_good_file_passes_the_same_checks(tmp_path):
     f = tmp_path / "good.csv"
     f.write_text(GOOD)

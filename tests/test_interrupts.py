@@ -1,4 +1,4 @@
-"""The stop request that SIGINT/SIGTERM become inside ``interrupts.catch``."""
+"""The stop request that SIGINT/SIGTERM/SIGHUP become inside ``interrupts.catch``."""
 
 import os
 import signal
@@ -37,3 +37,10 @@ def test_signal_names():
     from orchestration.process.interrupts import signal_name
 
     assert signal_name(9) == "SIGKILL" and signal_name(15) == "SIGTERM" and signal_name(99) == "signal 99"
+
+
+def test_sighup_is_a_stop_request_too():
+    """A closed terminal (SIGHUP) stops a run or a batch as Ctrl-C does: exit code 129 (issue 31)."""
+    with catch() as stop:
+        _deliver(signal.SIGHUP)
+        assert stop.signum == signal.SIGHUP and stop.exit_code == 129

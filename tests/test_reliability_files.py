@@ -540,3 +540,58 @@ def test_an_absurd_input_is_said_by_validate_and_run(tmp_path, fmu_dir):
     r = _cli("run", f, "--out", tmp_path / "out", "--fmus", fmu_dir, "--no-build", "--variant", "native")
     assert r.returncode == 0 and "note: controller.V_dc" in r.stderr, r.stderr
     assert "far outside" in json.loads((tmp_path / "out" / "absurd" / "metrics.json").read_text())["notes"][0]
+
+
+# --- one writer per --out (issue 31: two runs at once on one --out overwrote each other silently) -----
+
+def _lock_of(pid, command):
+    from orchestration.results.atomic import owner
+
+    return json.dumps({**owner(pid), "command": command})
+
+
+def test_a_second_run_onto_an_out_in_use_is_refused_naming_the_other(tmp_path, fmu_dir, capsys):
+    """A live process holds the run's directory (its lock file, as a run writes it): ``run`` exits 2
+    naming that process and the lock, and leaves the directory alone; the same for ``batch`` on its
+    ``--out``."""
+    from orchestration.cli.commands import main
+    from orchestration.results.out_lock import LOCK_NAME
+
+    f = _scenario(tmp_path, "locked", 0.05)
+    other = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(60)"])
+    try:
+        out = tmp_path / "out"
+        (out / "locked").mkdir(parents=True)
+        (out / "locked" / "timeseries.csv").write_text("kept\n")
+        (out / "locked" / LOCK_NAME).write_text(_lock_of(other.pid, "run other.yaml"))
+        assert main(["run", str(f), "--out", str(out), "--fmus", str(fmu_dir), "--no-build"]) == 2
+        err = capsys.readouterr().err
+        assert f"is in use by run other.yaml (process {other.pid}" in err and LOCK_NAME in err, err
+        assert (out / "locked" / "timeseries.csv").read_text() == "kept\n"
+        (out / LOCK_NAME).write_text(_lock_of(other.pid, "batch a.yaml"))
+        assert main(["batch", str(f), "--out", str(out), "--fmus", str(fmu_dir)]) == 2
+        err = capsys.readouterr().err
+        assert f"is in use by batch a.yaml (process {other.pid}" in err, err
+        assert not (out / "summary.csv").exists()
+    finally:
+        other.kill()
+        other.wait()
+
+
+def test_a_stale_lock_is_taken_over_and_the_run_goes_on(tmp_path, fmu_dir, capsys):
+    """The lock of a process that has ended (a killed run) is taken over, said on stderr; the run
+    writes its results and removes its own lock at the end."""
+    from orchestration.cli.commands import main
+    from orchestration.results.out_lock import LOCK_NAME
+
+    f = _scenario(tmp_path, "stale", 0.05)
+    gone = subprocess.Popen([sys.executable, "-c", "pass"])
+    gone.wait()
+    out = tmp_path / "out"
+    (out / "stale").mkdir(parents=True)
+    (out / "stale" / LOCK_NAME).write_text(_lock_of(gone.pid, "run killed.yaml"))
+    assert main(["run", str(f), "--out", str(out), "--fmus", str(fmu_dir), "--no-build", "--no-plot"]) == 0
+    err = capsys.readouterr().err
+    assert "a stale lock of run killed.yaml" in err and "taken over" in err, err
+    assert json.loads((out / "stale" / "metrics.json").read_text())["status"] == "ok"
+    assert not (out / "stale" / LOCK_NAME).exists()

@@ -5,8 +5,9 @@ controller, ScenarioSignals) compiled in under AddressSanitizer + UBSan (leaks i
 serialized states, FMU states left to ``freeInstance``, a double ``freeInstance``, random FMI call
 sequences, and the readers of the files a user supplies (the ``table`` curve's CSV, the ScenarioSignals
 profiles) fed random, truncated, huge and malformed files.  The rest goes through fmpy on the built FMUs
-(``SATMOTOR_TEST_FMUS``): the bounded work per ``doStep`` (``max_substeps``, also the pythonfmu plant) and
-the plausibility warnings.  Every host run prints its counts; they are echoed (``-s``) for the record.
+(``SATMOTOR_TEST_FMUS``): the bounded work per ``doStep`` (the plant's ``max_substeps``, the controller's
+``max_samples``, also the pythonfmu FMUs) and the plausibility warnings.  Every host run prints its
+counts; they are echoed (``-s``) for the record.
 """
 
 from __future__ import annotations
@@ -30,7 +31,7 @@ from orchestration.build import signals_fmu
 from orchestration.build.native import compiler as native_build
 from orchestration.build.native import fmus as native_fmus
 from orchestration.build.native import tables as native_tables
-from satmotor.interface import MAX_SUBSTEPS, PlantUnit
+from satmotor.interface import MAX_STEP_SAMPLES, MAX_SUBSTEPS, PlantUnit
 
 pytestmark = pytest.mark.skipif(shutil.which("gcc") is None, reason="needs gcc")
 
@@ -228,8 +229,8 @@ VARIANTS = {"native-2.0": FMUS / "native" / f"{PLANT}.fmu",
 class Plant:
     """One plant instance through fmpy, its log kept."""
 
-    def __init__(self, variant, tmp_path, **params):
-        path = VARIANTS[variant]
+    def __init__(self, variant, tmp_path, model=PLANT, **params):
+        path = VARIANTS[variant].with_name(f"{model}.fmu")
         if not path.exists():
             pytest.skip(f"{path} not built")
         md = read_model_description(str(path))
@@ -282,10 +283,10 @@ class Plant:
 def plant(tmp_path):
     made = []
 
-    def make(variant, **params):
+    def make(variant, model=PLANT, **params):
         if variant == "pythonfmu":
             pytest.importorskip("pythonfmu")
-        p = Plant(variant, tmp_path, **params)
+        p = Plant(variant, tmp_path, model, **params)
         made.append(p)
         return p
     yield make
@@ -311,10 +312,29 @@ def test_a_step_beyond_max_substeps_is_discarded_at_once(plant, variant):
     assert "needs 41 RK4 sub-steps" in [m for st, m in q.log if st == 2][-1]
 
 
+@pytest.mark.parametrize("variant", VARIANTS)
+def test_a_controller_step_beyond_max_samples_is_discarded_at_once(plant, variant):
+    """The controller's doStep(0, 1000 s) (10^7 samples of Ts = 1e-4 s: 89 s on the pythonfmu
+    controller, 1.3 s on the native one before) is a discard, at once, naming the step size, the
+    samples and the limit; a step of exactly max_samples samples is taken, one more is not."""
+    c = plant(variant, CONTROLLER)
+    t0 = time.perf_counter()
+    assert c.step(0.0, 1000.0) == 2
+    assert time.perf_counter() - t0 < 0.5
+    msg = [m for st, m in c.log if st == 2][-1]
+    assert "communicationStepSize = 1000.0" in msg and "needs 10000000 samples of Ts = 0.0001 s" in msg, msg
+    assert f"more than max_samples = {MAX_STEP_SAMPLES}" in msg, msg
+    q = plant(variant, CONTROLLER, max_samples=40)
+    assert q.step(0.0, 40 * 1e-4) == 0  # exactly at the limit
+    assert q.step(40e-4, 41 * 1e-4) == 2
+    assert "needs 41 samples" in [m for st, m in q.log if st == 2][-1]
+
+
 @pytest.mark.parametrize("variant", ("native-2.0", "native-3.0"))
-def test_max_substeps_below_one_is_refused_at_initialization(plant, variant):
+@pytest.mark.parametrize("model, name", [(PLANT, "max_substeps"), (CONTROLLER, "max_samples")])
+def test_a_work_bound_below_one_is_refused_at_initialization(plant, variant, model, name):
     with pytest.raises(FMICallException):
-        plant(variant, max_substeps=0)
+        plant(variant, model, **{name: 0})
 
 
 def test_plant_unit_checks_max_substeps_as_the_native_plant():

@@ -166,5 +166,96 @@ def test_a_refused_set_is_logged_at_the_call_and_discards_the_next_step_only(fmu
 def test_the_hosts_page_states_what_the_glue_cannot_fix_and_the_native_alternative():
     text = (ROOT / "docs" / "hosts.md").read_text()
     section = text[text.index("## pythonfmu: what the glue cannot change"):]
-    for words in ("fmi2Error", "exitInitializationMode", "fmi2Discard", "--variant native", "sys.path"):
+    for words in ("fmi2Error", "exitInitializationMode", "fmi2Discard", "--variant native", "sys.path",
+                  "refused at the next `doStep`", "`fmi2FreeInstance` twice", "fmpy unloads the library"):
         assert words in section, words
+    fmus_md = (ROOT / "docs" / "fmus.md").read_text()
+    start, end = fmus_md.index("* **Double freeInstance.**"), fmus_md.index("* **Bounded work per call.**")
+    double = fmus_md[start:end]
+    for words in ("pythonfmu FMUs abort", "second `fmi2FreeInstance`", "fmpy unloads the library",
+                  "not ours to fix", "--variant native"):
+        assert words in double.replace("Neither is ours to fix", "not ours to fix"), words
+
+
+# serialized states (issue 31): every single-bit flip, random data, another model's state, another format
+# version, each refused at deSerializeFMUstate with a logged message (status error) and the next doStep
+# discarded; the genuine blob accepted.  Printed: counts per kind.
+STATES = r"""
+import json, random, sys
+sys.path.insert(0, "tests")
+from fmpy.fmi1 import FMICallException
+from fmu_helpers import STATE_HEADER_SIZE, Slave, open_fmu, seal, unseal
+plant_path, ctrl_path, n_flips = sys.argv[1], sys.argv[2], int(sys.argv[3])
+rng = random.Random(31)
+h = 1e-4
+slaves = {"plant": Slave(open_fmu(plant_path), "plant"), "ctrl": Slave(open_fmu(ctrl_path), "ctrl")}
+inputs = {"plant": {"v_s_alpha": 100.0}, "ctrl": {"psi_ref": 0.9, "omega_ref": 20.0}}
+blobs = {}
+for key, s in slaves.items():
+    s.set(inputs[key])
+    for k in range(5):
+        s.step(k * h, h, inputs[key])
+    st = s.fmu.getFMUState()
+    blobs[key] = bytes(s.fmu.serializeFMUState(st))
+    s.fmu.freeFMUState(st)
+
+def offer(key, blob):
+    # (refused at the call with a logged message, the next doStep discarded); the instance stays
+    s = slaves[key]
+    n = len(s.log)
+    st = s.fmu.deSerializeFMUstate(blob)
+    logged = [m for status, m in s.log[n:] if status >= 3]
+    try:
+        s.fmu.doStep(5 * h, h)
+        step = 0
+    except FMICallException as exc:
+        step = exc.status
+    s.fmu.freeFMUState(st)
+    if step == 0:  # accepted: back to where the state was taken (the step ran from it)
+        s.fmu.setFMUState(s.fmu.deSerializeFMUstate(blobs[key]))
+    return bool(logged) and "refused" in logged[0] and step == 2, logged[:1]
+
+out = {}
+for key, blob in blobs.items():
+    bits = len(blob) * 8
+    chosen = list(range(STATE_HEADER_SIZE * 8)) + rng.sample(range(STATE_HEADER_SIZE * 8, bits), n_flips)
+    refused = 0
+    for b in chosen:
+        flipped = bytearray(blob)
+        flipped[b // 8] ^= 1 << (b % 8)
+        refused += offer(key, bytes(flipped))[0]
+    rand = sum(offer(key, bytes(rng.getrandbits(8) for _ in range(rng.choice([0, 10, 200, len(blob)]))))[0]
+               for _ in range(100))
+    model, version, payload = unseal(blob)
+    other = "ctrl" if key == "plant" else "plant"
+    out[key] = {"size": len(blob), "flips": len(chosen), "flips_refused": refused, "random": 100,
+                "random_refused": rand, "genuine": offer(key, blob),
+                "other_model": offer(other, blob),
+                "other_version": offer(key, seal(model, payload, version=2)),
+                "bare_json": offer(key, payload)}
+for s in slaves.values():
+    s.free()
+print(json.dumps(out))
+"""
+
+
+def test_serialized_states_with_any_flipped_bit_random_or_foreign_are_refused(fmu_dir):
+    """Before (issue 31): 16 of 200 (plant) and 18 of 200 (controller) single-bit flips were accepted
+    without a message.  Now every flip of a header bit and 400 random flips in the JSON of each model's
+    state, and 100 random blobs, are refused at deSerializeFMUstate (a logged error) and discard the
+    next doStep; a plant state offered to the controller (and back), a state of format version 2 and
+    a bare JSON state (the format before the header) are refused naming why."""
+    plant, ctrl = fmus.paths(fmu_dir, "python")[:2]
+    r = _child(STATES, plant, ctrl, 400)
+    assert r.returncode == 0, (r.stdout[-2000:], r.stderr[-3000:])
+    res = json.loads(r.stdout.splitlines()[-1])
+    print(json.dumps({k: {n: v for n, v in d.items() if isinstance(v, int)} for k, d in res.items()}))
+    for key, d in res.items():
+        assert d["flips_refused"] == d["flips"] > 1300, (key, d)
+        assert d["random_refused"] == d["random"], (key, d)
+        assert d["genuine"] == [False, []], (key, d)  # accepted: nothing logged, the step taken
+        model = "SaturatedInductionMotor" if key == "plant" else "BacksteppingController"
+        assert d["other_model"][0] and f"a state of the model '{model}'" in d["other_model"][1][0], d
+        assert d["other_version"][0] and "state format version 2, this FMU reads version 1" in \
+            d["other_version"][1][0], d["other_version"]
+        assert d["bare_json"][0] and "bad magic" in d["bare_json"][1][0], d["bare_json"]

@@ -214,3 +214,37 @@ def test_a_sweep_on_a_dask_local_cluster(tmp_path, fmu_dir):
     t = pd.read_csv(out / "d" / "sweep.csv")
     assert t["variant"].tolist() == ["d-0", "d-1", "d-2"] and (t["status"] == "ok").all()
     assert t["motor.J"].between(0.01, 0.02).all() and t["iae_speed"].nunique() == 3
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("target", ["batch", "child", "group"])
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM, signal.SIGHUP])
+def test_an_interrupted_run_is_reported_interrupted_naming_its_partial_results(sig, target, tmp_path,
+                                                                              fmu_dir):
+    """Issue 31: SIGTERM to the batch's process group once gave ``failed, 255, exit 255 without
+    results`` while the run directory held valid partial results marked ``interrupted``.  Whether the
+    signal reaches the batch, its child or the whole group, for SIGINT, SIGTERM and SIGHUP: the row is
+    ``interrupted`` and names the run's results directory, whose metrics.json says ``interrupted``."""
+    f = tmp_path / "long.yaml"
+    f.write_text("name: long\nstop_time: 30.0\nprofiles:\n  psi_ref: {type: constant, value: 0.9}\n"
+                 "  omega_ref: {type: step, time: 0.15, value: 50.0}\n")
+    out = tmp_path / "out"
+    p = subprocess.Popen([sys.executable, "-m", "orchestration", "batch", str(f), "--jobs", "1", "--out",
+                          str(out), "--fmus", str(fmu_dir), "--variant", "native", "--no-plot"],
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True)
+    _until(lambda: _status(out / "long" / "metrics.json") == "running", p, "the run running")
+    time.sleep(0.5)  # into the stepping loop
+    if target == "group":
+        os.killpg(p.pid, sig)
+    elif target == "batch":
+        p.send_signal(sig)
+    else:
+        (pid, _), = _ps(f"run {f}")
+        os.kill(pid, sig)
+    stdout, stderr = p.communicate(timeout=300)
+    assert "Traceback" not in stderr and _ps(str(f)) == []
+    assert p.returncode == 128 + sig, (p.returncode, stderr[-2000:])
+    row = pd.read_csv(out / "summary.csv").set_index("scenario").loc["long"]
+    assert row["status"] == "interrupted", (row.to_dict(), stderr[-2000:])
+    assert str(out / "long") in row["message"] and "partial results" in row["message"], row["message"]
+    assert _status(out / "long" / "metrics.json") == "interrupted"

@@ -26,8 +26,10 @@ exactly that state.
 from __future__ import annotations
 
 import functools
+import hashlib
 import json
 import math
+import struct
 import weakref
 import xml.etree.ElementTree as ET
 from operator import itemgetter
@@ -44,6 +46,44 @@ INSTANTIATED, INITIALIZATION, STEPPING, TERMINATED = (
 REFUSED_PARAMETERS = "not initialized: exitInitializationMode refused its parameters"
 
 _TAG, _UNIT, _REFUSED = "_tag", "_unit", "_refused"  # FMU state keys besides the variables
+# A serialized state (fmi2SerializeFMUstate): a header, then the state as JSON.  The header: magic,
+# format version, the model's name (NUL-padded), the length of the JSON and a SHA-256 over every header
+# byte before it and the JSON (as the native glue's fmu/native/fmi/fg_state.c: any change of a byte
+# is refused).  Format 1 (issue 31): before it a state was the bare JSON.
+STATE_MAGIC = b"SMPYFMU\x00"
+STATE_FORMAT = 1
+_STATE_HEAD = struct.Struct("<8sI64sQ")  # magic, format version, model name, JSON length
+_STATE_HEADER_SIZE = _STATE_HEAD.size + 32  # then the SHA-256 digest
+
+
+def seal_state(model, payload):
+    """The serialized form of a state: the header for ``model`` and ``payload`` (the JSON bytes)."""
+    head = _STATE_HEAD.pack(STATE_MAGIC, STATE_FORMAT, model.encode("utf-8")[:63], len(payload))
+    return head + hashlib.sha256(head + payload).digest() + payload
+
+
+def unseal_state(model, data):
+    """``(payload, None)`` of a serialized state of ``model``, or ``(None, why it is refused)``: checked
+    whole (size, magic, format version, model, length, checksum) before anything of it is read."""
+    n = len(data)
+    if n < _STATE_HEADER_SIZE:
+        return None, f"it is not valid: truncated ({n} bytes; the header alone is {_STATE_HEADER_SIZE})"
+    magic, version, name, size = _STATE_HEAD.unpack_from(data)
+    if magic != STATE_MAGIC:
+        return None, "it is not valid: not a serialized state of a satmotor pythonfmu FMU (bad magic)"
+    if version != STATE_FORMAT:
+        return None, f"it is not valid: state format version {version}, this FMU reads version {STATE_FORMAT}"
+    if name != model.encode("utf-8")[:63].ljust(64, b"\x00"):
+        shown = name.rstrip(b"\x00").decode("utf-8", "replace")
+        return None, f"it is a state of the model {shown!r}, this is {model!r}"
+    if size != n - _STATE_HEADER_SIZE:
+        return None, (f"it is not valid: truncated or extended: its header says {size} bytes of state, it "
+                      f"has {n - _STATE_HEADER_SIZE}")
+    payload = data[_STATE_HEADER_SIZE:]
+    digest = data[_STATE_HEAD.size:_STATE_HEADER_SIZE]
+    if hashlib.sha256(data[:_STATE_HEAD.size] + payload).digest() != digest:
+        return None, "it is not valid: checksum mismatch (the state was changed or corrupted)"
+    return payload, None
 _PYTHON_TYPES = {"Real": (float, int), "Integer": (int,), "Boolean": (bool,), "String": (str,)}
 _TYPES = {"Real": Real, "Integer": Integer, "Boolean": Boolean, "String": String}
 _CAUSALITY = {"input": Fmi2Causality.input, "output": Fmi2Causality.output,
@@ -295,7 +335,8 @@ class UnitSlave(Fmi2Slave):
     def _refuse(self, message):
         """Log a refused call (status error); the next doStep reports it again and discards."""
         self.log(f"{type(self).__name__}: {message}", Fmi2Status.error)
-        self._pending.append(message)
+        if message not in self._pending:  # a refused deserialization, then the same state set: once
+            self._pending.append(message)
         self._go = False
 
     # --- stepping ------------------------------------------------------------------------------------
@@ -506,27 +547,36 @@ class UnitSlave(Fmi2Slave):
 
     @staticmethod
     def _fmu_state_to_bytes(state):
+        """The state sealed (:func:`seal_state`) under its model's name; never raises (fmi2Fatal)."""
+        tag = state.get(_TAG) if isinstance(state, dict) else None
+        model = str(tag.get("model", "")) if isinstance(tag, dict) else ""
         try:
-            return json.dumps(state).encode("utf-8")
-        except Exception as exc:  # never raise (fmi2Fatal): deserialized, this state is refused
-            return json.dumps({_REFUSED: f"the FMU state could not be serialized: {exc}"}).encode("utf-8")
+            payload = json.dumps(state).encode("utf-8")
+        except Exception as exc:  # deserialized, this state is refused
+            payload = json.dumps({_REFUSED: f"the FMU state could not be serialized: {exc}"}).encode("utf-8")
+        return seal_state(model, payload)
 
     @classmethod
     def _fmu_state_from_bytes(cls, data):
-        """Called by pythonfmu on the instance's class: never raises (fmi2Fatal); a blob that is not
-        a state of this FMU becomes a refusal that setFMUState reports, and is logged at once through
-        the instance (pin_namespace gives each instance a class of its own)."""
+        """Called by pythonfmu on the instance's class: never raises (fmi2Fatal).  A blob that is not
+        a state of this FMU (another model, format version or build, corrupted: the checksum) becomes
+        a refusal, logged at once through the instance (pin_namespace gives each instance a class of
+        its own) and reported again by the next doStep, which is discarded (pythonfmu returns fmi2OK
+        from deSerializeFMUstate); setFMUState of it is refused too."""
         ref = cls.__dict__.get("_current")
         inst = ref() if ref is not None else None
         try:
-            state = json.loads(bytes(data).decode("utf-8"))
-            problem = inst._state_problem(state) if inst is not None else None
+            data = bytes(data)
+            payload, problem = unseal_state(cls.__name__, data)
+            if problem is None:
+                state = json.loads(payload.decode("utf-8"))
+                problem = inst._state_problem(state) if inst is not None else None
         except Exception as exc:  # not UTF-8, not JSON, nested too deep, ...
             problem = f"it is not valid ({type(exc).__name__}: {exc})"
         if problem:
             state = {_REFUSED: f"the serialized FMU state ({len(data)} bytes) is refused: {problem}"}
             if inst is not None:
-                inst.log(f"{cls.__name__}: deSerializeFMUstate: {state[_REFUSED]}", Fmi2Status.error)
+                inst._refuse(f"deSerializeFMUstate: {state[_REFUSED]}")
         return state
 
 

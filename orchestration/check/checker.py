@@ -168,8 +168,11 @@ def judge(check, result):
         if st in ("error", "discard"):
             return "PASS", head + tail
         if st == "logged" and "pythonfmu" in result["generationTool"].lower():
-            return "KNOWN", head + tail + (" (pythonfmu cannot return fmi2Error from Python: the error is "
-                                           "logged, the call returns fmi2OK, and every doStep discards)")
+            return "KNOWN", head + tail + (" (refused at the next doStep, fmi2Discard naming it: "
+                                           "exitInitializationMode logs the error and returns fmi2OK, "
+                                           "pythonfmu's limit, it cannot return fmi2Error from Python; a "
+                                           "host that reads only that status misses it: the native FMU "
+                                           "returns fmi2Error there)")
         if st == "logged":
             return "FAIL", head + tail + " (an error logged, but the call returned OK: expected an error)"
         if st == "fatal" and "pythonfmu" in result["generationTool"].lower():

@@ -9,7 +9,7 @@
    (:mod:`orchestration.cli.warm_children`: about 0.5 s less per scenario); on Dask it is a fresh
    interpreter.  Its exit code and ``metrics.json`` make its row, the tail of its standard error
    the row's message when it fails; a child killed by a signal is a failed row.
-3. SIGINT/SIGTERM (:mod:`orchestration.process.interrupts`): nothing new starts, running children get
+3. SIGINT/SIGTERM/SIGHUP (:mod:`orchestration.process.interrupts`): nothing new starts, running children get
    SIGTERM (they write their partial results), and every scenario not finished is a row with
    status ``interrupted``.  ``summary.csv`` is written in every case once runs have started.
 4. A file with a ``sweep:`` section (:mod:`orchestration.scenario.sweep`) is checked variant by
@@ -45,6 +45,8 @@ from __future__ import annotations
 
 import json
 import os
+import re
+import signal
 import subprocess
 import sys
 import tempfile
@@ -54,14 +56,15 @@ from typing import NamedTuple
 
 from orchestration.build import fmus
 from orchestration.cli.scheduler import SchedulerUnreachable
-from orchestration.process.interrupts import PARENT_ENV, StopRequest, signal_name
+from orchestration.process.interrupts import PARENT_ENV, SIGNALS, StopRequest, signal_name
 from orchestration.results.atomic import describe, owner, settle_abandoned
 from orchestration.results.batch_summary import SummaryFile, running_row
 
 SUMMARY_METRICS = ("iae_speed", "iae_flux", "ss_speed", "ss_flux", "overshoot_speed", "settling_time_speed",
                    "peak_current", "peak_voltage", "min_W")
 INVALID, NOT_ACCEPTED = 2, 3
-STOPPED_CODES = (128 + 2, 128 + 15)  # a run's exit code after SIGINT / SIGTERM asked it to stop
+STOPPED_CODES = tuple(128 + int(s) for s in SIGNALS)  # a run's exit code after SIGINT/SIGTERM/SIGHUP
+_STOPPED_BY = re.compile(r"stopped by (SIG[A-Z]+)")  # an interrupted run's message (run.master)
 POLL = 0.2  # [s] how often a waiting batch looks for a stop request
 GRACE = 30.0  # [s] a child has to write its partial results after SIGTERM before it is killed
 
@@ -220,6 +223,9 @@ def run_variants(path, out, fmu_dir, algorithm=None, names=(), indexes=None, sho
                 child.wait(None)
             break
     stdout, stderr = child.output()
+    # a signal to the whole process group reaches the child (and the warm server) as well as the batch:
+    # the child may end before the batch's next look (then its exit code may be lost: 255)
+    stopped = stopped or bool(should_stop and should_stop())
     if len(names) == 1:
         return [_child_row(path, names[0], child.returncode, stdout, stderr, files[0], stopped)]
     return [_variant_row(path, n, child.returncode, stdout, stderr, f, stopped) for n, f in zip(names, files)]
@@ -292,11 +298,32 @@ def _child_row(path, name, rc, stdout, stderr, metrics, stopped):
             f"; {tail}" if tail else ""))
     if rc == INVALID:
         return _row(path, name, "invalid", rc, tail)
+    if summary is not None and summary.get("status") == "interrupted":  # stopped by a signal: it wrote
+        return _interrupted_row(path, name, rc, summary, metrics)      # its partial results
     if summary is None or summary.get("status") == "running":
         message = f"exit {rc} without results" + (f": {tail}" if tail else "")
         settle_abandoned(metrics, "interrupted" if stopped else "failed", message)
         return _row(path, name, "interrupted" if stopped else "failed", rc or 1, message)
     row = _row(path, name, summary["status"], rc, summary.get("message", ""))
+    row.update(accepted=summary.get("accepted"), holds_setpoints=summary.get("holds_setpoints"),
+               setpoints=summary.get("setpoints", ""), wall_time=summary.get("wall_time"),
+               **{k: (summary.get("metrics") or {}).get(k) for k in SUMMARY_METRICS})
+    return row
+
+
+def _interrupted_row(path, name, rc, summary, metrics):
+    """The row of a run that stopped on a signal and wrote its partial results (``metrics.json``
+    says ``interrupted``), whatever its exit code says (a warm child whose server the same signal
+    ended reports 255): ``interrupted``, exit ``128 + `` the signal, naming the results."""
+    message = summary.get("message", "")
+    found = _STOPPED_BY.search(message)
+    if rc in STOPPED_CODES:
+        code = rc
+    elif found and found.group(1) in signal.Signals.__members__:
+        code = 128 + int(signal.Signals[found.group(1)])
+    else:
+        code = rc or 1
+    row = _row(path, name, "interrupted", code, f"{message}; partial results in {metrics.parent}")
     row.update(accepted=summary.get("accepted"), holds_setpoints=summary.get("holds_setpoints"),
                setpoints=summary.get("setpoints", ""), wall_time=summary.get("wall_time"),
                **{k: (summary.get("metrics") or {}).get(k) for k in SUMMARY_METRICS})
@@ -403,6 +430,26 @@ def run_batch(items, out, fmu_dir, jobs=2, scheduler=None, algorithm=None, stop=
     except OSError as exc:
         print(f"--out {out}: cannot write the results: {describe(exc)}", file=sys.stderr)
         return INVALID
+    from orchestration.results import out_lock
+
+    try:  # one batch per --out: a second one is refused naming the first
+        lock = out_lock.acquire(out, "batch " + " ".join(map(str, items)))
+    except out_lock.OutInUse as exc:
+        print(f"--out {out}: {exc}", file=sys.stderr)
+        return INVALID
+    except OSError as exc:
+        print(f"--out {out}: cannot write the results: {describe(exc)}", file=sys.stderr)
+        return INVALID
+    try:
+        return _run_locked(rows, running, runnable, summary, out, fmu_dir, jobs, scheduler, algorithm, stop,
+                           variant, command, plot, sweeps)
+    finally:
+        out_lock.release(lock)
+
+
+def _run_locked(rows, running, runnable, summary, out, fmu_dir, jobs, scheduler, algorithm, stop, variant,
+                command, plot, sweeps):
+    """The body of :func:`run_batch` once ``out`` is locked."""
     if not summary.write([*rows, *running.values()]):  # --out is writable before anything runs
         print(f"--out {out}: cannot write the results: {describe(summary.error)}", file=sys.stderr)
         return INVALID

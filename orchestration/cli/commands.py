@@ -161,42 +161,53 @@ def run_file(path, out, fmu_dir, algorithm=None, build=True, plot=True, stop=Non
         if found:
             return refused("\n".join(map(str, found)), sc.name)
         run = partial(libcosim_engine.run, signals_cache=Path(fmu_dir) / "signals")  # built once per profiles
-    try:
-        directory = prepare_dir(out, sc)
+    from orchestration.results import out_lock
+
+    try:  # one writer per results directory: a second run onto it is refused naming the first
+        lock = out_lock.acquire(Path(out) / sc.name, f"run {path}")
+    except out_lock.OutInUse as exc:
+        return refused(f"--out {out}: {exc}", sc.name)
     except OSError as exc:
         return refused(f"--out {out}: cannot write the results: {describe(exc)}", sc.name)
-    plant, ctrl = fmus.paths(fmu_dir, variant)
-    helper = None
-    plot = plot and sc.record.level != "metrics"  # no time series: no figure
-    # the helper reads the Parquet file back (every figure_step-th row): only a full one
-    if plot and figure_process and sc.record.level == "full":
-        from orchestration.results import figure_process as fp
-
-        try:
-            helper = (fp.FigureProcess(directory / FILES[1], *figure_target(sc, out), step=figure_step(sc))
-                      if fp.wanted() else None)
-        except OSError:  # no fork today: the figure is drawn here
-            helper = None
-    make = streaming_recorder(sc, directory, on_parquet=helper and helper.parquet_done,
-                              figure_copy=helper is None)
     try:
-        extra = ({"unzip_dirs": shared.dirs, "descriptions": shared.descriptions}
-                 if shared is not None and engine == "fmpy" else {})
-        result = run(sc, str(plant), str(ctrl), algorithm=algorithm, stop=stop, recorder=make, **extra)
-        summary = write_results(result, out, plot=plot, draw=helper and helper.draw, write_error=make.error,
-                                discard_figure=helper and helper.discard)
-    except OSError as exc:  # a file of the run could not be written: said, never a traceback
-        return RUN_FAILED, {"scenario": sc.name, "file": str(path), "status": "failed", "rows": 0,
-                            "wall_time": 0.0, "message": f"{describe(exc)}: the results are not complete",
-                            "metrics_written": False}
+        try:
+            directory = prepare_dir(out, sc)
+        except OSError as exc:
+            return refused(f"--out {out}: cannot write the results: {describe(exc)}", sc.name)
+        plant, ctrl = fmus.paths(fmu_dir, variant)
+        helper = None
+        plot = plot and sc.record.level != "metrics"  # no time series: no figure
+        # the helper reads the Parquet file back (every figure_step-th row): only a full one
+        if plot and figure_process and sc.record.level == "full":
+            from orchestration.results import figure_process as fp
+
+            try:
+                helper = (fp.FigureProcess(directory / FILES[1], *figure_target(sc, out),
+                                           step=figure_step(sc)) if fp.wanted() else None)
+            except OSError:  # no fork today: the figure is drawn here
+                helper = None
+        make = streaming_recorder(sc, directory, on_parquet=helper and helper.parquet_done,
+                                  figure_copy=helper is None)
+        try:
+            extra = ({"unzip_dirs": shared.dirs, "descriptions": shared.descriptions}
+                     if shared is not None and engine == "fmpy" else {})
+            result = run(sc, str(plant), str(ctrl), algorithm=algorithm, stop=stop, recorder=make, **extra)
+            summary = write_results(result, out, plot=plot, draw=helper and helper.draw,
+                                    write_error=make.error, discard_figure=helper and helper.discard)
+        except OSError as exc:  # a file of the run could not be written: said, never a traceback
+            return RUN_FAILED, {"scenario": sc.name, "file": str(path), "status": "failed", "rows": 0,
+                                "wall_time": 0.0, "message": f"{describe(exc)}: the results are not complete",
+                                "metrics_written": False}
+        finally:
+            if helper is not None:
+                helper.close()
+        if summary["status"] == "interrupted":
+            return stop.exit_code, summary
+        if summary["status"] != "ok":
+            return RUN_FAILED, summary
+        return (NOT_ACCEPTED if summary["accepted"] is False else OK), summary
     finally:
-        if helper is not None:
-            helper.close()
-    if summary["status"] == "interrupted":
-        return stop.exit_code, summary
-    if summary["status"] != "ok":
-        return RUN_FAILED, summary
-    return (NOT_ACCEPTED if summary["accepted"] is False else OK), summary
+        out_lock.release(lock)
 
 
 class SharedFMUs:

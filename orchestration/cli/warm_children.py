@@ -25,9 +25,11 @@ import os
 import sys
 import tempfile
 import threading
+import time
 import traceback
 from multiprocessing.connection import wait
 
+from orchestration.process.interrupts import pid_exists
 from orchestration.process.title import set_title
 
 #: what a ``run`` child imports (the pythonfmu glue and FMU binaries are not among them: every
@@ -86,6 +88,17 @@ def _child(main, argv, stdout_path, stderr_path, batch_pid, tmpdir):
     exit_now(code)
 
 
+def _running(pid):
+    """Whether process ``pid`` exists and is no zombie (an orphan whose new parent never reaps it)."""
+    if not pid_exists(pid):
+        return False
+    try:
+        with open(f"/proc/{pid}/stat") as f:
+            return f.read().rpartition(")")[2].split()[0] != "Z"
+    except (OSError, IndexError):
+        return True  # no /proc: pid_exists said it exists
+
+
 class WarmChild:
     """One ``run`` child forked from the warm server; the interface ``batch.run_one`` drives.
     ``modules``: what the server imports when this child starts it (:func:`preload`)."""
@@ -102,9 +115,17 @@ class WarmChild:
         self._returncode = None
 
     def wait(self, timeout):
-        """True once the child has ended (within ``timeout`` seconds; None: however long it takes)."""
+        """True once the child has ended (within ``timeout`` seconds; None: however long it takes).
+        A signal to the batch's process group may end the forkserver while the child still writes
+        its partial results: the sentinel then fires at once (and the exit code is lost, 255), so
+        the child's own pid is waited for too."""
+        t_end = None if timeout is None else time.monotonic() + timeout
         if not wait([self._proc.sentinel], timeout):
             return False
+        while _running(self.pid):  # the server is gone, the child (now init's) still runs
+            if t_end is not None and time.monotonic() >= t_end:
+                return False
+            time.sleep(0.02)
         with _LOCK:
             return self._proc.exitcode is not None
 

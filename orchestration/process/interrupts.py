@@ -1,10 +1,11 @@
-"""Ctrl-C and SIGTERM for the long-running commands: a stop request instead of an exception.
+"""Ctrl-C, SIGTERM and SIGHUP for the long-running commands: a stop request instead of an exception.
 
-Inside :func:`catch`, SIGINT and SIGTERM only set ``stop.signum``; the stepping loop and the batch
+Inside :func:`catch`, SIGINT, SIGTERM and SIGHUP (a closed terminal, where the system has it) only set
+``stop.signum``; the stepping loop and the batch
 look at it and wind down, writing what they have.  No exception is raised in the middle of an FMU
 call (a pythonfmu FMU runs its Python in this interpreter: a KeyboardInterrupt there would turn
 into an FMI fatal).  A second signal of the same kind while winding down is ignored; the exit
-code of an interrupted command is ``128 + signum`` (130 for Ctrl-C, 143 for SIGTERM).
+code of an interrupted command is ``128 + signum`` (130 for Ctrl-C, 143 for SIGTERM, 129 for SIGHUP).
 """
 
 from __future__ import annotations
@@ -16,7 +17,7 @@ import threading
 import time
 from contextlib import contextmanager
 
-SIGNALS = (signal.SIGINT, signal.SIGTERM)
+SIGNALS = (signal.SIGINT, signal.SIGTERM, *((signal.SIGHUP,) if hasattr(signal, "SIGHUP") else ()))
 PARENT_ENV = "SATMOTOR_PARENT_PID"  # set by batch for its children: see die_with_parent
 WATCHER = "satmotor-die-with-"  # the name of die_with's threads (they start with it)
 
@@ -48,7 +49,7 @@ class StopRequest:
 
 @contextmanager
 def catch(stop=None):
-    """Within the block, SIGINT/SIGTERM set ``stop.signum`` (a new :class:`StopRequest` if None).
+    """Within the block, SIGINT/SIGTERM/SIGHUP set ``stop.signum`` (a new :class:`StopRequest` if None).
     A signal this process inherited as ignored (e.g. SIGINT of a job started with ``&`` by a
     non-interactive shell, or under ``nohup``) stays ignored, as Python itself does.  Only the
     main thread can install handlers; elsewhere the block runs with the handlers as they are."""

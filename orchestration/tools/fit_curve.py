@@ -71,7 +71,7 @@ def read_noload(path):
     except (OSError, UnicodeDecodeError) as exc:
         raise InputError(f"{file}: cannot read: {exc}") from None
     header, hline, rows = None, None, []
-    for lineno, fields in _csv_lines(text):
+    for lineno, fields in _csv_lines(text, file):
         if header is None:
             header, hline = [h.strip() for h in fields], lineno
             continue
@@ -121,12 +121,46 @@ def read_noload(path):
     return cols, lines
 
 
-def _csv_lines(text):
+def _csv_lines(text, file):
     for lineno, line in enumerate(text.splitlines(), start=1):
         s = line.strip()
         if not s or s.startswith("#"):
             continue
-        yield lineno, next(csv.reader([s]))
+        try:
+            yield lineno, next(csv.reader([s]))
+        except csv.Error as exc:  # a field over the csv module's limit (131 072 characters), a NUL, ...
+            raise InputError(f"{file}: line {lineno}: not readable as CSV ({len(s)} characters): "
+                             f"{exc}") from None
+
+
+SPAN_MIN = 1.5  # max(i_mu) / min(i_mu) below this: the knee's shape is not in the data
+LEVELS_MIN = 3  # distinct magnetizing-current levels (within 1 %) a 3-parameter family needs
+RMS_WARN = 0.10  # the chosen fit's RMS above this share of the mean psi_m: no family describes the data
+
+
+def undetermined(i_mu, psi_m, best):
+    """Why the points cannot determine the curve (each a sentence naming what is missing), or []:
+    fewer than LEVELS_MIN distinct current levels, a current span below SPAN_MIN, or a chosen fit
+    whose RMS is above RMS_WARN of the mean flux."""
+    import numpy as np
+
+    out = []
+    i = np.sort(np.asarray(i_mu, dtype=float))
+    levels = 1 + int(np.count_nonzero(np.diff(i) > 0.01 * i[1:]))
+    if levels < LEVELS_MIN:
+        out.append(f"the points have {levels} distinct magnetizing-current level(s) (i_mu "
+                   f"{i[0]:.4g}-{i[-1]:.4g} A): the curve is not determined, at least {LEVELS_MIN} are "
+                   "needed (a test at several voltages, from well below the knee to above it)")
+    elif i[-1] < SPAN_MIN * i[0]:
+        out.append(f"i_mu spans only {i[0]:.4g}-{i[-1]:.4g} A (x{i[-1] / i[0]:.3g}): the knee's shape is "
+                   f"not in the data, a span of at least x{SPAN_MIN:g} is needed (voltages "
+                   "from about half the rated one to above it)")
+    rel = best.rms / float(np.mean(psi_m))
+    if rel > RMS_WARN:
+        out.append(f"the chosen curve misses the points by {100 * rel:.3g} % RMS of the mean psi_m (more "
+                   f"than {100 * RMS_WARN:g} %): no family describes these data; check the "
+                   "readings and R_s, l_s")
+    return out
 
 
 def _float_option(name, raw):
@@ -389,6 +423,8 @@ def run(path, R_s, l_s, out=DEFAULT_OUT, stream=None, copper_tol=None, motor_yam
           + ("" if not rv else f"; fitting the data as well (chi-square within {RIVAL_CHI2:g}): "
              + ", ".join(f"{k} (up to {100 * v:.2g} % off the chosen)" for k, v in rv.items())),
           file=stream)
+    for text in undetermined(pts.i_mu, pts.psi_m, best):
+        print(f"warning: {path}: {text}", file=sys.stderr)
     if pts.i_mu.size < 5:
         print(f"  only {pts.i_mu.size} points: the 3-parameter families are barely determined; "
               "measure 6-10 voltage levels", file=stream)

@@ -63,7 +63,7 @@ class DCLinkParams:
     source's voltage (its default is the controller's default ``ControllerConfig.V_dc``, 540 V: the
     average of a six-pulse bridge on a 400 V grid).  ``C_dc`` [F] > 0, ``R_src`` [Ohm] > 0,
     ``V_grid`` [V] > 0 (line-to-line rms), ``f_grid`` [Hz] > 0, ``R_chop`` [Ohm] >= 0 (0: no chopper),
-    ``V_chop_off`` [V] < ``V_chop_on`` [V] (both > 0, checked when ``R_chop > 0``), ``V_dc_max`` [V]
+    ``V_chop_off`` [V] < ``V_chop_on`` [V] (both > 0, checked also without a chopper), ``V_dc_max`` [V]
     >= 0 (0: no over-voltage check).
     """
 
@@ -86,12 +86,14 @@ class DCLinkParams:
             require_number(name, getattr(self, name), 0)
         require_number("R_chop", self.R_chop, 0, inclusive=True)
         require_number("V_dc_max", self.V_dc_max, 0, inclusive=True)
-        if self.R_chop > 0.0:
-            require_number("V_chop_on", self.V_chop_on, 0)
-            require_number("V_chop_off", self.V_chop_off, 0)
-            if not self.V_chop_off < self.V_chop_on:
-                raise ParameterError("V_chop_off", self.V_chop_off,
-                                     f"must be below V_chop_on = {self.V_chop_on!r} V (the hysteresis)")
+        # the chopper's thresholds are checked without a chopper too (R_chop = 0): an inverted
+        # hysteresis is never accepted silently, to surface when R_chop is set (issue 31)
+        require_number("V_chop_on", self.V_chop_on, 0)
+        require_number("V_chop_off", self.V_chop_off, 0)
+        if not self.V_chop_off < self.V_chop_on:
+            raise ParameterError("V_chop_off", self.V_chop_off,
+                                 f"must be below V_chop_on = {self.V_chop_on!r} V (the hysteresis: the "
+                                 "chopper switches on above V_chop_on and off below V_chop_off)")
 
     @property
     def capacitor(self):

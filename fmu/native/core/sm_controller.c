@@ -77,6 +77,10 @@ int sm_controller_init(sm_controller *u, const sm_controller_params *v, const sm
         return st;
     }
     u->deadtime_comp = v->deadtime_comp_voltage;
+    if ((st = sm_require_integer("max_samples", v->max_samples, 1, msg, msg_len))) {
+        return st;
+    }
+    u->max_samples = v->max_samples;
     u->stop_time = INFINITY;
     u->V_dc = u->link = v->V_dc;
     for (j = 0; j < SM_CONTROLLER_N_OUT; ++j) {
@@ -162,6 +166,14 @@ static int step_samples(sm_controller *u, double t, double dt, const double in[S
     long n, k;
     int st, j;
     n = sm_controller_samples(u, t, dt);
+    if (n > u->max_samples || (n < 0 && dt / u->Ts >= (double)u->max_samples + 0.5 && dt / u->Ts < INFINITY)) {
+        char reason[160], repr[32], drepr[32]; /* bounded work per call: as ControllerUnit.step */
+        (void)snprintf(reason, sizeof reason, "needs %.17g samples of Ts = %s s, more than max_samples = %ld: "
+                       "take shorter communication steps or raise max_samples", floor(dt / u->Ts + 0.5),
+                       sm_repr_double(u->Ts, repr, sizeof repr), u->max_samples);
+        return sm_param_error(msg, msg_len, NULL, "communicationStepSize", sm_repr_double(dt, drepr, sizeof drepr),
+                              reason);
+    }
     if (n < 0) {
         char reason[112], repr[32], drepr[32];
         (void)snprintf(reason, sizeof reason, "must be a whole multiple of the sample period Ts = %s s",

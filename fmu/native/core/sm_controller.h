@@ -25,6 +25,7 @@ typedef struct {
     double V_dc, link; /* [V] the parameter V_dc; the link voltage the drive now uses (the v_dc input) */
     double Ts;
     double deadtime_comp; /* [V] deadtime_comp_voltage (0: off) */
+    long max_samples; /* the parameter max_samples: most samples one step may run (a longer step: refused) */
     double stop_time; /* the host's stop time [s], +inf when it gave none (set after sm_controller_init);
                        * the tests find it just before out */
     double out[SM_CONTROLLER_N_OUT]; /* Integer and Boolean outputs as 0/1 values */
@@ -41,8 +42,8 @@ int sm_controller_init(sm_controller *u, const sm_controller_params *v, const sm
  * accumulated in floating point, clipped to its stop time), -1 for any other step (refused). */
 long sm_controller_samples(const sm_controller *u, double t, double dt);
 /* ControllerUnit.step(t, dt, inputs): sm_controller_samples(t, dt) samples with the same inputs (held
- * over the step); a refused step, non-finite inputs and bad set-points give SM_ERR_PARAM with the
- * message and change nothing. */
+ * over the step); a refused step (also one of more than max_samples samples, refused before any work),
+ * non-finite inputs and bad set-points give SM_ERR_PARAM with the message and change nothing. */
 int sm_controller_step(sm_controller *u, double t, double dt, const double in[SM_CONTROLLER_N_IN], char *msg,
                        size_t msg_len);
 size_t sm_controller_size(void);

@@ -30,16 +30,15 @@ int sm_dclink_init(sm_dclink *l, const sm_dclink_params *pp, char *msg, size_t m
         if (sm_require_number(names[i], vals[i], 1, 0.0, 0, msg, msg_len)) return SM_ERR_PARAM;
     if (sm_require_number("R_chop", pp->R_chop, 1, 0.0, 1, msg, msg_len)) return SM_ERR_PARAM;
     if (sm_require_number("V_dc_max", pp->V_dc_max, 1, 0.0, 1, msg, msg_len)) return SM_ERR_PARAM;
-    if (pp->R_chop > 0.0) {
-        if (sm_require_number("V_chop_on", pp->V_chop_on, 1, 0.0, 0, msg, msg_len)) return SM_ERR_PARAM;
-        if (sm_require_number("V_chop_off", pp->V_chop_off, 1, 0.0, 0, msg, msg_len)) return SM_ERR_PARAM;
-        if (!(pp->V_chop_off < pp->V_chop_on)) {
-            char v[40], on[40], reason[96];
-            snprintf(reason, sizeof reason, "must be below V_chop_on = %s V (the hysteresis)",
-                     sm_repr_double(pp->V_chop_on, on, sizeof on));
-            return sm_param_error(msg, msg_len, NULL, "V_chop_off", sm_repr_double(pp->V_chop_off, v, sizeof v),
-                                  reason);
-        }
+    /* checked without a chopper too (R_chop = 0): an inverted hysteresis is never accepted silently */
+    if (sm_require_number("V_chop_on", pp->V_chop_on, 1, 0.0, 0, msg, msg_len)) return SM_ERR_PARAM;
+    if (sm_require_number("V_chop_off", pp->V_chop_off, 1, 0.0, 0, msg, msg_len)) return SM_ERR_PARAM;
+    if (!(pp->V_chop_off < pp->V_chop_on)) {
+        char v[40], on[40], reason[160];
+        snprintf(reason, sizeof reason, "must be below V_chop_on = %s V (the hysteresis: the chopper switches on "
+                 "above V_chop_on and off below V_chop_off)", sm_repr_double(pp->V_chop_on, on, sizeof on));
+        return sm_param_error(msg, msg_len, NULL, "V_chop_off", sm_repr_double(pp->V_chop_off, v, sizeof v),
+                              reason);
     }
     q.V_dc = pp->V_dc;
     q.C_dc = pp->C_dc;
