@@ -9,7 +9,8 @@ One generator for every native model; nothing below is written by hand in C:
   values), the finiteness check of their Real members ``sm_<s>_params_require_finite``
   (``interface._number``), their sizes ``sm_<s>_params_size`` (for ctypes hosts), per unit the
   input and output counts and names in table order (``SM_<UNIT>_N_IN``,
-  ``SM_<UNIT>_INPUT_NAMES``, ...) and positions (``SM_<UNIT>_IN_<name>``), the measurement vector's
+  ``SM_<UNIT>_INPUT_NAMES``, ...) and positions (``SM_<UNIT>_IN_<name>``; the plant's outputs' too,
+  ``SM_PLANT_OUT_<name>``), the measurement vector's
   layout ``SM_MEAS_*`` (:mod:`satmotor.control.measurements`: ``MEAS_*``, the controller's first
   inputs in their order; the generation fails if they disagree) and the defaults of the core's
   structs of the Python settings
@@ -250,6 +251,8 @@ def core_header():
                   f"extern const char *const SM_{u}_INPUT_NAMES[SM_{u}_N_IN];",
                   f"extern const char *const SM_{u}_OUTPUT_NAMES[SM_{u}_N_OUT];", ""]
         lines += [f"#define SM_{u}_IN_{v.name} {j}" for j, v in enumerate(inputs)] + [""]
+        if unit == "plant":  # the plant unit's outputs by name (sm_plant_unit.c): PLANT_OUTPUTS' order
+            lines += [f"#define SM_{u}_OUT_{v.name} {j}" for j, v in enumerate(outputs)] + [""]
     lines += _meas_enum()
     lines += _choice_header()
     lines += ["#endif", ""]
