@@ -175,8 +175,8 @@ PLANT_PARAMETERS = MOTOR_PARAMETERS + _in_struct("plant", (
     # last: the earlier variables keep their value references
     _v("B_2", "parameter", 0.0, "N m s2/rad2", "quadratic (fan/pump) load: torque B_2 omega_m |omega_m| "
        "opposing motion, >= 0; plant only (the controller sees it as an unknown load)"),
-)) + (
-    # no C struct: the native plant's step (fmu/plant/native_model.c) reads it from its value store
+)) + _in_struct("plant", (
+    # the unit's step limit and plausibility bounds (sm_plant_unit.c reads them from sm_plant_params)
     _v("max_substeps", "parameter", MAX_SUBSTEPS, "1", "most internal RK4 sub-steps one doStep may take, "
        ">= 1: a longer step is discarded naming the step size and this limit (bounds the work per call; "
        "the default is about 1 s of the pythonfmu plant, under 0.1 s of the native one)", "Integer"),
@@ -188,7 +188,7 @@ PLANT_PARAMETERS = MOTOR_PARAMETERS + _in_struct("plant", (
     _v("omega_warn", "parameter", OMEGA_WARN, "rad/s", "mechanical speed |omega_m| (after a step) above "
        "which a warning is logged, once per run (default about 10 x the default motor's synchronous speed, "
        "157 rad/s); 0: no check"),
-) + _in_struct("dclink", (  # the DC link (satmotor.machine.dc_link.DCLinkParams), last
+)) + _in_struct("dclink", (  # the DC link (satmotor.machine.dc_link.DCLinkParams), last
     _v("dc_link", "parameter", _L.dc_link, "", "DC link: " + ", ".join(DC_LINK_MODES) + " (ideal: a constant "
        "V_dc, the command applied as it is; capacitor: C_dc fed by dc_source, |v_s| bounded by v_dc/sqrt(3))",
        "String", DC_LINK_MODES),

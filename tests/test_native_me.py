@@ -44,6 +44,7 @@ ROOT = Path(__file__).resolve().parents[1]
 REFERENCE = ROOT / "reference" / native_me.NAME
 VERSIONS = ("2.0", "3.0")
 STATES = native_me.STATES
+NX = len(STATES)  # eleven, whatever the parameters (the extra ones' derivatives zero when not integrated)
 OUTPUTS = PlantUnit.OUTPUTS
 # the outputs a model-exchange integration is compared on: not v_avg_alpha/beta, which the ME plant gives as
 # the input itself (its average-value inverter) and the co-simulation plant as the last step's average
@@ -79,13 +80,15 @@ class MEPlant:
             self.fmu.instantiate(callbacks=cb)
         self.vr = {v.name: v.valueReference for v in self.md.modelVariables}
         self.types = {v.name: v.type for v in self.md.modelVariables}
-        self.x, self.dx = (c_double * 6)(), (c_double * 6)()
+        self.x, self.dx = (c_double * NX)(), (c_double * NX)()
 
     def set(self, values):
         for name, value in values.items():
             t, vr = self.types[name], [self.vr[name]]
             if t == "String":
                 self.fmu.setString(vr, [value])
+            elif t == "Boolean":
+                self.fmu.setBoolean(vr, [bool(value)])
             elif t in ("Integer", "Int32"):
                 (self.fmu.setInt32 if self.fmi3 else self.fmu.setInteger)(vr, [int(value)])
             else:
@@ -110,15 +113,15 @@ class MEPlant:
         return self.fmu.updateDiscreteStates() if self.fmi3 else self.fmu.newDiscreteStates()
 
     def states(self):
-        self.fmu.getContinuousStates(self.x, 6)
+        self.fmu.getContinuousStates(self.x, NX)
         return list(self.x)
 
     def set_states(self, x):
         self.x[:] = [float(v) for v in x]
-        self.fmu.setContinuousStates(self.x, 6)
+        self.fmu.setContinuousStates(self.x, NX)
 
     def derivatives(self):
-        (self.fmu.getContinuousStateDerivatives if self.fmi3 else self.fmu.getDerivatives)(self.dx, 6)
+        (self.fmu.getContinuousStateDerivatives if self.fmi3 else self.fmu.getDerivatives)(self.dx, NX)
         return list(self.dx)
 
     def close(self):
@@ -133,7 +136,7 @@ def test_both_me_fmus_validate_and_are_model_exchange_only(fmu_dir):
         md = read_model_description(str(path))
         assert md.fmiVersion == version and md.coSimulation is None
         assert md.modelExchange.modelIdentifier == "SaturatedInductionMotorME"
-        assert md.numberOfContinuousStates == 6 and md.numberOfEventIndicators == 0
+        assert md.numberOfContinuousStates == NX and md.numberOfEventIndicators == 0
         assert [d.variable.name for d in md.derivatives] == [f"der({s})" for s in STATES]
         assert [d.variable.derivative.name for d in md.derivatives] == list(STATES)
         cs_variant = "native" if version == "2.0" else "native-fmi3"
@@ -141,18 +144,29 @@ def test_both_me_fmus_validate_and_are_model_exchange_only(fmu_dir):
         # the co-simulation plant's variables, value references and start values, and the derivatives
         same = [(v.name, v.valueReference, v.causality, v.start) for v in cs.modelVariables]
         mine = [(v.name, v.valueReference, v.causality, v.start) for v in md.modelVariables]
-        assert mine[:len(same)] == same and len(mine) == len(same) + 6
-        # outputs depend on states only: no direct feedthrough from an input (no algebraic loop with
-        # the controller in a tool); but the step-average applied voltage, which is the input v_s itself
-        # (the average-value inverter; the controller does not read it)
+        assert mine[:len(same)] == same and len(mine) == len(same) + NX
+        # outputs depend on states only, but: the step-average applied voltage, which is the input v_s
+        # itself (the average-value inverter; the controller does not read it), and the terminal current
+        # and the core loss, which with R_fe > 0 read the stator voltage at the same instant (direct
+        # feedthrough: a tool sees the algebraic loop with a controller that feeds back i_s at once)
         inputs = {v.name for v in md.modelVariables if v.causality == "input"}
         for out in md.outputs:
             assert out.dependencies is not None
             deps = {d.name for d in out.dependencies}
-            if out.variable.name in ("v_avg_alpha", "v_avg_beta"):
-                assert deps == {out.variable.name.replace("v_avg", "v_s")}
+            name = out.variable.name
+            if name in ("v_avg_alpha", "v_avg_beta"):
+                assert deps == {name.replace("v_avg", "v_s")}
+            elif name in ("i_s_alpha", "i_s_beta", "P_fe"):
+                assert deps & inputs == {"v_s_alpha", "v_s_beta"}, name
             else:
-                assert not deps & inputs
+                assert not deps & inputs, name
+            if name in STATES:
+                assert deps == {name}
+        # the initial values of the fed-through outputs read the inputs too (the initial unknowns)
+        fed = [u for u in md.initialUnknowns if u.variable.name in ("i_s_alpha", "i_s_beta", "P_fe")]
+        assert len(fed) == 3
+        for u in fed:
+            assert {"v_s_alpha", "v_s_beta"} <= {d.name for d in u.dependencies}, u.variable.name
 
 
 @pytest.mark.parametrize("version", VERSIONS)
@@ -186,7 +200,10 @@ def test_a_string_parameter_outside_its_choices_is_an_error_naming_them(fmu_dir,
 
 
 def _random_states(rng, n):
-    x = np.empty((n, 6))
+    x = np.empty((n, NX))
+    x[:, 6:8] = rng.uniform(280.0, 420.0, (n, 2))  # T_s, T_r [K]
+    x[:, 8] = rng.uniform(200.0, 700.0, n)  # v_dc [V] (some below the command's need: the bound acts)
+    x[:, 9:11] = rng.uniform(0.0, 2000.0, (n, 2))  # E_regen, E_chop [J]
     x[:, :4] = rng.uniform(-1.6, 1.6, (n, 4))
     x[:, 4] = rng.uniform(-320.0, 320.0, n)
     x[:, 5] = rng.uniform(-10.0, 10.0, n)
@@ -196,16 +213,44 @@ def _random_states(rng, n):
     return x, u
 
 
+NO_LINK_EVENTS = dict(dc_link="capacitor", R_chop=0.0, V_dc_max=0.0, C_dc=470e-6)  # what ME takes of it
+WARM = dict(thermal=True, C_th_s=30.0, C_th_r=12.0, T_s0=330.0, T_r0=320.0)
 CASES = [
     ("default", {}),
     ("exponential+fan", dict(curve="exponential", L_m0=0.33, L_m_inf=0.01, I_par=3.66, B_2=0.002)),
     ("polynomial", dict(curve="polynomial", L_m0=0.3, poly_b=10.0, poly_n=11)),
     ("linear", dict(curve="linear", L_m0=0.1722, n_p=3, J=0.05)),
+    ("R_fe", dict(R_fe=500.0)),
+    ("thermal", WARM),
+    ("R_fe thermal gamma", dict(WARM, R_fe=400.0, l_s=0.0)),
+    ("capacitor", NO_LINK_EVENTS),
+    ("capacitor R_fe thermal rectifier", dict(NO_LINK_EVENTS, **WARM, R_fe=500.0, dc_source="rectifier")),
 ]
+
+
+def python_me(unit, t, xs, us):
+    """What the ME plant must give at time t [s], its eleven states xs and the inputs us, from the
+    Python unit: the derivatives (Plant.derivatives, or DCLink.derivatives with the chopper off; zero
+    for a state the parameter set does not integrate) and the outputs (PlantUnit.outputs with the
+    state set and the input voltage held; a state output is the state)."""
+    plant, link = unit.plant, unit._link
+    idx = list(range(6)) + ([6, 7] if plant.th.thermal else []) + ([8, 9, 10] if link is not None else [])
+    x = [xs[j] for j in idx]
+    d = link.derivatives(t, x, *us, False) if link is not None else plant.derivatives(t, x, *us)
+    der = [0.0] * NX
+    for j, v in zip(idx, d):
+        der[j] = v
+    unit.set_state([*x, *((0.0, 0.0) if link is not None else ()), us[0], us[1]])
+    out = dict(zip(OUTPUTS, unit.outputs()))
+    out.update(zip(STATES, xs))
+    return der, [out[n] for n in OUTPUTS]
 
 
 @pytest.mark.parametrize("version", VERSIONS)
 def test_derivatives_and_outputs_at_random_states_are_the_python_plants_bit_for_bit(fmu_dir, version):
+    """Every continuous option (core loss, the thermal model, the capacitor link without chopper and
+    fault, the rectifier source at a random time): the derivatives and every output of the Python unit
+    to the last bit."""
     rng = np.random.default_rng(21)
     der_names = [f"der({s})" for s in STATES]
     n_values = 0
@@ -213,42 +258,58 @@ def test_derivatives_and_outputs_at_random_states_are_the_python_plants_bit_for_
         me = MEPlant(me_path(fmu_dir, version), label)
         me.initialize(params)
         me.fmu.enterContinuousTimeMode()
-        plant = PlantUnit(params).plant
-        x, u = _random_states(rng, 300)
+        unit = PlantUnit(params)
+        x, u = _random_states(rng, 150)
         for xi, ui in zip(x, u):
             xs, us = [float(v) for v in xi], [float(v) for v in ui]
+            t = float(rng.uniform(0.0, 0.1))
+            me.fmu.setTime(t)
             me.set(dict(zip(("v_s_alpha", "v_s_beta", "T_load"), us)))
             me.set_states(xs)
-            want = list(plant.derivatives(0.0, xs, *us))
-            assert me.derivatives() == want, (label, xs, us)
-            assert me.get(der_names) == want  # the derivative variables too
-            o = plant.outputs(xs)
-            link = (PlantUnit(params).link.V_dc, 0.0, 0.0, 0.0)  # v_dc, E_regen, E_chop, dc_fault: ideal
-            want = [o.i_s_alpha, o.i_s_beta, *xs, o.T_e, o.i_mu, *link, *o[10:], *us[:2]]  # P_fe.. v_avg
-            assert me.get(OUTPUTS) == want, (label, xs)
+            der, out = python_me(unit, t, xs, us)
+            assert me.derivatives() == der, (label, xs, us)
+            assert me.get(der_names) == der  # the derivative variables too
+            assert me.get(OUTPUTS) == out, (label, xs)
             assert me.states() == xs
-            n_values += 6
+            # an input set alone: the outputs follow it at once (R_fe: direct feedthrough)
+            us2 = [us[0] * 0.5, -us[1], us[2]]
+            me.set(dict(zip(("v_s_alpha", "v_s_beta", "T_load"), us2)))
+            assert me.get(OUTPUTS) == python_me(unit, t, xs, us2)[1], (label, xs)
+            n_values += NX
         me.close()
     print(f"FMI {version}: {n_values} derivatives equal to the Python plant's bit for bit")
 
 
 @pytest.mark.parametrize("version", VERSIONS)
-def test_a_capacitor_dc_link_is_refused_with_its_reason(fmu_dir, version):
-    """The ME plant has the motor's six states only: dc_link = capacitor (the co-simulation plant's DC
-    link, satmotor/machine/dc_link.py) is an error at initialization naming the parameter."""
+@pytest.mark.parametrize("params, want", [
+    ({"dc_link": "capacitor", "R_chop": 40.0, "V_chop_on": 750.0, "V_chop_off": 720.0},
+     "R_chop = 40.0: the model-exchange plant SaturatedInductionMotorME has no brake chopper (it switches "
+     "with hysteresis"),
+    ({"dc_link": "capacitor"}, "V_dc_max = 800.0: the model-exchange plant SaturatedInductionMotorME has no "
+     "over-voltage fault (latched"),
+])
+def test_the_capacitor_links_switching_parts_are_refused_with_their_reason(fmu_dir, version, params, want):
+    """What switches in the capacitor link (satmotor/machine/dc_link.py) needs events the ME plant does
+    not have: the brake chopper's hysteresis and the latched over-voltage fault are errors at
+    initialization naming the parameter and what to set; without them the link is taken."""
     me = MEPlant(me_path(fmu_dir, version))
     with pytest.raises(FMICallException):
-        me.initialize({"dc_link": "capacitor"})
+        me.initialize(params)
     text = " ".join(m for _, m in me.log)
-    assert "dc_link = 'capacitor': the model-exchange plant has the motor's six states only" in text, text
+    assert want in text, text
+    me.fmu.freeInstance()
+    good = MEPlant(me_path(fmu_dir, version), "continuous link")
+    good.initialize({**params, "R_chop": 0.0, "V_dc_max": 0.0})
+    assert good.states()[8:] == [PlantUnit({}).link.V_dc, 0.0, 0.0]
+    good.close()
 
 
 @pytest.mark.parametrize("version", VERSIONS)
 def test_event_mode_calls_of_a_model_without_events(fmu_dir, version):
     me = MEPlant(me_path(fmu_dir, version))
-    nominal = (c_double * 6)()
-    me.fmu.getNominalsOfContinuousStates(nominal, 6)  # constants: also before initialization
-    assert list(nominal) == [1.0] * 6
+    nominal = (c_double * NX)()
+    me.fmu.getNominalsOfContinuousStates(nominal, NX)  # constants: also before initialization
+    assert list(nominal) == [1.0] * 6 + [300.0, 300.0, 500.0, 1000.0, 1000.0]
     me.initialize({"psi_r0": 0.8, "omega_m0": 10.0})
     x0 = me.states()
     assert x0[2] == 0.8 and x0[4] == 10.0 and x0[0] > 0.8  # the magnetized start of the CS plant
@@ -269,7 +330,7 @@ def test_event_mode_calls_of_a_model_without_events(fmu_dir, version):
         me.fmu.getEventIndicators(z, 1)
     with pytest.raises(FMICallException):
         me.fmu.getContinuousStates(me.x, 5)
-    assert "5 values, the model has 6" in me.log[-1][1]
+    assert f"5 values, the model has {NX}" in me.log[-1][1]
     # an input event as fmpy handles one: event mode, the new input, the update, back
     me.fmu.enterEventMode()
     me.set({"T_load": 5.0})
@@ -309,7 +370,7 @@ def test_fmu_state_of_the_me_plant_restores_its_states_bit_for_bit(fmu_dir, vers
     me.initialize({"psi_r0": 0.7})
     me.fmu.enterContinuousTimeMode()
     if me.fmi3:
-        assert (me.fmu.getNumberOfContinuousStates(), me.fmu.getNumberOfEventIndicators()) == (6, 0)
+        assert (me.fmu.getNumberOfContinuousStates(), me.fmu.getNumberOfEventIndicators()) == (NX, 0)
     me.set({"v_s_alpha": 300.0, "v_s_beta": -20.0, "T_load": 3.0})
     x0 = me.states()
     dx0 = me.derivatives()
@@ -367,6 +428,46 @@ def test_cvode_integrates_the_me_plant_to_the_reference(fmu_dir, version):
     print(f"FMI {version} ME plant, CVode rtol {opts['RelTol']}: max relative error {dev:.3g} ({worst})")
     assert dev < TARGET
     assert ref["omega_m"][-1] > 140.0 and max(ref["i_mu"]) > 5.0  # the start and the knee were run
+
+
+# the ME plant's options against the co-simulation plant: the states and what depends on the states only
+# (the terminal current and P_fe read the voltage of the instant with R_fe: at a sample the co-simulation
+# plant gives them at the voltage held over the step that ended, the ME plant at the new input)
+OPTIONS_COMPARED = tuple(n for n in COMPARED if n not in ("i_s_alpha", "i_s_beta", "P_fe"))
+OPTIONS_TARGET = 1e-6  # relative error (of each column's largest magnitude) under CVode at rtol 1e-10
+
+
+@pytest.mark.parametrize("version", VERSIONS)
+@pytest.mark.parametrize("label", ["R_fe thermal", "capacitor R_fe thermal"])
+def test_cvode_integrates_the_me_plant_with_its_options_to_the_co_simulation_plant(fmu_dir, version, label):
+    """Core loss and the thermal model (a hot, light motor: the temperatures move), with and without the
+    capacitor link (no chopper, no fault), the first 0.05 s of the direct-on-line start: fmpy's CVode
+    over the ME plant against the native co-simulation plant at the reference's small RK4 step."""
+    params = dict(WARM, R_fe=500.0, C_th_s=3.0, C_th_r=1.2)
+    params.update(NO_LINK_EVENTS if "capacitor" in label else {})
+    inputs = read_csv(REFERENCE / f"{native_me.NAME}_in.csv")
+    inputs = inputs[inputs["time"] <= 0.05]
+    cs = simulate_fmu(str(fmus.paths(fmu_dir, "native")[0]), stop_time=0.05, output_interval=1e-4,
+                      input=inputs, output=list(OPTIONS_COMPARED),
+                      start_values={**params, "h_int": reference_results.ME_H_INT})
+    res = simulate_fmu(str(me_path(fmu_dir, version)), stop_time=0.05, output_interval=1e-4, solver="CVode",
+                       relative_tolerance=1e-10, input=inputs, output=list(OPTIONS_COMPARED),
+                       start_values=params, record_events=False)
+    assert len(res) == len(cs)
+    energies = ("E_regen", "E_chop")
+    dev, worst = _deviation(res, cs, [n for n in OPTIONS_COMPARED if n not in energies])
+    print(f"FMI {version} ME plant ({label}), CVode rtol 1e-10 vs co-simulation: {dev:.3g} ({worst})")
+    assert dev < OPTIONS_TARGET
+    # the link's energy counters integrate max(0, -p_inv) (a kink where the power changes sign, at which
+    # the co-simulation plant's fixed-step RK4 is first order): against the energy the capacitor holds
+    stored = 0.5 * NO_LINK_EVENTS["C_dc"] * PlantUnit({}).link.V_dc ** 2
+    for n in energies:
+        err = float(np.max(np.abs(res[n] - cs[n])))
+        print(f"  {n}: {err:.3g} J of the capacitor's {stored:.3g} J")
+        assert err < OPTIONS_TARGET * stored, n
+    assert cs["T_s"][-1] - cs["T_s"][0] > 0.1  # the stator heated
+    if "capacitor" in label:
+        assert cs["v_dc"][0] - min(cs["v_dc"]) > 2.0  # the link voltage sagged (the start's current)
 
 
 # ---- the closed loop ---------------------------------------------------------------------------------
@@ -427,15 +528,15 @@ def _rk4(me, t, h):
     half, sixth = 0.5 * h, h / 6.0
     me.fmu.setTime(t)
     k1 = me.derivatives()
-    me.set_states([x[i] + half * k1[i] for i in range(6)])
+    me.set_states([x[i] + half * k1[i] for i in range(NX)])
     me.fmu.setTime(t + half)
     k2 = me.derivatives()
-    me.set_states([x[i] + half * k2[i] for i in range(6)])
+    me.set_states([x[i] + half * k2[i] for i in range(NX)])
     k3 = me.derivatives()
-    me.set_states([x[i] + h * k3[i] for i in range(6)])
+    me.set_states([x[i] + h * k3[i] for i in range(NX)])
     me.fmu.setTime(t + h)
     k4 = me.derivatives()
-    me.set_states([x[i] + sixth * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]) for i in range(6)])
+    me.set_states([x[i] + sixth * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]) for i in range(NX)])
     assert me.fmu.completedIntegratorStep() == (False, False)
 
 
@@ -447,7 +548,7 @@ class _CVode:
         from fmpy.sundials import CVodeSolver
 
         fmu = me.fmu
-        self.solver = CVodeSolver(nx=6, nz=0, get_x=fmu.getContinuousStates, set_x=fmu.setContinuousStates,
+        self.solver = CVodeSolver(nx=NX, nz=0, get_x=fmu.getContinuousStates, set_x=fmu.setContinuousStates,
                                   get_dx=fmu.getDerivatives, get_z=fmu.getEventIndicators,
                                   get_nominals=fmu.getNominalsOfContinuousStates, set_time=fmu.setTime,
                                   input=None, startTime=0.0, maxStep=1e-4, relativeTolerance=1e-10,

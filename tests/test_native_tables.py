@@ -36,7 +36,7 @@ def _value(struct, name, type_):
     return v.decode() if type_ == "String" else v
 
 
-PLANT_OWN = [v for v in itf.PLANT_PARAMETERS if v.c_struct == "plant"]  # max_substeps has no struct
+PLANT_OWN = [v for v in itf.PLANT_PARAMETERS if v.c_struct == "plant"]
 CONTROLLER_OWN = [v for v in itf.CONTROLLER_PARAMETERS if v.c_struct == "controller"]  # in member order
 
 

@@ -305,28 +305,19 @@ def test_resistance_follows_the_temperature():
 
 @pytest.mark.parametrize("version", ["2.0", "3.0"])
 @pytest.mark.parametrize("param", ["R_fe", "thermal"])
-def test_the_model_exchange_plant_refuses_core_loss_and_the_thermal_model(fmu_dir, version, param):
-    """No R_fe or thermal in model exchange (i_s would depend on v_s; two more states): an error at
-    initialization naming the parameter, not a crash."""
-    from fmpy.fmi1 import FMICallException
-    from test_native_me import MEPlant, me_path
+def test_the_model_exchange_plant_takes_core_loss_and_the_thermal_model(fmu_dir, version, param):
+    """R_fe and the thermal model in model exchange: initialized, the initial outputs PlantUnit's (the
+    terminal current with R_fe at the input voltage, the temperatures T_s0, T_r0 as states)."""
+    from test_native_me import OUTPUTS, MEPlant, me_path
 
+    values = {"R_fe": 500.0, "psi_r0": 0.8} if param == "R_fe" else {"thermal": True, "T_s0": 330.0}
     me = MEPlant(me_path(fmu_dir, version))
-    if not me.fmi3:
-        me.fmu.setupExperiment(startTime=0.0)
-    if param == "R_fe":
-        me.set({"R_fe": 500.0})
-    else:
-        me.fmu.setBoolean([me.vr["thermal"]], [True])
-    with pytest.raises(FMICallException):
-        if me.fmi3:
-            me.fmu.enterInitializationMode(startTime=0.0)
-        else:
-            me.fmu.enterInitializationMode()
-        me.fmu.exitInitializationMode()
-    want = ("R_fe = 500.0" if param == "R_fe" else "thermal = true") + ": the model-exchange plant"
-    assert any(want in msg for _, msg in me.log), me.log
-    me.fmu.freeInstance()
+    me.initialize({**values, "v_s_alpha": 120.0, "v_s_beta": -40.0})
+    unit = PlantUnit(values)
+    unit.set_state([*unit.x, 120.0, -40.0])
+    assert me.get(OUTPUTS) == list(unit.outputs())
+    assert me.states()[6:8] == ([330.0, 293.15] if param == "thermal" else [293.15, 293.15])
+    me.close()
 
 
 def _simpson(f0, f1, f2, h):

@@ -77,6 +77,8 @@ SI_UNITS = {
     # issue 19: core loss and the thermal model
     "W": {"kg": 1, "m": 2, "s": -3},
     "K": {"K": 1},
+    "K/s": {"K": 1, "s": -1},  # the model-exchange plant's der(T_s), der(T_r)
+    "V/s": {"kg": 1, "m": 2, "s": -4, "A": -1},  # its der(v_dc)
     "1/K": {"K": -1},
     "J/K": {"kg": 1, "m": 2, "s": -2, "K": -1},
     "K/W": {"kg": -1, "m": -2, "s": 3, "K": 1},

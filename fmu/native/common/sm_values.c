@@ -32,6 +32,9 @@ fg_status fg_model_set_real(fg_instance *inst, void *data, uint32_t vr, double v
         return FG_ERROR;
     }
     ((sm_values *)data)->r[vr] = value;
+#ifdef FG_MODEL_EXCHANGE
+    if (FG_MODEL_VARIABLES[vr].kind == FG_INPUT) sm_model_input_changed(inst, data);
+#endif
     return FG_OK;
 }
 

@@ -15,4 +15,10 @@
  * base name.  FG_ERROR, with a message naming the parameter, when the resolved path does not fit. */
 fg_status sm_resolve_file(fg_instance *inst, const char *name, char *path, size_t cap);
 
+#ifdef FG_MODEL_EXCHANGE
+/* A model-exchange model's outputs may depend on its inputs at the same instant (direct feedthrough):
+ * every set of a Real input calls this (the model implements it) to bring them up to date. */
+void sm_model_input_changed(fg_instance *inst, void *data);
+#endif
+
 #endif

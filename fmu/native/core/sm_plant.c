@@ -74,10 +74,15 @@ int sm_motor_init(sm_motor *p, const sm_motor_params *m, const sm_plant_params *
     if (sm_require_number("J", m->J, 1, 0.0, 0, msg, msg_len)) return SM_ERR_PARAM;
     if (sm_require_integer("n_p", m->n_p, 1, msg, msg_len)) return SM_ERR_PARAM;
     if (sm_require_number("B", m->B, 1, 0.0, 1, msg, msg_len)) return SM_ERR_PARAM;
-    /* PlantUnit: _number of omega_m0, psi_r0, h_int, B_2, then the bounds */
+    /* PlantUnit: _number of the plant's own Real parameters, then the bounds */
     if (sm_plant_params_require_finite(pp, msg, msg_len)) return SM_ERR_PARAM;
     if (sm_require_number("psi_r0", pp->psi_r0, 1, 0.0, 1, msg, msg_len)) return SM_ERR_PARAM;
     if (sm_require_number("h_int", pp->h_int, 1, 0.0, 0, msg, msg_len)) return SM_ERR_PARAM;
+    /* the unit's step limit and plausibility bounds (sm_plant_unit.c uses them) */
+    if (sm_require_integer("max_substeps", pp->max_substeps, 1, msg, msg_len)) return SM_ERR_PARAM;
+    if (sm_require_number("v_warn", pp->v_warn, 1, 0.0, 1, msg, msg_len)) return SM_ERR_PARAM;
+    if (sm_require_number("i_warn", pp->i_warn, 1, 0.0, 1, msg, msg_len)) return SM_ERR_PARAM;
+    if (sm_require_number("omega_warn", pp->omega_warn, 1, 0.0, 1, msg, msg_len)) return SM_ERR_PARAM;
     if (sm_require_number("B_2", pp->B_2, 1, 0.0, 1, msg, msg_len)) return SM_ERR_PARAM;
     if (sm_require_number("R_fe", pp->R_fe, 1, 0.0, 1, msg, msg_len)) return SM_ERR_PARAM;
     if ((st = thermal_check(pp, msg, msg_len)) != SM_CORE_OK) return st;

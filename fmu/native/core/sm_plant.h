@@ -35,8 +35,9 @@ typedef struct {
 
 /* The checks of PlantUnit(values) in its order: finiteness of every flat Real parameter
  * (interface._number, in the order of PLANT_PARAMETERS), make_curve, MotorParams, psi_r0 >= 0,
- * h_int > 0, B_2 >= 0, then the initial state.  m: the motor parameters (MOTOR_PARAMETERS); pp: the
- * plant's own (omega_m0, psi_r0, h_int, B_2), NULL for their defaults (the controller's model of the
+ * h_int > 0, max_substeps >= 1, v_warn, i_warn, omega_warn >= 0, B_2 >= 0, R_fe >= 0, the thermal
+ * parameters, then the initial state.  m: the motor parameters (MOTOR_PARAMETERS); pp: the
+ * plant's own (sm_plant_params), NULL for their defaults (the controller's model of the
  * motor).  Returns SM_CORE_OK, SM_ERR_PARAM (msg: the ParameterError text), SM_ERR_NOCONV (the
  * initial state's inverse curve did not converge), SM_ERR_ARG (p or m NULL). */
 int sm_motor_init(sm_motor *p, const sm_motor_params *m, const sm_plant_params *pp, char *msg, size_t msg_len);
