@@ -7,7 +7,8 @@ from __future__ import annotations
 
 import ctypes
 
-from native_core import D, DCLinkParams, I, MotorParams, P, PlantParams, S, params
+import native_core
+from native_core import DCLinkParams, MotorParams, PlantParams, params
 
 from satmotor.interface import PLANT_INPUTS, PLANT_OUTPUTS
 
@@ -24,27 +25,9 @@ class CUnitError(Exception):
 
 
 def declare(lib):
-    """The unit's signatures on the core library ``lib`` (once); returns lib."""
-    if getattr(lib, "_plant_unit_declared", False):
-        return lib
-    v = ctypes.c_void_p
-    sig = {
-        "sm_plant_unit_size": (S, []),
-        "sm_plant_unit_offsets": (None, [ctypes.POINTER(S)]),
-        "sm_plant_unit_init": (I, [v, ctypes.POINTER(MotorParams), ctypes.POINTER(PlantParams),
-                                   ctypes.POINTER(DCLinkParams), ctypes.c_char_p, S]),
-        "sm_plant_unit_step": (I, [v, D, D, P, ctypes.c_char_p, S]),
-        "sm_plant_unit_publish": (None, [v]),
-        "sm_plant_unit_derivatives": (I, [v, D, P, P, P]),
-        "sm_plant_unit_state_size": (S, [v]),
-        "sm_plant_unit_get_state": (S, [v, P, S]),
-        "sm_plant_unit_set_state": (I, [v, P, S]),
-    }
-    for name, (res, args) in sig.items():
-        f = getattr(lib, name)
-        f.restype, f.argtypes = res, args
-    lib._plant_unit_declared = True
-    return lib
+    """The unit's signatures on the core library ``lib``, read from its header (native_core.declare:
+    none typed here); returns lib."""
+    return native_core.declare(lib)
 
 
 class CPlantUnit:
@@ -53,7 +36,7 @@ class CPlantUnit:
     def __init__(self, lib, values):
         self.lib = declare(lib)
         self.buf = (ctypes.c_double * ((lib.sm_plant_unit_size() + 7) // 8))()  # 8-byte aligned, zeroed
-        off = (S * 3)()
+        off = (ctypes.c_size_t * 3)()
         lib.sm_plant_unit_offsets(off)
         self._off = tuple(off)
         self._msg = ctypes.create_string_buffer(MSG_LEN)
