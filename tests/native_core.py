@@ -96,6 +96,7 @@ def declare(lib):
         "sm_inductance_matrix": (None, [D, D, D, D, D, P, P, P]),
         "sm_hypot": (D, [D, D]),
         "sm_atan": (D, [D]),
+        "sm_atan2": (D, [D, D]),
         "sm_curve_size": (S, []),
         "sm_motor_size": (S, []),
         "sm_repr_double": (ctypes.c_char_p, [D, ctypes.c_char_p, S]),

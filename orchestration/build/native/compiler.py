@@ -300,7 +300,7 @@ def build_once(cache_dir, name, inputs, build, text=""):
     from orchestration.build.native import tables as native_tables
 
     h = hashlib.sha256(text.encode())
-    for f in (*inputs, *sorted(GLUE_DIR.glob("*.[ch]")), Path(__file__), Path(native_tables.__file__)):
+    for f in (*inputs, *sorted(GLUE_DIR.glob("*.[ch]")), Path(__file__), *native_tables.GENERATOR_FILES):
         h.update(Path(f).name.encode() + b"\0" + Path(f).read_bytes() + b"\0")
     d = Path(cache_dir) / h.hexdigest()[:24]
     fmu = d / name
