@@ -106,6 +106,28 @@ def test_every_shipped_binary_declares_its_minimum(fmu_dir_all_platforms):
     assert seen == {"macho": 8, "elf": 4, "pe": 4}, seen
 
 
+@pytest.mark.slow
+def test_hosts_names_every_dll_the_windows_binaries_import(fmu_dir, fmu_dir_all_platforms):
+    """docs/hosts.md names every DLL the shipped Windows binaries import (read from the binaries: the
+    pythonfmu ones from its wheel, the native ones as zig builds them); the UCRT's api sets by their
+    prefix."""
+    hosts = (ROOT / "docs" / "hosts.md").read_text()
+    fmus_ = [*sorted(fmu_dir.glob("*.fmu")), *sorted((fmu_dir_all_platforms / "native").glob("*.fmu")),
+             *sorted((fmu_dir_all_platforms / "native-fmi3").glob("*.fmu"))]
+    seen = set()
+    for fmu in fmus_:
+        for name, data in _binaries(fmu).items():
+            if name.endswith(".dll"):
+                imports = pe_min_os(data)["imports"]
+                seen.update(imports)
+                named = [i for i in imports if not i.startswith("api-ms-win-crt-")]
+                missing = [i for i in named if f"`{i}`" not in hosts]
+                assert not missing, (fmu.name, name, missing)
+    expected = {"python3.dll", "MSVCP140.dll", "VCRUNTIME140.dll", "VCRUNTIME140_1.dll", "KERNEL32.dll"}
+    assert expected <= seen, seen
+    assert "`api-ms-win-crt-*`" in hosts
+
+
 def test_readme_and_hosts_state_the_minimum_of_every_binary():
     readme = (ROOT / "README.md").read_text()
     hosts = (ROOT / "docs" / "hosts.md").read_text()
