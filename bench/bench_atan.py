@@ -29,6 +29,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
+from orchestration.build.native import atan_tables  # noqa: E402
 from satmotor.machine.atan import atan  # noqa: E402
 from satmotor.machine.magnetics import ArctanCurve  # noqa: E402
 
@@ -92,7 +93,9 @@ def c_times(rounds):
         src, exe = Path(tmp) / "harness.c", Path(tmp) / "harness"
         src.write_text(HARNESS)
         cc = os.environ.get("CC", "cc")
-        flags = ["-std=c99", "-O2", "-ffp-contract=off", "-Wall", "-Wextra", "-Werror", f"-I{core}"]
+        atan_tables.write(Path(tmp))  # sm_atan_tables.h, generated from satmotor/machine/atan.py
+        flags = ["-std=c99", "-O2", "-ffp-contract=off", "-Wall", "-Wextra", "-Werror",
+                 f"-I{core}", f"-I{tmp}"]
         subprocess.run([cc, *flags, str(src), str(core / "sm_atan.c"), "-o", str(exe), "-lm"], check=True)
         out = subprocess.run([str(exe), str(rounds)], check=True, capture_output=True, text=True).stdout
     return [float(v) for v in out.split()]

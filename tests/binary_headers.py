@@ -16,6 +16,7 @@ import re
 import struct
 
 MH_MAGIC_64 = 0xFEEDFACF
+FAT_MAGIC = 0xCAFEBABE  # a universal Mach-O: big-endian header and fat_arch table
 LC_BUILD_VERSION = 0x32
 LC_VERSION_MIN_MACOSX = 0x24
 PLATFORM_MACOS = 1
@@ -24,6 +25,26 @@ CPU = {0x01000007: "x86_64", 0x0100000C: "arm64"}
 
 def _version(packed):
     return (packed >> 16, (packed >> 8) & 0xFF, packed & 0xFF)
+
+
+def macho_slices(data: bytes) -> list[tuple[str, int, bytes]]:
+    """The thin Mach-O files of a universal one as ``(cpu, align, bytes)`` in the table's order
+    (``fat_header``: magic, nfat_arch; ``fat_arch``: cputype, cpusubtype, offset, size, align, all
+    big-endian uint32); a thin Mach-O is its own one slice.  Raises ValueError on a slice outside
+    the file, misaligned, or whose own header names another cpu."""
+    if struct.unpack_from(">I", data, 0)[0] != FAT_MAGIC:
+        return [(macho_min_os(data)["cpu"], 0, data)]
+    (n,) = struct.unpack_from(">I", data, 4)
+    out = []
+    for j in range(n):
+        cputype, _, offset, size, align = struct.unpack_from(">iiIII", data, 8 + 20 * j)
+        if offset % (1 << align) or offset + size > len(data):
+            raise ValueError(f"slice {j}: offset {offset}, size {size}, align 2**{align}, file {len(data)} B")
+        thin = data[offset:offset + size]
+        if struct.unpack_from("<i", thin, 4)[0] != cputype:
+            raise ValueError(f"slice {j}: the table says cputype {cputype:#x}, the slice's header another")
+        out.append((CPU.get(cputype, hex(cputype)), align, thin))
+    return out
 
 
 def macho_min_os(data: bytes) -> dict:

@@ -126,11 +126,19 @@ def fmu_dir(tmp_path_factory):
 def fmu_dir_all_platforms(tmp_path_factory):
     """The distributable FMUs (``build --all-platforms``: the native ones for Linux, Windows and macOS,
     cross-compiled with zig), built once per run, only for the tests that use them; skipped without zig.
-    On a fresh machine zig first compiles its MinGW and macOS C runtimes: minutes."""
+    On a fresh machine zig first compiles its MinGW and macOS C runtimes: minutes.  In
+    $SATMOTOR_TEST_FMUS_ALL when set (rebuilt there only when missing or stale), as $SATMOTOR_TEST_FMUS."""
     from orchestration.build import fmus
     from orchestration.build.native import compiler as native_build
 
     if not native_build.zig_available():
         pytest.skip("zig is not installed (pip install ziglang, in the native and dev extras)")
+    given = os.environ.get(FMU_DIR_VARIABLE + "_ALL")
+    if given:
+        d = Path(given).resolve()
+        with _locked(d.parent / f".{d.name}.lock"):
+            if not fmus.up_to_date(d, all_platforms=True):
+                fmus.build(d, quiet=True, all_platforms=True)
+        return d
     return _once_per_run(tmp_path_factory, "fmus_all_platforms",
                          lambda d: fmus.build(d, quiet=True, all_platforms=True))

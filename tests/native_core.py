@@ -18,6 +18,7 @@ from pathlib import Path
 
 import c_binding
 
+from orchestration.build.native import atan_tables
 from orchestration.build.native import tables as native_tables
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -75,7 +76,8 @@ def build(extra_flags=(), out_dir=None):
     env_flags = os.environ.get("SM_CORE_EXTRA_CFLAGS", "").split()  # e.g. "-O3 -march=native"
     flags = [*FLAGS, *env_flags, *extra_flags]
     name = "libsmcore_san.so" if extra_flags else "libsmcore.so"
-    generated = {"sm_params.h": native_tables.core_header(), "sm_params.c": native_tables.core_source()}
+    generated = {"sm_params.h": native_tables.core_header(), "sm_params.c": native_tables.core_source(),
+                 "sm_atan_tables.h": atan_tables.atan_header()}
     if out_dir is not None:
         return _compile(gcc, flags, Path(out_dir), Path(out_dir) / name, generated)
     key = hashlib.sha256("\0".join([gcc, *flags]).encode())

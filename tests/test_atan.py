@@ -3,7 +3,7 @@
 Against independent values: the exact arc tangent computed here in 60-digit decimal arithmetic
 (argument halving and the Taylor series, pi from Machin's formula), the tables' entries and the
 polynomial's coefficients from the same, and the platform's ``math.atan`` over 10^6 points.  The C
-function against the Python bit for bit (ctypes), and the C source's table literals against the
+function against the Python bit for bit (ctypes), and the generated C header's table literals against the
 Python's.  The arctan curve: its solve (which writes the atan's main branch out) and its evaluate (one
 atan for psi, m, dm_dI) against the generic ones, and the C curve against the Python, bit for bit;
 its solve with the own atan against the same Newton iteration written here with ``math.atan``: the
@@ -29,6 +29,8 @@ from satmotor.machine.magnetics import ArctanCurve, _Curve
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import native_core as nc  # noqa: E402
+
+from orchestration.build.native import atan_tables  # noqa: E402
 
 SOURCE = Path(__file__).resolve().parents[1] / "fmu" / "native" / "core" / "sm_atan.c"
 DIGITS = 60
@@ -175,8 +177,10 @@ def test_c_equals_python_bit_for_bit():
                      f"Python {atan(bad[0])!r}")
 
 
-def test_the_c_source_holds_the_python_tables():
-    text = SOURCE.read_text()
+def test_the_generated_c_header_holds_the_python_tables(tmp_path):
+    """The C reads its tables from sm_atan_tables.h, generated from atan.py: parsed back here, the
+    same doubles; sm_atan.c itself holds no table literal (written once)."""
+    text = atan_tables.write(tmp_path).read_text()
     hexfloat = r"-?0x[0-9a-f]+\.[0-9a-f]+p[+-]\d+"
 
     def table(name, n):
@@ -189,6 +193,9 @@ def test_the_c_source_holds_the_python_tables():
     coef = tuple(float.fromhex(re.search(rf"#define SM_ATAN_C{n} \(?({hexfloat})\)?", text).group(1))
                  for n in range(1, 8))
     assert coef == COEFFICIENTS
+    source = SOURCE.read_text()
+    assert '#include "sm_atan_tables.h"' in source
+    assert not re.search(hexfloat, source), "a hexadecimal literal in sm_atan.c: it belongs in atan.py"
 
 
 def _solve_with_math_atan(curve, a, c):

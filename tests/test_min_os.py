@@ -20,7 +20,7 @@ import pytest
 from orchestration.build.native import compiler as native_build
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from binary_headers import elf_glibc_versions, macho_min_os, pe_min_os  # noqa: E402
+from binary_headers import elf_glibc_versions, macho_min_os, macho_slices, pe_min_os  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 MACOS = {"darwin64": "x86_64", "aarch64-darwin": "arm64"}
@@ -57,6 +57,20 @@ def test_the_header_readers_read_what_they_should():
         macho_min_os(b"\x7fELF" + bytes(60))
 
 
+def test_the_universal_macho_holds_both_slices_aligned():
+    """compiler.fat_macho of two hand-made thin headers, read back by the independent reader."""
+    import struct
+    thin = [struct.pack("<Iii", 0xFEEDFACF, cpu, 3) + bytes(n)
+            for cpu, n in ((0x01000007, 100), (0x0100000C, 20000))]
+    fat = native_build.fat_macho(thin)
+    assert struct.unpack_from(">II", fat, 0) == (0xCAFEBABE, 2)
+    slices = macho_slices(fat)
+    assert [(cpu, align) for cpu, align, _ in slices] == [("x86_64", 14), ("arm64", 14)]
+    assert [data for _, _, data in slices] == thin
+    assert struct.unpack_from(">iiIII", fat, 8) == (0x01000007, 3, 16384, 112, 14)
+    assert struct.unpack_from(">iiIII", fat, 28) == (0x0100000C, 3, 32768, 20012, 14)
+
+
 def _binaries(fmu):
     with zipfile.ZipFile(fmu) as z:
         return {n: z.read(n) for n in z.namelist() if n.startswith("binaries/") and not n.endswith("/")}
@@ -70,9 +84,15 @@ def test_every_shipped_binary_declares_its_minimum(fmu_dir_all_platforms):
         for name, data in _binaries(fmu).items():
             where = f"{fmu.parent.name}/{fmu.name}:{name}"
             if name.endswith(".dylib"):
-                info = macho_min_os(data)
-                assert info["minos"] == (11, 0, 0), (where, info)
-                seen["macho"] += 1
+                slices = macho_slices(data)
+                cpus = [cpu for cpu, _, _ in slices]
+                want = ["x86_64", "arm64"] if name.startswith("binaries/darwin64/") else \
+                    [MACOS[name.split("/")[1].replace("x86_64-darwin", "darwin64")]]
+                assert cpus == want, (where, cpus)  # FMI 2.0's darwin64: universal, as the Reference-FMUs
+                for cpu, _, thin in slices:
+                    info = macho_min_os(thin)
+                    assert info["cpu"] == cpu and info["minos"] == (11, 0, 0), (where, info)
+                    seen["macho"] += 1
             elif name.endswith(".so"):
                 versions = elf_glibc_versions(data)
                 assert versions and max(versions) <= GLIBC_MAX, (where, versions)
@@ -82,7 +102,30 @@ def test_every_shipped_binary_declares_its_minimum(fmu_dir_all_platforms):
                 assert info["os"] == WINDOWS_PE and info["subsystem"] == WINDOWS_PE, (where, info)
                 assert any(i.startswith("api-ms-win-crt-") for i in info["imports"]), (where, info)
                 seen["pe"] += 1
-    assert seen == {"macho": 6, "elf": 4, "pe": 4}, seen  # darwin64 in both versions, aarch64 in FMI 3.0
+    # Mach-O slices: FMI 2.0's universal darwin64 (x86_64 and arm64) and FMI 3.0's two thin ones, per FMU
+    assert seen == {"macho": 8, "elf": 4, "pe": 4}, seen
+
+
+@pytest.mark.slow
+def test_hosts_names_every_dll_the_windows_binaries_import(fmu_dir, fmu_dir_all_platforms):
+    """docs/hosts.md names every DLL the shipped Windows binaries import (read from the binaries: the
+    pythonfmu ones from its wheel, the native ones as zig builds them); the UCRT's api sets by their
+    prefix."""
+    hosts = (ROOT / "docs" / "hosts.md").read_text()
+    fmus_ = [*sorted(fmu_dir.glob("*.fmu")), *sorted((fmu_dir_all_platforms / "native").glob("*.fmu")),
+             *sorted((fmu_dir_all_platforms / "native-fmi3").glob("*.fmu"))]
+    seen = set()
+    for fmu in fmus_:
+        for name, data in _binaries(fmu).items():
+            if name.endswith(".dll"):
+                imports = pe_min_os(data)["imports"]
+                seen.update(imports)
+                named = [i for i in imports if not i.startswith("api-ms-win-crt-")]
+                missing = [i for i in named if f"`{i}`" not in hosts]
+                assert not missing, (fmu.name, name, missing)
+    expected = {"python3.dll", "MSVCP140.dll", "VCRUNTIME140.dll", "VCRUNTIME140_1.dll", "KERNEL32.dll"}
+    assert expected <= seen, seen
+    assert "`api-ms-win-crt-*`" in hosts
 
 
 def test_readme_and_hosts_state_the_minimum_of_every_binary():

@@ -36,6 +36,8 @@ from __future__ import annotations
 import math
 from typing import NamedTuple
 
+from satmotor.machine.atan import atan2
+
 MEAS_I_S_A, MEAS_I_S_B, MEAS_PSI_R_A, MEAS_PSI_R_B, MEAS_PSI_S_A, MEAS_PSI_S_B, MEAS_OMEGA_M = range(7)
 MEAS_LEN = 7
 MEAS_NAMES = ("i_s_alpha", "i_s_beta", "psi_r_alpha", "psi_r_beta", "psi_s_alpha", "psi_s_beta", "omega_m")
@@ -57,7 +59,7 @@ class MagnetizingState(NamedTuple):
 
 def _in_flux_frame(ima, imb, I, m, pra, prb):
     phi = math.hypot(pra, prb)
-    rho = math.atan2(prb, pra)
+    rho = atan2(prb, pra)  # the own atan2 (sm_atan2 in C): the same bits on every platform
     c, s = math.cos(rho), math.sin(rho)
     return MagnetizingState(ima, imb, I, m, phi, c * ima + s * imb, c * imb - s * ima, rho)
 

@@ -25,7 +25,9 @@ Everything is scaled by 64 (exact): ``t = (64 a - 64 c) / (64 + a (64 c))``; ``6
 
 from __future__ import annotations
 
-__all__ = ["atan", "ATAN_K64", "ACOT_K64", "COEFFICIENTS"]
+import math
+
+__all__ = ["atan", "atan2", "ATAN_K64", "ACOT_K64", "COEFFICIENTS", "ATAN2_CONSTANTS"]
 
 #: ``atan(k / 64)`` for k = 0..256 as (hi, lo): hi the nearest double, lo the nearest double to the rest
 ATAN_K64 = tuple((float.fromhex(h), float.fromhex(lo)) for h, lo in (
@@ -187,8 +189,18 @@ _ACOT = {float(k): pair for k, pair in enumerate(ACOT_K64)}
 TABLE, C1, C2, C3 = _ATAN, _C1, _C2, _C3
 _ROUND = 6755399441055744.0  # 1.5 2**52; (y + _ROUND) - _ROUND: y rounded to an integer, for 0 <= y < 2**51
 ROUND = _ROUND
-_TINY = 2.0**-28
-_HUGE = 2.0**60
+TINY = _TINY = 2.0**-28
+HUGE = _HUGE = 2.0**60
+# atan2's constants: the doubles nearest to pi, pi/2, pi/4 and 3 pi/4, and the double nearest to pi - _PI
+_PI = float.fromhex("0x1.921fb54442d18p+1")
+_PI_LO = float.fromhex("0x1.1a62633145c07p-53")
+_PI_2 = float.fromhex("0x1.921fb54442d18p+0")
+_PI_4 = float.fromhex("0x1.921fb54442d18p-1")
+_PI_3_4 = float.fromhex("0x1.2d97c7f3321d2p+1")
+#: (C name, value, meaning) of :func:`atan2`'s constants, for the C's generated header
+ATAN2_CONSTANTS = (("PI", _PI, "pi rounded"), ("PI_LO", _PI_LO, "pi - SM_ATAN2_PI rounded"),
+                   ("PI_2", _PI_2, "pi/2 rounded"), ("PI_4", _PI_4, "pi/4 rounded"),
+                   ("PI_3_4", _PI_3_4, "3 pi/4 rounded"))
 
 
 def atan(x):
@@ -222,3 +234,34 @@ def atan(x):
     else:
         return x + x  # NaN
     return -r if x < 0.0 else r
+
+
+def atan2(y, x):
+    """The angle [rad] of the point (``x``, ``y``), in [-pi, pi]: the floats of the C core's
+    ``sm_atan2``, built on :func:`atan` (not the platform's ``math.atan2``).
+
+    The special cases are C99's (Annex F, as ``math.atan2``): ``atan2(+-0, +0 or x > 0) = +-0``,
+    ``atan2(+-0, -0 or x < 0) = +-pi``, ``atan2(y, +-0) = +-pi/2`` (y != 0), ``atan2(+-inf, +inf) =
+    +-pi/4``, ``atan2(+-inf, -inf) = +-3 pi/4``, ``atan2(+-inf, x) = +-pi/2`` (x finite),
+    ``atan2(+-y, +inf) = +-0`` and ``atan2(+-y, -inf) = +-pi`` (y finite), NaN for a NaN.  Otherwise
+    ``z = atan(|y| / |x|)``, and ``pi - z`` for ``x < 0`` (as ``pi_hi - (z - pi_lo)``); its error is
+    below 0.62 ulp of ``atan`` plus the quotient's 0.5 ulp (``|q atan'(q) / atan(q)| <= 1``) and the
+    subtraction's rounding: within 2 ulp of the exact value (``tests/test_atan.py`` measures it)."""
+    if x != x or y != y:
+        return x + y  # NaN
+    ax = x if x >= 0.0 else -x
+    ay = y if y >= 0.0 else -y
+    if ay == 0.0:  # +-0, its sign kept: +-0 for x = +0 or x > 0, +-pi for x = -0 or x < 0
+        if math.copysign(1.0, x) > 0.0:
+            return y
+        r = _PI
+    elif ax == 0.0:
+        r = _PI_2
+    elif ay == math.inf:
+        r = _PI_2 if ax < math.inf else (_PI_4 if x > 0.0 else _PI_3_4)
+    elif ax == math.inf:
+        r = 0.0 if x > 0.0 else _PI
+    else:
+        z = atan(ay / ax)
+        r = z if x > 0.0 else _PI - (z - _PI_LO)
+    return -r if math.copysign(1.0, y) < 0.0 else r

@@ -8,4 +8,8 @@
  * odd (atan(-x) = -atan(x), -0.0 kept), +-pi/2 at +-inf, NaN for NaN. */
 double sm_atan(double x);
 
+/* atan2(y, x) [rad] in [-pi, pi], built on sm_atan: satmotor/machine/atan.py's atan2, the same floats
+ * on every platform; C99's special cases (zeros, infinities, NaN), within 2 ulp of the exact value. */
+double sm_atan2(double y, double x);
+
 #endif

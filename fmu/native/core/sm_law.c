@@ -7,6 +7,8 @@
 #include <stdio.h>
 #include <string.h>
 
+#include "sm_atan.h"
+
 /* ---- fo_model.py ----------------------------------------------------------------------------- */
 
 void sm_model_constants_of(const sm_motor *p, sm_model_constants *c)
@@ -81,7 +83,7 @@ static void in_flux_frame(double ima, double imb, double I, double m, double pra
                           sm_magnetizing *ms)
 {
     double phi = sm_hypot(pra, prb);
-    double rho = atan2(prb, pra);
+    double rho = sm_atan2(prb, pra); /* the own atan2: the same bits on every platform */
     double c = cos(rho), s = sin(rho);
     ms->i_mu_alpha = ima;
     ms->i_mu_beta = imb;

@@ -23,6 +23,7 @@ import importlib.util
 import os
 import re
 import shutil
+import struct
 import subprocess
 import sys
 import tempfile
@@ -65,6 +66,31 @@ PLATFORMS = {
 }
 # the FMI 3.0 names are accepted too
 ALIASES = {p.fmi3: name for name, p in PLATFORMS.items()}
+# FMI 2.0's darwin64: one universal (fat) Mach-O of these thin ones, as the Reference-FMUs ship theirs
+# (FMI 2.0 has no folder name for arm64; FMI 3.0 ships them apart, x86_64-darwin and aarch64-darwin)
+UNIVERSAL_FMI2 = {"darwin64": ("darwin64", "aarch64-darwin")}
+FAT_MAGIC = 0xCAFEBABE
+FAT_ALIGN = 14  # log2 of the slices' alignment: 16 KiB, the page size of arm64 macOS (lipo's choice)
+
+
+def fat_macho(thin: Sequence[bytes]) -> bytes:
+    """A universal Mach-O of the 64-bit little-endian ``thin`` ones, in their order: the big-endian
+    header (FAT_MAGIC, nfat_arch), a fat_arch each (cputype, cpusubtype from the slice, offset,
+    size, align), each slice at a multiple of 2**FAT_ALIGN."""
+    step = 1 << FAT_ALIGN
+    arches, parts, offset = [], [], step  # the header and its table fit in the first 16 KiB
+    for data in thin:
+        magic, cputype, cpusubtype = struct.unpack_from("<Iii", data, 0)
+        if magic != 0xFEEDFACF:
+            raise NativeBuildError(f"not a 64-bit little-endian Mach-O (magic {magic:#x})")
+        arches.append(struct.pack(">iiIII", cputype, cpusubtype, offset, len(data), FAT_ALIGN))
+        parts.append(data)
+        offset += -(-len(data) // step) * step
+    head = struct.pack(">II", FAT_MAGIC, len(thin)) + b"".join(arches)
+    out = bytearray(head + bytes(step - len(head)))
+    for j, data in enumerate(parts):
+        out += data if j + 1 == len(parts) else data + bytes(-len(data) % step)
+    return bytes(out)
 
 
 class NativeBuildError(RuntimeError):
@@ -285,7 +311,17 @@ def build_native_fmu(model_identifier: str, sources: Iterable[str | Path], model
             out = outdir / (model_identifier + p.suffix)
             compile_binary(staging, c_files, model_identifier, token, p, out, extra_cflags)
             folder = p.fmi2 if major == 2 else p.fmi3
-            files[f"binaries/{folder}/{model_identifier}{p.suffix}"] = out.read_bytes()
+            data = out.read_bytes()
+            if major == 2 and folder in UNIVERSAL_FMI2:
+                thin = [data]
+                for other in UNIVERSAL_FMI2[folder][1:]:
+                    q = PLATFORMS[other]
+                    (outdir / q.fmi3).mkdir()
+                    extra = outdir / q.fmi3 / (model_identifier + q.suffix)
+                    compile_binary(staging, c_files, model_identifier, token, q, extra, extra_cflags)
+                    thin.append(extra.read_bytes())
+                data = fat_macho(thin)
+            files[f"binaries/{folder}/{model_identifier}{p.suffix}"] = data
 
     out_path = Path(out_path)
     write_reproducible_zip(files, out_path)
@@ -300,7 +336,7 @@ def build_once(cache_dir, name, inputs, build, text=""):
     from orchestration.build.native import tables as native_tables
 
     h = hashlib.sha256(text.encode())
-    for f in (*inputs, *sorted(GLUE_DIR.glob("*.[ch]")), Path(__file__), Path(native_tables.__file__)):
+    for f in (*inputs, *sorted(GLUE_DIR.glob("*.[ch]")), Path(__file__), *native_tables.GENERATOR_FILES):
         h.update(Path(f).name.encode() + b"\0" + Path(f).read_bytes() + b"\0")
     d = Path(cache_dir) / h.hexdigest()[:24]
     fmu = d / name

@@ -61,7 +61,7 @@ def inputs_fingerprint(name):
     h = hashlib.sha256()
     files = [*sources(name), *sorted(GLUE_DIR.glob("*.[ch]")), Path(__file__), Path(native_build.__file__),
              Path(source_fmu.__file__),
-             Path(native_tables.__file__), Path(nmd.__file__), Path(fmu_model_description.__file__),
+             *native_tables.GENERATOR_FILES, Path(nmd.__file__), Path(fmu_model_description.__file__),
              Path(interface.__file__), Path(sources_module.__file__), Path(documentation_module.__file__)]
     for f in files:
         h.update(f.name.encode() + b"\0" + Path(f).read_bytes() + b"\0")
