@@ -12,8 +12,8 @@ One generator for every native model; nothing below is written by hand in C:
   input and output counts and names in table order (``SM_<UNIT>_N_IN``,
   ``SM_<UNIT>_INPUT_NAMES``, ...) and positions (``SM_<UNIT>_IN_<name>``, ``SM_<UNIT>_OUT_<name>``), the
   measurement vector's layout ``SM_MEAS_*`` (:mod:`satmotor.control.measurements`: ``MEAS_*``, the
-  controller's first inputs in their order; the generation fails if they disagree) and the defaults of the core's
-  structs of the Python settings
+  controller's first inputs in their order; the generation fails if they disagree) and the defaults of the
+  core's structs of the Python settings
   dataclasses (:data:`DATACLASS_STRUCTS`: ``sm_gains_default`` from ``BacksteppingGains()``, ...),
   the controller's copy of its flat parameters into those structs ``sm_controller_settings`` (each
   parameter into the members its ``Variable.fills`` names, as ``ControllerUnit`` fills the
