@@ -1,5 +1,5 @@
 """What a run's results need, gathered as it goes by the recorder's observer
-(:class:`orchestration.run.recorder.Recorder`), so that nothing reads the whole series back and a
+(:class:`orchestration.results.recorder.Recorder`), so that nothing reads the whole series back and a
 run's memory does not grow with its simulated time:
 
 * :class:`MetricsObserver` feeds :class:`satmotor.metrics.RunningMetrics` each chunk of rows; the
