@@ -14,6 +14,7 @@ from __future__ import annotations
 import numpy as np
 
 from orchestration.scenario.recording import NEEDED, last_row_time, record_steps
+from orchestration.scenario.system import link_on as _plant_link_on
 from satmotor.control.drive import RUN
 from satmotor.metrics import LINK_SERIES, RunningMetrics
 
@@ -43,7 +44,7 @@ LINK_COLUMNS = {k: f"plant.{k}" for k in LINK_SERIES}
 
 def link_on(scenario):
     """Whether the scenario's plant has its DC link on (``dc_link: capacitor``): the link's metrics."""
-    return (getattr(scenario, "plant", None) or {}).get("dc_link") == "capacitor"
+    return _plant_link_on(getattr(scenario, "plant", None))
 
 
 def ss_window(scenario):
