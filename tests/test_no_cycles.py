@@ -1,11 +1,14 @@
 """No dependency circles: the include graph of the C core (``fmu/native/core``: a unit is ``sm_x.c`` with
 ``sm_x.h``) and the import graph of ``orchestration``'s sub-packages (and of its modules) have no cycle;
-the sub-packages' imports point the way ``orchestration/__init__.py`` lists them (top to bottom)."""
+the sub-packages' imports point the way ``orchestration/__init__.py`` lists them (top to bottom); the
+metrics depend on neither the drive nor the machine."""
 
 from __future__ import annotations
 
 import ast
 import re
+import subprocess
+import sys
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -137,8 +140,8 @@ def test_the_import_graph_sees_relative_lazy_and_from_package_imports(tmp_path):
 
 def test_the_c_core_has_no_include_cycle_unit_by_unit_or_file_by_file():
     units = include_graph()
-    assert {"sm_inverter", "sm_pwm_link", "sm_phases", "sm_curves", "sm_common", "sm_table_file"} <= set(
-        units)
+    new = {"sm_inverter", "sm_pwm_link", "sm_phases", "sm_curves", "sm_common", "sm_table_file"}
+    assert new <= set(units)
     assert find_cycle(units) is None, f"include cycle between the core's units: {find_cycle(units)}"
     files = include_graph(unit=False)
     assert find_cycle(files) is None, f"include cycle between the core's files: {find_cycle(files)}"
@@ -158,3 +161,18 @@ def test_the_sub_packages_import_only_those_listed_below_them_in_the_package_doc
     upward = [(a, b) for a in subs for b in subs[a] if order.index(b) < order.index(a)]
     assert not upward, f"imports against the documented order (importer, imported): {upward}"
 
+
+
+def test_the_metrics_import_nothing_of_the_drive_or_the_machine():
+    code = ("import sys, satmotor.metrics; "
+            "print(' '.join(sorted(m for m in sys.modules if m.startswith('satmotor'))))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, cwd=ROOT)
+    assert set(out.stdout.split()) == {"satmotor", "satmotor.metrics", "satmotor.drive_phase"}
+
+
+def test_the_drive_and_the_metrics_share_the_phases():
+    from satmotor import drive_phase, metrics
+    from satmotor.control import drive
+
+    assert (drive.PREMAG, drive.RUN) == (drive_phase.PREMAG, drive_phase.RUN) == (0, 1)
+    assert metrics.RUN is drive_phase.RUN

@@ -15,7 +15,7 @@ import numpy as np
 
 from orchestration.scenario.recording import NEEDED, last_row_time, record_steps
 from orchestration.scenario.system import link_on as _plant_link_on
-from satmotor.control.drive import RUN
+from satmotor.drive_phase import RUN
 from satmotor.metrics import LINK_SERIES, RunningMetrics
 
 __all__ = ["METRIC_COLUMNS", "FLAG_COLUMNS", "LINK_COLUMNS", "link_on", "PSI_SET_COLUMN", "FIGURE_ROWS",

@@ -41,7 +41,7 @@ from orchestration.results.running import (
 )
 from orchestration.scenario.recording import recorded_selection
 from satmotor import metrics as _m
-from satmotor.control.drive import RUN
+from satmotor.drive_phase import RUN
 from satmotor.metrics import acceptance, closed_loop_metrics
 
 
