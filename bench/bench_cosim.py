@@ -60,9 +60,9 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from orchestration.build import fmus  # noqa: E402
+from orchestration.results.recorder import StreamingRecorder  # noqa: E402
 from orchestration.results.writer import compute_metrics  # noqa: E402
 from orchestration.run.master import run  # noqa: E402
-from orchestration.run.recorder import StreamingRecorder  # noqa: E402
 from orchestration.run.reference import plain_reference  # noqa: E402
 from orchestration.scenario.load import load_scenario  # noqa: E402
 from orchestration.scenario.recording import recorded_selection  # noqa: E402

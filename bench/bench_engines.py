@@ -59,12 +59,12 @@ from bench_plant import cpu_model, git_head, write_section  # noqa: E402
 from orchestration.build import fmus  # noqa: E402
 from orchestration.build.native.recorder_fmu import recorder_fmu_for  # noqa: E402
 from orchestration.build.ssd import RESOURCES, ssd_xml  # noqa: E402
+from orchestration.results.recorder import MetricsOnly  # noqa: E402
 from orchestration.results.running import MetricsObserver  # noqa: E402
 from orchestration.results.writer import streaming_recorder  # noqa: E402
 from orchestration.run import libcosim_engine, row_recorder  # noqa: E402
 from orchestration.run.lean_fmu import lean_fmu  # noqa: E402
 from orchestration.run.master import run as master_run  # noqa: E402
-from orchestration.run.recorder import MetricsOnly  # noqa: E402
 from orchestration.scenario.load import load_scenario  # noqa: E402
 
 SCENARIO = ROOT / "scenarios" / "ramp_rated_load.yaml"

@@ -48,7 +48,7 @@ STEPPING = r"""
 import json, sys, time
 from orchestration.build import fmus
 from orchestration.run.master import run
-from orchestration.run.recorder import Recorder
+from orchestration.results.recorder import Recorder
 from orchestration.scenario.variants import load_sweep
 
 class Null(Recorder):

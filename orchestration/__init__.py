@@ -1,7 +1,7 @@
 """The co-simulation tools around the two FMUs, one sub-package per job.
 
 Dependencies point one way, from the top of this list to the bottom (no import cycle, between
-modules or between sub-packages):
+modules or between sub-packages: tests/test_no_cycles.py):
 
 * :mod:`orchestration.cli` -- the command line (``satmotor-cosim``, ``python -m orchestration``):
   the verbs, ``batch`` and its warm children.
@@ -9,9 +9,10 @@ modules or between sub-packages):
   curve from a no-load test).
 * :mod:`orchestration.check` -- the FMU checker, a product of its own: it checks anyone's FMUs
   (it uses only :mod:`orchestration.process`).
-* :mod:`orchestration.results` -- metrics, the results files, the figure.
-* :mod:`orchestration.run` -- the fmpy master (wiring, recorder, stepping loop), the libcosim engine,
-  the plain-Python reference loop, the run result.
+* :mod:`orchestration.run` -- the fmpy master (wiring, stepping loop), the libcosim engine, the
+  plain-Python reference loop, the run result; it records into the results' recorder.
+* :mod:`orchestration.results` -- what a run leaves behind: the recorder (in memory or streamed to the
+  time-series files), metrics, the results files, the figure.
 * :mod:`orchestration.build` -- every FMU and generated artefact: pythonfmu and native FMUs, model
   descriptions, C variable tables, the SSP system description, cross builds, reference results,
   the variable tables of the docs.

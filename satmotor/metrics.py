@@ -70,7 +70,7 @@ import math
 
 import numpy as np
 
-from satmotor.control.drive import RUN
+from satmotor.drive_phase import RUN
 
 SETTLING_BAND = 0.02  # [1] relative band of the settling time
 SS_SPEED_FLOOR = 1.0  # [rad/s] least denominator of ss_speed

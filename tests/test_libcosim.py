@@ -219,7 +219,7 @@ class _StopAt:
         self.t, self.signum = t, 0
 
     def recorder(self, columns):
-        from orchestration.run.recorder import Recorder
+        from orchestration.results.recorder import Recorder
 
         rec = Recorder(columns)
         append, append_rows = rec.append, rec.append_rows

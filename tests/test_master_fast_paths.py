@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 from fmpy import platform, platform_tuple
 
+from orchestration.results.recorder import Recorder
 from orchestration.run.fmu_instance import (
     FMUInstance,
     RealPort,
@@ -15,7 +16,6 @@ from orchestration.run.fmu_instance import (
     needed_to_run,
     remove_extracted,
 )
-from orchestration.run.recorder import Recorder
 from orchestration.run.step_plans import evaluator
 
 

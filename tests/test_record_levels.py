@@ -9,7 +9,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from orchestration.run.recorder import MetricsOnly, Recorder
+from orchestration.results.recorder import MetricsOnly, Recorder
 from satmotor.metrics import RunningMetrics, closed_loop_metrics
 
 ALMOST = ("iae_speed", "iae_flux")  # summed chunk by chunk: equal to within rounding

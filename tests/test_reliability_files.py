@@ -225,7 +225,7 @@ def disk_budget(monkeypatch):
     """``set(n)``: from now on the run's Python writes (CSV, JSON, PNG) and Parquet chunks share n bytes."""
     import builtins
 
-    from orchestration.run import recorder
+    from orchestration.results import recorder
 
     state = {}
     real_fdopen, real_open, real_parquet = os.fdopen, builtins.open, recorder.StreamingRecorder._write_parquet

@@ -127,10 +127,10 @@ def run_file(path, out, fmu_dir, algorithm=None, build=True, plot=True, stop=Non
     instead of the file's own scenario.  ``shared``: a :class:`SharedFMUs` (the FMUs extracted and
     their variables read once for several runs of one process), or None."""
     from orchestration.results.atomic import describe
+    from orchestration.results.recorder import FILES
     from orchestration.results.running import figure_step
     from orchestration.results.writer import figure_target, prepare_dir, streaming_recorder, write_results
     from orchestration.run.master import run
-    from orchestration.run.recorder import FILES
     from orchestration.scenario.load import ScenarioError, load_scenario
     from orchestration.scenario.variants import load_variant
 

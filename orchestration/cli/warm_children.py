@@ -35,7 +35,7 @@ from orchestration.process.title import set_title
 #: what a ``run`` child imports (the pythonfmu glue and FMU binaries are not among them: every
 #: child loads its own FMUs)
 PRELOAD = ("orchestration.cli", "orchestration.run.master", "orchestration.results.writer",
-           "orchestration.scenario.load", "orchestration.run.recorder", "orchestration.run.fmu_instance",
+           "orchestration.scenario.load", "orchestration.results.recorder", "orchestration.run.fmu_instance",
            "orchestration.process.interrupts", "orchestration.results.plots", "pyarrow.parquet", "fmpy.fmi2",
            "fmpy.fmi3", "pythonfmu", "satmotor.control.drive", "satmotor.machine.plant", "satmotor.metrics",
            "setproctitle")

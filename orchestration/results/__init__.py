@@ -1,5 +1,8 @@
-"""What a run leaves behind: metrics, the results files and the figure.
+"""What a run leaves behind: the recorded rows, metrics, the results files and the figure.
 
+* :mod:`~orchestration.results.recorder` -- the rows a run records, in memory (the library use) or
+  streamed to ``timeseries.csv`` / ``.parquet`` as the run goes; the record levels.  The engines of
+  :mod:`orchestration.run` record into it (this package imports nothing of ``run``).
 * :mod:`~orchestration.results.writer` -- the results directory of a run: time series (CSV,
   Parquet), ``metrics.json``, the acceptance check.
 * :mod:`~orchestration.results.running` -- what the results need, gathered as the run goes: the

@@ -6,7 +6,7 @@ of the time series to CSV about 0.2 s for 15 001 rows.  :class:`FigureProcess` f
 :mod:`orchestration.results.plots` and makes the empty canvas while the parent loads the FMUs and steps, on
 another core (a warm batch child has matplotlib imported already: its helper only draws).  When
 the run ends, the recorder completes the Parquet file first and tells the helper
-(:attr:`orchestration.run.recorder.StreamingRecorder.on_parquet`); the helper reads it and draws while
+(:attr:`orchestration.results.recorder.StreamingRecorder.on_parquet`); the helper reads it and draws while
 the parent writes the last CSV lines.  It draws exactly what :func:`orchestration.results.plots.figure`
 draws in the parent from the same rows (the same code on the same float64 values): the PNG is byte
 for byte the same.  A long run's figure shows every k-th row
@@ -31,7 +31,7 @@ import threading
 
 from orchestration.process.interrupts import WATCHER
 from orchestration.process.title import set_title
-from orchestration.run.recorder import read_every
+from orchestration.results.recorder import read_every
 
 
 def wanted():

@@ -1,5 +1,5 @@
 """What a run's results need, gathered as it goes by the recorder's observer
-(:class:`orchestration.run.recorder.Recorder`), so that nothing reads the whole series back and a
+(:class:`orchestration.results.recorder.Recorder`), so that nothing reads the whole series back and a
 run's memory does not grow with its simulated time:
 
 * :class:`MetricsObserver` feeds :class:`satmotor.metrics.RunningMetrics` each chunk of rows; the
@@ -14,7 +14,8 @@ from __future__ import annotations
 import numpy as np
 
 from orchestration.scenario.recording import NEEDED, last_row_time, record_steps
-from satmotor.control.drive import RUN
+from orchestration.scenario.system import link_on as _plant_link_on
+from satmotor.drive_phase import RUN
 from satmotor.metrics import LINK_SERIES, RunningMetrics
 
 __all__ = ["METRIC_COLUMNS", "FLAG_COLUMNS", "LINK_COLUMNS", "link_on", "PSI_SET_COLUMN", "FIGURE_ROWS",
@@ -43,7 +44,7 @@ LINK_COLUMNS = {k: f"plant.{k}" for k in LINK_SERIES}
 
 def link_on(scenario):
     """Whether the scenario's plant has its DC link on (``dc_link: capacitor``): the link's metrics."""
-    return (getattr(scenario, "plant", None) or {}).get("dc_link") == "capacitor"
+    return _plant_link_on(getattr(scenario, "plant", None))
 
 
 def ss_window(scenario):

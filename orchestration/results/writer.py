@@ -28,6 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from orchestration.results import atomic
+from orchestration.results.recorder import FILES, MetricsOnly, StreamingRecorder
 from orchestration.results.running import (
     FLAG_COLUMNS,
     LINK_COLUMNS,
@@ -40,10 +41,9 @@ from orchestration.results.running import (
     observers,
     ss_window,
 )
-from orchestration.run.recorder import FILES, MetricsOnly, StreamingRecorder
 from orchestration.scenario.recording import recorded_selection
 from satmotor import metrics as _m
-from satmotor.control.drive import RUN
+from satmotor.drive_phase import RUN
 from satmotor.metrics import acceptance, closed_loop_metrics
 
 
@@ -146,7 +146,7 @@ def streaming_recorder(scenario, directory, on_parquet=None, figure_copy=True):
 
 def write_failure(result, write_error=None):
     """The OSError that kept the time series of ``result`` from being written (its recorder's
-    :attr:`~orchestration.run.recorder.StreamingRecorder.error`, or ``write_error``), or None."""
+    :attr:`~orchestration.results.recorder.StreamingRecorder.error`, or ``write_error``), or None."""
     return write_error or getattr(result.recorder, "error", None)
 
 

@@ -66,11 +66,11 @@ import time
 import zipfile
 from pathlib import Path
 
+from orchestration.results.recorder import Recorder
 from orchestration.run import row_recorder
 from orchestration.run.libcosim_observed import ObservedExecution
 from orchestration.run.libcosim_readers import FAILED, CapturedLog
 from orchestration.run.libcosim_rows import RowsExecution
-from orchestration.run.recorder import Recorder
 from orchestration.run.result import RunResult, failure_message
 from orchestration.scenario.problems import Problem
 from orchestration.scenario.recording import recorded_columns

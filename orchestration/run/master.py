@@ -1,7 +1,7 @@
 """The co-simulation master: the plant and controller FMUs stepped together over a scenario.
 
 Three small parts, FMPy's way: the wiring (:mod:`orchestration.run.wiring`: connections resolved once
-into named sources), the recorder (:mod:`orchestration.run.recorder`: in memory, or streamed to disk)
+into named sources), the recorder (:mod:`orchestration.results.recorder`: in memory, or streamed to disk)
 and the stepping loop here.
 
 * Time is ``t_k = t0 + k h`` (never accumulated); the controller is stepped every
@@ -36,6 +36,7 @@ import numpy as np
 from fmpy.fmi1 import FMICallException
 
 from orchestration.process.interrupts import signal_name
+from orchestration.results.recorder import Recorder
 from orchestration.run.fmu_instance import (
     STATUS,
     DiscretePort,
@@ -46,7 +47,6 @@ from orchestration.run.fmu_instance import (
     remove_extracted,
 )
 from orchestration.run.measurement_noise import MeasurementNoise
-from orchestration.run.recorder import Recorder
 from orchestration.run.result import RunResult, failure_message
 from orchestration.run.step_plans import chained_port, evaluator, input_port
 from orchestration.scenario.recording import record_steps, recorded_columns

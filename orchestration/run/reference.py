@@ -20,7 +20,14 @@ import pandas as pd
 
 from orchestration.run.measurement_noise import MeasurementNoise
 from orchestration.run.wiring import resolve
-from orchestration.scenario.system import CONTROLLER, DEFAULT_CONNECTIONS, LINK_VOLTAGE, PLANT, PROFILE
+from orchestration.scenario.system import (
+    CONTROLLER,
+    DEFAULT_CONNECTIONS,
+    LINK_VOLTAGE,
+    PLANT,
+    PROFILE,
+    link_on,
+)
 from satmotor.interface import ControllerUnit, PlantUnit
 
 # co-simulation column -> plain-Python record key (satmotor.simulate.closed_loop's names)
@@ -71,7 +78,8 @@ def plain_reference(scenario):
     ctrl = ControllerUnit({**scenario.controller, "Ts": scenario.Ts})
     prof = {k: p.value for k, p in scenario.profiles.items()}
     load = prof["T_load"]
-    ctrl_inputs = _controller_inputs(prof, link=scenario.plant.get("dc_link") == "capacitor")
+    link = link_on(scenario.plant)  # the controller measures the link voltage; the metrics read its outputs
+    ctrl_inputs = _controller_inputs(prof, link=link)
     meas = getattr(scenario, "measurements", None)
     measure = MeasurementNoise(meas, PlantUnit.OUTPUTS) if meas is not None and meas.signals else None
     jacobi = scenario.algorithm == "jacobi"
@@ -103,6 +111,5 @@ def plain_reference(scenario):
             break
         plant.step(t, h, (held[i_va], held[i_vb], load(t)))
     frame = pd.DataFrame(rows, columns=["time", *p_cols, *c_cols, *m_cols, *f_cols], dtype=float)
-    link = scenario.plant.get("dc_link") == "capacitor"  # then the metrics read the plant's link outputs
     more = [c for c in p_cols if c not in COLUMNS] if link else []
     return frame[["time", *COLUMNS, *more, *m_cols, *f_cols]]

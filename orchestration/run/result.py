@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from orchestration.run.recorder import Recorder
+from orchestration.results.recorder import Recorder
 
 __all__ = ["RunResult", "failure_message"]
 

@@ -72,7 +72,7 @@ PROFILE_NAMES = ("omega_ref", "psi_ref", "T_load")
 UNITS = ("plant", "controller")
 TOP_KEYS = ("name", "description", "stop_time", "step", "controller_every", "algorithm", "motor", "plant",
             "controller", "mismatch", "profiles", "record", "acceptance", "measurements", "sweep")
-RECORD_LEVELS = ("full", "decimated", "metrics")  # what a run keeps: orchestration.run.recorder
+RECORD_LEVELS = ("full", "decimated", "metrics")  # what a run keeps: orchestration.results.recorder
 ACCEPTANCE_KEYS = ("ss_speed", "ss_flux", "ss_window", "overshoot_speed", "peak_current", "peak_current_run",
                    "final_overshoot_speed", "peak_v_dc", "holds_setpoints")
 _NAME = re.compile(r"[A-Za-z0-9_.-]+")

@@ -36,7 +36,7 @@ digits so that ``0.1 * 3`` reads 0.3; integer ends and step give integers.  Draw
 Variant ``i`` (from 0) is named ``NAME-iii`` (zero-padded to the width of the count); the grid
 varies the last parameter fastest.  A variant is the file's mapping with the sweep removed, its
 name changed and its values set; without a ``record: {level: ...}`` it records ``metrics`` only
-(:mod:`orchestration.run.recorder`).  The loader (:func:`orchestration.scenario.load.load_sweep`)
+(:mod:`orchestration.results.recorder`).  The loader (:func:`orchestration.scenario.load.load_sweep`)
 checks every variant as a scenario of its own.
 """
 

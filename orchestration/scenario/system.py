@@ -13,6 +13,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from satmotor.interface import CONTROLLER_INPUTS, PLANT_OUTPUTS
+from satmotor.machine.dc_link import is_capacitor
 
 __all__ = ["PLANT", "CONTROLLER", "PROFILE", "UNITS", "Connection", "MEASUREMENTS", "COLUMN_PREFIX",
            "DEFAULT_CONNECTIONS", "Measurements"]
@@ -46,10 +47,16 @@ DEFAULT_CONNECTIONS = tuple(
 )
 
 
+def link_on(plant_values):
+    """Whether a scenario's plant parameters ``plant_values`` ({name: value}; None: none given) put its
+    DC link on (``dc_link: capacitor``): its wiring, its metrics and the reference loop ask this."""
+    return is_capacitor((plant_values or {}).get("dc_link"))
+
+
 def connections_for(plant_values):
     """The connections of a scenario whose plant has the parameters ``plant_values``: the default ones,
     and the link voltage (plant ``v_dc`` -> controller ``v_dc``) when ``dc_link`` is ``capacitor``."""
-    if plant_values.get("dc_link") == "capacitor":
+    if link_on(plant_values):
         return DEFAULT_CONNECTIONS + (LINK_CONNECTION,)
     return DEFAULT_CONNECTIONS
 

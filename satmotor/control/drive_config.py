@@ -8,9 +8,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import NamedTuple
 
+from satmotor.drive_phase import PREMAG, RUN  # noqa: F401 (re-exported: the drive's phases)
 from satmotor.errors import ParameterError, require_choice, require_number
 
-PREMAG, RUN = 0, 1
 FLUX_SOURCES = ("measured", "observer")
 OBSERVERS = ("closed_loop", "current_model")
 SPEED_SOURCES = ("measured", "estimated")

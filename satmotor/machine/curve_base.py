@@ -1,9 +1,13 @@
 """The shared algorithms of the magnetizing curves (:mod:`satmotor.machine.magnetics`): the root
-solve, the inverse and the energies, on a subclass's ``_psi_dpsi(I) -> (psi, dpsi/dI)``."""
+solve, the inverse and the energies, on a subclass's ``_psi_dpsi(I) -> (psi, dpsi/dI)``; and what the
+two saturating closed forms (arctan, exponential) share, on their knee shape."""
 
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
+
+from satmotor.errors import ParameterError, require_number
 
 REL_TOL = 4.0e-16
 MAX_ITER = 200
@@ -69,3 +73,49 @@ class Curve:
             if abs(step) <= REL_TOL * x:
                 return x, psi
         raise ArithmeticError(f"{self.name}: no convergence solving a I + psi(I) = c (a={a}, c={c})")
+
+
+@dataclass(frozen=True)
+class SaturatingCurve(Curve):
+    """``psi = L_m_inf I + (L_m0 - L_m_inf) I_par f(I / I_par)`` with a knee shape ``f`` (``f(0) = 0``,
+    ``f'(0) = 1``, ``f'`` falling to 0): slope ``L_m0`` [H] at the origin, ``L_m_inf`` [H] far in
+    saturation, the knee near ``I_par`` [A].  The parameters' checks, ``m0``, ``psi``, ``L_dyn``, ``m``,
+    ``dm_dI`` and ``coenergy`` are written once here; a subclass gives the shape at ``x = I / I_par``:
+
+    * ``_knee(x)``: ``f(x)``;
+    * ``_knee_slope(d, x)``: ``d f'(x)`` [H] for ``d = L_m0 - L_m_inf`` (the subclass's own expression,
+      e.g. ``d / (1 + x^2)``: a product with a reciprocal would round differently);
+    * ``_g(x)``: ``f(x) / x`` (``m = L_m_inf + d g``), ``_dg(x)``: its derivative, both finite at 0;
+    * ``_integral(x)``: ``int_0^x f`` (``coenergy = L_m_inf I^2 / 2 + d I_par^2 int_0^x f``).
+    """
+
+    L_m0: float
+    L_m_inf: float
+    I_par: float
+
+    def __post_init__(self):
+        require_number("L_m0", self.L_m0, 0)
+        require_number("L_m_inf", self.L_m_inf, 0)
+        require_number("I_par", self.I_par, 0)
+        if self.L_m_inf >= self.L_m0:
+            raise ParameterError("L_m_inf", self.L_m_inf,
+                                 f"must be < L_m0 = {self.L_m0!r} for a saturating curve")
+
+    @property
+    def m0(self):
+        return self.L_m0
+
+    def _psi_dpsi(self, I):
+        x = I / self.I_par
+        d = self.L_m0 - self.L_m_inf
+        return self.L_m_inf * I + d * self.I_par * self._knee(x), self.L_m_inf + self._knee_slope(d, x)
+
+    def m(self, I):
+        return self.L_m_inf + (self.L_m0 - self.L_m_inf) * self._g(I / self.I_par)
+
+    def dm_dI(self, I):
+        return (self.L_m0 - self.L_m_inf) * self._dg(I / self.I_par) / self.I_par
+
+    def coenergy(self, I):
+        d = self.L_m0 - self.L_m_inf
+        return 0.5 * self.L_m_inf * I * I + d * self.I_par**2 * self._integral(I / self.I_par)

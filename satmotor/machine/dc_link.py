@@ -55,6 +55,14 @@ N_LINK_STATES = 3
 _SQRT3 = math.sqrt(3.0)
 
 
+def is_capacitor(dc_link):
+    """Whether the plant parameter ``dc_link`` (its value; None: absent, the default ``ideal``) puts the
+    capacitor link on: the one test of it (:attr:`DCLinkParams.capacitor`; the scenario's wiring, metrics
+    and reference loop, :func:`orchestration.scenario.system.link_on`).  The C core's is
+    ``sm_dclink.capacitor``, set once by ``sm_dclink_init`` from the parsed choice."""
+    return dc_link == "capacitor"
+
+
 @dataclass(frozen=True)
 class DCLinkParams:
     """The DC link's parameters (see the module docstring).
@@ -97,7 +105,7 @@ class DCLinkParams:
 
     @property
     def capacitor(self):
-        return self.dc_link == "capacitor"
+        return is_capacitor(self.dc_link)
 
 
 def over_voltage_message(t, v_dc, V_dc_max):

@@ -114,6 +114,14 @@ def duties(v_alpha, v_beta, V_dc):
     return tuple(out)
 
 
+
+def leg_volts(legs, half):
+    """``(v_alpha, v_beta, v_a, v_b, v_c)`` [V] of the legs ``(sig, dl)`` (:meth:`PwmInverter._legs`) with
+    ``half`` [V] half the link's voltage: phase voltages ``sig[j] half + dl[j]``, the star point floating."""
+    sig, dl = legs
+    v = [sig[0] * half + dl[0], sig[1] * half + dl[1], sig[2] * half + dl[2]]
+    return (*alpha_beta(v[0], v[1], v[2]), v[0], v[1], v[2])
+
 def half_edges(k, T_h, d):
     """The ideal edges of half period ``k`` [(time [s], order, phase, new state)] sorted: the state at
     its start (time ``k T_h``, order = phase) and the mid-half edge (order 3 + phase) of each leg."""
@@ -204,7 +212,7 @@ class PwmInverter:
         evs, ei = [], 0
         tp = t0
         cur = None  # the phase currents at tp, once computed
-        volts = None  # the interval's (v_alpha, v_beta, v_a, v_b, v_c), once computed
+        legs = None  # the interval's legs (signs, drops: _legs), once computed
         sa = sb = 0.0
         while True:
             while ei == len(evs) and k * T_h < end:
@@ -228,26 +236,26 @@ class PwmInverter:
                     ei += 1
                     continue
             if tn - tp >= eps:
-                if volts is None:
-                    volts, cur = self._volts(plant, x, cur, half)
-                x, ia, ib = self._advance(plant, lk, x, tp, tn - tp, volts, cur, T_load, h_int, trace)
+                if legs is None:
+                    legs, cur = self._legs(plant, x, cur)
+                x, ia, ib = self._advance(plant, lk, x, tp, tn - tp, legs, half, T_load, h_int, trace)
                 sa += ia
                 sb += ib
-                tp, cur, volts = tn, None, None
+                tp, cur, legs = tn, None, None
             if xd >= 0:
                 dead[xd] = False
-                volts = None
+                legs = None
                 continue
             e, _, j, new = evs[ei]
             ei += 1
             if s[j] < 0 or e < start:  # unknown state, or an edge of the last step: no dead interval
                 s[j] = new
-                volts = None
+                legs = None
                 continue
             if new == s[j]:
                 continue
             s[j] = new
-            volts = None
+            legs = None
             if t_dead > 0.0:
                 if cur is None:
                     cur = phase_currents(*plant.outputs(x)[:2])
@@ -255,41 +263,43 @@ class PwmInverter:
                 dead[j] = True
                 dead_until[j] = e + t_dead
                 dead_v[j] = -half if i > 0.0 else half if i < 0.0 else (half if new else -half)
-        if volts is None:
-            volts, cur = self._volts(plant, x, cur, half)
-        x, ia, ib = self._advance(plant, lk, x, tp, t1 - tp, volts, cur, T_load, h_int, trace)
+        if legs is None:
+            legs, cur = self._legs(plant, x, cur)
+        x, ia, ib = self._advance(plant, lk, x, tp, t1 - tp, legs, half, T_load, h_int, trace)
         sa += ia
         sb += ib
         if lk is not None:
             self.link_out = tuple(lk[1:])
         return x, sa / dt, sb / dt
 
-    def _volts(self, plant, x, cur, half):
-        """The constant interval's voltages from the legs' states, dead flags and (v_on) currents."""
-        v = [0.0, 0.0, 0.0]
-        for j in range(3):
-            v[j] = self.dead_v[j] if self.dead[j] else half if self.s[j] == 1 else -half
+    def _legs(self, plant, x, cur):
+        """The constant interval's legs, the one rule of either link: ``((sig, dl), cur)`` with each leg's
+        sign ``sig[j]`` (+1 the upper device or diode conducts, -1 the lower; a dead leg's diode by the
+        sign of its dead voltage) and on-state drop term ``dl[j]`` [V] (``-v_on`` for a positive phase
+        current, ``+v_on`` for a negative one, 0 for none or without drops); ``cur`` the phase currents
+        [A] at ``x``, computed here when the drops need them and they are not given.  The phase voltage is
+        ``sig[j] v_dc / 2 + dl[j]`` (:func:`leg_volts`; on the capacitor link at every RK4 stage's own
+        ``v_dc``, :mod:`~satmotor.machine.pwm_link`)."""
+        sig = [1.0 if (self.dead_v[j] > 0.0 if self.dead[j] else self.s[j] == 1) else -1.0 for j in range(3)]
+        dl = [0.0, 0.0, 0.0]
         if self.v_on > 0.0:
             if cur is None:
                 cur = phase_currents(*plant.outputs(x)[:2])
-            for j in range(3):
-                if cur[j] > 0.0:
-                    v[j] = v[j] - self.v_on
-                elif cur[j] < 0.0:
-                    v[j] = v[j] + self.v_on
-        va, vb = alpha_beta(v[0], v[1], v[2])
-        return (va, vb, v[0], v[1], v[2]), cur
-
-    def _advance(self, plant, lk, x, t, L, volts, cur, T_load, h_int, trace):
-        """One constant interval of ``L`` [s] from ``t``: ``(x, integral of v_alpha, of v_beta)`` [V s],
-        on the ideal link (``lk`` None) or integrated with the capacitor link (:mod:`pwm_link`)."""
-        if lk is None:
-            return self._integrate(plant, x, t, L, volts, T_load, h_int, trace), volts[0] * L, volts[1] * L
-        return pwm_link.interval(self, lk, x, t, L, cur, T_load, h_int, trace)
+            dl = [-self.v_on if c > 0.0 else self.v_on if c < 0.0 else 0.0 for c in cur]
+        return (sig, dl), cur
 
     @staticmethod
-    def _integrate(plant, x, t, L, volts, T_load, h_int, trace):
+    def _advance(plant, lk, x, t, L, legs, half, T_load, h_int, trace):
+        """One constant interval of ``L`` [s] from ``t`` with the legs ``legs`` (:meth:`_legs`): ``(x,
+        integral of v_alpha, of v_beta)`` [V s], on the ideal link (``lk`` None; ``half`` [V] half its
+        voltage) or integrated with the capacitor link (:mod:`pwm_link`; the trace row at the link's voltage
+        at ``t``)."""
         n = max(1, math.ceil(L / h_int - 1e-9))
+        if lk is None:
+            volts = leg_volts(legs, half)
+            if trace is not None:
+                trace.append((t, L, *volts))
+            return plant.step(t, x, volts[0], volts[1], T_load, L, n), volts[0] * L, volts[1] * L
         if trace is not None:
-            trace.append((t, L, *volts))
-        return plant.step(t, x, volts[0], volts[1], T_load, L, n)
+            trace.append((t, L, *leg_volts(legs, 0.5 * x[lk[0].iv])))
+        return pwm_link.interval(lk, x, t, L, *legs, T_load, n)

@@ -26,12 +26,13 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from satmotor.errors import ParameterError, require_number
+from satmotor.errors import require_number
 from satmotor.machine import atan as _atan
 from satmotor.machine.atan import atan
 from satmotor.machine.curve_base import MAX_ITER as _MAX_ITER
 from satmotor.machine.curve_base import REL_TOL as _REL_TOL
 from satmotor.machine.curve_base import Curve as _Curve
+from satmotor.machine.curve_base import SaturatingCurve as _SaturatingCurve
 from satmotor.machine.polynomial_curve import PolynomialCurve  # noqa: F401 (re-exported)
 
 
@@ -75,18 +76,8 @@ class LinearCurve(_Curve):
         return I, self.L_m0 * I
 
 
-def _check_saturating(L_m0, L_m_inf, I_par):
-    require_number("L_m0", L_m0, 0)
-    require_number("L_m_inf", L_m_inf, 0)
-    require_number("I_par", I_par, 0)
-    if L_m_inf >= L_m0:
-        raise ParameterError(
-            "L_m_inf", L_m_inf, f"must be < L_m0 = {L_m0!r} for a saturating curve"
-        )
-
-
 @dataclass(frozen=True)
-class ArctanCurve(_Curve):
+class ArctanCurve(_SaturatingCurve):
     """``psi = L_m_inf I + (L_m0 - L_m_inf) I_par atan(I / I_par)``.
 
     ``atan`` is :func:`satmotor.machine.atan.atan` (within 0.62 ulp of the exact arc tangent, the
@@ -111,17 +102,11 @@ class ArctanCurve(_Curve):
     I_par: float = 3.31
     name = "arctan"
 
-    def __post_init__(self):
-        _check_saturating(self.L_m0, self.L_m_inf, self.I_par)
+    def _knee(self, x):
+        return atan(x)
 
-    @property
-    def m0(self):
-        return self.L_m0
-
-    def _psi_dpsi(self, I):
-        x = I / self.I_par
-        d = self.L_m0 - self.L_m_inf
-        return (self.L_m_inf * I + d * self.I_par * atan(x), self.L_m_inf + d / (1.0 + x * x))
+    def _knee_slope(self, d, x):
+        return d / (1.0 + x * x)
 
     def solve(self, a, c, guess=0.0):
         """:meth:`_Curve.solve` with ``_psi_dpsi`` written out: the same operations in the same order
@@ -190,34 +175,24 @@ class ArctanCurve(_Curve):
             dg = (x / (1.0 + x * x) - at) / (x * x)
         return psi, self.L_m_inf + d * g, d * dg / self.I_par, ldyn
 
-    def m(self, I):
-        x = I / self.I_par
+    def _g(self, x):
         if x < 1e-2:
             x2 = x * x
-            g = 1.0 - x2 * (1.0 / 3.0 - x2 * (1.0 / 5.0 - x2 * (1.0 / 7.0 - x2 / 9.0)))
-        else:
-            g = atan(x) / x
-        return self.L_m_inf + (self.L_m0 - self.L_m_inf) * g
+            return 1.0 - x2 * (1.0 / 3.0 - x2 * (1.0 / 5.0 - x2 * (1.0 / 7.0 - x2 / 9.0)))
+        return atan(x) / x
 
-    def dm_dI(self, I):
-        x = I / self.I_par
+    def _dg(self, x):
         if x < 1e-2:
             x2 = x * x
-            dg = -x * (2.0 / 3.0 - x2 * (4.0 / 5.0 - x2 * (6.0 / 7.0 - x2 * 8.0 / 9.0)))
-        else:
-            dg = (x / (1.0 + x * x) - atan(x)) / (x * x)
-        return (self.L_m0 - self.L_m_inf) * dg / self.I_par
+            return -x * (2.0 / 3.0 - x2 * (4.0 / 5.0 - x2 * (6.0 / 7.0 - x2 * 8.0 / 9.0)))
+        return (x / (1.0 + x * x) - atan(x)) / (x * x)
 
-    def coenergy(self, I):
-        x = I / self.I_par
-        d = self.L_m0 - self.L_m_inf
-        return 0.5 * self.L_m_inf * I * I + d * self.I_par**2 * (
-            x * atan(x) - 0.5 * math.log1p(x * x)
-        )
+    def _integral(self, x):
+        return x * atan(x) - 0.5 * math.log1p(x * x)
 
 
 @dataclass(frozen=True)
-class ExponentialCurve(_Curve):
+class ExponentialCurve(_SaturatingCurve):
     """``psi = L_m_inf I + (L_m0 - L_m_inf) I_par (1 - exp(-I / I_par))``.
 
     The saturating-exponential magnetization curve (an exponential knee added to
@@ -241,38 +216,22 @@ class ExponentialCurve(_Curve):
     I_par: float = 3.66
     name = "exponential"
 
-    def __post_init__(self):
-        _check_saturating(self.L_m0, self.L_m_inf, self.I_par)
+    def _knee(self, x):
+        return -math.expm1(-x)
 
-    @property
-    def m0(self):
-        return self.L_m0
+    def _knee_slope(self, d, x):
+        return d * math.exp(-x)
 
-    def _psi_dpsi(self, I):
-        x = I / self.I_par
-        d = self.L_m0 - self.L_m_inf
-        return (
-            self.L_m_inf * I - d * self.I_par * math.expm1(-x),
-            self.L_m_inf + d * math.exp(-x),
-        )
+    def _g(self, x):
+        return 1.0 - x / 2.0 if x == 0.0 else -math.expm1(-x) / x
 
-    def m(self, I):
-        x = I / self.I_par
-        g = 1.0 - x / 2.0 if x == 0.0 else -math.expm1(-x) / x
-        return self.L_m_inf + (self.L_m0 - self.L_m_inf) * g
-
-    def dm_dI(self, I):
-        x = I / self.I_par
+    def _dg(self, x):
         if x < 2e-2:
-            dg = -0.5 + x * (1 / 3 - x * (1 / 8 - x * (1 / 30 - x * (1 / 144 - x * (1 / 840 - x / 5760)))))
-        else:
-            dg = (math.exp(-x) * (1.0 + x) - 1.0) / (x * x)
-        return (self.L_m0 - self.L_m_inf) * dg / self.I_par
+            return -0.5 + x * (1 / 3 - x * (1 / 8 - x * (1 / 30 - x * (1 / 144 - x * (1 / 840 - x / 5760)))))
+        return (math.exp(-x) * (1.0 + x) - 1.0) / (x * x)
 
-    def coenergy(self, I):
-        x = I / self.I_par
-        d = self.L_m0 - self.L_m_inf
-        return 0.5 * self.L_m_inf * I * I + d * self.I_par**2 * (x + math.expm1(-x))
+    def _integral(self, x):
+        return x + math.expm1(-x)
 
 
 def inductance_matrix(m, dm_dI, i_mu_d, i_mu_q, I):

@@ -160,49 +160,43 @@ class Plant:
         if self._ext:
             return self._derivatives_ext(x, v_a, v_b, T_load, warm)
         psa, psb, pra, prb, w = x[PSI_S_A], x[PSI_S_B], x[PSI_R_A], x[PSI_R_B], x[OMEGA_M]
-        if self._gamma:
-            return self._derivatives_gamma(psa, psb, pra, prb, w, v_a, v_b, T_load, warm)
-        # self.magnetizing written out (same operations): one call less per evaluation
-        ua = psa * self._inv_ls + self._k_lr * pra
-        ub = psb * self._inv_ls + self._k_lr * prb
-        un = math.hypot(ua, ub)
-        le = self._le
-        I, psi = self._curve.solve(le, le * un, 0.0 if warm is None else warm[0])
-        if warm is not None:
-            warm[0] = I
-        if I == 0.0:
-            ima = imb = 0.0
-            m = self._m0
-        else:
-            s = I / un
-            ima, imb, m = s * ua, s * ub, psi / I
-        isa = (psa - m * ima) * self._inv_ls
-        isb = (psb - m * imb) * self._inv_ls
-        km = self._k * m
-        ira = (pra - km * ima) / self._lr
-        irb = (prb - km * imb) / self._lr
-        we = self._np * w
-        te = self._kappa * (psa * isb - psb * isa)
-        return (
-            v_a - self._Rs * isa,
-            v_b - self._Rs * isb,
-            -self._Rr * ira - we * prb,
-            -self._Rr * irb + we * pra,
-            # (B + B_2 |w|) w: with B_2 = 0 exactly B w (B + 0.0 = B), so the same floats as without
-            (te - T_load - (self._B + self._B2 * abs(w)) * w) * self._inv_J,
-            w,
-        )
+        if self._gamma:  # l_s = 0: the currents of _currents_gamma
+            isa, isb, ira, irb = self._currents_gamma(psa, psb, pra, prb, warm)[:4]
+        else:  # self.currents written out (same operations): one call less per evaluation
+            ua = psa * self._inv_ls + self._k_lr * pra
+            ub = psb * self._inv_ls + self._k_lr * prb
+            un = math.hypot(ua, ub)
+            le = self._le
+            I, psi = self._curve.solve(le, le * un, 0.0 if warm is None else warm[0])
+            if warm is not None:
+                warm[0] = I
+            if I == 0.0:
+                ima = imb = 0.0
+                m = self._m0
+            else:
+                s = I / un
+                ima, imb, m = s * ua, s * ub, psi / I
+            isa = (psa - m * ima) * self._inv_ls
+            isb = (psb - m * imb) * self._inv_ls
+            km = self._k * m
+            ira = (pra - km * ima) / self._lr
+            irb = (prb - km * imb) / self._lr
+        return self._rates(v_a - self._Rs * isa, v_b - self._Rs * isb, self._Rr, isa, isb, ira, irb, psa, psb,
+                           pra, prb, w, T_load)
 
-    def _derivatives_gamma(self, psa, psb, pra, prb, w, v_a, v_b, T_load, warm=None):
-        """:meth:`derivatives` for l_s = 0 (the same equations, the currents of :meth:`_currents_gamma`)."""
-        isa, isb, ira, irb = self._currents_gamma(psa, psb, pra, prb, warm)[:4]
+    def _rates(self, ea, eb, Rr, isa, isb, ira, irb, psa, psb, pra, prb, w, T_load):
+        """The flux and mechanics equations, written once for every path: ``dx/dt`` of (psi_s, psi_r,
+        omega_m, theta_m) from the stator's ``e = d psi_s / dt`` [V] (``v_s - R_s i_s`` without core
+        loss), the rotor resistance ``Rr`` [Ohm], the currents [A] (the torque's stator current the one
+        through the leakage), the fluxes [Wb], the speed [rad/s] and the load [N m]."""
         we = self._np * w
         te = self._kappa * (psa * isb - psb * isa)
         return (
-            v_a - self._Rs * isa,
-            v_b - self._Rs * isb,
-            -self._Rr * ira - we * prb,
-            -self._Rr * irb + we * pra,
+            ea,
+            eb,
+            -Rr * ira - we * prb,
+            -Rr * irb + we * pra,
+            # (B + B_2 |w|) w: with B_2 = 0 exactly B w (B + 0.0 = B), so the same floats as without
             (te - T_load - (self._B + self._B2 * abs(w)) * w) * self._inv_J,
             w,
         )
@@ -243,17 +237,8 @@ class Plant:
     def _derivatives_ext(self, x, v_a, v_b, T_load, warm=None):
         """:meth:`derivatives` with core loss and/or the thermal model (module thermal's equations)."""
         (isa, isb, ira, irb, *_), Rs, Rr, ea, eb, fa, fb = self._ext_terms(x, v_a, v_b, warm)
-        psa, psb, pra, prb, w = x[PSI_S_A], x[PSI_S_B], x[PSI_R_A], x[PSI_R_B], x[OMEGA_M]
-        we = self._np * w
-        te = self._kappa * (psa * isb - psb * isa)
-        d = (
-            ea,
-            eb,
-            -Rr * ira - we * prb,
-            -Rr * irb + we * pra,
-            (te - T_load - (self._B + self._B2 * abs(w)) * w) * self._inv_J,
-            w,
-        )
+        d = self._rates(ea, eb, Rr, isa, isb, ira, irb, x[PSI_S_A], x[PSI_S_B], x[PSI_R_A], x[PSI_R_B],
+                        x[OMEGA_M], T_load)
         if not self._th_on:
             return d
         th = self.th

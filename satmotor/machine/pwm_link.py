@@ -5,7 +5,8 @@ Formulation (the switched stage draws its current from the link, whose voltage m
 * Between two switching instants (one constant interval of :class:`~satmotor.machine.inverter.PwmInverter`)
   each leg ``j`` is fixed: its sign ``sigma_j`` (+1 upper device or upper diode, -1 lower) and its
   on-state drop term ``delta_j`` (``-v_on`` for a positive phase current, ``+v_on`` for a negative
-  one, 0 without drops; the sign of the current at the interval's start, as on the ideal link).  The
+  one, 0 without drops; the sign of the current at the interval's start, as on the ideal link: the
+  inverter's one rule, :meth:`~satmotor.machine.inverter.PwmInverter._legs`).  The
   phase voltage is ``v_j = sigma_j v_dc / 2 + delta_j`` with the link voltage ``v_dc`` **a state**:
   the motor, the thermal states and the link ``(v_dc, E_regen, E_chop)`` integrate together over the
   interval by RK4 (``max(1, ceil(L / h_int - 1e-9))`` sub-steps), every stage evaluating the voltages at
@@ -28,8 +29,6 @@ The C port is ``fmu/native/core/sm_pwm_link.c`` (the same floats).
 """
 
 from __future__ import annotations
-
-import math
 
 from satmotor.machine.integrate import rk4
 from satmotor.machine.phases import alpha_beta as _alpha_beta
@@ -70,24 +69,12 @@ def step(link, t, x, sig, dl, T_load, h, n_sub, chop, fault):
     return y[:iv + 3], chop, fault, t_fault, y[iv + 3], y[iv + 4]
 
 
-def interval(inv, lk, x, t, L, cur, T_load, h_int, trace):
-    """One constant interval of :meth:`PwmInverter.step` on the capacitor link: the legs' signs and drops
-    from the switching state of ``inv``; ``cur`` the phase currents at ``x`` (read when v_on > 0);
-    ``lk`` = ``[link, chop, fault, t_fault]``, updated.  Returns ``(x, int_v_alpha, int_v_beta)``."""
-    link = lk[0]
-    sig = [0.0, 0.0, 0.0]
-    dl = [0.0, 0.0, 0.0]
-    for j in range(3):
-        up = inv.dead_v[j] > 0.0 if inv.dead[j] else inv.s[j] == 1  # the upper device or diode
-        sig[j] = 1.0 if up else -1.0
-        if inv.v_on > 0.0:
-            dl[j] = -inv.v_on if cur[j] > 0.0 else inv.v_on if cur[j] < 0.0 else 0.0
-    n = max(1, math.ceil(L / h_int - 1e-9))
-    if trace is not None:
-        half = 0.5 * x[link.iv]
-        v = [sig[j] * half + dl[j] for j in range(3)]
-        trace.append((t, L, *_alpha_beta(*v), *v))
-    x, lk[1], fault, t_fault, ia, ib = step(link, t, x, sig, dl, T_load, L, n, lk[1], lk[2])
+def interval(lk, x, t, L, sig, dl, T_load, n_sub):
+    """One constant interval of ``L`` [s] of :meth:`PwmInverter.step` on the capacitor link from ``t`` in
+    ``n_sub`` RK4 sub-steps, the legs' signs ``sig`` and drop terms ``dl`` [V] held (the inverter's rule,
+    :meth:`~satmotor.machine.inverter.PwmInverter._legs`); ``lk`` = ``[link, chop, fault, t_fault]``,
+    updated.  Returns ``(x, int_v_alpha, int_v_beta)``."""
+    x, lk[1], fault, t_fault, ia, ib = step(lk[0], t, x, sig, dl, T_load, L, n_sub, lk[1], lk[2])
     if t_fault is not None and lk[3] is None:
         lk[3] = t_fault
     lk[2] = fault

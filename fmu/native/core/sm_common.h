@@ -1,6 +1,6 @@
 /* Shared small things of the native satmotor core: status codes, message buffers, Python-style
  * formatting of values in messages (the wording of satmotor/errors.py). C99, no global state.
- * The functions declared here are defined in sm_curves.c.
+ * The functions declared here are defined in sm_common.c.
  *
  * Same floats as the Python package: the core evaluates the Python's formulas in the Python's
  * order in IEEE double, and calls the libm CPython's math module calls (atan2, exp, expm1, pow);
@@ -47,6 +47,14 @@ int sm_require_integer(const char *field, int value, int lower, char *msg, size_
  * returns SM_ERR_PARAM (the str() of a ParameterError). */
 int sm_param_error(char *msg, size_t msg_len, const char *source, const char *field,
                    const char *value_repr, const char *reason);
+
+/* Longest text sm_parse_float reads whole [bytes]. */
+#define SM_FLOAT_TEXT_MAX 4096
+
+/* Python float(s) of the stripped NUL-terminated s: a decimal or 'nan'/'inf'/'infinity' with a sign,
+ * underscores between digits (PEP 515); strtod in the C locale without its extensions (hex floats,
+ * nan(...)), whatever LC_NUMERIC the host set.  1 and *v the value, or 0 (not a number). */
+int sm_parse_float(const char *s, double *v);
 
 /* math.hypot(x, y) of CPython (>= 3.11: its own vector_norm, faithfully and nearly always
  * correctly rounded; the libm hypot differs in the last bit on about 0.2 % of inputs). */

@@ -10,8 +10,6 @@
 
 /* Most points a table curve holds (the origin included; the mirrored points are not stored). */
 #define SM_TABLE_MAX 512
-/* Longest line of a table CSV file [bytes]. */
-#define SM_TABLE_LINE_MAX 4096
 
 typedef enum {
     SM_CURVE_LINEAR,
@@ -34,7 +32,7 @@ typedef struct {
 
 /* Mirrors params.make_curve: name is one of arctan, exponential, polynomial, table, linear; the
  * parameters a family does not use are ignored.  table_path: CSV file read as
- * TableCurve.from_csv.  Returns SM_CORE_OK or SM_ERR_PARAM with the ParameterError text in msg. */
+ * TableCurve.from_csv (sm_table_file.h).  Returns SM_CORE_OK or SM_ERR_PARAM with the ParameterError text in msg. */
 int sm_curve_init(sm_curve *c, const char *name, double L_m0, double L_m_inf, double I_par,
                   double poly_b, int poly_n, const char *table_path, char *msg, size_t msg_len);
 

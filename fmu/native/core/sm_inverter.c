@@ -2,6 +2,7 @@
  * satmotor/control/deadtime.py in C99: the same operations in the same order. */
 #include "sm_inverter.h"
 
+#include "sm_phases.h"
 #include "sm_pwm_link.h"
 
 #include <math.h>
@@ -82,20 +83,6 @@ void sm_inverter_duties(double v_alpha, double v_beta, double V_dc, double d[3])
     }
 }
 
-static void phase_currents(double ia, double ib, double c[3])
-{
-    double s32 = SQRT3_2_FACTOR * sqrt(3.0);
-    c[0] = ia;
-    c[1] = -0.5 * ia + s32 * ib;
-    c[2] = -0.5 * ia - s32 * ib;
-}
-
-void sm_alpha_beta(double va, double vb, double vc, double *a, double *b)
-{
-    *a = (2.0 * va - vb - vc) / 3.0;
-    *b = (vb - vc) / sqrt(3.0);
-}
-
 double sm_inverter_intervals_bound(const sm_inverter *inv, double dt)
 {
     return (double)SM_INV_EVENTS_PER_HALF * (ceil(dt / inv->T_h) + 1.0) + 1.0;
@@ -139,51 +126,61 @@ static int half_edges(long long k, double T_h, const double d[3], edge ev[6])
     return n;
 }
 
-/* PwmInverter._volts: out = (v_alpha, v_beta, v_a, v_b, v_c); cur (have_cur) the phase currents at x */
-static int volts(const sm_inverter *q, const sm_motor *p, sm_solve_memo *memo, const double *x, double half,
-                 double cur[3], int *have_cur, double out[5])
+/* PwmInverter._legs, the one rule of either link: each leg's sign sig[j] (+1 the upper device or diode
+ * conducts, -1 the lower; a dead leg's diode by the sign of its dead voltage) and on-state drop term dl[j] [V]
+ * (-v_on for a positive phase current, +v_on for a negative one, 0 for none or without drops); cur (have_cur)
+ * the phase currents [A] at x, computed here when the drops need them */
+static int legs(const sm_inverter *q, const sm_motor *p, sm_solve_memo *memo, const double *x, double cur[3],
+                int *have_cur, double sig[3], double dl[3])
 {
-    double v[3];
     int j, st;
-    for (j = 0; j < 3; ++j) v[j] = q->dead[j] ? q->dead_v[j] : q->s[j] == 1 ? half : -half;
+    for (j = 0; j < 3; ++j) {
+        sig[j] = (q->dead[j] ? q->dead_v[j] > 0.0 : q->s[j] == 1) ? 1.0 : -1.0;
+        dl[j] = 0.0;
+    }
     if (q->v_on > 0.0) {
         if (!*have_cur) {
             sm_plant_outputs o;
             if ((st = sm_plant_outputs_memo(p, memo, x, 0.0, 0.0, &o)) != SM_CORE_OK) return st;
-            phase_currents(o.i_s_alpha, o.i_s_beta, cur);
+            sm_phase_currents(o.i_s_alpha, o.i_s_beta, cur);
             *have_cur = 1;
         }
-        for (j = 0; j < 3; ++j) {
-            if (cur[j] > 0.0) {
-                v[j] = v[j] - q->v_on;
-            } else if (cur[j] < 0.0) {
-                v[j] = v[j] + q->v_on;
-            }
-        }
+        for (j = 0; j < 3; ++j) dl[j] = cur[j] > 0.0 ? -q->v_on : cur[j] < 0.0 ? q->v_on : 0.0;
     }
-    sm_alpha_beta(v[0], v[1], v[2], &out[0], &out[1]);
-    out[2] = v[0];
-    out[3] = v[1];
-    out[4] = v[2];
     return SM_CORE_OK;
 }
 
-/* PwmInverter._integrate */
-static int integrate(const sm_motor *p, sm_solve_memo *memo, double *x, double t, double L, const double vo[5],
-                     double T_load, double *trace, size_t trace_cap, size_t *trace_n)
+/* inverter.leg_volts: out = (v_alpha, v_beta, v_a, v_b, v_c) [V] of the legs with half [V] half the link's
+ * voltage: phase voltages sig[j] half + dl[j], the star point floating */
+static void leg_volts(const double sig[3], const double dl[3], double half, double out[5])
 {
-    double q = ceil(L / p->h_int - 1e-9);
-    int n = q > 1.0 ? (int)q : 1;
-    if (trace_n != NULL) {
-        if (trace != NULL && *trace_n < trace_cap) {
-            double *row = trace + *trace_n * SM_INV_TRACE_WIDTH;
-            row[0] = t;
-            row[1] = L;
-            memcpy(row + 2, vo, 5 * sizeof(double));
-        }
-        ++*trace_n;
+    int j;
+    for (j = 0; j < 3; ++j) out[2 + j] = sig[j] * half + dl[j];
+    sm_alpha_beta(out[2], out[3], out[4], &out[0], &out[1]);
+}
+
+/* PwmInverter._advance: one constant interval of L [s] from t with the legs (sig, dl) on the ideal link (lk
+ * NULL; half [V] half its voltage) or integrated with the capacitor link lk (the trace row at the link's
+ * voltage at t); v_int [V s] the integrals of the applied alpha/beta voltage */
+static int advance(const sm_motor *p, sm_solve_memo *memo, sm_pwm_link_run *lk, double *x, double t, double L,
+                   const double sig[3], const double dl[3], double half, double T_load, double *trace,
+                   size_t trace_cap, size_t *trace_n, double v_int[2])
+{
+    double qn = ceil(L / p->h_int - 1e-9), vo[5];
+    int n = qn > 1.0 ? (int)qn : 1, st, row_kept = trace != NULL && *trace_n < trace_cap;
+    if (lk == NULL || row_kept) leg_volts(sig, dl, lk == NULL ? half : 0.5 * x[sm_dclink_iv(p)], vo);
+    if (row_kept) {
+        double *row = trace + *trace_n * SM_INV_TRACE_WIDTH;
+        row[0] = t;
+        row[1] = L;
+        memcpy(row + 2, vo, sizeof vo);
     }
-    return sm_plant_step_memo(p, memo, x, vo[0], vo[1], T_load, L, n);
+    ++*trace_n;
+    if (lk != NULL) return sm_pwm_link_interval(p, lk, x, t, L, sig, dl, T_load, n, v_int);
+    if ((st = sm_plant_step_memo(p, memo, x, vo[0], vo[1], T_load, L, n)) != SM_CORE_OK) return st;
+    v_int[0] = vo[0] * L;
+    v_int[1] = vo[1] * L;
+    return SM_CORE_OK;
 }
 
 /* PwmInverter.step on the ideal link (l NULL) or the capacitor link l (x then has p->n_states + 3 entries;
@@ -196,9 +193,9 @@ static int step_any(sm_inverter *inv, const sm_motor *p, const sm_dclink *l, sm_
     edge evs[6];
     sm_pwm_link_run lk;
     double xs[SM_N_LINK_STATES_MAX], T_h, eps, V, half, t1, end, start, tp, sa = 0.0, sb = 0.0;
-    double cur[3] = {0.0, 0.0, 0.0}, vo[5] = {0.0, 0.0, 0.0, 0.0, 0.0}, vi[2], te, tn;
+    double cur[3] = {0.0, 0.0, 0.0}, sig[3] = {0.0, 0.0, 0.0}, dl[3] = {0.0, 0.0, 0.0}, vi[2], te, tn;
     long long k;
-    int n_ev = 0, ei = 0, have_cur = 0, have_volts = 0, st, j, xd, nx;
+    int n_ev = 0, ei = 0, have_cur = 0, have_legs = 0, st, j, xd, nx;
     size_t n_local = 0;
     if (inv == NULL || p == NULL || x == NULL || v_avg == NULL) return SM_ERR_ARG;
     if (l != NULL && (chop == NULL || fault == NULL || t_fault == NULL)) return SM_ERR_ARG;
@@ -252,28 +249,22 @@ static int step_any(sm_inverter *inv, const sm_motor *p, const sm_dclink *l, sm_
             continue;
         }
         if (tn - tp >= eps) {
-            if (!have_volts) {
-                if ((st = volts(&q, p, memo, xs, half, cur, &have_cur, vo)) != SM_CORE_OK) return st;
-                have_volts = 1;
+            if (!have_legs) {
+                if ((st = legs(&q, p, memo, xs, cur, &have_cur, sig, dl)) != SM_CORE_OK) return st;
+                have_legs = 1;
             }
-            if (l == NULL) {
-                if ((st = integrate(p, memo, xs, tp, tn - tp, vo, T_load, trace, trace_cap, trace_n)) != SM_CORE_OK)
-                    return st;
-                sa += vo[0] * (tn - tp);
-                sb += vo[1] * (tn - tp);
-            } else {
-                st = sm_pwm_link_interval(&q, p, &lk, xs, tp, tn - tp, cur, T_load, trace, trace_cap, trace_n, vi);
-                if (st != SM_CORE_OK) return st;
-                sa += vi[0];
-                sb += vi[1];
-            }
+            st = advance(p, memo, l == NULL ? NULL : &lk, xs, tp, tn - tp, sig, dl, half, T_load, trace, trace_cap,
+                         trace_n, vi);
+            if (st != SM_CORE_OK) return st;
+            sa += vi[0];
+            sb += vi[1];
             tp = tn;
             have_cur = 0;
-            have_volts = 0;
+            have_legs = 0;
         }
         if (xd >= 0) {
             q.dead[xd] = 0;
-            have_volts = 0;
+            have_legs = 0;
             continue;
         }
         {
@@ -282,18 +273,18 @@ static int step_any(sm_inverter *inv, const sm_motor *p, const sm_dclink *l, sm_
             ++ei;
             if (q.s[jj] < 0 || e < start) { /* unknown state, or an edge of the last step: no dead interval */
                 q.s[jj] = nw;
-                have_volts = 0;
+                have_legs = 0;
                 continue;
             }
             if (nw == q.s[jj]) continue;
             q.s[jj] = nw;
-            have_volts = 0;
+            have_legs = 0;
             if (q.t_dead > 0.0) {
                 double i;
                 if (!have_cur) {
                     sm_plant_outputs o;
                     if ((st = sm_plant_outputs_memo(p, memo, xs, 0.0, 0.0, &o)) != SM_CORE_OK) return st;
-                    phase_currents(o.i_s_alpha, o.i_s_beta, cur);
+                    sm_phase_currents(o.i_s_alpha, o.i_s_beta, cur);
                     have_cur = 1;
                 }
                 i = cur[jj];
@@ -303,19 +294,15 @@ static int step_any(sm_inverter *inv, const sm_motor *p, const sm_dclink *l, sm_
             }
         }
     }
-    if (!have_volts) {
-        if ((st = volts(&q, p, memo, xs, half, cur, &have_cur, vo)) != SM_CORE_OK) return st;
+    if (!have_legs) {
+        if ((st = legs(&q, p, memo, xs, cur, &have_cur, sig, dl)) != SM_CORE_OK) return st;
     }
-    if (l == NULL) {
-        if ((st = integrate(p, memo, xs, tp, t1 - tp, vo, T_load, trace, trace_cap, trace_n)) != SM_CORE_OK)
-            return st;
-        sa += vo[0] * (t1 - tp);
-        sb += vo[1] * (t1 - tp);
-    } else {
-        st = sm_pwm_link_interval(&q, p, &lk, xs, tp, t1 - tp, cur, T_load, trace, trace_cap, trace_n, vi);
-        if (st != SM_CORE_OK) return st;
-        sa += vi[0];
-        sb += vi[1];
+    st = advance(p, memo, l == NULL ? NULL : &lk, xs, tp, t1 - tp, sig, dl, half, T_load, trace, trace_cap, trace_n,
+                 vi);
+    if (st != SM_CORE_OK) return st;
+    sa += vi[0];
+    sb += vi[1];
+    if (l != NULL) {
         *chop = lk.chop;
         *fault = lk.fault;
         *t_fault = lk.t_fault;
@@ -352,8 +339,6 @@ int sm_inverter_step_link(sm_inverter *inv, const sm_motor *p, const sm_dclink *
                     trace_cap, trace_n);
 }
 
-
-
 static double sign_times(double i, double v)
 {
     return i > 0.0 ? v : i < 0.0 ? -v : 0.0;
@@ -363,7 +348,7 @@ void sm_deadtime_compensate(double *v_alpha, double *v_beta, double i_alpha, dou
 {
     double c[3], ca, cb;
     if (V_comp == 0.0) return;
-    phase_currents(i_alpha, i_beta, c);
+    sm_phase_currents(i_alpha, i_beta, c);
     sm_alpha_beta(sign_times(c[0], V_comp), sign_times(c[1], V_comp), sign_times(c[2], V_comp), &ca, &cb);
     *v_alpha = *v_alpha + ca;
     *v_beta = *v_beta + cb;

@@ -45,9 +45,6 @@ void sm_inverter_duties(double v_alpha, double v_beta, double V_dc, double d[3])
 /* PwmInverter.intervals_bound(dt): 12 (ceil(dt / T_h) + 1) + 1, as a double. */
 double sm_inverter_intervals_bound(const sm_inverter *inv, double dt);
 
-/* phases.alpha_beta: the alpha/beta voltage [V] of phase voltages [V] (floating star point) */
-void sm_alpha_beta(double va, double vb, double vc, double *a, double *b);
-
 /* PwmInverter.step: x (the plant state, p->n_states entries) advanced from t0 over dt [s] with the command (v_alpha, v_beta)
  * [V] and T_load [N m] held; v_avg the step averages [V] of the applied alpha/beta voltage.  trace
  * (may be NULL): up to trace_cap rows of SM_INV_TRACE_WIDTH doubles, one per integrated interval;

@@ -1,6 +1,8 @@
 /* satmotor/machine/pwm_link.py in C99 (see sm_pwm_link.h). */
 #include "sm_pwm_link.h"
 
+#include "sm_phases.h"
+
 #include <math.h>
 #include <string.h>
 
@@ -80,28 +82,14 @@ int sm_pwm_link_step(const sm_motor *p, const sm_dclink *l, double t, double *x,
     return SM_CORE_OK;
 }
 
-int sm_pwm_link_interval(const sm_inverter *q, const sm_motor *p, sm_pwm_link_run *lk, double *x, double t, double L,
-                         const double cur[3], double T_load, double *trace, size_t trace_cap, size_t *trace_n,
-                         double v_int[2])
+int sm_pwm_link_interval(const sm_motor *p, sm_pwm_link_run *lk, double *x, double t, double L, const double sig[3],
+                         const double dl[3], double T_load, int n_sub, double v_int[2])
 {
-    double sig[3], dl[3], qn = ceil(L / p->h_int - 1e-9), tf;
-    int j, st, n = qn > 1.0 ? (int)qn : 1, f = lk->fault;
-    for (j = 0; j < 3; ++j) {
-        sig[j] = q->dead[j] ? (q->dead_v[j] > 0.0 ? 1.0 : -1.0) : q->s[j] == 1 ? 1.0 : -1.0;
-        dl[j] = 0.0;
-        if (q->v_on > 0.0) dl[j] = cur[j] > 0.0 ? -q->v_on : cur[j] < 0.0 ? q->v_on : 0.0;
-    }
-    if (trace_n != NULL) {
-        if (trace != NULL && *trace_n < trace_cap) {
-            double *row = trace + *trace_n * SM_INV_TRACE_WIDTH, half = 0.5 * x[sm_dclink_iv(p)];
-            row[0] = t;
-            row[1] = L;
-            for (j = 0; j < 3; ++j) row[4 + j] = sig[j] * half + dl[j];
-            sm_alpha_beta(row[4], row[5], row[6], &row[2], &row[3]);
-        }
-        ++*trace_n;
-    }
-    st = sm_pwm_link_step(p, lk->l, t, x, sig, dl, T_load, L, n, &lk->chop, &f, &tf, v_int);
+    double tf;
+    int st, f;
+    if (lk == NULL) return SM_ERR_ARG;
+    f = lk->fault;
+    st = sm_pwm_link_step(p, lk->l, t, x, sig, dl, T_load, L, n_sub, &lk->chop, &f, &tf, v_int);
     if (st != SM_CORE_OK) return st;
     if (!isnan(tf) && isnan(lk->t_fault)) lk->t_fault = tf;
     lk->fault = f;

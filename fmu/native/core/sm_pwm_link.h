@@ -8,7 +8,6 @@
 #include <stddef.h>
 
 #include "sm_dclink.h"
-#include "sm_inverter.h"
 #include "sm_plant.h"
 
 /* pwm_link.derivatives: dy of the p->n_states + 3 link states followed by the two applied-voltage
@@ -32,10 +31,9 @@ typedef struct {
 } sm_pwm_link_run;
 
 /* pwm_link.interval (PwmInverter.step's call on the capacitor link): one constant interval of length L [s]
- * from t, the legs' signs and drops from the switching state q and the phase currents cur (read when
- * v_on > 0); the trace row as sm_inverter_step's; v_int[2] [V s] the applied voltage's integrals. */
-int sm_pwm_link_interval(const sm_inverter *q, const sm_motor *p, sm_pwm_link_run *lk, double *x, double t, double L,
-                         const double cur[3], double T_load, double *trace, size_t trace_cap, size_t *trace_n,
-                         double v_int[2]);
+ * from t in n_sub RK4 sub-steps, the legs' signs sig and drop terms dl [V] held (the inverter's one rule,
+ * sm_inverter.c's legs); lk updated on success; v_int[2] [V s] the applied voltage's integrals. */
+int sm_pwm_link_interval(const sm_motor *p, sm_pwm_link_run *lk, double *x, double t, double L, const double sig[3],
+                         const double dl[3], double T_load, int n_sub, double v_int[2]);
 
 #endif
