@@ -7,6 +7,9 @@ modules or between sub-packages: tests/test_no_cycles.py):
   the verbs, ``batch`` and its warm children.
 * :mod:`orchestration.tools` -- ``export-ssp`` (SSP 1.0 packages) and ``fit-curve`` (a magnetizing
   curve from a no-load test).
+* :mod:`orchestration.study` -- a study's analyses of its variants' results: sensitivity indices, the
+  summary, ``sensitivity.png`` and ``report.html`` (the designs that draw the variants are the sweep's,
+  in :mod:`orchestration.scenario`).
 * :mod:`orchestration.check` -- the FMU checker, a product of its own: it checks anyone's FMUs
   (it uses only :mod:`orchestration.process`).
 * :mod:`orchestration.run` -- the fmpy master (wiring, stepping loop), the libcosim engine, the

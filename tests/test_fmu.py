@@ -76,7 +76,7 @@ CONTRACT = {
         "c1", "c2", "d1", "d2", "Ts", "mode", "load_mode", "V_dc", "ref_bandwidth", "g_theta", "theta_max",
         "I_max", "use_stator_flux", "c0", "d0", "flux_source", "delay_samples", "observer",
         "speed_source", "field_weakening", "fw_voltage_ratio") + PREMAG_PARAMS + MOTOR
-        + ("current_limit_gain", "host_delay_samples", "deadtime_comp_voltage")},
+        + ("current_limit_gain", "host_delay_samples", "deadtime_comp_voltage", "max_samples")},
 }
 UNITS = {"V": "v_s_alpha v_s_beta v_sd v_sq V_dc v_warn v_dc V_grid V_chop_on V_chop_off V_dc_max "
               "v_avg_alpha v_avg_beta v_on deadtime_comp_voltage",
@@ -91,7 +91,7 @@ UNITS = {"V": "v_s_alpha v_s_beta v_sd v_sq V_dc v_warn v_dc V_grid V_chop_on V_
          "rad/s2": "z2 theta_max",
          "N m": "T_load T_e T_load_est", "Ohm": "R_s R_r premag_gain R_src R_chop",
          "H": "l_s l_r L_m0 L_m_inf",
-         "1": "k W delay_samples fw_voltage_ratio premag_fraction premag_min_fraction premag_boost "
+         "1": "k W delay_samples max_samples fw_voltage_ratio premag_fraction premag_min_fraction premag_boost "
               "host_delay_samples dc_fault",
          "kg m2": "J", "N m s": "B", "A/Wb^n": "poly_b", "s": "h_int Ts premag_time_max t_dead",
          "1/s": "c1 c2 d1 d2 current_limit_gain",
@@ -116,6 +116,8 @@ def _defaults():
         "field_weakening": d.field_weakening} | {
         n: getattr(d, n) for n in ("fw_voltage_ratio", "current_limit_gain", "host_delay_samples")
         + PREMAG_PARAMS} | {"deadtime_comp_voltage": 0.0}
+    # bounded work per doStep: 10^5 samples (10 s at the default Ts), as the plant's max_substeps
+    ctrl |= {"max_samples": 100000}
     # at rest, unmagnetized (closed_loop's x0); one RK4 step per sample (closed_loop's n_sub = 1)
     plant = motor | {"B_2": 0.0, "omega_m0": 0.0, "psi_r0": 0.0, "h_int": c.Ts}
     # bounded work per doStep and the plausibility bounds: 4 V_dc, 10 I_max, about 10 x 157 rad/s
@@ -257,7 +259,7 @@ def test_model_description_matches_the_contract(fmus, name):
             assert v.description.endswith(f"[{UNIT_OF[v.name]}]"), (v.name, v.description)
         if v.causality == "parameter":
             assert _typed(v, v.start) == DEFAULTS[name][v.name], v.name
-    integers = {"n_p", "poly_n"} | ({"delay_samples", "phase", "host_delay_samples"}
+    integers = {"n_p", "poly_n"} | ({"delay_samples", "phase", "host_delay_samples", "max_samples"}
                                     if name == "BacksteppingController" else {"max_substeps"})
     assert {v.name for v in md.modelVariables if v.type == "Integer"} == integers
     booleans = {"use_stator_flux", "voltage_limited", "current_limited", "singular_limited",

@@ -19,7 +19,7 @@ Two kinds, told apart by the key ``samples``::
 
 A sensitivity study (``analysis: sobol`` or ``morris``, with ``samples`` and ``seed``; Morris also
 ``levels``) draws its variants by the method's own design, from the same distributions as a Monte
-Carlo sweep (:mod:`orchestration.study.designs`: Saltelli's ``N (D + 2)`` variants, ``N`` a power of
+Carlo sweep (:mod:`orchestration.scenario.designs`: Saltelli's ``N (D + 2)`` variants, ``N`` a power of
 two, or ``N`` Morris trajectories of ``D + 1``); the batch then writes the indices
 (:mod:`orchestration.study`).
 
@@ -76,7 +76,7 @@ class Sweep:
     parameters: tuple  # the varied paths, in the file's order
     variants: tuple  # Variant, by index
     seed: int | None = None  # Monte Carlo and the analyses only
-    design: dict | None = None  # an analysis: orchestration.study.designs.Design (SALib's problem, N, ...)
+    design: dict | None = None  # an analysis: orchestration.scenario.designs.Design (SALib's problem, N, ...)
 
 
 def _unit_tables():
@@ -278,7 +278,7 @@ def parse_sweep(raw, data, file, tables=None, only=None):
                     "normal distribution maps to infinity: give {uniform: [low, high]} or {tolerance: r}")
     paths = tuple(params)
     if analysis is not None and not chk.problems and samples is not None:
-        from orchestration.study.designs import variant_count
+        from orchestration.scenario.designs import variant_count
 
         count = variant_count(analysis, samples, len(paths))
         if count > MAX_VARIANTS:
@@ -289,7 +289,7 @@ def parse_sweep(raw, data, file, tables=None, only=None):
         return None, chk.problems
     design = None
     if analysis is not None:
-        from orchestration.study.designs import draw
+        from orchestration.scenario.designs import draw
 
         rows, design = draw(analysis, paths, specs, samples, seed, raw.get("levels", 4))
     elif montecarlo:
@@ -333,7 +333,7 @@ def parse_sweep(raw, data, file, tables=None, only=None):
 def _analysis(chk, raw):
     """The ``analysis`` of a sweep (None: a grid or a Monte Carlo sweep), its ``samples`` and ``levels``
     checked; None after recording why not."""
-    from orchestration.study.designs import ANALYSES, missing_salib
+    from orchestration.scenario.designs import ANALYSES, missing_salib
 
     if "levels" in raw and raw.get("analysis") != "morris":
         chk.add("sweep.levels", raw["levels"], "the grid levels of a Morris study: needs analysis: morris")

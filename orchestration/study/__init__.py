@@ -1,8 +1,8 @@
 """Studies: a list of runs (a sweep's variants) and an analysis of their results; runs know nothing
 of studies.
 
-* :mod:`~orchestration.study.designs` -- which variants a sensitivity study runs: Saltelli's
-  sampling for Sobol' indices, Morris trajectories (SALib).
+* which variants a sensitivity study runs (Saltelli's sampling for Sobol' indices, Morris trajectories)
+  is the sweep's own part: :mod:`orchestration.scenario.designs`, beside the sweep that draws them.
 * :mod:`~orchestration.study.analyses` -- the indices of every metric for every varied parameter.
 * :mod:`~orchestration.study.summary` -- per metric the distribution and the fraction outside the
   acceptance bounds, the variants that failed or missed.

@@ -1,5 +1,5 @@
 """The analyses of a sensitivity study: the indices of every metric for every varied parameter,
-from the metrics of the variants the design drew (:mod:`orchestration.study.designs`), by SALib.
+from the metrics of the variants the design drew (:mod:`orchestration.scenario.designs`), by SALib.
 
 * Sobol' (:func:`SALib.analyze.sobol.analyze`, no second order): ``S1`` the first-order index (the
   share of the metric's variance the parameter explains alone), ``ST`` the total index (with all its
