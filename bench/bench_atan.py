@@ -29,7 +29,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from orchestration.build.native import atan_tables  # noqa: E402
+from orchestration.packaging.native import atan_tables  # noqa: E402
 from satmotor.machine.atan import atan  # noqa: E402
 from satmotor.machine.magnetics import ArctanCurve  # noqa: E402
 

@@ -49,7 +49,7 @@ METRICS = ("iae_speed", "iae_flux", "ss_speed", "ss_flux", "overshoot_speed", "s
 # figure of a recorded run (argv: variant, a timeseries.parquet, a scratch directory)
 PARTS = r"""
 import json, sys, time
-from orchestration.build import fmus
+from orchestration.packaging import fmus
 from orchestration.run.fmu_instance import extract_owned, remove_extracted
 variant, parquet, scratch = sys.argv[1:4]
 best = float("inf")
@@ -135,7 +135,7 @@ def main(argv=None):
     ap.add_argument("--no-write", action="store_true", help="do not rewrite bench/RESULTS.md")
     args = ap.parse_args(argv)
     sys.path.insert(0, str(ROOT))
-    from orchestration.build import fmus
+    from orchestration.packaging import fmus
 
     fmus.ensure(ROOT / "build" / "fmus", quiet=True)
     checkouts = {"this": ROOT}

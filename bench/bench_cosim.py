@@ -59,7 +59,7 @@ from bench_plant import cpu_model, git_head, interpreter, write_section
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from orchestration.build import fmus  # noqa: E402
+from orchestration.packaging import fmus  # noqa: E402
 from orchestration.results.recorder import StreamingRecorder  # noqa: E402
 from orchestration.results.writer import compute_metrics  # noqa: E402
 from orchestration.run.master import run  # noqa: E402
@@ -95,7 +95,7 @@ def alternate(fns, repeats, cpu=None):
 # run in the checkout measured (cwd), with that checkout's interpreter: only APIs every checkout has
 CHILD = r"""
 import hashlib, json, sys, time
-from orchestration.build import fmus
+from orchestration.packaging import fmus
 from orchestration.run.master import run
 from orchestration.run.reference import plain_reference
 from orchestration.scenario.load import load_scenario

@@ -56,9 +56,9 @@ sys.path.insert(0, str(ROOT))
 from bench_floor import build_floor, floor_args, run_floor, unit  # noqa: E402
 from bench_plant import cpu_model, git_head, write_section  # noqa: E402
 
-from orchestration.build import fmus  # noqa: E402
-from orchestration.build.native.recorder_fmu import recorder_fmu_for  # noqa: E402
-from orchestration.build.ssd import RESOURCES, ssd_xml  # noqa: E402
+from orchestration.packaging import fmus  # noqa: E402
+from orchestration.packaging.native.recorder_fmu import recorder_fmu_for  # noqa: E402
+from orchestration.packaging.ssd import RESOURCES, ssd_xml  # noqa: E402
 from orchestration.results.recorder import MetricsOnly  # noqa: E402
 from orchestration.results.running import MetricsObserver  # noqa: E402
 from orchestration.results.writer import streaming_recorder  # noqa: E402

@@ -35,8 +35,8 @@ sys.path.insert(0, str(ROOT))
 
 from fmpy import extract, read_model_description  # noqa: E402
 
-from orchestration.build import fmus  # noqa: E402
-from orchestration.build.native.compiler import fmi_headers_dir  # noqa: E402
+from orchestration.packaging import fmus  # noqa: E402
+from orchestration.packaging.native.compiler import fmi_headers_dir  # noqa: E402
 from orchestration.scenario.system import MEASUREMENTS  # noqa: E402
 
 H = 1e-4

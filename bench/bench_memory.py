@@ -75,7 +75,7 @@ def main(argv=None):
     ap.add_argument("--no-write", action="store_true", help="do not rewrite bench/RESULTS.md")
     args = ap.parse_args(argv)
     sys.path.insert(0, str(ROOT))
-    from orchestration.build import fmus
+    from orchestration.packaging import fmus
 
     fmus.ensure(ROOT / "build" / "fmus", quiet=True)
     checkouts = {"this": ROOT} if not args.compare else {"before": Path(args.compare).resolve(), "this": ROOT}

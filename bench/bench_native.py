@@ -44,7 +44,7 @@ CHILD = r"""
 import cProfile, hashlib, json, pstats, sys, time
 from pathlib import Path
 try:
-    from orchestration.build import fmus
+    from orchestration.packaging import fmus
     from orchestration.run.master import run
     from orchestration.scenario.load import load_scenario
 except ImportError:  # a checkout from before orchestration/ was split by job
@@ -112,7 +112,7 @@ def main(argv=None):
     args = ap.parse_args(argv)
 
     sys.path.insert(0, str(ROOT))
-    from orchestration.build import fmus
+    from orchestration.packaging import fmus
 
     fmus.ensure(ROOT / "build" / "fmus", quiet=True)
     checkouts = {"this": ROOT}

@@ -62,7 +62,7 @@ from bench_plant import cpu_model, write_section
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from orchestration.build import fmus  # noqa: E402
+from orchestration.packaging import fmus  # noqa: E402
 from orchestration.run.master import run  # noqa: E402
 from orchestration.run.reference import plain_reference  # noqa: E402
 from orchestration.scenario.load import load_scenario  # noqa: E402

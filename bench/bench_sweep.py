@@ -46,7 +46,7 @@ ROOT = Path(__file__).resolve().parents[1]
 # that keeps nothing and times its own life (the loop) in CPU time
 STEPPING = r"""
 import json, sys, time
-from orchestration.build import fmus
+from orchestration.packaging import fmus
 from orchestration.run.master import run
 from orchestration.results.recorder import Recorder
 from orchestration.scenario.variants import load_sweep
@@ -134,7 +134,7 @@ def main(argv=None):
     ap.add_argument("--no-write", action="store_true", help="do not rewrite bench/RESULTS.md")
     args = ap.parse_args(argv)
     sys.path.insert(0, str(ROOT))
-    from orchestration.build import fmus
+    from orchestration.packaging import fmus
 
     fmus.ensure(ROOT / "build" / "fmus", quiet=True)
     load0 = os.getloadavg()

@@ -50,7 +50,7 @@ import yaml
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from orchestration.build import fmus  # noqa: E402
+from orchestration.packaging import fmus  # noqa: E402
 from orchestration.run.master import run  # noqa: E402
 from orchestration.scenario.load import load_scenario  # noqa: E402
 from satmotor.machine.library import MOTORS  # noqa: E402

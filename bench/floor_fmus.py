@@ -25,7 +25,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 
-# real FMU (orchestration.build.fmu_build.FMUS) -> floor FMU class name
+# real FMU (orchestration.packaging.fmu_build.FMUS) -> floor FMU class name
 FLOOR = {"SaturatedInductionMotor": "FloorSaturatedInductionMotor",
          "BacksteppingController": "FloorBacksteppingController"}
 
@@ -73,7 +73,7 @@ class {name}(Fmi2Slave):
 def script(real):
     """The source of the floor slave of the real FMU ``real`` (a key of :data:`FLOOR`)."""
     import satmotor.interface as itf
-    from orchestration.build.fmu_build import FMUS
+    from orchestration.packaging.fmu_build import FMUS
 
     tables = FMUS[real][1]  # the slave's VARIABLES: these tables joined in this order
     variables = tuple((v.name, v.causality, v.type, v.start) for t in tables for v in getattr(itf, t))

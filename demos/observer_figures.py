@@ -31,7 +31,7 @@ import yaml
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
-from orchestration.build import fmus  # noqa: E402
+from orchestration.packaging import fmus  # noqa: E402
 from orchestration.run.master import run  # noqa: E402
 from orchestration.scenario.load import load_scenario  # noqa: E402
 

@@ -1,2 +1,2 @@
 """The FMU sources (pythonfmu slave scripts and their shared glue), installed as
-``satmotor_fmu_sources`` for the build (:mod:`orchestration.build.fmu_build`); nothing to import."""
+``satmotor_fmu_sources`` for the build (:mod:`orchestration.packaging.fmu_build`); nothing to import."""

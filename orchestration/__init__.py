@@ -16,7 +16,7 @@ modules or between sub-packages: tests/test_no_cycles.py):
   plain-Python reference loop, the run result; it records into the results' recorder.
 * :mod:`orchestration.results` -- what a run leaves behind: the recorder (in memory or streamed to the
   time-series files), metrics, the results files, the figure.
-* :mod:`orchestration.build` -- every FMU and generated artefact: pythonfmu and native FMUs, model
+* :mod:`orchestration.packaging` -- every FMU and generated artefact: pythonfmu and native FMUs, model
   descriptions, C variable tables, the SSP system description, cross builds, reference results,
   the variable tables of the docs.
 * :mod:`orchestration.scenario` -- YAML in: a validated scenario, every problem with file, field

@@ -4,7 +4,7 @@ The tables below are the single source of the units' interfaces: the FMU slaves 
 variables from them, the FMU documentation is generated from them, and the plain-Python
 reference uses the same units.  Defaults come from the parameter dataclasses (no number is
 written twice).  Units are in the descriptions and, added by the build
-(``orchestration.build.fmu_model_description``), in the FMUs' ``unit`` attributes.
+(``orchestration.packaging.fmu_model_description``), in the FMUs' ``unit`` attributes.
 """
 
 from __future__ import annotations
@@ -57,7 +57,7 @@ class Variable(NamedTuple):
     """One exposed variable: name, causality (input/output/parameter), type (Real, Integer,
     String), start value, unit, description and, for a parameter, the C parameter struct of the
     native core whose member of the same name it fills (``c_struct``: ``motor`` is
-    ``sm_motor_params``; see ``orchestration/build/native/tables.py``).  ``choices``: a String
+    ``sm_motor_params``; see ``orchestration/packaging/native/tables.py``).  ``choices``: a String
     parameter's closed set of values (empty: any text, a file name); the checks in Python use the
     same tuple, the native core a C enum and parser generated from it (``sm_choice_parse``), the
     scenario loader refuses any other value.  ``fills``: the settings (keys of :data:`SETTINGS`) whose
@@ -87,7 +87,7 @@ def _v(name, causality, start, unit, description, type_="Real", choices=(), fill
 
 # the controller's settings dataclasses its flat parameters fill (Variable.fills), by the name of their
 # C struct (sm_gains, ...: each field the member of its name, but the coded ones of
-# orchestration/build/native/tables.py's DATACLASS_STRUCTS)
+# orchestration/packaging/native/tables.py's DATACLASS_STRUCTS)
 SETTINGS = {"gains": BacksteppingGains, "law_config": ControllerConfig, "drive_config": DriveConfig,
             "ifoc_gains": IFOCGains}
 

@@ -110,7 +110,7 @@ def fmu_dir(tmp_path_factory):
     """The six FMUs for this machine (pythonfmu, native FMI 2.0 and 3.0; no cross-compile), built once
     per test run: in $SATMOTOR_TEST_FMUS when set (rebuilt there only when missing, stale or
     cross-built), else in a temporary directory.  The tests must not write into it."""
-    from orchestration.build import fmus
+    from orchestration.packaging import fmus
 
     given = os.environ.get(FMU_DIR_VARIABLE)
     if given:
@@ -128,8 +128,8 @@ def fmu_dir_all_platforms(tmp_path_factory):
     cross-compiled with zig), built once per run, only for the tests that use them; skipped without zig.
     On a fresh machine zig first compiles its MinGW and macOS C runtimes: minutes.  In
     $SATMOTOR_TEST_FMUS_ALL when set (rebuilt there only when missing or stale), as $SATMOTOR_TEST_FMUS."""
-    from orchestration.build import fmus
-    from orchestration.build.native import compiler as native_build
+    from orchestration.packaging import fmus
+    from orchestration.packaging.native import compiler as native_build
 
     if not native_build.zig_available():
         pytest.skip("zig is not installed (pip install ziglang, in the native and dev extras)")

@@ -4,7 +4,7 @@ flag set, kept in ``build/native_core/`` (:data:`CACHE`: rebuilt when a source, 
 or a flag changes; no temporary folder is left behind).  Extra compiler flags (appended) from the
 environment variable ``SM_CORE_EXTRA_CFLAGS``.  The parameter structs (:data:`MotorParams`,
 :data:`PlantParams`, :data:`ControllerParams`) are ctypes structures whose fields are read from the
-generator's table (:func:`orchestration.build.native.tables.struct_members`), as the C structs are
+generator's table (:func:`orchestration.packaging.native.tables.struct_members`), as the C structs are
 generated from it."""
 
 from __future__ import annotations
@@ -18,8 +18,8 @@ from pathlib import Path
 
 import c_binding
 
-from orchestration.build.native import atan_tables
-from orchestration.build.native import tables as native_tables
+from orchestration.packaging.native import atan_tables
+from orchestration.packaging.native import tables as native_tables
 
 ROOT = Path(__file__).resolve().parents[1]
 CORE = ROOT / "fmu" / "native" / "core"

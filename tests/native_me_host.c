@@ -247,7 +247,7 @@ int main(int argc, char **argv)
     Library lib;
     int steps, sep, rc;
     double h;
-    size_t nx = 11; /* the plant's (STATES of orchestration/build/native/model_exchange.py) */
+    size_t nx = 11; /* the plant's (STATES of orchestration/packaging/native/model_exchange.py) */
     if (argc < 7) {
         fprintf(stderr, "usage: %s LIB TOKEN RESOURCES STEPS H VR=VALUE... -- OUT_VR...\n", argv[0]);
         return 2;

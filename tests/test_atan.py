@@ -30,7 +30,7 @@ from satmotor.machine.magnetics import ArctanCurve, _Curve
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import native_core as nc  # noqa: E402
 
-from orchestration.build.native import atan_tables  # noqa: E402
+from orchestration.packaging.native import atan_tables  # noqa: E402
 
 SOURCE = Path(__file__).resolve().parents[1] / "fmu" / "native" / "core" / "sm_atan.c"
 DIGITS = 60

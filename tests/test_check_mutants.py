@@ -16,10 +16,10 @@ from pathlib import Path
 import pytest
 from test_check import rewrite_model_description, run_check
 
-from orchestration.build import fmu_build, fmus
-from orchestration.build.native import compiler as native_build
-from orchestration.build.native import fmus as native_fmus
-from orchestration.build.native import model_description as nmd
+from orchestration.packaging import fmu_build, fmus
+from orchestration.packaging.native import compiler as native_build
+from orchestration.packaging.native import fmus as native_fmus
+from orchestration.packaging.native import model_description as nmd
 
 pytestmark = pytest.mark.slow
 PLANT = "SaturatedInductionMotor"
@@ -67,7 +67,7 @@ def build_pythonfmu_copy(tmp_path, out_dir, glue_patches, name=PLANT):
     glue = tmp_path / "glue" / fmu_build.GLUE.name
     glue.parent.mkdir()
     glue.write_text(patched(fmu_build.GLUE.read_text(), glue_patches, fmu_build.GLUE))
-    code = (f"from pathlib import Path\nimport orchestration.build.fmu_build as b\n"
+    code = (f"from pathlib import Path\nimport orchestration.packaging.fmu_build as b\n"
             f"b.GLUE = Path({str(glue)!r})\n"
             f"b.build_one({name!r}, {str(out_dir)!r})\n")
     Path(out_dir).mkdir()

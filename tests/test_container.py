@@ -18,8 +18,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from orchestration.build import fmus
 from orchestration.cli import commands as cli
+from orchestration.packaging import fmus
 from orchestration.run.master import run
 from orchestration.scenario.load import load_scenario
 

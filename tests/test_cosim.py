@@ -10,7 +10,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from orchestration.build import fmus
+from orchestration.packaging import fmus
 from orchestration.run.master import DEFAULT_CONNECTIONS, Connection, run
 from orchestration.run.reference import COLUMNS, plain_reference
 from orchestration.scenario.load import load_scenario

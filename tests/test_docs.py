@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pytest
 
-from orchestration.build import variable_tables
+from orchestration.packaging import variable_tables
 from orchestration.run.reference import plain_reference
 from orchestration.scenario.load import load_scenario
 
@@ -63,7 +63,7 @@ def test_the_variables_page_is_the_generated_one():
     text = (ROOT / variable_tables.PAGE).read_text(encoding="utf-8")
     assert text == variable_tables.page(), (
         f"{variable_tables.PAGE} differs from satmotor/interface.py: run "
-        f"`python -m orchestration.build.variable_tables --write {variable_tables.PAGE}`")
+        f"`python -m orchestration.packaging.variable_tables --write {variable_tables.PAGE}`")
 
 
 def test_the_generator_writes_the_page_it_checks(tmp_path):

@@ -19,8 +19,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from orchestration.build import fmus, ssd
 from orchestration.cli import commands as cli
+from orchestration.packaging import fmus, ssd
 from orchestration.run.master import run
 from orchestration.scenario.load import load_scenario
 

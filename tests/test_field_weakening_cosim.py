@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from orchestration.build import fmus
+from orchestration.packaging import fmus
 from orchestration.results.writer import check_acceptance, compute_metrics
 from orchestration.run.master import run
 from orchestration.scenario.load import load_scenario

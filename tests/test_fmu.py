@@ -91,8 +91,8 @@ UNITS = {"V": "v_s_alpha v_s_beta v_sd v_sq V_dc v_warn v_dc V_grid V_chop_on V_
          "rad/s2": "z2 theta_max",
          "N m": "T_load T_e T_load_est", "Ohm": "R_s R_r premag_gain R_src R_chop",
          "H": "l_s l_r L_m0 L_m_inf",
-         "1": "k W delay_samples max_samples fw_voltage_ratio premag_fraction premag_min_fraction premag_boost "
-              "host_delay_samples dc_fault",
+         "1": "k W delay_samples max_samples fw_voltage_ratio premag_fraction premag_min_fraction "
+              "premag_boost host_delay_samples dc_fault",
          "kg m2": "J", "N m s": "B", "A/Wb^n": "poly_b", "s": "h_int Ts premag_time_max t_dead",
          "1/s": "c1 c2 d1 d2 current_limit_gain",
          "1/s2": "g_theta c0 d0", "N m s2/rad2": "B_2",

@@ -10,7 +10,7 @@ import importlib.util
 
 import pytest
 
-from orchestration.build.fmu_build import GLUE
+from orchestration.packaging.fmu_build import GLUE
 from satmotor.interface import (
     CONTROLLER_INPUTS,
     CONTROLLER_OUTPUTS,

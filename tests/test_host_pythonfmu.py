@@ -32,7 +32,7 @@ import pytest
 from fmpy import __file__ as fmpy_file
 from fmpy import read_model_description
 
-from orchestration.build import fmus
+from orchestration.packaging import fmus
 
 pytestmark = pytest.mark.slow
 ROOT = Path(__file__).resolve().parents[1]

@@ -357,7 +357,7 @@ def test_c_duties_and_compensation_equal_python(lib):
 def test_plant_fmu_pwm_equals_the_plant_unit_and_restores_its_state(variant, fmu_dir):
     """The plant FMU with inverter = pwm (dead time, drops, an unaligned carrier) against PlantUnit, every
     output bit for bit; an FMU state taken mid-run and restored gives the same continuation."""
-    from orchestration.build import fmus
+    from orchestration.packaging import fmus
     from orchestration.run.fmu_instance import FMUInstance
 
     values = {"inverter": "pwm", "f_sw": 7300.0, "t_dead": 3e-6, "v_on": 1.2, "psi_r0": 0.8}
@@ -441,7 +441,7 @@ def test_scenario_sets_the_inverter_and_notes_a_link_the_controller_does_not_ass
 def test_plant_fmu_step_average_equals_the_command(variant, fmu_dir):
     """Through the FMU: inverter = pwm, no dead time or drops, 5 and 10 kHz at 100 us steps: the outputs
     v_avg_alpha/beta equal the inputs v_s_alpha/beta (the average-value model's voltage) to rounding."""
-    from orchestration.build import fmus
+    from orchestration.packaging import fmus
     from orchestration.run.fmu_instance import FMUInstance
 
     for f_sw in (5000.0, 10000.0):

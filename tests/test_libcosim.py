@@ -27,8 +27,8 @@ import pytest
 
 pytest.importorskip("libcosimpy")
 
-from orchestration.build import fmus  # noqa: E402
 from orchestration.cli.commands import run_file  # noqa: E402
+from orchestration.packaging import fmus  # noqa: E402
 from orchestration.results.atomic import being_written  # noqa: E402
 from orchestration.run import libcosim_engine  # noqa: E402
 from orchestration.run.master import run as master_run  # noqa: E402
@@ -126,7 +126,7 @@ def test_every_library_scenario_runs_as_the_jacobi_master_or_is_refused_for_its_
 
 
 def test_the_system_libcosim_loads_is_the_ssp_description_with_no_worker_thread(tmp_path, fmu_dir):
-    from orchestration.build.ssd import OSP_NS, SSD_NS, SSV_NS
+    from orchestration.packaging.ssd import OSP_NS, SSD_NS, SSV_NS
 
     sc = dataclasses.replace(load_scenario(DECIMATED), plant={"J": 0.05})
     paths = dict(zip(("plant", "controller"), fmus.paths(fmu_dir, "native")))
@@ -147,7 +147,7 @@ def test_the_system_libcosim_loads_is_the_ssp_description_with_no_worker_thread(
 
 @pytest.mark.parametrize("ns", [1, 3, 50_000, 65_000, 100_000, 123_457, 129_000, 1_953_125, 10**9 - 1])
 def test_a_time_that_libcosim_would_truncate_is_written_so_it_reads_back_exactly(ns):
-    from orchestration.build.ssd import seconds_text
+    from orchestration.packaging.ssd import seconds_text
 
     assert int(float(seconds_text(ns / 1e9)) * 1e9) == ns
 

@@ -1,4 +1,4 @@
-"""Recording inside a compiled engine: the RowRecorder FMU (orchestration.build.native.recorder_fmu,
+"""Recording inside a compiled engine: the RowRecorder FMU (orchestration.packaging.native.recorder_fmu,
 fmu/recorder/native_model.c), the rows the libcosim engine makes of it
 (orchestration.run.row_recorder) and the engine's ``record: metrics`` fast path against the project's
 master.
@@ -18,8 +18,15 @@ import numpy as np
 import pytest
 from fmu_helpers import Slave, open_fmu
 
-from orchestration.build import fmus
-from orchestration.build.native.recorder_fmu import BLOCK, N_BOOLEAN, N_INTEGER, N_REAL, VR, recorder_fmu_for
+from orchestration.packaging import fmus
+from orchestration.packaging.native.recorder_fmu import (
+    BLOCK,
+    N_BOOLEAN,
+    N_INTEGER,
+    N_REAL,
+    VR,
+    recorder_fmu_for,
+)
 from orchestration.results.running import FLAG_COLUMNS, METRIC_COLUMNS, PHASE_COLUMN, PSI_SET_COLUMN
 from orchestration.results.writer import streaming_recorder
 from orchestration.run import row_recorder

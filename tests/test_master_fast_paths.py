@@ -66,7 +66,7 @@ def test_rows_appended_to_the_chunk_list_across_flushes_are_all_recorded():
 
 
 def test_the_fast_pointer_is_private_and_reads_what_fmpy_reads(fmu_dir):
-    from orchestration.build import fmus
+    from orchestration.packaging import fmus
 
     plant, _ = fmus.paths(fmu_dir, "native")
     inst = FMUInstance(plant, "plant")
@@ -133,7 +133,7 @@ def test_ports_wired_through_memory_record_what_picked_ports_record(fmu_dir, tmp
     """The Gauss-Seidel loop with the ports wired through memory (chained_port) against the same loop
     with the inputs picked in Python (chained_port switched off): the same record to the last bit, with
     the controller every step or every other step and every row or every fifth recorded."""
-    from orchestration.build import fmus
+    from orchestration.packaging import fmus
     from orchestration.run import master
 
     plant, ctrl = fmus.paths(fmu_dir, variant)
@@ -158,7 +158,7 @@ def test_ports_wired_through_memory_record_what_picked_ports_record(fmu_dir, tmp
 
 def test_chained_port_declines_what_it_cannot_wire(fmu_dir):
     """An output feeding two inputs, or an input fed by the unit itself, goes the picked way (None)."""
-    from orchestration.build import fmus
+    from orchestration.packaging import fmus
     from orchestration.run.master import _outputs
     from orchestration.run.step_plans import chained_port
     from orchestration.scenario.system import CONTROLLER, DEFAULT_CONNECTIONS, PLANT, Connection
@@ -185,7 +185,7 @@ def test_chained_port_declines_what_it_cannot_wire(fmu_dir):
 def test_the_collector_is_off_in_the_loop_and_as_it_was_after(fmu_dir, tmp_path, monkeypatch):
     import gc
 
-    from orchestration.build import fmus
+    from orchestration.packaging import fmus
     from orchestration.run import master
 
     plant, ctrl = fmus.paths(fmu_dir, "native")

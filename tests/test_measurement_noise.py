@@ -209,7 +209,7 @@ def test_every_problem_of_a_section_at_once(tmp_path):
 
 
 def _cosim(sc, fmu_dir, **kw):
-    from orchestration.build import fmus
+    from orchestration.packaging import fmus
     from orchestration.run.master import run
 
     plant, ctrl = fmus.paths(fmu_dir)

@@ -17,7 +17,7 @@ from pathlib import Path
 
 import pytest
 
-from orchestration.build.native import compiler as native_build
+from orchestration.packaging.native import compiler as native_build
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from binary_headers import elf_glibc_versions, macho_min_os, macho_slices, pe_min_os  # noqa: E402

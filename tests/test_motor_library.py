@@ -19,7 +19,7 @@ import textwrap
 import numpy as np
 import pytest
 
-from orchestration.build import fmus
+from orchestration.packaging import fmus
 from orchestration.run.fmu_instance import FMUInstance
 from orchestration.scenario.load import load_scenario
 from orchestration.scenario.validate import check_scenario_file

@@ -16,7 +16,7 @@ from fmpy.fmi2 import FMU2Slave
 from fmpy.fmi3 import FMU3Slave
 from fmpy.validation import validate_fmu
 
-from orchestration.build import fmus
+from orchestration.packaging import fmus
 from orchestration.run.fmu_instance import FMUInstance
 from orchestration.run.master import run
 from orchestration.scenario.load import load_scenario
@@ -264,8 +264,8 @@ def test_no_global_mutable_state_in_the_core_or_the_models(tmp_path):
     import shutil
     import subprocess
 
-    from orchestration.build.native import compiler as native_build
-    from orchestration.build.native import fmus as native_fmus
+    from orchestration.packaging.native import compiler as native_build
+    from orchestration.packaging.native import fmus as native_fmus
 
     if shutil.which("gcc") is None or shutil.which("nm") is None:
         pytest.skip("needs gcc and nm")
@@ -294,7 +294,7 @@ def test_a_table_curve_reads_its_file_from_the_fmus_resources(version, tmp_path)
     same trajectory as the plain-Python unit reading that CSV."""
     from conftest import no_load_table
 
-    from orchestration.build.native import fmus as native_fmus
+    from orchestration.packaging.native import fmus as native_fmus
     from satmotor.interface import PlantUnit
 
     i_mu, psi = no_load_table()

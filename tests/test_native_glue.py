@@ -1,7 +1,7 @@
 """The native C FMI glue (fmu/native/fmi) with the first-order-lag test model (fmu/native/testmodel).
 
 Builds FMI 2.0 and 3.0 co-simulation FMUs of x' = (u - x)/tau once per session with
-orchestration.build.native.compiler and checks them through fmpy (validation, simulation against the exact
+orchestration.packaging.native.compiler and checks them through fmpy (validation, simulation against the exact
 discrete solution), fmpy's low-level FMU2Slave/FMU3Slave (errors, wrong states, FMU state, many
 instances) and a C host compiled with -fsanitize=address,undefined.
 """
@@ -24,8 +24,8 @@ from fmpy.fmi2 import FMU2Slave, defaultCallbacks, fmi2CallbackFunctions, fmi2Ca
 from fmpy.fmi3 import FMU3Slave
 from fmpy.validation import validate_fmu
 
-from orchestration.build.native import compiler as native_build
-from orchestration.build.native import tables as native_tables
+from orchestration.packaging.native import compiler as native_build
+from orchestration.packaging.native import tables as native_tables
 from satmotor.interface import Variable
 
 ROOT = Path(__file__).resolve().parents[1]

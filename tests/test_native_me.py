@@ -33,8 +33,8 @@ from fmpy.fmi3 import FMU3Model, FMU3Slave
 from fmpy.util import read_csv, read_ref_opt_file
 from fmpy.validation import validate_fmu
 
-from orchestration.build import fmus, reference_results
-from orchestration.build.native import model_exchange as native_me
+from orchestration.packaging import fmus, reference_results
+from orchestration.packaging.native import model_exchange as native_me
 from orchestration.run.master import run
 from orchestration.scenario.load import load_scenario
 from satmotor.interface import PLANT_PARAMETERS, PlantUnit
@@ -677,7 +677,7 @@ def test_no_global_mutable_state_in_the_me_glue_or_model(tmp_path):
     import shutil
     import subprocess
 
-    from orchestration.build.native import compiler as native_build
+    from orchestration.packaging.native import compiler as native_build
 
     if shutil.which("gcc") is None or shutil.which("nm") is None:
         pytest.skip("needs gcc and nm")
@@ -774,7 +774,7 @@ def test_a_c_host_integrating_the_me_plant_with_rk4_gets_the_python_plant_bit_fo
     import shutil
     import subprocess
 
-    from orchestration.build.native import compiler as native_build
+    from orchestration.packaging.native import compiler as native_build
 
     if shutil.which("gcc") is None:
         pytest.skip("needs gcc")
@@ -812,7 +812,7 @@ def test_the_windows_binaries_of_the_me_plant_under_wine_give_the_linux_numbers(
     import subprocess
     import tempfile
 
-    from orchestration.build.native import compiler as native_build
+    from orchestration.packaging.native import compiler as native_build
 
     wine = shutil.which("wine64") or shutil.which("wine")
     if wine is None or not native_build.zig_available() or shutil.which("gcc") is None:
@@ -862,7 +862,7 @@ def test_the_me_fmu_builds_from_its_own_sources_and_runs_bit_for_bit(fmu_dir, ve
     import subprocess
     import xml.etree.ElementTree as ET
 
-    from orchestration.build.native import compiler as native_build
+    from orchestration.packaging.native import compiler as native_build
 
     if shutil.which("gcc") is None:
         pytest.skip("needs gcc")

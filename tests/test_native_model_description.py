@@ -9,8 +9,8 @@ import pytest
 from fmpy import read_model_description
 from fmpy.validation import validate_model_description
 
-from orchestration.build import fmus
-from orchestration.build.native.model_description import fmi2, fmi3
+from orchestration.packaging import fmus
+from orchestration.packaging.native.model_description import fmi2, fmi3
 
 NAMES = ("SaturatedInductionMotor", "BacksteppingController")
 TOKEN = "{12345678-1234-5678-1234-567812345678}"

@@ -1,5 +1,5 @@
-"""The generator of the native C tables (orchestration/build/native/tables.py): what it writes, compiled and
-read back through ctypes, is what the interface tables and the Python settings dataclasses say; a
+"""The generator of the native C tables (orchestration/packaging/native/tables.py): what it writes,
+compiled and read back through ctypes, is what the interface tables and the Python settings dataclasses say; a
 parameter added to a table reaches the C struct and its copy from the value store with no C edit."""
 
 from __future__ import annotations
@@ -16,7 +16,7 @@ import pytest
 from native_core import BINDING, STRUCTS, ControllerParams, MotorParams, PlantParams, load, params
 
 import satmotor.interface as itf
-from orchestration.build.native import tables as native_tables
+from orchestration.packaging.native import tables as native_tables
 from satmotor.control.backstepping import BacksteppingGains, ControllerConfig
 from satmotor.control.drive import DriveConfig
 from satmotor.control.ifoc import IFOCGains

@@ -35,8 +35,8 @@ from pathlib import Path
 import pytest
 from fmpy import read_model_description
 
-from orchestration.build import fmus
-from orchestration.build.native import compiler as native_build
+from orchestration.packaging import fmus
+from orchestration.packaging.native import compiler as native_build
 
 pytestmark = pytest.mark.slow
 ROOT = Path(__file__).resolve().parents[1]

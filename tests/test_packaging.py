@@ -109,7 +109,7 @@ def test_a_change_to_any_build_input_makes_the_fmus_stale(fmu_dir, tmp_path, mon
     import shutil
     import zipfile
 
-    from orchestration.build import fmu_build, fmus
+    from orchestration.packaging import fmu_build, fmus
 
     assert fmus.up_to_date(fmu_dir)
     copy = tmp_path / "fmus"

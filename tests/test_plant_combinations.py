@@ -130,7 +130,7 @@ def test_c_core_equals_python_bit_for_bit(lib, label):
 def test_plant_fmu_equals_the_plant_unit_and_restores_its_state(variant, label, fmu_dir):
     """Every output bit for bit against PlantUnit; an FMU state taken mid-run and restored gives the same
     continuation."""
-    from orchestration.build import fmus
+    from orchestration.packaging import fmus
     from orchestration.run.fmu_instance import FMUInstance
 
     values = COMBOS[label]
@@ -317,7 +317,7 @@ def test_the_pwm_capacitor_stop_scenario(fmu_dir):
     """scenarios/pwm_capacitor_stop.yaml through the native FMUs and the master: its acceptance holds, no
     fault, the chopper takes part and holds the link between its thresholds and the fault level, and the
     chopper burns less than the kinetic energy 1/2 J w^2 the stop releases."""
-    from orchestration.build import fmus
+    from orchestration.packaging import fmus
     from orchestration.results.writer import check_acceptance, compute_metrics
     from orchestration.run.master import run
     from orchestration.scenario.load import load_scenario

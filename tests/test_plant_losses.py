@@ -335,7 +335,7 @@ def test_energy_balance_through_the_fmu(fmu_dir, variant):
     from fmpy import extract, read_model_description
     from fmpy.fmi2 import FMU2Slave
 
-    from orchestration.build import fmus
+    from orchestration.packaging import fmus
 
     R_s, R_r, l_r, R_fe, b = 3.7, 2.5, 0.023, 600.0, 0.84**7 / 0.34
     th = dict(thermal=True, C_th_s=20.0, C_th_r=8.0, T_s0=333.15, T_r0=313.15)

@@ -28,7 +28,7 @@ from pathlib import Path
 
 import pytest
 
-from orchestration.build import fmus
+from orchestration.packaging import fmus
 
 ROOT = Path(__file__).resolve().parents[1]
 VALGRIND = shutil.which("valgrind")

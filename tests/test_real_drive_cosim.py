@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 import yaml
 
-from orchestration.build import fmus
+from orchestration.packaging import fmus
 from orchestration.results.writer import check_acceptance, compute_metrics
 from orchestration.run.master import run
 from orchestration.run.reference import plain_reference

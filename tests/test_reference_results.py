@@ -12,7 +12,7 @@ import pytest
 from fmpy import simulate_fmu
 from fmpy.util import read_csv, read_ref_opt_file
 
-from orchestration.build import reference_results
+from orchestration.packaging import reference_results
 
 ROOT = Path(__file__).resolve().parents[1]
 REFERENCE = ROOT / "reference"

@@ -27,10 +27,10 @@ from fmpy.fmi1 import FMICallException
 from fmpy.fmi2 import FMU2Slave, defaultCallbacks, fmi2CallbackFunctions, fmi2CallbackLoggerTYPE
 from fmpy.fmi3 import FMU3Slave
 
-from orchestration.build import signals_fmu
-from orchestration.build.native import compiler as native_build
-from orchestration.build.native import fmus as native_fmus
-from orchestration.build.native import tables as native_tables
+from orchestration.packaging import signals_fmu
+from orchestration.packaging.native import compiler as native_build
+from orchestration.packaging.native import fmus as native_fmus
+from orchestration.packaging.native import tables as native_tables
 from satmotor.interface import MAX_STEP_SAMPLES, MAX_SUBSTEPS, PlantUnit
 
 pytestmark = pytest.mark.skipif(shutil.which("gcc") is None, reason="needs gcc")

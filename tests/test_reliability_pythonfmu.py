@@ -24,7 +24,7 @@ from pathlib import Path
 
 import pytest
 
-from orchestration.build import fmus
+from orchestration.packaging import fmus
 
 pytestmark = pytest.mark.slow
 ROOT = Path(__file__).resolve().parents[1]

@@ -183,7 +183,7 @@ def test_a_current_the_drive_cannot_hold_is_said_by_the_run(variant, tmp_path):
 
 def _master(name, fmu_variant="native", algorithm=None, full=False, plant=None, profiles=None, stop_time=None,
             **controller):
-    from orchestration.build import fmus as fmu_paths
+    from orchestration.packaging import fmus as fmu_paths
     from orchestration.results.writer import check_acceptance, compute_metrics
     from orchestration.run.master import run
     from orchestration.scenario.load import load_scenario

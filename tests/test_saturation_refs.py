@@ -193,7 +193,7 @@ def _law_flux_error(p, line_m, Phi, T, w, c1):
 
 @pytest.fixture(scope="module")
 def comparison(fmu_dir):
-    from orchestration.build import fmus
+    from orchestration.packaging import fmus
     bench = _bench()
     plant, ctrl = fmus.paths(fmu_dir, "native")
     rows = {}

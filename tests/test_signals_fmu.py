@@ -1,4 +1,4 @@
-"""The ScenarioSignals native FMU (fmu/signals/native_model.c, orchestration/build/signals_fmu.py).
+"""The ScenarioSignals native FMU (fmu/signals/native_model.c, orchestration/packaging/signals_fmu.py).
 
 Its outputs, stepped with fmpy's FMU2Slave on the scenario's grid, are compared with the Python
 profiles' ``value(t_k)``, ``t_k = k h`` (the master's time), for every scenario of scenarios/ and
@@ -21,7 +21,7 @@ import pytest
 from fmpy.fmi1 import FMICallException
 from fmpy.validation import validate_fmu
 
-from orchestration.build import signals_fmu
+from orchestration.packaging import signals_fmu
 from orchestration.scenario.load import Scenario, load_scenario
 from orchestration.scenario.profiles import Constant, Sum, parse_profile
 
@@ -332,8 +332,8 @@ def test_python_refuses_what_the_fmu_cannot_hold(tmp_path):
 def test_no_global_mutable_state_in_the_model(tmp_path):
     """No writable data (bss/data/common symbols) in the compiled model (with its generated tables and the
     shared value accessors): every instance independent."""
-    from orchestration.build.native import compiler as native_build
-    from orchestration.build.native import tables as native_tables
+    from orchestration.packaging.native import compiler as native_build
+    from orchestration.packaging.native import tables as native_tables
 
     generated = native_tables.model_files(signals_fmu.MODEL_NAME, tmp_path, signals_fmu.VARIABLES)
     sources = [p for p in [*signals_fmu.sources(), *generated] if p.suffix == ".c"]

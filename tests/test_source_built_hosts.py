@@ -31,8 +31,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from orchestration.build import fmus
 from orchestration.cli import commands as cli
+from orchestration.packaging import fmus
 from orchestration.run.master import run
 from orchestration.scenario.load import load_scenario
 

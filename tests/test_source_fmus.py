@@ -1,5 +1,6 @@
 """Source-code FMUs: every native FMU (plant, controller, ScenarioSignals; FMI 2.0 and 3.0) carries its C
-sources under sources/ with what a tool needs to build them alone (orchestration/build/native/source_fmu.py):
+sources under sources/ with what a tool needs to build them alone
+(orchestration/packaging/native/source_fmu.py):
 the FMI 2.0 <SourceFiles> list, the FMI 3.0 sources/buildDescription.xml (validated against the
 standard's schema by fmpy), the generated headers and fg_identity.h.
 
@@ -19,7 +20,7 @@ import numpy as np
 import pytest
 from fmpy import read_model_description, simulate_fmu
 
-from orchestration.build import signals_fmu
+from orchestration.packaging import signals_fmu
 from orchestration.scenario.load import load_scenario
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -151,7 +152,7 @@ def test_the_sources_alone_build_for_a_platform_we_do_not_ship(fmu_dir, name, tm
     build description's options into an aarch64 ELF (compiled only: no aarch64 machine or emulator here)."""
     import sys
 
-    from orchestration.build.native import compiler as native_build
+    from orchestration.packaging.native import compiler as native_build
 
     if not native_build.zig_available():
         pytest.skip("zig is not installed (pip install ziglang, in the dev extra)")

@@ -23,8 +23,8 @@ from fmpy import extract, read_model_description
 from fmpy.fmi2 import FMU2Slave
 from fmpy.validation import validate_fmu
 
-from orchestration.build import fmus, ssd
 from orchestration.cli import commands as cli
+from orchestration.packaging import fmus, ssd
 from orchestration.run.master import run
 from orchestration.scenario.load import load_scenario
 from orchestration.scenario.system import DEFAULT_CONNECTIONS

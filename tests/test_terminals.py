@@ -15,7 +15,7 @@ import fmpy
 import pytest
 from fmpy import read_model_description
 
-from orchestration.build import fmus
+from orchestration.packaging import fmus
 from orchestration.scenario.system import DEFAULT_CONNECTIONS
 
 FILE = "terminalsAndIcons/terminalsAndIcons.xml"

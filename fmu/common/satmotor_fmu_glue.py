@@ -148,7 +148,8 @@ def forget_search_path_entry(resources):
 
 
 _GUIDS = {}
-# in resources/: the GUID the build wrote into modelDescription.xml (orchestration.build.fmu_build.BUILD_GUID)
+# in resources/: the GUID the build wrote into modelDescription.xml
+# (orchestration.packaging.fmu_build.BUILD_GUID)
 BUILD_GUID_FILE = "build_guid.txt"
 
 

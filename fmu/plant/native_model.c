@@ -1,7 +1,7 @@
 /* The plant as a native FMU model: PlantUnit of satmotor/interface.py on the C core
  * (fmu/native/core/sm_plant_unit.c), behind the FMI glue of fmu/native/fmi (fg_model.h).  The value
  * references, start values, the parameter copy into the core's structs and the input/output orders
- * are generated (sm_vars.h / sm_vars.c, orchestration/build/native/tables.py); the get/set accessors are
+ * are generated (sm_vars.h / sm_vars.c, orchestration/packaging/native/tables.py); the get/set accessors are
  * fmu/native/common/sm_values.c. */
 #include "sm_common.h"
 #include "sm_plant_unit.h"

@@ -54,8 +54,8 @@ from concurrent.futures import ThreadPoolExecutor, as_completed
 from pathlib import Path
 from typing import NamedTuple
 
-from orchestration.build import fmus
 from orchestration.cli.scheduler import SchedulerUnreachable
+from orchestration.packaging import fmus
 from orchestration.process.interrupts import PARENT_ENV, SIGNALS, StopRequest, signal_name
 from orchestration.results.atomic import describe, owner, settle_abandoned
 from orchestration.results.batch_summary import SummaryFile, running_row

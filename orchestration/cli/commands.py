@@ -24,7 +24,7 @@ import sys
 from functools import partial
 from pathlib import Path
 
-from orchestration.build import fmus
+from orchestration.packaging import fmus
 from orchestration.process.clean_exit import exit_now
 
 OK, RUN_FAILED, INVALID, NOT_ACCEPTED = 0, 1, 2, 3
@@ -61,8 +61,8 @@ def cmd_build(args):
     """``build [--out DIR] [--all-platforms] [--if-stale]``: 0 built (or up to date), 1 the build failed
     or cannot cross-compile (no zig)."""
     if args.all_platforms:
-        from orchestration.build.fmu_build import NO_ZIG
-        from orchestration.build.native.compiler import zig_available
+        from orchestration.packaging.fmu_build import NO_ZIG
+        from orchestration.packaging.native.compiler import zig_available
 
         if not zig_available():
             print(NO_ZIG, file=sys.stderr)
@@ -336,7 +336,7 @@ def cmd_check(args):
 def cmd_export_ssp(args):
     """``export-ssp SCENARIO OUT.ssp``: 0 written, 2 the scenario is invalid or SSP cannot express it
     (nothing written), 1 building the FMUs failed."""
-    from orchestration.build.native.compiler import NativeBuildError
+    from orchestration.packaging.native.compiler import NativeBuildError
     from orchestration.scenario.load import ScenarioError, load_scenario
     from orchestration.tools.ssp import NotExpressible, NotWritable, export
 

@@ -2,9 +2,9 @@
 (through libcosimpy), instead of the fmpy master.
 
 What libcosim runs: the plant, the controller and the scenario's profiles as a third FMU
-(:mod:`orchestration.build.signals_fmu`, outputs ``omega_ref``, ``psi_ref``, ``T_load``), wired by
+(:mod:`orchestration.packaging.signals_fmu`, outputs ``omega_ref``, ``psi_ref``, ``T_load``), wired by
 :data:`orchestration.scenario.system.DEFAULT_CONNECTIONS`.  The system is written as the SSP description
-``SystemStructure.ssd`` of :func:`orchestration.build.ssd.ssd_xml` (the one ``export-ssp`` packs), with
+``SystemStructure.ssd`` of :func:`orchestration.packaging.ssd.ssd_xml` (the one ``export-ssp`` packs), with
 the FMUs by absolute ``file:`` URI, in the engine's temporary directory, and loaded with
 ``CosimExecution.from_ssp_file``.  That route, not an ``OspSystemStructure.xml``, because only the
 SSP annotation sets libcosim's worker threads (``numWorkerThreads``): 0 here, the units stepped one
@@ -109,7 +109,7 @@ def problems(scenario, algorithm=None):
     if getattr(scenario, "measurements", None) is not None:
         out.append(Problem(file, "measurements", scenario.measurements, "measurement noise is applied by "
                            "the fmpy master only; remove the section or run with --engine fmpy"))
-    from orchestration.build.signals_fmu import UnsupportedProfile, profiles_text
+    from orchestration.packaging.signals_fmu import UnsupportedProfile, profiles_text
 
     try:
         profiles_text(scenario)
@@ -124,11 +124,12 @@ def problems(scenario, algorithm=None):
 
 def system_structure(scenario, fmus, outputs, directory):
     """Write ``directory/SystemStructure.ssd``, the system libcosim loads: the SSP description of
-    :func:`orchestration.build.ssd.ssd_xml` (parameters, connections, base step ``h``, the controller's step
+    :func:`orchestration.packaging.ssd.ssd_xml` (parameters, connections, base step ``h``, the controller's
+    step
     hint ``Ts``, no worker thread) with each component's ``source`` the absolute ``file:`` URI of its
     FMU in ``fmus``.  ``outputs``: ``{unit: _Outputs}`` (their model descriptions).  Returns the
     path."""
-    from orchestration.build.ssd import ssd_xml
+    from orchestration.packaging.ssd import ssd_xml
     from orchestration.scenario.system import connections_for
 
     path = Path(directory) / "SystemStructure.ssd"
@@ -162,8 +163,8 @@ def signals_fmu_for(scenario, cache_dir):
     """The ScenarioSignals FMU of ``scenario``'s profiles, built once into ``cache_dir/<key>/`` and
     reused while the profiles and the C sources it is built from are unchanged (the key is a SHA-256
     over both); the build takes about a second (a C compile), the reuse nothing."""
-    from orchestration.build import signals_fmu
-    from orchestration.build.native.compiler import build_once
+    from orchestration.packaging import signals_fmu
+    from orchestration.packaging.native.compiler import build_once
 
     inputs = [*signals_fmu.sources(), Path(signals_fmu.__file__)]
     return build_once(cache_dir, f"{signals_fmu.MODEL_NAME}.fmu", inputs,
@@ -175,9 +176,11 @@ def run(scenario, plant_fmu, controller_fmu, recorder=None, stop=None, algorithm
         signals_fmu=None, chunk_time=ROWS_CHUNK_TIME, signals_cache=None, recorder_cache=None):
     """Run ``scenario`` with libcosim; returns a :class:`orchestration.run.master.RunResult`.
 
-    ``signals_fmu``: the profiles FMU (None: built with :func:`orchestration.build.signals_fmu.build`, into
+    ``signals_fmu``: the profiles FMU (None: built with :func:`orchestration.packaging.signals_fmu.build`,
+    into
     ``signals_cache`` when given (:func:`signals_fmu_for`), else for this run only); ``recorder_cache``:
-    where the RowRecorder FMU is built once (:func:`orchestration.build.native.recorder_fmu.recorder_fmu_for`)
+    where the RowRecorder FMU is built once
+    (:func:`orchestration.packaging.native.recorder_fmu.recorder_fmu_for`)
     and the lean copies of the four FMUs libcosim loads are kept (:mod:`orchestration.run.lean_fmu`;
     default: next to ``signals_cache``, else :data:`RECORDER_CACHE`); ``recorder``:
     ``columns -> Recorder`` (default in memory); ``stop``: ``.signum`` non-zero stops the run at the
@@ -204,7 +207,7 @@ def run_package(scenario, package, recorder=None, stop=None, chunk_time=CHUNK_TI
     OSP step annotations), recorded as :func:`run` records.  ``scenario`` gives the record's layout
     and the parameters of the pre-flight initialization; the package must have been exported from
     it."""
-    from orchestration.build.ssd import RESOURCES
+    from orchestration.packaging.ssd import RESOURCES
 
     def system(work):
         with zipfile.ZipFile(package) as z:
@@ -315,7 +318,7 @@ def _chunk_steps(sc, chunk_time, sources=None):
 def _with_recorder(sc, structure, sources, cache, work, chunk_time):
     """The system file ``structure`` with the RowRecorder (built in ``cache``) recording ``sources``
     into ``work/rows.bin``, a block per chunk; returns its path."""
-    from orchestration.build.native.recorder_fmu import recorder_fmu_for
+    from orchestration.packaging.native.recorder_fmu import recorder_fmu_for
     from orchestration.run.lean_fmu import lean_fmu
 
     fmu = lean_fmu(recorder_fmu_for(cache), cache / "lean")

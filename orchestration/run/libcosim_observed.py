@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from orchestration.build.ssd import NS, SIGNALS_UNIT
+from orchestration.packaging.ssd import NS, SIGNALS_UNIT
 from orchestration.process.interrupts import signal_name
 from orchestration.run.libcosim_readers import BoolFile, Lib, Series, file_observer, positions
 from orchestration.scenario.system import CONTROLLER, PLANT

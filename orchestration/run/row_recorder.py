@@ -1,4 +1,5 @@
-"""Recording inside a compiled engine: the RowRecorder FMU (:mod:`orchestration.build.native.recorder_fmu`)
+"""Recording inside a compiled engine: the RowRecorder FMU
+(:mod:`orchestration.packaging.native.recorder_fmu`)
 added to the system the engine loads, connected to the outputs a run records, and the master's rows
 made from the binary rows it writes.
 
@@ -29,8 +30,8 @@ from pathlib import Path
 
 import numpy as np
 
-from orchestration.build.native import recorder_fmu
-from orchestration.build.ssd import NS, OSP_NS, OSP_TYPE, SSC_NS, SSD_NS, SSV_NS, seconds_text
+from orchestration.packaging.native import recorder_fmu
+from orchestration.packaging.ssd import NS, OSP_NS, OSP_TYPE, SSC_NS, SSD_NS, SSV_NS, seconds_text
 from orchestration.results.running import FLAG_COLUMNS, METRIC_COLUMNS, PHASE_COLUMN, PSI_SET_COLUMN
 from orchestration.results.writer import level
 from orchestration.scenario.recording import recorded_columns
@@ -94,7 +95,7 @@ def _q(ns, tag):
 
 
 def add_to_ssd(ssd_bytes, scenario, sources, recorder_source, rows_file, block_rows):
-    """The system description ``ssd_bytes`` (of :func:`orchestration.build.ssd.ssd_xml`) with the
+    """The system description ``ssd_bytes`` (of :func:`orchestration.packaging.ssd.ssd_xml`) with the
     RowRecorder as component :data:`UNIT` (FMU ``recorder_source``, step hint ``h``), connected to
     ``sources`` (of :func:`columns_for`), writing ``rows_file`` every ``block_rows`` rows;
     returns bytes."""
@@ -132,7 +133,7 @@ def add_to_ssd(ssd_bytes, scenario, sources, recorder_source, rows_file, block_r
 
 
 def _fragment(element):
-    """``element`` as XML text with the prefixes of :mod:`orchestration.build.ssd` (registered
+    """``element`` as XML text with the prefixes of :mod:`orchestration.packaging.ssd` (registered
     there), without namespace declarations (the description's root has them)."""
     ET.indent(element, space="  ")
     text = ET.tostring(element, encoding="unicode")

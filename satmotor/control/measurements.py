@@ -24,7 +24,7 @@ The measurement tuple a drive reads every sample is
 (``satmotor.interface.CONTROLLER_INPUTS``, passed through as they come; a test checks the positions);
 its indices are the constants ``MEAS_I_S_A`` ... ``MEAS_OMEGA_M``, ``MEAS_NAMES`` the input names
 (psi_s is read only with the stator-flux variant).  The C core's ``SM_MEAS_*`` are generated from
-these (``orchestration/build/native/tables.py``, into ``sm_params.h``; the generation checks them against
+these (``orchestration/packaging/native/tables.py``, into ``sm_params.h``; the generation checks them against
 the interface table).  The plain-Python loop appends the plant's true magnetizing current
 ``(i_mu_alpha, i_mu_beta)`` [A] (``MEAS_I_MU_A``, ``MEAS_I_MU_B``), which
 :func:`from_magnetizing_current` takes as it is: the design comparison's "true i_mu" setting (no

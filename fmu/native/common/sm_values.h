@@ -1,6 +1,6 @@
 /* The value store's accessors and small helpers shared by every native model (plant, controller,
  * ScenarioSignals): sm_values.c.  The store itself (sm_values: one slot per value reference) and the
- * variable table are the model's generated sm_vars.h / sm_vars.c (orchestration/build/native/tables.py);
+ * variable table are the model's generated sm_vars.h / sm_vars.c (orchestration/packaging/native/tables.py);
  * the model's data struct starts with it.  The get/set functions of fg_model.h are defined in
  * sm_values.c once for every model (the glue has checked type, causality and phase before a call). */
 #ifndef SM_VALUES_H

@@ -8,7 +8,7 @@
 
 #include "sm_common.h"
 #include "sm_curves.h"
-#include "sm_params.h" /* generated: sm_motor_params, sm_plant_params (orchestration/build/native/tables.py) */
+#include "sm_params.h" /* generated: sm_motor_params, sm_plant_params (orchestration/packaging/native/tables.py) */
 
 /* state x = [psi_s_alpha, psi_s_beta, psi_r_alpha, psi_r_beta, omega_m, theta_m], with the thermal model
  * on (sm_motor.thermal) two more: [..., T_s, T_r] (SM_N_STATES_MAX; sm_motor.n_states says which) */

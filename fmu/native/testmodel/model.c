@@ -11,7 +11,7 @@
  *   7 Integer  output               steps   number of completed steps
  *   8 Boolean  output               rising  x < u
  * The table is tests/test_native_glue.py's TABLE: the value references, the value store and its start
- * values are generated from it (orchestration/build/native/tables.py: sm_vars.h / sm_vars.c), the get/set
+ * values are generated from it (orchestration/packaging/native/tables.py: sm_vars.h / sm_vars.c), the get/set
  * accessors are the shared fmu/native/common/sm_values.c, as for every native model (strings of at
  * most 63 bytes: the store's string size, 64, refuses longer labels when set).  The outputs
  * are computed at the end of initialization and of each step (y, rising: at those points).

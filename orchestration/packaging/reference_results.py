@@ -1,6 +1,6 @@
 """Reference results of each FMU run standalone, in the layout of the FMI cross-check::
 
-    python -m orchestration.build.reference_results --out reference
+    python -m orchestration.packaging.reference_results --out reference
 
 writes, for each FMU ``<Name>``, ``<out>/<Name>/<Name>_in.csv`` (the inputs at each communication
 point), ``<Name>_ref.csv`` (the outputs at each communication point) and ``ReferenceOptions.txt``

@@ -4,7 +4,7 @@ The native FMUs expose exactly the variables of the pythonfmu ones: the same nam
 references (the position in the unit's table, inputs then outputs then parameters, as pythonfmu
 registers them), causalities, variabilities, types and start values, the same units, default
 experiment and model structure.  So the FMI 2.0 description is written in the shape pythonfmu
-writes and then completed by the same :func:`orchestration.build.fmu_model_description.complete`; the
+writes and then completed by the same :func:`orchestration.packaging.fmu_model_description.complete`; the
 FMI 3.0 description is a translation of it:
 
 * ``<Float64>``, ``<Int32>``, ``<Boolean>``, ``<String><Start value=.../></String>`` elements with
@@ -25,7 +25,7 @@ from __future__ import annotations
 import xml.etree.ElementTree as ET
 
 import satmotor.interface as itf
-from orchestration.build.fmu_model_description import complete, variables
+from orchestration.packaging.fmu_model_description import complete, variables
 
 GENERATION_TOOL = "satmotor native C glue"
 DATE = "2026-01-01T00:00:00Z"  # fixed: reproducible builds

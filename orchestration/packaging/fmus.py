@@ -1,6 +1,6 @@
 """Where the FMUs are, whether they match the current sources, and building them.
 
-The orchestration never imports the FMU code: it runs :mod:`orchestration.build.fmu_build` in a child
+The orchestration never imports the FMU code: it runs :mod:`orchestration.packaging.fmu_build` in a child
 process and compares the fingerprint of the build inputs it wrote into each FMU
 (``resources/build_inputs.sha256``) with the current sources.
 """
@@ -45,11 +45,11 @@ def binary_folders(path):
 
 def up_to_date(fmu_dir=DEFAULT_DIR, all_platforms=False):
     """True when every FMU of every variant exists and was built from the current sources
-    (:func:`orchestration.build.fmu_build.inputs_fingerprint`,
-    :func:`orchestration.build.native.fmus.inputs_fingerprint`); with ``all_platforms``, when the native
-    ones also hold the binaries of every platform (:data:`orchestration.build.native.fmus.ALL`)."""
-    from orchestration.build.fmu_build import BUILD_INPUTS, inputs_fingerprint
-    from orchestration.build.native import fmus as native_fmus
+    (:func:`orchestration.packaging.fmu_build.inputs_fingerprint`,
+    :func:`orchestration.packaging.native.fmus.inputs_fingerprint`); with ``all_platforms``, when the native
+    ones also hold the binaries of every platform (:data:`orchestration.packaging.native.fmus.ALL`)."""
+    from orchestration.packaging.fmu_build import BUILD_INPUTS, inputs_fingerprint
+    from orchestration.packaging.native import fmus as native_fmus
 
     for variant in VARIANTS:
         for p in paths(fmu_dir, variant):
@@ -63,7 +63,7 @@ def up_to_date(fmu_dir=DEFAULT_DIR, all_platforms=False):
                     ok = set(native_fmus.ALL[version]) <= binary_folders(p)
             if not ok:
                 return False
-    from orchestration.build.native import model_exchange as native_me
+    from orchestration.packaging.native import model_exchange as native_me
 
     return native_me.up_to_date(fmu_dir, all_platforms)
 
@@ -72,7 +72,7 @@ def build(fmu_dir=DEFAULT_DIR, quiet=False, all_platforms=False):
     """Build the FMUs of every variant into ``fmu_dir``, for this machine (with ``all_platforms``:
     for Windows and macOS too, cross-compiled with zig); raises CalledProcessError when the build
     fails.  Returns the pythonfmu FMUs' paths."""
-    cmd = [sys.executable, "-m", "orchestration.build.fmu_build", "--out", str(fmu_dir)]
+    cmd = [sys.executable, "-m", "orchestration.packaging.fmu_build", "--out", str(fmu_dir)]
     subprocess.run(cmd + (["--all-platforms"] if all_platforms else []), check=True,
                    stdout=subprocess.DEVNULL if quiet else None)
     return paths(fmu_dir)

@@ -3,7 +3,7 @@
 Usage::
 
     python build_fmus.py [--out DIR] [--all-platforms]        # in a checkout; default build/fmus/
-    python -m orchestration.build.fmu_build [--out DIR] [--all-platforms]
+    python -m orchestration.packaging.fmu_build [--out DIR] [--all-platforms]
     satmotor-cosim build [--out DIR] [--all-platforms]
 
 For this machine (Linux x86_64) by default; ``--all-platforms`` cross-compiles the native FMUs for
@@ -16,7 +16,7 @@ checkout too.
 Each FMU is built in a child process (pythonfmu imports the slave script to read its variables,
 and a later simulation in the same process would otherwise run the cached build copy); its model
 description is completed (units, default experiment, version, license, model structure:
-``orchestration.build.fmu_model_description``), then the FMU is made reproducible: fixed timestamps,
+``orchestration.packaging.fmu_model_description``), then the FMU is made reproducible: fixed timestamps,
 sorted zip entries, and a GUID derived from the content, so two builds from the same commit give
 the same model description and GUID.
 """
@@ -35,11 +35,11 @@ import zipfile
 from pathlib import Path
 
 import satmotor
-from orchestration.build import documentation as documentation_module
-from orchestration.build import sources as sources_module
-from orchestration.build.documentation import documentation
-from orchestration.build.fmu_model_description import complete as complete_model_description
-from orchestration.build.sources import COMMON_OPTIONS, FMUS, GLUE, SATMOTOR
+from orchestration.packaging import documentation as documentation_module
+from orchestration.packaging import sources as sources_module
+from orchestration.packaging.documentation import documentation
+from orchestration.packaging.fmu_model_description import complete as complete_model_description
+from orchestration.packaging.sources import COMMON_OPTIONS, FMUS, GLUE, SATMOTOR
 
 FIXED_DATE = "2026-01-01T00:00:00Z"
 
@@ -81,7 +81,7 @@ BUILD_INPUTS = "resources/build_inputs.sha256"  # inside each FMU: what it was b
 def inputs_fingerprint(name):
     """SHA-256 over everything the FMU ``name`` is built from: the satmotor package, the glue, its
     slave script and this build logic (so a change to any of them makes a built FMU stale)."""
-    from orchestration.build import fmu_model_description
+    from orchestration.packaging import fmu_model_description
 
     h = hashlib.sha256(satmotor.source_fingerprint(GLUE).encode())
     for f in (FMUS[name][0], Path(__file__), Path(fmu_model_description.__file__),
@@ -122,18 +122,18 @@ def build_all(out_dir="build/fmus", native=True, cross=False):
     """Build both pythonfmu FMUs into ``out_dir`` (each in a child process) and, with ``native``, the
     native ones into ``out_dir/native`` (FMI 2.0) and ``out_dir/native-fmi3`` (FMI 3.0): for this
     machine (Linux x86_64) by default; with ``cross`` for every platform of
-    :data:`orchestration.build.native.fmus.ALL` too (Windows and macOS cross-compiled with zig, the Linux
+    :data:`orchestration.packaging.native.fmus.ALL` too (Windows and macOS cross-compiled with zig, the Linux
     binary linked against glibc 2.17: the distributable FMUs).  Returns the paths."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     paths = []
     for name in FMUS:
-        subprocess.run([sys.executable, "-m", "orchestration.build.fmu_build", "--one", name,
+        subprocess.run([sys.executable, "-m", "orchestration.packaging.fmu_build", "--one", name,
                         "--out", str(out)], check=True)
         paths.append(out / f"{name}.fmu")
     if native:
-        from orchestration.build.native import fmus as native_fmus
-        from orchestration.build.native import model_exchange as native_me
+        from orchestration.packaging.native import fmus as native_fmus
+        from orchestration.packaging.native import model_exchange as native_me
 
         cross = native_fmus.zig_available() if cross is None else cross
         for p in [*native_fmus.build_all(out, cross), *native_me.build_all(out, cross)]:
@@ -166,7 +166,7 @@ def main(argv=None):
         return 0
     cross = args.all_platforms and not args.no_native
     if cross:
-        from orchestration.build.native.compiler import zig_available
+        from orchestration.packaging.native.compiler import zig_available
 
         if not zig_available():
             print(NO_ZIG, file=sys.stderr)

@@ -9,7 +9,7 @@ everything the FMU is built from, so two builds of the same inputs give the same
 
 Linux binaries are built with the host ``gcc`` (or ``cc``); the other platforms are
 cross-compiled with ``python -m ziglang cc`` (PyPI ``ziglang``). The ``.fmu`` zip is written
-reproducibly, as ``orchestration.build.fmu_build.make_reproducible`` does for the pythonfmu FMUs: sorted
+reproducibly, as ``orchestration.packaging.fmu_build.make_reproducible`` does for the pythonfmu FMUs: sorted
 entries, fixed timestamps, fixed permissions; the compilers run on relative file names in a
 staging directory so no temporary path ends up in a binary.
 
@@ -33,8 +33,8 @@ from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-from orchestration.build.native import source_fmu
-from orchestration.build.sources import fmu_sources
+from orchestration.packaging.native import source_fmu
+from orchestration.packaging.sources import fmu_sources
 
 GLUE_DIR = fmu_sources() / "native" / "fmi"
 GUID_PLACEHOLDER = "{GUID}"
@@ -237,7 +237,7 @@ def build_native_fmu(model_identifier: str, sources: Iterable[str | Path], model
 
     ``sources``: the model's files (``.c`` compiled, ``.h`` and others only copied), placed flat
     next to the glue in ``sources/`` of the FMU (so ``#include "x.h"`` of any of them works), with
-    what makes it a source-code FMU (:mod:`orchestration.build.native.source_fmu`: the FMI 2.0 source file
+    what makes it a source-code FMU (:mod:`orchestration.packaging.native.source_fmu`: the FMI 2.0 source file
     list, the FMI 3.0 build description, the identity header).
     ``model_description_xml``: the complete modelDescription.xml; its ``modelIdentifier`` must be
     ``model_identifier``; its guid/instantiationToken is compiled in (``{GUID}``: derived from the
@@ -333,7 +333,7 @@ def build_once(cache_dir, name, inputs, build, text=""):
     the path of what it built there) and reused while its ``inputs`` (files: the C sources, the
     modules that generate it) and ``text`` (e.g. a profiles file) are unchanged; the key is a
     SHA-256 over them and the glue.  Built aside, then renamed: never half-written."""
-    from orchestration.build.native import tables as native_tables
+    from orchestration.packaging.native import tables as native_tables
 
     h = hashlib.sha256(text.encode())
     for f in (*inputs, *sorted(GLUE_DIR.glob("*.[ch]")), Path(__file__), *native_tables.GENERATOR_FILES):

@@ -13,13 +13,13 @@ point is taken as that grid point, so an importer that accumulates its time stil
 (Python's ``t >= time``).
 
 :data:`VARIABLES` is the model's variable table; the C tables (value references, start values, the
-outputs' order and names) are generated from it by :mod:`orchestration.build.native.tables`, the
+outputs' order and names) are generated from it by :mod:`orchestration.packaging.native.tables`, the
 get/set accessors are the shared ``fmu/native/common/sm_values.c``.
 
 :func:`profiles_text` writes the file from the scenario's profile objects (every kind:
 constant, step, ramp, table, sine, csv and a sum of those); a profile it cannot write raises
 :class:`UnsupportedProfile` naming the scenario file, the field and the value.  :func:`build`
-compiles the FMU with :func:`orchestration.build.native.compiler.build_native_fmu`.
+compiles the FMU with :func:`orchestration.packaging.native.compiler.build_native_fmu`.
 """
 
 from __future__ import annotations
@@ -31,10 +31,10 @@ from pathlib import Path
 
 import satmotor
 import satmotor.interface as itf
-from orchestration.build.fmu_model_description import COPYRIGHT, LICENSE, SI_UNITS
-from orchestration.build.native.compiler import GLUE_DIR, build_native_fmu
-from orchestration.build.native.fmus import LINUX, PORTABLE_GLIBC
-from orchestration.build.native.tables import model_files
+from orchestration.packaging.fmu_model_description import COPYRIGHT, LICENSE, SI_UNITS
+from orchestration.packaging.native.compiler import GLUE_DIR, build_native_fmu
+from orchestration.packaging.native.fmus import LINUX, PORTABLE_GLIBC
+from orchestration.packaging.native.tables import model_files
 from orchestration.scenario.problems import ProblemError
 from orchestration.scenario.profiles import Constant, Csv, Ramp, Sine, Step, Sum, Table
 
@@ -53,7 +53,7 @@ DATE = "2026-01-01T00:00:00Z"  # fixed: reproducible builds
 _UNITS = {v.name: (v.unit, v.description) for v in itf.CONTROLLER_INPUTS if v.name in SIGNALS}
 PROFILES_FILE_DESCRIPTION = "the profiles file (a relative name not found as given: in the FMU's resources/)"
 # the model's variables in value reference order (the C model's tables are generated from them by
-# orchestration/build/native/tables.py); the time is the next value reference
+# orchestration/packaging/native/tables.py); the time is the next value reference
 VARIABLES = tuple(itf.Variable(n, "output", "Real", 0.0, *_UNITS[n]) for n in SIGNALS) + (
     itf.Variable("profiles_file", "parameter", "String", PROFILES_FILE, "", PROFILES_FILE_DESCRIPTION),)
 VR_PROFILES_FILE, VR_TIME = len(SIGNALS), len(VARIABLES)
@@ -204,7 +204,7 @@ def sources():
 def build(scenario, out_dir, fmi_version="2.0", platforms=None):
     """Write ``<out_dir>/ScenarioSignals.fmu`` for ``scenario`` (an
     :class:`orchestration.scenario.load.Scenario`); returns its path.  ``platforms``: as
-    :func:`orchestration.build.native.compiler.build_native_fmu` (default: Linux x86_64).  Raises
+    :func:`orchestration.packaging.native.compiler.build_native_fmu` (default: Linux x86_64).  Raises
     :class:`UnsupportedProfile` before anything is compiled for a profile the FMU cannot hold."""
     text = profiles_text(scenario)
     xml = model_description(scenario, text, fmi_version)

@@ -4,9 +4,9 @@ Each FMU is the model-agnostic glue (``fmu/native/fmi``), the C core (``fmu/nati
 generated parameter structs (``sm_params.h`` / ``.c``), the shared value accessors
 (``fmu/native/common/sm_values.c``), the unit's model (``fmu/plant/native_model.c`` or
 ``fmu/controller/native_model.c``) and its generated tables ``sm_vars.h`` / ``sm_vars.c``: all
-generated from the interface tables by :mod:`orchestration.build.native.tables`; the model description
-comes from the same tables (:mod:`orchestration.build.native.model_description`).  Compiled and packed by
-:func:`orchestration.build.native.compiler.build_native_fmu` (reproducible; the GUID is derived from the
+generated from the interface tables by :mod:`orchestration.packaging.native.tables`; the model description
+comes from the same tables (:mod:`orchestration.packaging.native.model_description`).  Compiled and packed by
+:func:`orchestration.packaging.native.compiler.build_native_fmu` (reproducible; the GUID is derived from the
 inputs).
 
 Layout under the build directory: ``native/<Name>.fmu`` (FMI 2.0) and ``native-fmi3/<Name>.fmu``
@@ -19,9 +19,9 @@ import hashlib
 import tempfile
 from pathlib import Path
 
-from orchestration.build.native import model_description as nmd
-from orchestration.build.native.compiler import GLUE_DIR, build_native_fmu, host_compiler, zig_available
-from orchestration.build.native.tables import core_files, model_files
+from orchestration.packaging.native import model_description as nmd
+from orchestration.packaging.native.compiler import GLUE_DIR, build_native_fmu, host_compiler, zig_available
+from orchestration.packaging.native.tables import core_files, model_files
 
 FMU_DIR = GLUE_DIR.parents[1]  # the FMU sources (installed package or the checkout's fmu/)
 BUILD_INPUTS = "build_inputs.sha256"  # in resources/: what the FMU was built from
@@ -50,12 +50,12 @@ def generated(name, out_dir):
 def inputs_fingerprint(name):
     """SHA-256 over everything the native FMU ``name`` is built from: its C sources, the glue, the
     interface tables and the generators (a change to any makes a built FMU stale)."""
-    from orchestration.build import documentation as documentation_module
-    from orchestration.build import fmu_model_description
-    from orchestration.build import sources as sources_module
-    from orchestration.build.native import compiler as native_build
-    from orchestration.build.native import source_fmu
-    from orchestration.build.native import tables as native_tables
+    from orchestration.packaging import documentation as documentation_module
+    from orchestration.packaging import fmu_model_description
+    from orchestration.packaging import sources as sources_module
+    from orchestration.packaging.native import compiler as native_build
+    from orchestration.packaging.native import source_fmu
+    from orchestration.packaging.native import tables as native_tables
     from satmotor import interface
 
     h = hashlib.sha256()
@@ -97,7 +97,7 @@ def documentation(name, xml, fmi_version):
     variables, from the same tables) with the capability flags of this model description ``xml``."""
     import xml.etree.ElementTree as ET
 
-    from orchestration.build.documentation import documentation as page
+    from orchestration.packaging.documentation import documentation as page
 
     cs = ET.fromstring(xml).find("CoSimulation")
     flags = {k: v for k, v in cs.attrib.items() if k != "modelIdentifier"}
@@ -109,10 +109,10 @@ def documentation(name, xml, fmi_version):
 
 def build_all(out_dir, cross=False):
     """Both native co-simulation FMUs in both FMI versions (the model-exchange plant is
-    :func:`orchestration.build.native.model_exchange.build_all`); returns the paths.  For this machine (Linux
-    x86_64) by default; ``cross``: also Windows and macOS (:data:`ALL`, cross-compiled with zig cc,
-    which the ``ziglang`` wheel provides; on a fresh machine zig first compiles its MinGW and macOS C
-    runtimes: minutes).  ``cross=None``: cross when zig is installed."""
+    :func:`orchestration.packaging.native.model_exchange.build_all`); returns the paths.  For this
+    machine (Linux x86_64) by default; ``cross``: also Windows and macOS (:data:`ALL`, cross-compiled
+    with zig cc, which the ``ziglang`` wheel provides; on a fresh machine zig first compiles its MinGW
+    and macOS C runtimes: minutes).  ``cross=None``: cross when zig is installed."""
     cross = zig_available() if cross is None else cross
     return [build(name, out_dir, version, (ALL if cross else LINUX)[version])
             for version in DIRS for name in NAMES]

@@ -22,10 +22,10 @@ from pathlib import Path
 
 import satmotor
 import satmotor.interface as itf
-from orchestration.build.fmu_model_description import COPYRIGHT, LICENSE
-from orchestration.build.native.compiler import GLUE_DIR, build_native_fmu
-from orchestration.build.native.fmus import LINUX
-from orchestration.build.native.tables import model_files
+from orchestration.packaging.fmu_model_description import COPYRIGHT, LICENSE
+from orchestration.packaging.native.compiler import GLUE_DIR, build_native_fmu
+from orchestration.packaging.native.fmus import LINUX
+from orchestration.packaging.native.tables import model_files
 
 __all__ = ["MODEL_NAME", "N_REAL", "N_INTEGER", "N_BOOLEAN", "BLOCK", "VARIABLES", "VR", "build",
            "recorder_fmu_for", "model_description"]
@@ -104,6 +104,6 @@ def recorder_fmu_for(cache_dir):
     """The RowRecorder FMU, built once into ``cache_dir/<key>/`` and reused while its C sources and
     this module are unchanged (the key: a SHA-256 over them); a build is a C compile (about a
     second)."""
-    from orchestration.build.native.compiler import build_once
+    from orchestration.packaging.native.compiler import build_once
 
     return build_once(cache_dir, f"{MODEL_NAME}.fmu", [*sources(), Path(__file__)], build)

@@ -1,5 +1,5 @@
 """What makes a native FMU a source-code FMU: its C sources under ``sources/`` (placed there by
-:func:`orchestration.build.native.compiler.build_native_fmu`) and what a tool needs to compile them alone.
+:func:`orchestration.packaging.native.compiler.build_native_fmu`) and what a tool needs to compile them alone.
 
 * ``sources/fg_identity.h``: the model identifier and the GUID (FMI 3.0: instantiationToken) the glue
   compiles in (``fmu/native/fmi/fg_instance.h`` includes it when neither is given with ``-D``), so

@@ -1,6 +1,7 @@
 """The page ``docs/variables.md``, generated from the interface tables of :mod:`satmotor.interface`.
 
-``python -m orchestration.build.variable_tables`` prints the page; ``--write docs/variables.md`` writes it.
+``python -m orchestration.packaging.variable_tables`` prints the page; ``--write docs/variables.md`` writes
+it.
 ``tests/test_docs.py`` checks that the committed page is exactly what this module generates, so a
 variable added to the FMUs cannot be missing from the documentation.
 """
@@ -63,7 +64,7 @@ def page():
     """The whole text of ``docs/variables.md``."""
     head = [
         "# The FMUs' variables",
-        "<!-- Generated: do not edit. Run `python -m orchestration.build.variable_tables --write "
+        "<!-- Generated: do not edit. Run `python -m orchestration.packaging.variable_tables --write "
         f"{PAGE}` after a change to `satmotor/interface.py`. -->",
         "Every variable of the two FMUs, from the tables in `satmotor/interface.py`, the single source the "
         "FMUs are built from. The same tables are in each FMU's `documentation/index.html`. The pythonfmu "

@@ -32,7 +32,7 @@ from __future__ import annotations
 import math
 import xml.etree.ElementTree as ET
 
-from orchestration.build.fmu_model_description import SI_UNITS
+from orchestration.packaging.fmu_model_description import SI_UNITS
 from orchestration.scenario.problems import ProblemError
 from orchestration.scenario.system import CONTROLLER, DEFAULT_CONNECTIONS, PLANT, PROFILE
 

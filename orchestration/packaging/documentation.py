@@ -8,8 +8,8 @@ import html
 import importlib
 import inspect
 
-from orchestration.build.fmu_model_description import output_initial_calculated
-from orchestration.build.sources import COMMON_OPTIONS, FMUS
+from orchestration.packaging.fmu_model_description import output_initial_calculated
+from orchestration.packaging.sources import COMMON_OPTIONS, FMUS
 
 __all__ = ["documentation"]
 
