@@ -3,7 +3,9 @@
 import contextlib
 import fcntl
 import os
+import shutil
 import signal
+import tempfile
 from pathlib import Path
 
 import pytest
@@ -39,6 +41,42 @@ def pytest_configure(config):
     would run to their end.  So this process handles SIGINT: its children start with the default."""
     if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
         signal.signal(signal.SIGINT, signal.default_int_handler)
+    _own_temporary_directory(config)
+
+
+#: the environment variable that names a test session's own temporary directory (set by the controller)
+SESSION_TMP = "SATMOTOR_TEST_TMPDIR"
+
+
+def _own_temporary_directory(config):
+    """Every temporary file of the session in one directory of its own: what the tests, the libraries they
+    call (fmpy's extract, dask's scratch space, the compilers) and their child processes create with
+    ``tempfile`` or under ``$TMPDIR`` goes there, pytest's own ``tmp_path`` directories included; the
+    controller removes it at the end of a session that passed (:func:`pytest_unconfigure`), and keeps it,
+    saying where, when a test failed.  The pytest-xdist workers inherit it through the environment."""
+    if os.environ.get("PYTEST_XDIST_WORKER") is None:
+        d = tempfile.mkdtemp(prefix="satmotor-tests-")
+        os.environ[SESSION_TMP] = os.environ["TMPDIR"] = d
+        config.stash[_TMP_KEY] = d
+    tempfile.tempdir = None  # gettempdir() reads $TMPDIR again
+
+
+_TMP_KEY = pytest.StashKey[str]()
+_STATUS_KEY = pytest.StashKey[int]()
+
+
+def pytest_sessionfinish(session, exitstatus):
+    session.config.stash[_STATUS_KEY] = int(exitstatus)
+
+
+def pytest_unconfigure(config):
+    d = config.stash.get(_TMP_KEY, None)
+    if d is None:
+        return
+    if config.stash.get(_STATUS_KEY, 1) in (0, 5):  # passed, or nothing collected
+        shutil.rmtree(d, ignore_errors=True)
+    else:
+        print(f"\ntemporary files of this session kept in {d}")
 
 
 #: the default set (``make test``) leaves these to ``make test-slow`` besides the tests marked ``slow`` in

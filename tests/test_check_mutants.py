@@ -83,9 +83,9 @@ def failed(verdicts):
 # --- a binary that crashes on a NaN input --------------------------------------------------------------
 
 ABORT_ON_NAN_T_LOAD = (
-    ("#include <math.h>\n", "#include <math.h>\n#include <stdlib.h>\n"),
-    ("    st = sm_plant_check_step(",
-     "    if (isnan(r[SM_VR_T_load])) abort(); /* the defect */\n    st = sm_plant_check_step("))
+    ('#include "sm_common.h"\n', '#include <math.h>\n#include <stdlib.h>\n\n#include "sm_common.h"\n'),
+    ("    st = sm_plant_unit_step(",
+     "    if (isnan(in[SM_PLANT_IN_T_load])) abort(); /* the defect */\n    st = sm_plant_unit_step("))
 
 
 def test_a_binary_that_aborts_on_a_nan_input_fails_naming_the_input_and_the_signal(tmp_path, capsys):
