@@ -85,6 +85,31 @@ def test_a_monte_carlo_sweep_without_figures(tmp_path, fmu_dir):
     assert table["iae_speed"].nunique() == 8  # each draw ran with its own resistance
 
 
+def test_a_sweep_on_the_fmi3_fmus_is_the_sweep_on_the_fmi2_ones(tmp_path, fmu_dir):
+    # the overrides are checked against the FMI 3.0 model descriptions too (Float64, not Real)
+    tables = {}
+    for variant in ("native", "native-fmi3"):
+        r = _cli("batch", ROOT / "scenarios" / "montecarlo_rr.yaml", "--out", tmp_path / variant, "--fmus",
+                 fmu_dir, "--variant", variant, "--no-plot")
+        assert r.returncode == 0, r.stdout + r.stderr
+        tables[variant] = pd.read_csv(tmp_path / variant / "montecarlo_rr" / "sweep.csv")
+    a, b = tables["native"], tables["native-fmi3"]
+    assert (b["status"] == "ok").all() and len(b) == 8
+    assert a.drop(columns=["wall_time"]).equals(b.drop(columns=["wall_time"]))
+
+
+def test_a_variant_its_child_refused_says_why(tmp_path):
+    from orchestration.cli.batch import _variant_row
+
+    message = "s.yaml: plant.R_r = -1.0: must be a finite number > 0"
+    row = _variant_row(tmp_path / "s.yaml", "s-3", 2, "", f"s.yaml: 1 problem(s):\n  {message}\n",
+                       tmp_path / "s-3" / "metrics.json", False)
+    assert row["status"] == "invalid" and row["exit_code"] == 2 and message in row["message"]
+    row = _variant_row(tmp_path / "s.yaml", "s-4", 1, "", "Traceback ...\nMemoryError\n",
+                       tmp_path / "s-4" / "metrics.json", False)
+    assert row["status"] == "failed" and "MemoryError" in row["message"]
+
+
 def test_the_table_says_why_a_variant_has_no_metrics(tmp_path):
     from orchestration.results.sweep_table import write_sweep
     from orchestration.scenario.sweep import expand

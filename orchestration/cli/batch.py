@@ -239,9 +239,12 @@ def _variant_row(path, name, rc, stdout, stderr, metrics, stopped):
     except FileNotFoundError:
         if stopped or rc in STOPPED_CODES:  # the batch stopped the child, or Ctrl-C reached it first
             return _row(path, name, "interrupted", 0, "not started: the batch was interrupted")
+        if rc == INVALID:  # the child refused the scenario (its message names file, field, value)
+            return _child_row(path, name, rc, stdout, stderr, metrics, stopped)
         why = f"killed by {signal_name(-rc)}" if rc < 0 else f"ended (exit {rc})"
+        tail = " | ".join((stderr or stdout or "").strip().splitlines()[-6:])
         return _row(path, name, "failed", 128 - rc if rc < 0 else max(rc, 1),
-                    f"not run: the child process {why} before this variant")
+                    f"not run: the child process {why} before this variant" + (f": {tail}" if tail else ""))
     except (OSError, ValueError):
         summary = None
     if summary is None or summary.get("status") in ("running", "invalid"):

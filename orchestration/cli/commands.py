@@ -50,11 +50,17 @@ def model_variables(fmu_dir):
         return None
     from fmpy import read_model_description
 
-    out = {}
-    for unit, path in (("plant", plant), ("controller", ctrl)):
-        md = read_model_description(str(path))
-        out[unit] = {v.name: (v.causality, v.type) for v in md.modelVariables}
-    return out
+    return {unit: unit_variables(read_model_description(str(path)))
+            for unit, path in (("plant", plant), ("controller", ctrl))}
+
+
+def unit_variables(md):
+    """``{name: (causality, type)}`` of a model description, the type by its FMI 2.0 name (``Real``,
+    ``Integer``, ...) whatever the FMU's version, as the scenario's checks name them."""
+    from orchestration.run.fmu_instance import FMI3_TYPES
+
+    fmi2_name = {v: k for k, v in FMI3_TYPES.items()}
+    return {v.name: (v.causality, fmi2_name.get(v.type, v.type)) for v in md.modelVariables}
 
 
 def cmd_build(args):
@@ -226,7 +232,7 @@ class SharedFMUs:
             for p in paths:
                 self.dirs.append(extract_owned(p))
             self.descriptions = [read_model_description(str(p)) for p in paths]
-            self.variables = {unit: {v.name: (v.causality, v.type) for v in md.modelVariables}
+            self.variables = {unit: unit_variables(md)
                               for unit, md in zip(("plant", "controller"), self.descriptions)}
         except BaseException:
             self.close()
