@@ -302,7 +302,8 @@ CONTROLLER_PARAMETERS = _in_struct("controller", (
        fills=("gains",)),
     _v("d0", "parameter", _G.d0, "1/s2", "speed integral gain (0: no integral action, the seed's law)",
        fills=("gains",)),
-    _v("Ts", "parameter", _C.Ts, "s", "sample period; one sample per doStep (dt must equal Ts)",
+    _v("Ts", "parameter", _C.Ts, "s", "sample period; a doStep runs a whole number of samples "
+       "(its step a multiple of Ts, at most max_samples)",
        fills=("law_config",)),
     _v("mode", "parameter", "saturated", "", "law: saturated (backstepping with the curve), "
        "constant_m (same law, m = L_m0), pi (indirect field-oriented PI baseline)", "String",
