@@ -65,7 +65,7 @@ class _NoStop:
 
 
 def run(scenario, plant_fmu, controller_fmu, connections=None, algorithm=None,
-        unzip_dirs=None, recorder=None, stop=None, descriptions=None):
+        unzip_dirs=None, recorder=None, stop=None, descriptions=None, loop=None):
     """Run ``scenario`` (an :class:`orchestration.scenario.load.Scenario`) with the two FMU files.
 
     ``algorithm`` overrides the scenario's ('gauss-seidel' or 'jacobi'); ``unzip_dirs`` optional
@@ -73,7 +73,8 @@ def run(scenario, plant_fmu, controller_fmu, connections=None, algorithm=None,
     ``recorder``: a function ``columns -> Recorder`` (default: in memory, every column);
     ``stop``: an object whose ``signum`` becomes non-zero to stop the run; ``descriptions``:
     optional (plant, controller) model descriptions (fmpy's), read once by a caller that runs the
-    same FMUs many times.  Never raises for an FMU
+    same FMUs many times; ``loop``: the stepping loop (default :func:`_loop`; the compiled engine's
+    :func:`orchestration.run.c_engine.stepper.loop` takes the same arguments).  Never raises for an FMU
     failure: the :class:`RunResult` says what happened.
     """
     if connections is None:  # the default ones, with the link voltage for a capacitor link
@@ -111,7 +112,7 @@ def run(scenario, plant_fmu, controller_fmu, connections=None, algorithm=None,
         columns = recorded_columns(p_out.names, c_out.names + c_disc.names, sorted(profiles),
                                    measure.columns if measure else ())
         rec = recorder(columns) if recorder else Recorder(columns)
-        t_reached, complete = _loop(scenario, jacobi=algorithm == "jacobi", plant=plant, ctrl=ctrl,
+        t_reached, complete = (loop or _loop)(scenario, jacobi=algorithm == "jacobi", plant=plant, ctrl=ctrl,
                                     p_out=p_out, c_out=c_out, c_disc=c_disc, connections=connections,
                                     profiles=profiles, rec=rec, stop=stop, measure=measure)
         if not complete:
