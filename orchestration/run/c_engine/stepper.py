@@ -128,7 +128,8 @@ def profile_table(funcs, names):
             elif isinstance(p, Sine):
                 kind, a = 5, [p.start, p.offset, p.amplitude, p._w, p.phase]
             else:
-                raise Unsupported(f"profile {name}: {type(p).__name__ if p is not None else f!r} is not a "
+                what = type(p).__name__ if p is not None else repr(f)
+                raise Unsupported(f"profile {name}: {what} is not a "
                                   "profile kind the c engine evaluates (constant, step, ramp, table, csv, "
                                   "sine and their sums)")
             kinds.append(kind)
@@ -207,11 +208,14 @@ def loop(sc, jacobi, plant, ctrl, p_out, c_out, c_disc, connections, profiles, r
     chunk = max(1, int(rec.chunk_rows))
     rows = np.empty((chunk, cfg.n_cols))
     got = c_int64(0)
-    noise = None
-    while True:
-        code = lib.se_advance(byref(cfg), byref(st), rows.ctypes.data, chunk, byref(got))
-        if got.value:
-            rec.append_rows(rows[:got.value])
+    noise, filled, width = None, 0, 8 * cfg.n_cols
+    while True:  # whole chunks to the recorder, as the fmpy master flushes them (the metrics fold per chunk)
+        code = lib.se_advance(byref(cfg), byref(st), rows.ctypes.data + filled * width, chunk - filled,
+                              byref(got))
+        filled += got.value
+        if filled and (filled == chunk or code in (DONE, FAILED)):
+            rec.append_rows(rows[:filled])
+            filled = 0
         if code == DONE:
             return 0.0 + n * h, True
         if code == FAILED:
@@ -220,6 +224,8 @@ def loop(sc, jacobi, plant, ctrl, p_out, c_out, c_disc, connections, profiles, r
             noise = measure.draw()  # kept referenced until the next block
             st.noise, st.noise_rows, st.noise_next = noise.ctypes.data, len(noise), 0
         if stop.signum:
+            if filled:
+                rec.append_rows(rows[:filled])
             return 0.0 + st.k * h, False
 
 
