@@ -195,3 +195,33 @@ def test_the_noise_blocks_the_engine_reads_are_the_draws_the_master_adds():
     ref = np.random.default_rng(7).standard_normal((5, 2)) * np.array([0.5, 0.1])
     assert z.tobytes() == ref.tobytes()
     assert rows == [[1.0 + ref[k, 0], 2.0 + ref[k, 1]] for k in range(5)]
+
+
+@pytest.mark.parametrize("variant,algorithm", [("native", "gauss-seidel"), ("native-fmi3", "jacobi")])
+def test_variants_on_instances_reset_between_them_are_the_fresh_runs(fmu_dir, variant, algorithm):
+    # a worker's pool: the FMUs instantiated once, fmi2Reset / fmi3Reset and new parameters per variant
+    from fmpy import read_model_description
+
+    from orchestration.run.fmu_instance import UnitPool, extract_owned, remove_extracted
+    from orchestration.scenario.variants import load_variant
+
+    plant, ctrl = map(str, fmus.paths(fmu_dir, variant))
+    dirs = [extract_owned(p) for p in (plant, ctrl)]
+    mds = [read_model_description(p) for p in (plant, ctrl)]
+    pool = UnitPool()
+    try:
+        first = None
+        for i in range(3):
+            sc = load_variant(ROOT / "scenarios" / "montecarlo_rr.yaml", i, None)
+            fresh = master_run(sc, plant, ctrl, algorithm=algorithm, recorder=chunks)
+            got = c_engine.run(sc, plant, ctrl, algorithm=algorithm, unzip_dirs=dirs, descriptions=mds,
+                               pool=pool, recorder=chunks)
+            assert fresh.ok
+            assert_same(fresh, got)
+            units = tuple(pool._units[n] for n in ("plant", "controller"))
+            first = first or units
+            assert units == first  # the same instances, reset
+    finally:
+        pool.close()
+        for d in dirs:
+            remove_extracted(d)

@@ -198,6 +198,8 @@ def run_file(path, out, fmu_dir, algorithm=None, build=True, plot=True, stop=Non
         try:
             extra = ({"unzip_dirs": shared.dirs, "descriptions": shared.descriptions}
                      if shared is not None and engine in ("fmpy", "c") else {})
+            if shared is not None and engine == "c":  # the FMUs instantiated once, reset per variant
+                extra["pool"] = shared.pool
             result = run(sc, str(plant), str(ctrl), algorithm=algorithm, stop=stop, recorder=make, **extra)
             summary = write_results(result, out, plot=plot, draw=helper and helper.draw,
                                     write_error=make.error, discard_figure=helper and helper.discard)
@@ -219,15 +221,17 @@ def run_file(path, out, fmu_dir, algorithm=None, build=True, plot=True, stop=Non
 
 class SharedFMUs:
     """The two FMUs of ``variant`` extracted once, and their model descriptions read once, for the
-    runs of one process (several variants of a sweep: :func:`cmd_run`); :meth:`close` removes the
+    runs of one process (several variants of a sweep: :func:`cmd_run`); with ``--engine c`` the instances
+    too (:attr:`pool`: instantiated once, reset per variant); :meth:`close` frees them and removes the
     copies.  ``variables``: as :func:`model_variables` gives them."""
 
     def __init__(self, fmu_dir, variant):
         from fmpy import read_model_description
 
-        from orchestration.run.fmu_instance import extract_owned
+        from orchestration.run.fmu_instance import UnitPool, extract_owned
 
         self.dirs = []
+        self.pool = UnitPool()  # the instances of the c engine's runs (fmi2Reset/fmi3Reset per variant)
         try:
             paths = fmus.paths(fmu_dir, variant)
             for p in paths:
@@ -242,6 +246,7 @@ class SharedFMUs:
     def close(self):
         from orchestration.run.fmu_instance import remove_extracted
 
+        self.pool.close()  # the instances first, then their directories
         for d in self.dirs:
             remove_extracted(d)
         self.dirs = []
