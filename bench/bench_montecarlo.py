@@ -94,8 +94,33 @@ class SteppingClock:
         self.lib.se_advance = self._orig
 
 
+class MetricsClock:
+    """A ``streaming_recorder`` factory whose recorders' observers (the metrics) are timed (CPU, summed)."""
+
+    def __init__(self):
+        self.cpu = 0.0
+
+    def __call__(self, sc, work):
+        make = streaming_recorder(sc, work)
+
+        def timed_make(columns):
+            rec = make(columns)
+            observe = rec.observer
+
+            def timed(chunk):
+                c0 = time.process_time()
+                observe(chunk)
+                self.cpu += time.process_time() - c0
+
+            rec.observer = timed
+            return rec
+
+        return timed_make
+
+
 def in_process(path, n, paths, work, engine):
-    """CPU [s] of loading the variants, of running them, and (c engine) of the stepping; wall of the runs."""
+    """CPU [s] of loading the variants, of running them, (c engine) of the stepping and of the metrics;
+    wall of the runs."""
     dirs = [extract_owned(p) for p in paths]
     mds = [read_model_description(p) for p in paths]
     pool = UnitPool()
@@ -103,18 +128,18 @@ def in_process(path, n, paths, work, engine):
         c0 = time.process_time()
         scenarios = [load_variant(path, i) for i in range(n)]
         load = time.process_time() - c0
+        metrics = MetricsClock()
         with SteppingClock() as clock:
             c0, w0 = time.process_time(), time.perf_counter()
             for sc in scenarios:
                 if engine == "c":
                     r = c_engine.run(sc, *paths, unzip_dirs=dirs, descriptions=mds, pool=pool,
-                                     recorder=streaming_recorder(sc, work))
+                                     recorder=metrics(sc, work))
                 else:
-                    r = master_run(sc, *paths, unzip_dirs=dirs, descriptions=mds,
-                                   recorder=streaming_recorder(sc, work))
+                    r = master_run(sc, *paths, unzip_dirs=dirs, descriptions=mds, recorder=metrics(sc, work))
                 assert r.ok, r.message
             cpu, wall = time.process_time() - c0, time.perf_counter() - w0
-        return load, cpu, clock.cpu, wall
+        return load, cpu, clock.cpu, metrics.cpu, wall
     finally:
         pool.close()
         for d in dirs:
@@ -152,8 +177,8 @@ def main(argv=None):
         units = unit(paths[0], work), unit(paths[1], work)
         _, floor_cpu, floor_wall = run_floor(floor_args(exe, *units, steps, "floor"))
         m = a.in_process
-        c_load, c_cpu, c_step, c_wall = in_process(path, m, paths, work, "c")
-        f_load, f_cpu, _, f_wall = in_process(path, m, paths, work, "fmpy")
+        c_load, c_cpu, c_step, c_metrics, c_wall = in_process(path, m, paths, work, "c")
+        f_load, f_cpu, _, _, f_wall = in_process(path, m, paths, work, "fmpy")
         b_cpu, b_wall = batch(path, work / "out", a.fmus, a.jobs)
         _, floor_cpu2, _ = run_floor(floor_args(exe, *units, steps, "floor"))
         floor_cpu = min(floor_cpu, floor_cpu2)
@@ -167,6 +192,9 @@ def main(argv=None):
              c_wall / m),
             ("  of which the engine's stepping (se_advance)", per["c_step"], None),
             ("  **per-variant overhead** (reset, parameters, initialization, set-up, metrics)", overhead,
+             None),
+            ("  of which the metrics (MetricsObserver, the fmpy master's code)", c_metrics / m, None),
+            ("  of which the rest (reset, parameters, initialization, set-up)", overhead - c_metrics / m,
              None),
             ("  loading the variant's scenario from the file (load_variant)", c_load / m, None),
             (f"fmpy master, instances made per run ({m} variants)", per["fmpy"], f_wall / m),
