@@ -225,3 +225,19 @@ def test_variants_on_instances_reset_between_them_are_the_fresh_runs(fmu_dir, va
         pool.close()
         for d in dirs:
             remove_extracted(d)
+
+
+def test_the_engine_builds_with_zig_too(tmp_path, monkeypatch):
+    # the project's zig when the host has no C compiler: C99, warnings as errors, as the FMUs are built
+    from orchestration.packaging.native.compiler import zig_available
+    from orchestration.run.c_engine import build
+
+    if not zig_available():
+        pytest.skip("zig is not installed")
+    monkeypatch.setattr(build, "host_compiler", lambda: None)
+    monkeypatch.setenv("SATMOTOR_ENGINE_CACHE", str(tmp_path))
+    lib = build.library_path()
+    assert lib.is_file() and lib.parent.parent == tmp_path
+    from ctypes import CDLL
+
+    assert CDLL(str(lib)).se_abi() == 1

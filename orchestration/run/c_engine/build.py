@@ -41,10 +41,12 @@ def _headers():
 
 
 def _compiler():
+    """The compiler command and its extra flags (zig's clang: the () prototypes of fmi3FunctionTypes.h,
+    as the FMUs' cross builds)."""
     cc = host_compiler()
     if cc is not None:
-        return [cc]
-    return [sys.executable, "-m", "ziglang", "cc"]  # the project's zig (the ziglang wheel)
+        return [cc], []
+    return [sys.executable, "-m", "ziglang", "cc"], ["-Wno-strict-prototypes"]  # the project's zig
 
 
 def library_path():
@@ -65,7 +67,8 @@ def compile_library(out, flags):
     include = {str(h.parent) for h in _headers()}
     fd, tmp = tempfile.mkstemp(dir=out.parent, suffix=".part")
     os.close(fd)
-    cmd = [*_compiler(), *flags, *(f"-I{d}" for d in sorted(include)), str(SOURCE), "-o", tmp, "-lm"]
+    cc, extra = _compiler()
+    cmd = [*cc, *flags, *extra, *(f"-I{d}" for d in sorted(include)), str(SOURCE), "-o", tmp, "-lm"]
     try:
         r = subprocess.run(cmd, capture_output=True, text=True)
         if r.returncode != 0:
