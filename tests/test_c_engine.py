@@ -241,3 +241,18 @@ def test_the_engine_builds_with_zig_too(tmp_path, monkeypatch):
     from ctypes import CDLL
 
     assert CDLL(str(lib)).se_abi() == 1
+
+
+def test_the_fmus_are_extracted_and_read_once_per_content(tmp_path, monkeypatch, fmu_dir):
+    from fmpy import read_model_description
+
+    from orchestration.run.c_engine.prepared import prepared
+
+    monkeypatch.setenv("SATMOTOR_ENGINE_CACHE", str(tmp_path))
+    plant = fmus.paths(fmu_dir, "native")[0]
+    d, md = prepared(plant)
+    assert Path(d).parent == tmp_path / "fmus" and (Path(d) / "modelDescription.xml").is_file()
+    assert md.guid == read_model_description(str(plant)).guid
+    assert not any(p.name.startswith(".part-") for p in (tmp_path / "fmus").iterdir())
+    (Path(d) / "marker").touch()
+    assert prepared(plant)[0] == d and (Path(d) / "marker").is_file()  # the same copy, not made again

@@ -5,6 +5,8 @@
   rows into a preallocated buffer.  No allocation, no global state.
 * :mod:`~orchestration.run.c_engine.build` -- the library compiled once per source into a cache.
 * :mod:`~orchestration.run.c_engine.stepper` -- the fmpy master's ``_loop`` handed to the library.
+* :mod:`~orchestration.run.c_engine.prepared` -- the FMUs extracted and their descriptions read once per
+  content, into the same cache.
 
 :func:`run` is :func:`orchestration.run.master.run` with the engine's loop: the same instantiation,
 parameters, initialization, recorder and metrics, so the results are those of the fmpy master bit for
@@ -14,16 +16,24 @@ FMUs), before anything runs.
 
 from __future__ import annotations
 
-from functools import partial
-
 from orchestration.run import master
+from orchestration.run.c_engine.prepared import prepared
 from orchestration.run.c_engine.stepper import Unsupported, loop
 
 __all__ = ["run", "problems", "VARIANTS", "Unsupported"]
 
 VARIANTS = ("native", "native-fmi3")  # the FMUs the engine runs (orchestration.packaging.fmus.VARIANTS)
 
-run = partial(master.run, loop=loop)
+
+def run(scenario, plant_fmu, controller_fmu, unzip_dirs=None, descriptions=None, **kw):
+    """:func:`orchestration.run.master.run` with the engine's loop; without ``unzip_dirs`` the FMUs'
+    extracted copies and descriptions come from the engine's cache
+    (:func:`~orchestration.run.c_engine.prepared.prepared`)."""
+    if unzip_dirs is None:
+        unzip_dirs, mds = zip(*(prepared(p) for p in (plant_fmu, controller_fmu)))
+        descriptions = descriptions or mds
+    return master.run(scenario, plant_fmu, controller_fmu, unzip_dirs=unzip_dirs, descriptions=descriptions,
+                      loop=loop, **kw)
 
 
 def problems(variant):

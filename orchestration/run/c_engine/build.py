@@ -20,14 +20,15 @@ from pathlib import Path
 
 from orchestration.packaging.native.compiler import CFLAGS, NativeBuildError, fmi_headers, host_compiler
 
-__all__ = ["SOURCE", "library_path", "compile_library"]
+__all__ = ["SOURCE", "cache_dir", "library_path", "compile_library"]
 
 SOURCE = Path(__file__).with_name("sm_engine.c")
 HEADERS = ("fmi2TypesPlatform.h", "fmi2FunctionTypes.h", "fmi3PlatformTypes.h", "fmi3FunctionTypes.h")
 NAME = "libsm_engine.dll" if sys.platform == "win32" else "libsm_engine.so"
 
 
-def _cache_dir():
+def cache_dir():
+    """The engine's cache directory (the library; the prepared FMUs under ``fmus/``)."""
     given = os.environ.get("SATMOTOR_ENGINE_CACHE")
     if given:
         return Path(given)
@@ -54,7 +55,7 @@ def library_path():
     flags = [*CFLAGS, "-fPIC"]
     key = hashlib.sha256(SOURCE.read_bytes() + b"".join(h.read_bytes() for h in _headers())
                          + " ".join(flags).encode()).hexdigest()[:20]
-    out = _cache_dir() / key / NAME
+    out = cache_dir() / key / NAME
     if not out.is_file():
         compile_library(out, flags)
     return out
