@@ -15,8 +15,10 @@
 4. A file with a ``sweep:`` section (:mod:`orchestration.scenario.sweep`) is checked variant by
    variant first (one bad variant makes the file an invalid row: none of its variants runs); each
    variant then runs as a scenario of its own into ``OUT/<sweep name>/<variant name>/``: with the
-   native FMUs several to a child process (``run FILE --sweep-variant I,J,...``, :func:`grouped`:
-   the FMUs extracted and read once per child), with the pythonfmu ones a process each.  A row per
+   native FMUs several to a child process (``run FILE --sweep-variant I,J,... --engine c``,
+   :func:`grouped`: the FMUs extracted, read and instantiated once per child, reset per variant, the
+   compiled engine stepping them, results bit-identical to the fmpy master's), with the pythonfmu ones a
+   process each.  A row per
    variant whatever happens to its child (:func:`run_variants`).  Once the runs are over (finished,
    failed or interrupted) the sweep's table and figure go to ``OUT/<sweep name>/``
    (:mod:`orchestration.results.sweep_table`), with the study's summary, its sensitivity indices
@@ -197,6 +199,8 @@ def run_variants(path, out, fmu_dir, algorithm=None, names=(), indexes=None, sho
     if algorithm:
         argv += ["--algorithm", algorithm]
     argv += ["--variant", variant]
+    if variant != "python":  # the native FMUs: the compiled engine, instances reset per variant
+        argv += ["--engine", "c"]
     if indexes is not None:
         argv += ["--sweep-variant", ",".join(map(str, indexes))]
     if not plot:

@@ -11,8 +11,8 @@ what was computed (status ``interrupted``).  ``batch`` exits with the largest co
 scenarios (see :mod:`orchestration.cli.batch`).  ``check``: 1 if a check FAILs, 2 for a path that is not an
 FMU or without the ``check`` extra (see :mod:`orchestration.check.checker`).  ``fit-curve``: 2 for a bad
 no-load file or option (see :mod:`orchestration.tools.fit_curve`), 1 without the ``fit`` extra.  ``run
---engine libcosim``: 1 without the ``libcosim`` extra.  A missing extra is one line naming the ``pip
-install``.
+--engine libcosim``: 1 without the ``libcosim`` extra; ``run --engine c`` with the pythonfmu FMUs: 2,
+refused.  A missing extra is one line naming the ``pip install``.
 """
 
 from __future__ import annotations
@@ -167,6 +167,13 @@ def run_file(path, out, fmu_dir, algorithm=None, build=True, plot=True, stop=Non
         if found:
             return refused("\n".join(map(str, found)), sc.name)
         run = partial(libcosim_engine.run, signals_cache=Path(fmu_dir) / "signals")  # built once per profiles
+    elif engine == "c":
+        from orchestration.run import c_engine
+
+        found = c_engine.problems(variant)
+        if found:
+            return refused("\n".join(found), sc.name)
+        run = c_engine.run
     from orchestration.results import out_lock
 
     try:  # one writer per results directory: a second run onto it is refused naming the first
@@ -196,7 +203,9 @@ def run_file(path, out, fmu_dir, algorithm=None, build=True, plot=True, stop=Non
                                   figure_copy=helper is None)
         try:
             extra = ({"unzip_dirs": shared.dirs, "descriptions": shared.descriptions}
-                     if shared is not None and engine == "fmpy" else {})
+                     if shared is not None and engine in ("fmpy", "c") else {})
+            if shared is not None and engine == "c":  # the FMUs instantiated once, reset per variant
+                extra["pool"] = shared.pool
             result = run(sc, str(plant), str(ctrl), algorithm=algorithm, stop=stop, recorder=make, **extra)
             summary = write_results(result, out, plot=plot, draw=helper and helper.draw,
                                     write_error=make.error, discard_figure=helper and helper.discard)
@@ -218,15 +227,17 @@ def run_file(path, out, fmu_dir, algorithm=None, build=True, plot=True, stop=Non
 
 class SharedFMUs:
     """The two FMUs of ``variant`` extracted once, and their model descriptions read once, for the
-    runs of one process (several variants of a sweep: :func:`cmd_run`); :meth:`close` removes the
+    runs of one process (several variants of a sweep: :func:`cmd_run`); with ``--engine c`` the instances
+    too (:attr:`pool`: instantiated once, reset per variant); :meth:`close` frees them and removes the
     copies.  ``variables``: as :func:`model_variables` gives them."""
 
     def __init__(self, fmu_dir, variant):
         from fmpy import read_model_description
 
-        from orchestration.run.fmu_instance import extract_owned
+        from orchestration.run.fmu_instance import UnitPool, extract_owned
 
         self.dirs = []
+        self.pool = UnitPool()  # the instances of the c engine's runs (fmi2Reset/fmi3Reset per variant)
         try:
             paths = fmus.paths(fmu_dir, variant)
             for p in paths:
@@ -241,6 +252,7 @@ class SharedFMUs:
     def close(self):
         from orchestration.run.fmu_instance import remove_extracted
 
+        self.pool.close()  # the instances first, then their directories
         for d in self.dirs:
             remove_extracted(d)
         self.dirs = []
@@ -269,10 +281,10 @@ def cmd_run(args):
     die_with_parent()
     code, several = OK, len(args.sweep_variant or ()) > 1
     with catch() as stop:
-        variant = args.variant or ("native" if args.engine == "libcosim" else fmus.DEFAULT_VARIANT)
+        variant = args.variant or ("native" if args.engine in ("libcosim", "c") else fmus.DEFAULT_VARIANT)
         shared = None
         try:
-            if several and args.engine == "fmpy":  # several variants: the FMUs extracted once
+            if several and args.engine in ("fmpy", "c"):  # several variants: the FMUs extracted once
                 if not args.no_build:
                     fmus.ensure(args.fmus, quiet=True)
                 shared = SharedFMUs(args.fmus, variant)
@@ -417,7 +429,8 @@ def parser(prog="satmotor-cosim"):
                        help="override the scenario's coupling algorithm")
         p.add_argument("--variant", choices=tuple(fmus.VARIANTS),
                        help="which FMUs run: python (pythonfmu: they run the Python package satmotor, the "
-                       "reference the C code is checked against; default; native with --engine libcosim), "
+                       "reference the C code is checked against; default; native with --engine c or "
+                       "libcosim), "
                        "native (C, FMI 2.0) or native-fmi3 (C, FMI 3.0); the results are bit-identical, the "
                        "native ones 5.25x (FMI 3.0: 4.96x) faster under the fmpy master (bench/RESULTS.md)")
 
@@ -431,9 +444,11 @@ def parser(prog="satmotor-cosim"):
                    help="run variant I (from 0) of the file's sweep: section, or variants I, J, ... one "
                    "after the other in this process (batch runs them all); without it, run runs the "
                    "file's own scenario")
-    r.add_argument("--engine", choices=("fmpy", "libcosim"), default="fmpy",
-                   help="co-simulation engine: fmpy (our master, default) or libcosim (OSP's C++ engine, "
-                   "Jacobi coupling, FMI 2.0 FMUs; see orchestration/run/libcosim_engine.py)")
+    r.add_argument("--engine", choices=("fmpy", "c", "libcosim"), default="fmpy",
+                   help="co-simulation engine: fmpy (our master, default), c (the master's loop compiled, "
+                   "the native FMUs, results bit-identical to fmpy; see orchestration/run/c_engine/) or "
+                   "libcosim (OSP's C++ engine, Jacobi coupling, FMI 2.0 FMUs; see "
+                   "orchestration/run/libcosim_engine.py)")
     r.set_defaults(func=cmd_run)
     ba = sub.add_parser("batch", help="run many scenarios in parallel", description="Run every scenario "
                         "(files, or the *.yaml of directories), one process each, and every variant of a "

@@ -36,7 +36,8 @@ from orchestration.process.title import set_title
 #: child loads its own FMUs)
 PRELOAD = ("orchestration.cli", "orchestration.run.master", "orchestration.results.writer",
            "orchestration.scenario.load", "orchestration.results.recorder", "orchestration.run.fmu_instance",
-           "orchestration.process.interrupts", "orchestration.results.plots", "pyarrow.parquet", "fmpy.fmi2",
+           "orchestration.run.c_engine", "orchestration.process.interrupts", "orchestration.results.plots",
+           "pyarrow.parquet", "fmpy.fmi2",
            "fmpy.fmi3", "pythonfmu", "satmotor.control.drive", "satmotor.machine.plant", "satmotor.metrics",
            "setproctitle")
 

@@ -166,6 +166,41 @@ class DiscretePort:
         return self.int_values[:] + self.bool_values[:]
 
 
+class UnitPool:
+    """The FMU instances of one worker process, instantiated once and reset (:meth:`FMUInstance.reset`)
+    for each run instead of instantiated anew (the master's ``pool``).  An instance is kept after its
+    run unless it reached a fatal status; :meth:`close` frees them (before their unzip directories
+    are removed)."""
+
+    def __init__(self):
+        self._units = {}
+
+    def get(self, path, name, unzip_dir, md):
+        """The instance ``name`` of the FMU ``path``: the kept one reset, else a new one."""
+        u = self._units.pop(name, None)
+        if u is not None and u.path == str(path) and u.unzip_dir == unzip_dir and not u.fatal:
+            try:
+                u.reset()
+                return u
+            except FMICallException:  # a reset refused: a new instance instead
+                pass
+        if u is not None:
+            u.close()
+        return FMUInstance(path, name, unzip_dir, md)
+
+    def put(self, u):
+        """After a run: keep ``u`` for the next one (closed instead after a fatal status)."""
+        if u.fatal or u.slave is None:
+            u.close()
+        else:
+            self._units[u.name] = u
+
+    def close(self):
+        for u in self._units.values():
+            u.close()
+        self._units.clear()
+
+
 class FMUInstance:
     """An instantiated co-simulation FMU (logging on, messages kept in :attr:`messages`).
 
@@ -281,6 +316,13 @@ class FMUInstance:
             self.fatal = exc.status >= 4
             raise
         self.initialized = True
+
+    def reset(self):
+        """fmi2Reset / fmi3Reset: back to the state after instantiation (start values), the log emptied:
+        the next run sets its parameters and initializes as a new instance would."""
+        self.slave.reset()
+        self.initialized = False
+        self.messages.clear()
 
     def raw(self, function):
         """The ctypes function ``function`` (e.g. ``"fmi2DoStep"``) of this instance's library, as

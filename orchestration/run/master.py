@@ -65,7 +65,7 @@ class _NoStop:
 
 
 def run(scenario, plant_fmu, controller_fmu, connections=None, algorithm=None,
-        unzip_dirs=None, recorder=None, stop=None, descriptions=None):
+        unzip_dirs=None, recorder=None, stop=None, descriptions=None, loop=None, pool=None):
     """Run ``scenario`` (an :class:`orchestration.scenario.load.Scenario`) with the two FMU files.
 
     ``algorithm`` overrides the scenario's ('gauss-seidel' or 'jacobi'); ``unzip_dirs`` optional
@@ -73,7 +73,10 @@ def run(scenario, plant_fmu, controller_fmu, connections=None, algorithm=None,
     ``recorder``: a function ``columns -> Recorder`` (default: in memory, every column);
     ``stop``: an object whose ``signum`` becomes non-zero to stop the run; ``descriptions``:
     optional (plant, controller) model descriptions (fmpy's), read once by a caller that runs the
-    same FMUs many times.  Never raises for an FMU
+    same FMUs many times; ``loop``: the stepping loop (default :func:`_loop`; the compiled engine's
+    :func:`orchestration.run.c_engine.stepper.loop` takes the same arguments); ``pool``: a
+    :class:`~orchestration.run.fmu_instance.UnitPool` whose instances are reset and reused instead of
+    instantiated (with ``unzip_dirs`` that outlive the pool).  Never raises for an FMU
     failure: the :class:`RunResult` says what happened.
     """
     if connections is None:  # the default ones, with the link voltage for a capacitor link
@@ -93,10 +96,11 @@ def run(scenario, plant_fmu, controller_fmu, connections=None, algorithm=None,
                 extracted.append(extract_owned(path))
         ud = extracted if owned else unzip_dirs
         mds = descriptions or (None, None)
-        plant = FMUInstance(plant_fmu, PLANT, ud[0], mds[0])
+        make = pool.get if pool is not None and not owned else FMUInstance
+        plant = make(plant_fmu, PLANT, ud[0], mds[0])
         units.append(plant)
         current = CONTROLLER
-        ctrl = FMUInstance(controller_fmu, CONTROLLER, ud[1], mds[1])
+        ctrl = make(controller_fmu, CONTROLLER, ud[1], mds[1])
         units.append(ctrl)
         for inst, overrides in ((plant, scenario.plant), (ctrl, {**scenario.controller, "Ts": scenario.Ts})):
             current = inst.name
@@ -111,7 +115,7 @@ def run(scenario, plant_fmu, controller_fmu, connections=None, algorithm=None,
         columns = recorded_columns(p_out.names, c_out.names + c_disc.names, sorted(profiles),
                                    measure.columns if measure else ())
         rec = recorder(columns) if recorder else Recorder(columns)
-        t_reached, complete = _loop(scenario, jacobi=algorithm == "jacobi", plant=plant, ctrl=ctrl,
+        t_reached, complete = (loop or _loop)(scenario, jacobi=algorithm == "jacobi", plant=plant, ctrl=ctrl,
                                     p_out=p_out, c_out=c_out, c_disc=c_disc, connections=connections,
                                     profiles=profiles, rec=rec, stop=stop, measure=measure)
         if not complete:
@@ -129,7 +133,10 @@ def run(scenario, plant_fmu, controller_fmu, connections=None, algorithm=None,
     finally:
         logged = tuple((u.name, text) for u in units for level, text in u.messages if level == "warning")
         for u in units:
-            u.close()
+            if pool is None or owned:
+                u.close()
+            else:
+                pool.put(u)
         for d in extracted:
             remove_extracted(d)
     if rec is None:  # the run failed before its first row: an empty record of the same kind

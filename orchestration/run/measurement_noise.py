@@ -61,10 +61,25 @@ class MeasurementNoise:
         self._block = max(1, int(block))
         self._rows, self._next = [], 0
 
+    @property
+    def ops(self):
+        """Per measured signal (order of :attr:`columns`): (index in the value sequence, column of its
+        draw or -1, quantization step or 0.0)."""
+        return self._ops
+
+    @property
+    def n_noisy(self):
+        """The signals with a noise (columns of a row of draws)."""
+        return len(self._std)
+
+    def draw(self):
+        """The next ``block`` rows of draws, scaled by the standard deviations (rows x
+        :attr:`n_noisy`, float64); the compiled engine reads them as they are."""
+        return self._rng.standard_normal((self._block, len(self._std))) * self._std
+
     def _refill(self):
         if len(self._std):
-            z = self._rng.standard_normal((self._block, len(self._std))) * self._std
-            self._rows = z.tolist()
+            self._rows = self.draw().tolist()
         else:
             self._rows = [()] * self._block
         self._next = 0
