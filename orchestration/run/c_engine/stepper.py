@@ -16,6 +16,7 @@ refused before it runs by :func:`orchestration.run.c_engine.problems`).
 
 from __future__ import annotations
 
+import functools
 from ctypes import CDLL, POINTER, Structure, byref, c_char, c_char_p, c_double, c_int32, c_int64, c_void_p
 
 import numpy as np
@@ -73,19 +74,16 @@ class State(Structure):
                 ("failed_time", c_double), ("message", c_char * 256)]
 
 
-_LIB = []  # the loaded library, once per process (read-only after loading: the engine keeps no state)
-
-
+@functools.cache
 def library():
-    if not _LIB:
-        lib = CDLL(str(library_path()))
-        lib.se_abi.restype = c_int32
-        if lib.se_abi() != ABI:
-            raise RuntimeError(f"{library_path()}: engine ABI {lib.se_abi()}, this Python side speaks {ABI}")
-        lib.se_advance.restype = c_int32
-        lib.se_advance.argtypes = (POINTER(Config), POINTER(State), c_void_p, c_int64, POINTER(c_int64))
-        _LIB.append(lib)
-    return _LIB[0]
+    """The engine's library, loaded once per process (it keeps no state: every run passes its own)."""
+    lib = CDLL(str(library_path()))
+    lib.se_abi.restype = c_int32
+    if lib.se_abi() != ABI:
+        raise RuntimeError(f"{library_path()}: engine ABI {lib.se_abi()}, this Python side speaks {ABI}")
+    lib.se_advance.restype = c_int32
+    lib.se_advance.argtypes = (POINTER(Config), POINTER(State), c_void_p, c_int64, POINTER(c_int64))
+    return lib
 
 
 class _Arrays:
@@ -169,42 +167,9 @@ def loop(sc, jacobi, plant, ctrl, p_out, c_out, c_disc, connections, profiles, r
                               "--engine fmpy")
     lib = library()
     arr = _Arrays()
-    h, N = sc.step, sc.controller_every
-    n, every = record_steps(sc)
-    names = sorted(profiles)
-    prof = [profiles[p] for p in names]
-    outputs = {PLANT: p_out.names, CONTROLLER: c_out.names}
-    n_int = len(c_disc.int_values)
-    n_bool = len(c_disc.bool_values)
-    cfg = Config(plant=_unit(plant, PLANT), ctrl=_unit(ctrl, CONTROLLER), n_steps=n, every=every,
-                 ctrl_every=N, t0=0.0, h=h, Ts=sc.Ts, jacobi=int(jacobi), n_po=p_out.n, n_co=c_out.n,
-                 n_ci=n_int, n_cb=n_bool)
-    cfg.vr_po = arr(plant.vr(p_out.names), np.uint32)
-    cfg.vr_co = arr(ctrl.vr(c_out.names), np.uint32)
-    cfg.vr_ci = arr(ctrl.vr(c_disc.names[:n_int]), np.uint32)
-    cfg.vr_cb = arr(ctrl.vr(c_disc.names[n_int:]), np.uint32)
-    cfg.p_in = _inputs(arr, plant, PLANT, connections, outputs, profiles, prof)
-    cfg.c_in = _inputs(arr, ctrl, CONTROLLER, connections, outputs, profiles, prof)
-    first, count, is_sum, kinds, tfirst, tn, nums, pts_t, pts_v = profile_table(prof, names)
-    cfg.n_prof = len(prof)
-    cfg.prof_first, cfg.prof_n, cfg.prof_sum = (arr(x, np.int32) for x in (first, count, is_sum))
-    cfg.term_kind, cfg.term_first, cfg.term_points = (arr(x, np.int32) for x in (kinds, tfirst, tn))
-    cfg.term_a, cfg.pt_t, cfg.pt_v = (arr(x, np.float64) for x in (nums, pts_t, pts_v))
-    n_meas = 0
-    if measure is not None:
-        ops = measure.ops
-        n_meas = len(ops)
-        cfg.n_meas, cfg.n_noisy = n_meas, measure.n_noisy
-        cfg.meas_index = arr([i for i, _, _ in ops], np.int32)
-        cfg.meas_col = arr([j for _, j, _ in ops], np.int32)
-        cfg.meas_q = arr([q for _, _, q in ops], np.float64)
-    cfg.n_cols = 1 + p_out.n + c_out.n + n_int + n_bool + len(prof) + n_meas
-    st = State()
-    for field, size in (("pvals", p_out.n), ("cvals", c_out.n), ("held", c_out.n), ("p_invals", cfg.p_in.n),
-                        ("c_invals", cfg.c_in.n), ("fv", len(prof)), ("mvals", p_out.n), ("mrow", n_meas)):
-        setattr(st, field, arr(np.zeros(size), np.float64))
-    st.ivals = arr(np.zeros(n_int), np.int32)
-    st.bvals = arr(np.zeros(n_bool), np.uint8 if ctrl.fmi3 else np.int32)
+    cfg = _config(arr, sc, jacobi, plant, ctrl, p_out, c_out, c_disc, connections, profiles, measure)
+    st = _state(arr, cfg, ctrl.fmi3)
+    n, h = cfg.n_steps, cfg.h
     chunk = max(1, int(rec.chunk_rows))
     rows = np.empty((chunk, cfg.n_cols))
     got = c_int64(0)
@@ -227,6 +192,49 @@ def loop(sc, jacobi, plant, ctrl, p_out, c_out, c_disc, connections, profiles, r
             if filled:
                 rec.append_rows(rows[:filled])
             return 0.0 + st.k * h, False
+
+
+def _config(arr, sc, jacobi, plant, ctrl, p_out, c_out, c_disc, connections, profiles, measure):
+    """The run's :class:`Config` (its arrays kept by ``arr``)."""
+    n, every = record_steps(sc)
+    names = sorted(profiles)
+    prof = [profiles[p] for p in names]
+    outputs = {PLANT: p_out.names, CONTROLLER: c_out.names}
+    n_int, n_bool = len(c_disc.int_values), len(c_disc.bool_values)
+    cfg = Config(plant=_unit(plant, PLANT), ctrl=_unit(ctrl, CONTROLLER), n_steps=n, every=every,
+                 ctrl_every=sc.controller_every, t0=0.0, h=sc.step, Ts=sc.Ts, jacobi=int(jacobi),
+                 n_po=p_out.n, n_co=c_out.n, n_ci=n_int, n_cb=n_bool)
+    cfg.vr_po = arr(plant.vr(p_out.names), np.uint32)
+    cfg.vr_co = arr(ctrl.vr(c_out.names), np.uint32)
+    cfg.vr_ci = arr(ctrl.vr(c_disc.names[:n_int]), np.uint32)
+    cfg.vr_cb = arr(ctrl.vr(c_disc.names[n_int:]), np.uint32)
+    cfg.p_in = _inputs(arr, plant, PLANT, connections, outputs, profiles, prof)
+    cfg.c_in = _inputs(arr, ctrl, CONTROLLER, connections, outputs, profiles, prof)
+    first, count, is_sum, kinds, tfirst, tn, nums, pts_t, pts_v = profile_table(prof, names)
+    cfg.n_prof = len(prof)
+    cfg.prof_first, cfg.prof_n, cfg.prof_sum = (arr(x, np.int32) for x in (first, count, is_sum))
+    cfg.term_kind, cfg.term_first, cfg.term_points = (arr(x, np.int32) for x in (kinds, tfirst, tn))
+    cfg.term_a, cfg.pt_t, cfg.pt_v = (arr(x, np.float64) for x in (nums, pts_t, pts_v))
+    if measure is not None:
+        ops = measure.ops
+        cfg.n_meas, cfg.n_noisy = len(ops), measure.n_noisy
+        cfg.meas_index = arr([i for i, _, _ in ops], np.int32)
+        cfg.meas_col = arr([j for _, j, _ in ops], np.int32)
+        cfg.meas_q = arr([q for _, _, q in ops], np.float64)
+    cfg.n_cols = 1 + p_out.n + c_out.n + n_int + n_bool + len(prof) + cfg.n_meas
+    return cfg
+
+
+def _state(arr, cfg, fmi3):
+    """A :class:`State` at the start of the run: its buffers (kept by ``arr``), sized by ``cfg``."""
+    st = State()
+    sizes = (("pvals", cfg.n_po), ("cvals", cfg.n_co), ("held", cfg.n_co), ("p_invals", cfg.p_in.n),
+             ("c_invals", cfg.c_in.n), ("fv", cfg.n_prof), ("mvals", cfg.n_po), ("mrow", cfg.n_meas))
+    for field, size in sizes:
+        setattr(st, field, arr(np.zeros(size), np.float64))
+    st.ivals = arr(np.zeros(cfg.n_ci), np.int32)
+    st.bvals = arr(np.zeros(cfg.n_cb), np.uint8 if fmi3 else np.int32)  # fmi3Boolean: bool, fmi2Boolean: int
+    return st
 
 
 def _raise(st, units):
