@@ -344,7 +344,11 @@ def cmd_export_ssp(args):
         fmus.ensure(args.fmus, quiet=True)
         sc = load_scenario(args.scenario, model_variables(args.fmus))
         plant, ctrl = fmus.paths(args.fmus, args.variant)
-        print(export(sc, args.out, plant, ctrl))
+        out = export(sc, args.out, plant, ctrl)
+        print(out)
+        from orchestration.tools.ssp import FMPY_NOTE
+
+        print(FMPY_NOTE.format(name=out.name, step=repr(sc.step), stem=out.stem), file=sys.stderr)
     except (ScenarioError, NotExpressible, NotWritable) as exc:
         print(exc, file=sys.stderr)
         return INVALID
