@@ -102,9 +102,12 @@ def elf_glibc_versions(data: bytes) -> list[tuple[int, ...]]:
 
 
 def pe_min_os(data: bytes) -> dict:
-    """``{"os": (major, minor), "subsystem": (major, minor), "imports": [dll names]}`` of a PE32+ file.
-    The imports are read from the import directory (IMAGE_IMPORT_DESCRIPTOR: Name RVA), mapped to file
-    offsets through the section table."""
+    """``{"os": (major, minor), "subsystem": (major, minor), "imports": [dll names], "functions": {dll
+    name: [imported function names, "#N" for one by ordinal]}}`` of a PE32+ file.  The imports are read
+    from the import directory (IMAGE_IMPORT_DESCRIPTOR: OriginalFirstThunk, TimeDateStamp,
+    ForwarderChain, Name, FirstThunk RVAs), the functions from its lookup table (64-bit entries: the top
+    bit an ordinal, else the RVA of a hint and the name), all mapped to file offsets through the section
+    table."""
     if data[:2] != b"MZ":
         raise ValueError("not a PE file (no MZ)")
     pe, = struct.unpack_from("<I", data, 0x3C)
@@ -127,14 +130,27 @@ def pe_min_os(data: bytes) -> dict:
                 return raw + rva - vaddr
         raise ValueError(f"RVA {rva:#x} in no section")
 
-    imports = []
+    def text(rva):
+        o = offset(rva)
+        return data[o:data.index(b"\0", o)].decode()
+
+    imports, functions = [], {}
     if import_rva:
         d = offset(import_rva)
         while True:
-            name_rva = struct.unpack_from("<5I", data, d)[3]
+            lookup_rva, _, _, name_rva, first_thunk = struct.unpack_from("<5I", data, d)
             if name_rva == 0:
                 break
-            o = offset(name_rva)
-            imports.append(data[o:data.index(b"\0", o)].decode())
+            dll = text(name_rva)
+            imports.append(dll)
+            names, t = [], offset(lookup_rva or first_thunk)
+            while True:
+                entry, = struct.unpack_from("<Q", data, t)
+                if entry == 0:
+                    break
+                names.append(f"#{entry & 0xFFFF}" if entry >> 63 else text((entry & 0x7FFFFFFF) + 2))
+                t += 8
+            functions[dll] = names
             d += 20
-    return {"os": (os_major, os_minor), "subsystem": (sub_major, sub_minor), "imports": imports}
+    return {"os": (os_major, os_minor), "subsystem": (sub_major, sub_minor), "imports": imports,
+            "functions": functions}

@@ -40,6 +40,8 @@ def test_the_container_of_the_package_runs_in_fmpy_like_the_master(fmu_dir, tmp_
     made = subprocess.run([str(tool if tool.exists() else "fmucontainer"), "-container", f"p.ssp:{sc.step!r}",
                            "-fmu-directory", str(tmp_path)], capture_output=True, text=True, timeout=300)
     assert made.returncode == 0, made.stdout + made.stderr
+    # every input connected: no "ERROR | Input '...' is not connected" (the controller's v_dc, before)
+    assert "ERROR" not in made.stdout + made.stderr, made.stdout + made.stderr
     container = tmp_path / "p.fmu"
     names = {v.name for v in read_model_description(str(container)).modelVariables}
     assert {f"saturatedinductionmotor.{n}" for n in OUTPUTS} <= names

@@ -57,6 +57,36 @@ def test_the_header_readers_read_what_they_should():
         macho_min_os(b"\x7fELF" + bytes(60))
 
 
+def _hand_made_pe():
+    """A PE32+ header (OS 6.0, subsystem 6.1) with one section holding an import directory: KERNEL32.dll,
+    one function by name (hint 5) and one by ordinal 7."""
+    import struct
+    pe = bytearray(0x400)
+    pe[:2] = b"MZ"
+    struct.pack_into("<I", pe, 0x3C, 0x40)
+    pe[0x40:0x44] = b"PE\0\0"
+    coff, opt = 0x44, 0x44 + 20
+    struct.pack_into("<HHIIIHH", pe, coff, 0x8664, 1, 0, 0, 0, 240, 0x2022)
+    struct.pack_into("<H", pe, opt, 0x20B)
+    struct.pack_into("<6H", pe, opt + 40, 6, 0, 0, 0, 6, 1)
+    struct.pack_into("<II", pe, opt + 112 + 8, 0x1000, 40)  # the import directory
+    struct.pack_into("<8sIIII", pe, opt + 240, b".idata", 0x200, 0x1000, 0x200, 0x200)
+    raw = 0x200 - 0x1000  # file offset of an RVA in the section
+    struct.pack_into("<5I", pe, raw + 0x1000, 0x1040, 0, 0, 0x1080, 0x1060)  # then a zero descriptor
+    struct.pack_into("<QQ", pe, raw + 0x1040, 0x10A0, (1 << 63) | 7)
+    pe[raw + 0x1080:raw + 0x108D] = b"KERNEL32.dll\0"
+    struct.pack_into("<H", pe, raw + 0x10A0, 5)
+    pe[raw + 0x10A2:raw + 0x10BA] = b"AcquireSRWLockExclusive\0"
+    return bytes(pe)
+
+
+def test_the_pe_reader_reads_the_imported_dlls_and_functions():
+    assert pe_min_os(_hand_made_pe()) == {"os": (6, 0), "subsystem": (6, 1), "imports": ["KERNEL32.dll"],
+                                          "functions": {"KERNEL32.dll": ["AcquireSRWLockExclusive", "#7"]}}
+    with pytest.raises(ValueError, match="no MZ"):
+        pe_min_os(b"ZM" + bytes(100))
+
+
 def test_the_universal_macho_holds_both_slices_aligned():
     """compiler.fat_macho of two hand-made thin headers, read back by the independent reader."""
     import struct
@@ -126,6 +156,58 @@ def test_hosts_names_every_dll_the_windows_binaries_import(fmu_dir, fmu_dir_all_
     expected = {"python3.dll", "MSVCP140.dll", "VCRUNTIME140.dll", "VCRUNTIME140_1.dll", "KERNEL32.dll"}
     assert expected <= seen, seen
     assert "`api-ms-win-crt-*`" in hosts
+
+
+def _row(text, start):
+    """The one line of a docs table that starts with ``start``."""
+    (line,) = [ln for ln in text.splitlines() if ln.startswith(start)]
+    return line
+
+
+def _named_dlls(line):
+    return {n for n in re.findall(r"`([A-Za-z0-9_.-]+\.dll)`", line)}
+
+
+def _imports_by_kind(fmus_):
+    """{"native"/"pythonfmu": (the DLL names besides the UCRT's api sets, {dll: functions})} of the
+    Windows binaries of ``fmus_``, each kind's DLLs alike (checked)."""
+    kinds = {}
+    for fmu in fmus_:
+        for name, data in _binaries(fmu).items():
+            if not name.endswith(".dll"):
+                continue
+            info = pe_min_os(data)
+            kind = "pythonfmu" if "python3.dll" in info["imports"] else "native"
+            dlls = frozenset(i for i in info["imports"] if not i.startswith("api-ms-win-crt-"))
+            if kind in kinds:
+                assert kinds[kind][0] == dlls, (fmu.name, name, dlls, kinds[kind][0])
+                for dll, funcs in info["functions"].items():
+                    kinds[kind][1].setdefault(dll, set()).intersection_update(funcs)
+            else:
+                kinds[kind] = (dlls, {dll: set(funcs) for dll, funcs in info["functions"].items()})
+    return kinds
+
+
+@pytest.mark.slow
+def test_hosts_tables_state_the_windows_runtime_each_dll_imports(fmu_dir, fmu_dir_all_platforms):
+    """Each row of docs/hosts.md that says what a Windows binary needs names exactly the DLLs the
+    binaries import (besides the UCRT's api sets), and the KERNEL32 functions it names are imported by
+    every native DLL: the native FMUs' row of the minimum-system table (the co-simulation pair in both
+    FMI versions, the model-exchange plant, the clocked controller), pythonfmu's row of the host table."""
+    hosts = (ROOT / "docs" / "hosts.md").read_text()
+    fmus_ = [*sorted(fmu_dir.glob("*.fmu")),
+             *(f for d in ("native", "native-fmi3", "native-me", "native-me-fmi3", "native-fmi3-clocked")
+               for f in sorted((fmu_dir_all_platforms / d).glob("*.fmu")))]
+    kinds = _imports_by_kind(fmus_)
+    assert set(kinds) == {"native", "pythonfmu"}
+    native_row = _row(hosts, "| `win64`, `x86_64-windows`")
+    assert _named_dlls(native_row) == set(kinds["native"][0]) == {"KERNEL32.dll"}, native_row
+    kernel32 = kinds["native"][1]["KERNEL32.dll"]
+    named = set(re.findall(r"`([A-Z][A-Za-z]+)`", native_row))  # the functions the row names
+    assert {"AcquireSRWLockExclusive", "ReleaseSRWLockExclusive", "VirtualProtect", "VirtualQuery"} <= named
+    assert named <= kernel32, named - kernel32
+    pythonfmu_row = _row(hosts, "| pythonfmu FMI 2.0")
+    assert _named_dlls(pythonfmu_row) == set(kinds["pythonfmu"][0]), pythonfmu_row
 
 
 def test_readme_and_hosts_state_the_minimum_of_every_binary():

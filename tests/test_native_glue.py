@@ -522,9 +522,12 @@ def test_no_global_mutable_state(tmp_path):
     model, model_inc = model_c_files(tmp_path / "gen")
     for src in [*native_build.GLUE_DIR.glob("*.c"), *map(Path, model)]:
         obj = tmp_path / (src.stem + ".o")
+        # the Scheduled Execution glue needs its clock (orchestration/packaging/native/clocked.py)
+        clock = (["-DFG_SCHEDULED_EXECUTION", "-DFG_CLOCK_VR=9", "-DFG_CLOCK_INTERVAL=0.001"]
+                 if src.name == "fmi3_se_glue.c" else [])
         subprocess.run(["gcc", "-std=c99", "-O2", "-fPIC", "-c", f"-I{inc}", f"-I{native_build.GLUE_DIR}",
-                        *model_inc, "-DMODEL_IDENTIFIER=lag", '-DINSTANTIATION_TOKEN="{x}"', str(src), "-o",
-                        str(obj)], check=True, capture_output=True)
+                        *model_inc, *clock, "-DMODEL_IDENTIFIER=lag", '-DINSTANTIATION_TOKEN="{x}"', str(src),
+                        "-o", str(obj)], check=True, capture_output=True)
         out = subprocess.run(["nm", "-f", "sysv", str(obj)], capture_output=True, text=True,
                              check=True).stdout
         rows = [[c.strip() for c in line.split("|")] for line in out.splitlines() if line.count("|") == 6]

@@ -178,6 +178,17 @@ def test_parameters_connections_steps_of_every_scenario(path, fmu_dir, signals_m
     for c in DEFAULT_CONNECTIONS:
         (su, sv), (tu, tv) = c.source.split("."), c.target.split(".")
         expected.append(("signals" if su == "profile" else su, sv, tu, tv))
+    # the controller's v_dc from the plant where that changes nothing: an ideal link (the plant's v_dc is
+    # its V_dc) of the controller's V_dc (what the controller takes when its input is 0, unconnected)
+    start = {(c, v.name): float(v.start) for c in ("plant", "controller") for v in mds[c].modelVariables
+             if v.name == "V_dc"}
+    v_plant = float(sc.plant.get("V_dc", start["plant", "V_dc"]))
+    v_ctrl = float(sc.controller.get("V_dc", start["controller", "V_dc"]))
+    if sc.plant.get("dc_link", "ideal") == "ideal" and v_plant == v_ctrl:
+        expected.append(("plant", "v_dc", "controller", "v_dc"))
+        fed = {(c[2], c[3]) for c in conns}  # then every input of both FMUs is connected
+        assert {(u, v.name) for u in ("plant", "controller") for v in mds[u].modelVariables
+                if v.causality == "input"} <= fed
     assert conns == expected
     hints = {n: c.find("ssd:Annotations/ssc:Annotation/osp:StepSizeHint", NS) for n, c in comps.items()}
     # a unit at the base step carries no hint (libcosim's default; OMSimulator refuses the element)
@@ -195,6 +206,18 @@ def test_parameters_connections_steps_of_every_scenario(path, fmu_dir, signals_m
     else:
         with pytest.raises(AssertionError, match="wrong xml schema"):
             omsimulator_reading(root)
+
+
+def test_a_controller_with_another_v_dc_than_the_ideal_link_keeps_its_input_unconnected(fmu_dir, signals_md):
+    """Fed from the plant, the controller would take the plant's V_dc instead of its own."""
+    mds = model_descriptions(fmu_dir, signals_md)
+    base = load_scenario(DEFAULT)
+    for sc, linked in ((base, True), (dataclasses.replace(base, controller={"V_dc": 600.0}), False),
+                       (dataclasses.replace(base, plant={"V_dc": 600.0}, controller={"V_dc": 600.0}), True)):
+        root = ET.fromstring(ssd.ssd_xml(sc, mds))
+        ends = [(c.get("startElement"), c.get("endElement"), c.get("endConnector"))
+                for c in root.findall("ssd:System/ssd:Connections/ssd:Connection", NS)]
+        assert (("plant", "controller", "v_dc") in ends) == linked, (sc.plant, sc.controller)
 
 
 def test_connectors_carry_the_fmus_types_and_units(default_ssp, tmp_path):
@@ -480,7 +503,8 @@ def test_connections_the_package_cannot_hold_are_refused(fmu_dir, signals_md, tm
         conns = (*DEFAULT_CONNECTIONS, bad)
         if bad.source == "plant.omega_m":
             root = ET.fromstring(ssd.ssd_xml(sc, mds, conns))
-            assert len(root.findall("ssd:System/ssd:Connections/ssd:Connection", NS)) == len(conns)
+            # and the link voltage (plant.v_dc -> controller.v_dc: an ideal link of the controller's V_dc)
+            assert len(root.findall("ssd:System/ssd:Connections/ssd:Connection", NS)) == len(conns) + 1
             continue
         with pytest.raises(ssp.NotExpressible, match=rf"^{DEFAULT}: connections = "
                                                      rf"'{bad.source} -> {bad.target}': "):

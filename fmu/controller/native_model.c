@@ -5,6 +5,7 @@
  * fmu/native/common/sm_values.c. */
 #include <string.h>
 
+#include "fg_model_clock.h"
 #include "sm_common.h"
 #include "sm_controller.h"
 #include "sm_values.h"
@@ -46,6 +47,9 @@ fg_status fg_model_exit_initialization(fg_instance *inst, void *data, double sta
     d->ready = 1;
     return FG_OK;
 }
+
+/* the clocked variant (fmi3_se_glue.c): one sample per activation of its clock, whose interval is Ts */
+double fg_model_clock_period(const void *data) { return ((const controller_data *)data)->u.Ts; }
 
 fg_status fg_model_do_step(fg_instance *inst, void *data, double t, double h)
 {

@@ -362,7 +362,11 @@ def cmd_export_ssp(args):
         fmus.ensure(args.fmus, quiet=True)
         sc = load_scenario(args.scenario, model_variables(args.fmus))
         plant, ctrl = fmus.paths(args.fmus, args.variant)
-        print(export(sc, args.out, plant, ctrl))
+        out = export(sc, args.out, plant, ctrl)
+        print(out)
+        from orchestration.tools.ssp import FMPY_NOTE
+
+        print(FMPY_NOTE.format(name=out.name, step=repr(sc.step), stem=out.stem), file=sys.stderr)
     except (ScenarioError, NotExpressible, NotWritable) as exc:
         print(exc, file=sys.stderr)
         return INVALID
@@ -406,11 +410,12 @@ def parser(prog="satmotor-cosim"):
                                  description="Co-simulate the saturated induction motor FMU with the "
                                  "backstepping controller FMU over YAML scenarios (fmpy master).")
     sub = ap.add_subparsers(dest="command", required=True)
-    b = sub.add_parser("build", help="build the FMUs", description="Build the eight FMUs into OUT: "
+    b = sub.add_parser("build", help="build the FMUs", description="Build the nine FMUs into OUT: "
                        "SaturatedInductionMotor.fmu and BacksteppingController.fmu (pythonfmu, FMI 2.0), "
                        "their native C twins in OUT/native (FMI 2.0) and OUT/native-fmi3 (FMI 3.0), and the "
                        "plant as model exchange in OUT/native-me and OUT/native-me-fmi3 "
-                       "(SaturatedInductionMotorME.fmu); for this machine (Linux x86_64) unless "
+                       "(SaturatedInductionMotorME.fmu), and the clocked controller (FMI 3.0 Scheduled "
+                       "Execution) in OUT/native-fmi3-clocked; for this machine (Linux x86_64) unless "
                        "--all-platforms.")
     b.add_argument("--out", default=str(fmus.DEFAULT_DIR), help="output directory (default build/fmus)")
     b.add_argument("--all-platforms", action="store_true",

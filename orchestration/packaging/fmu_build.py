@@ -120,7 +120,9 @@ def build_one(name, out_dir):
 
 def build_all(out_dir="build/fmus", native=True, cross=False):
     """Build both pythonfmu FMUs into ``out_dir`` (each in a child process) and, with ``native``, the
-    native ones into ``out_dir/native`` (FMI 2.0) and ``out_dir/native-fmi3`` (FMI 3.0): for this
+    native ones into ``out_dir/native`` (FMI 2.0) and ``out_dir/native-fmi3`` (FMI 3.0), the
+    model-exchange plant and the clocked controller (``native-fmi3-clocked``,
+    :mod:`orchestration.packaging.native.clocked`): for this
     machine (Linux x86_64) by default; with ``cross`` for every platform of
     :data:`orchestration.packaging.native.fmus.ALL` too (Windows and macOS cross-compiled with zig, the Linux
     binary linked against glibc 2.17: the distributable FMUs).  Returns the paths."""
@@ -132,11 +134,13 @@ def build_all(out_dir="build/fmus", native=True, cross=False):
                         "--out", str(out)], check=True)
         paths.append(out / f"{name}.fmu")
     if native:
+        from orchestration.packaging.native import clocked
         from orchestration.packaging.native import fmus as native_fmus
         from orchestration.packaging.native import model_exchange as native_me
 
         cross = native_fmus.zig_available() if cross is None else cross
-        for p in [*native_fmus.build_all(out, cross), *native_me.build_all(out, cross)]:
+        for p in [*native_fmus.build_all(out, cross), *native_me.build_all(out, cross),
+                  *clocked.build_all(out, cross)]:
             print(f"built {p}")
             paths.append(p)
     return paths
@@ -151,7 +155,8 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description="Build SaturatedInductionMotor.fmu and "
                                  "BacksteppingController.fmu: FMI 2.0 co-simulation with pythonfmu in OUT, "
                                  "native C ones in OUT/native (FMI 2.0) and OUT/native-fmi3 (FMI 3.0), the "
-                                 "model-exchange plant in OUT/native-me and OUT/native-me-fmi3, for "
+                                 "model-exchange plant in OUT/native-me and OUT/native-me-fmi3, the "
+                                 "clocked controller in OUT/native-fmi3-clocked, for "
                                  "this machine (Linux x86_64); --all-platforms adds Windows and macOS.")
     ap.add_argument("--out", default="build/fmus", help="output directory (default build/fmus)")
     ap.add_argument("--no-native", action="store_true", help="only the pythonfmu FMUs")

@@ -63,9 +63,10 @@ def up_to_date(fmu_dir=DEFAULT_DIR, all_platforms=False):
                     ok = set(native_fmus.ALL[version]) <= binary_folders(p)
             if not ok:
                 return False
+    from orchestration.packaging.native import clocked
     from orchestration.packaging.native import model_exchange as native_me
 
-    return native_me.up_to_date(fmu_dir, all_platforms)
+    return native_me.up_to_date(fmu_dir, all_platforms) and clocked.up_to_date(fmu_dir, all_platforms)
 
 
 def build(fmu_dir=DEFAULT_DIR, quiet=False, all_platforms=False):

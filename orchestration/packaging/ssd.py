@@ -34,7 +34,14 @@ import xml.etree.ElementTree as ET
 
 from orchestration.packaging.fmu_model_description import SI_UNITS
 from orchestration.scenario.problems import ProblemError
-from orchestration.scenario.system import CONTROLLER, DEFAULT_CONNECTIONS, PLANT, PROFILE
+from orchestration.scenario.system import (
+    CONTROLLER,
+    DEFAULT_CONNECTIONS,
+    LINK_CONNECTION,
+    LINK_VOLTAGE,
+    PLANT,
+    PROFILE,
+)
 
 __all__ = ["NotExpressible", "ssd_xml", "seconds_text", "SSD_NS", "SSC_NS", "SSV_NS", "OSP_NS", "OMS_NS",
            "SIGNALS_UNIT", "COMPONENTS", "RESOURCES", "WORKER_THREADS"]
@@ -152,6 +159,35 @@ def _system_annotations(system, scenario, h, Ts):
                 "the last communication point: satmotor-cosim run --algorithm jacobi"})
 
 
+def _value(scenario_values, md, name):
+    """A parameter's value: the scenario's, else the FMU's start value (None: no such parameter)."""
+    if name in scenario_values:
+        return scenario_values[name]
+    v = next((v for v in md.modelVariables if v.name == name and v.causality == "parameter"), None)
+    return None if v is None else _start(v)
+
+
+def link_voltage_connection(scenario, model_descriptions, connections):
+    """``(plant.v_dc -> controller.v_dc,)`` when no connection feeds the controller's ``v_dc`` and feeding
+    it changes nothing: an ideal link (the plant's ``v_dc`` is its parameter ``V_dc``, constant) whose
+    ``V_dc`` is the controller's (which the controller takes when its input is 0, unconnected).  So every
+    input of the package is connected (an importer that reports an unconnected input, such as
+    fmu-manipulation-toolbox, has none to report) and the results stay the bits of the master, which
+    leaves the input at 0.  Else ``()``: the input stays unconnected (a plant and a controller with
+    different ``V_dc``: connecting it would change what the controller does)."""
+    target = f"{CONTROLLER}.{LINK_VOLTAGE}"
+    if any(c.target == target for c in connections):
+        return ()
+    plant, ctrl = model_descriptions[PLANT], model_descriptions[CONTROLLER]
+    if not any(v.name == LINK_VOLTAGE and v.causality == "output" for v in plant.modelVariables):
+        return ()
+    dc_link = _value(scenario.plant, plant, "dc_link")
+    v_plant, v_ctrl = _value(scenario.plant, plant, "V_dc"), _value(scenario.controller, ctrl, "V_dc")
+    if dc_link not in (None, "ideal") or v_plant is None or v_ctrl is None or float(v_plant) != float(v_ctrl):
+        return ()
+    return (LINK_CONNECTION,)
+
+
 def ssd_xml(scenario, model_descriptions, connections=DEFAULT_CONNECTIONS, renamed=None, sources=None,
             worker_threads=WORKER_THREADS):
     """``SystemStructure.ssd`` (bytes) of ``scenario``; ``model_descriptions``: {component: fmpy
@@ -200,7 +236,7 @@ def ssd_xml(scenario, model_descriptions, connections=DEFAULT_CONNECTIONS, renam
 
     cons_el = ET.SubElement(system, _q(SSD_NS, "Connections"))
     known = {(c, name): kind for c in COMPONENTS for name, kind, _, _ in connectors[c]}
-    for conn in connections:
+    for conn in (*connections, *link_voltage_connection(scenario, model_descriptions, connections)):
         (su, sv), (tu, tv) = conn.source.split(".", 1), conn.target.split(".", 1)
         su = SIGNALS_UNIT if su == PROFILE else su
         if known.get((su, sv)) != "output" or known.get((tu, tv)) != "input":

@@ -39,7 +39,17 @@ from orchestration.packaging.ssd import COMPONENTS, RESOURCES, SIGNALS_UNIT, Not
 from orchestration.results.atomic import describe
 from orchestration.scenario.system import CONTROLLER, PLANT, connections_for
 
-__all__ = ["NotExpressible", "NotWritable", "export", "check_expressible"]
+__all__ = ["NotExpressible", "NotWritable", "export", "check_expressible", "FMPY_NOTE"]
+
+# what ``export-ssp`` says after writing a package (docs/hosts.md, "fmpy and the SSP package"): fmpy
+# 0.3's simulate_ssp starts every connector at 0.0 and passes values between the FMUs only after each
+# step (fmpy/ssp/simulation.py), so at t = 0 the controller's set-points are 0 whatever the signals FMU
+# outputs; it applies no parameter binding of the SSD either
+FMPY_NOTE = ("note: fmpy's simulate_ssp cannot run this package: it sets every input to 0.0 for the first "
+             "step (it passes values between FMUs only after a step), so the controller's first sample gets "
+             "psi_ref = 0.0 and refuses it (> 0 required), and it applies none of the package's parameters; "
+             "run it in libcosim, Ecos or OMSimulator, or with fmpy through a container: fmucontainer "
+             "-container {name}:{step} then fmpy simulate {stem}.fmu (docs/hosts.md)")
 
 FILE_PARAMETERS = ("table_file",)  # String parameters naming a file
 FMU_NAMES = {PLANT: "SaturatedInductionMotor", CONTROLLER: "BacksteppingController"}

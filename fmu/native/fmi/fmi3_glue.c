@@ -1,6 +1,8 @@
 /* fmi3_glue.c - FMI 3.0 co-simulation functions over fg_instance (model agnostic).
  * Supported: Float64, Int32, Boolean, String variables; FMU state; co-simulation without event mode.
- * All other functions of fmi3Functions.h are defined and return fmi3Error with a logged message. */
+ * All other functions of fmi3Functions.h are defined and return fmi3Error with a logged message.
+ * Compiled with -DFG_SCHEDULED_EXECUTION, it leaves instantiation, the end of initialization and the
+ * clock functions to fmi3_se_glue.c and refuses co-simulation (instantiation and doStep). */
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -43,7 +45,7 @@ static void refuse(fmi3String name, fmi3InstanceEnvironment env, fmi3LogMessageC
     fg_log(&tmp, FG_ERROR, NULL, "%s%s", message, detail);
 }
 
-#ifndef FG_MODEL_EXCHANGE /* the model-exchange build has its own: fmi3_me_glue.c */
+#if !defined(FG_MODEL_EXCHANGE) && !defined(FG_SCHEDULED_EXECUTION) /* else fmi3_me_glue.c, or refused below */
 fmi3Instance fmi3InstantiateCoSimulation(fmi3String instanceName, fmi3String instantiationToken,
                                          fmi3String resourcePath, fmi3Boolean visible, fmi3Boolean loggingOn,
                                          fmi3Boolean eventModeUsed, fmi3Boolean earlyReturnAllowed,
@@ -96,6 +98,35 @@ fmi3Instance fmi3InstantiateModelExchange(fmi3String instanceName, fmi3String in
 }
 #endif
 
+#ifdef FG_SCHEDULED_EXECUTION /* a Scheduled Execution binary: no co-simulation, no model exchange */
+fmi3Instance fmi3InstantiateCoSimulation(fmi3String instanceName, fmi3String instantiationToken,
+                                         fmi3String resourcePath, fmi3Boolean visible, fmi3Boolean loggingOn,
+                                         fmi3Boolean eventModeUsed, fmi3Boolean earlyReturnAllowed,
+                                         const fmi3ValueReference requiredIntermediateVariables[],
+                                         size_t nRequiredIntermediateVariables,
+                                         fmi3InstanceEnvironment instanceEnvironment,
+                                         fmi3LogMessageCallback logMessage,
+                                         fmi3IntermediateUpdateCallback intermediateUpdate)
+{
+    (void)instantiationToken; (void)resourcePath; (void)visible; (void)loggingOn; (void)eventModeUsed;
+    (void)earlyReturnAllowed; (void)requiredIntermediateVariables; (void)nRequiredIntermediateVariables;
+    (void)intermediateUpdate;
+    refuse(instanceName, instanceEnvironment, logMessage, "fmi3InstantiateCoSimulation: ",
+           "this FMU is Scheduled Execution only (<ScheduledExecution>): activate its clock");
+    return NULL;
+}
+
+fmi3Instance fmi3InstantiateModelExchange(fmi3String instanceName, fmi3String instantiationToken,
+                                          fmi3String resourcePath, fmi3Boolean visible, fmi3Boolean loggingOn,
+                                          fmi3InstanceEnvironment instanceEnvironment,
+                                          fmi3LogMessageCallback logMessage)
+{
+    (void)instantiationToken; (void)resourcePath; (void)visible; (void)loggingOn;
+    refuse(instanceName, instanceEnvironment, logMessage, "fmi3InstantiateModelExchange: ",
+           "model exchange is not supported");
+    return NULL;
+}
+#else
 fmi3Instance fmi3InstantiateScheduledExecution(fmi3String instanceName, fmi3String instantiationToken,
                                                fmi3String resourcePath, fmi3Boolean visible,
                                                fmi3Boolean loggingOn, fmi3InstanceEnvironment instanceEnvironment,
@@ -110,6 +141,7 @@ fmi3Instance fmi3InstantiateScheduledExecution(fmi3String instanceName, fmi3Stri
            "scheduled execution is not supported");
     return NULL;
 }
+#endif
 
 void fmi3FreeInstance(fmi3Instance instance) { fg_instance_free(INST); }
 
@@ -123,10 +155,12 @@ fmi3Status fmi3EnterInitializationMode(fmi3Instance instance, fmi3Boolean tolera
     return (fmi3Status)fg_enter_initialization(INST, "fmi3EnterInitializationMode", startTime);
 }
 
+#ifndef FG_SCHEDULED_EXECUTION /* fmi3_se_glue.c checks the model's period there too */
 fmi3Status fmi3ExitInitializationMode(fmi3Instance instance)
 {
     return (fmi3Status)fg_exit_initialization(INST, "fmi3ExitInitializationMode");
 }
+#endif
 
 #ifndef FG_MODEL_EXCHANGE
 fmi3Status fmi3EnterEventMode(fmi3Instance instance) { UNSUPPORTED(fmi3EnterEventMode); }
@@ -354,12 +388,14 @@ UNSUPPORTED_DERIVATIVE(fmi3GetAdjointDerivative)
 fmi3Status fmi3EnterConfigurationMode(fmi3Instance instance) { UNSUPPORTED(fmi3EnterConfigurationMode); }
 fmi3Status fmi3ExitConfigurationMode(fmi3Instance instance) { UNSUPPORTED(fmi3ExitConfigurationMode); }
 
+#ifndef FG_SCHEDULED_EXECUTION /* fmi3_se_glue.c */
 fmi3Status fmi3GetIntervalDecimal(fmi3Instance instance, const fmi3ValueReference vr[], size_t nvr,
                                   fmi3Float64 intervals[], fmi3IntervalQualifier qualifiers[])
 {
     (void)vr; (void)nvr; (void)intervals; (void)qualifiers;
     UNSUPPORTED(fmi3GetIntervalDecimal);
 }
+#endif
 
 fmi3Status fmi3GetIntervalFraction(fmi3Instance instance, const fmi3ValueReference vr[], size_t nvr,
                                    fmi3UInt64 counters[], fmi3UInt64 resolutions[], fmi3IntervalQualifier qualifiers[])
@@ -479,6 +515,13 @@ fmi3Status fmi3DoStep(fmi3Instance instance, fmi3Float64 currentCommunicationPoi
     fg_status s;
     (void)noSetFMUStatePriorToCurrentPoint;
     if (instance == NULL) return fmi3Error;
+#ifdef FG_SCHEDULED_EXECUTION
+    (void)currentCommunicationPoint; (void)communicationStepSize; (void)eventHandlingNeeded;
+    (void)terminateSimulation; (void)earlyReturn; (void)lastSuccessfulTime; (void)s;
+    fg_log(INST, FG_ERROR, NULL, "fmi3DoStep: a Scheduled Execution FMU is not stepped: activate its clock "
+           "(fmi3ActivateModelPartition)");
+    return fmi3Error;
+#else
     if (eventHandlingNeeded == NULL || terminateSimulation == NULL || earlyReturn == NULL ||
         lastSuccessfulTime == NULL) {
         fg_log(INST, FG_ERROR, NULL, "fmi3DoStep: NULL out-argument");
@@ -490,11 +533,14 @@ fmi3Status fmi3DoStep(fmi3Instance instance, fmi3Float64 currentCommunicationPoi
     *earlyReturn = false;
     *lastSuccessfulTime = INST->time;
     return (fmi3Status)s;
+#endif
 }
 
+#ifndef FG_SCHEDULED_EXECUTION /* fmi3_se_glue.c */
 fmi3Status fmi3ActivateModelPartition(fmi3Instance instance, fmi3ValueReference clockReference,
                                       fmi3Float64 activationTime)
 {
     (void)clockReference; (void)activationTime;
     UNSUPPORTED(fmi3ActivateModelPartition);
 }
+#endif

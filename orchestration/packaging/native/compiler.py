@@ -123,8 +123,8 @@ def _major(fmi_version: str) -> int:
 
 def glue_files(fmi_version: str) -> list[Path]:
     major = _major(fmi_version)
-    return [GLUE_DIR / n for n in ("fg_model.h", "fg_instance.h", "fg_instance.c", "fg_state.c",
-                                   f"fmi{major}_glue.c")]
+    return [GLUE_DIR / n for n in ("fg_model.h", "fg_model_clock.h", "fg_instance.h", "fg_instance.c",
+                                   "fg_state.c", f"fmi{major}_glue.c")]
 
 
 def _token_attribute(major: int) -> str:
