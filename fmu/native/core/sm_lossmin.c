@@ -73,6 +73,7 @@ int sm_lm_optimum(const sm_lossmin *lm, const sm_motor *p, double T, double omeg
                   double *psi)
 {
     double floor = lm->floor, k = p->k, c, ac, pmd, a, b, g = SM_LM_GOLDEN, x1, x2, f1, f2, phi1, phi2, Phi;
+    double fa, fb, phia, phib, f;
     int st, j;
     if (psi_hi <= floor) {
         *psi = psi_hi;
@@ -92,6 +93,8 @@ int sm_lm_optimum(const sm_lossmin *lm, const sm_motor *p, double T, double omeg
     if ((st = sm_curve_current(&p->curve, pmd * pmd >= ac ? sm_hypot(pmd, c / pmd) : sqrt(2.0 * ac), &a))) {
         return st;
     }
+    loss(lm, p, a, T, omega, i_lim, &fa, &phia); /* the ends: an optimum on a bound is found exactly */
+    loss(lm, p, b, T, omega, i_lim, &fb, &phib);
     x1 = b - g * (b - a);
     x2 = a + g * (b - a);
     loss(lm, p, x1, T, omega, i_lim, &f1, &phi1);
@@ -114,10 +117,21 @@ int sm_lm_optimum(const sm_lossmin *lm, const sm_motor *p, double T, double omeg
         }
     }
     if (f1 < f2) {
+        f = f1;
         Phi = phi1;
-    } else if (f2 < INFINITY) {
-        Phi = phi2;
     } else {
+        f = f2;
+        Phi = phi2;
+    }
+    if (fa < f) {
+        f = fa;
+        Phi = phia;
+    }
+    if (fb < f) {
+        f = fb;
+        Phi = phib;
+    }
+    if (!(f < INFINITY)) {
         *psi = psi_hi;
         return SM_CORE_OK;
     }

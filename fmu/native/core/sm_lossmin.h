@@ -6,7 +6,7 @@
 #include "sm_law.h"
 
 /* loss_min.N_GOLDEN, GOLDEN, PENALTY */
-#define SM_LM_N_GOLDEN 24
+#define SM_LM_N_GOLDEN 16
 #define SM_LM_GOLDEN 0.6180339887498949
 #define SM_LM_PENALTY 1e3
 
