@@ -220,3 +220,27 @@ def test_light_load_lowers_the_flux_and_a_load_step_raises_it_at_the_rate():
     for j in range(4000, len(phi) - 100, 100):
         assert phi[j + 100] - phi[j] <= rate * 0.01 * 1.02
     assert min(w[4000:]) > 95.0  # the speed holds through the step
+
+
+def test_get_and_set_state_restore_the_rate_limited_set_point():
+    values = {"flux_mode": "loss_minimizing"}
+    plant, ctrl = PlantUnit({"omega_m0": 100.0, "psi_r0": 0.95}), ControllerUnit(values)
+    Ts = ctrl.Ts
+
+    def steps(k0, n):
+        out = []
+        for k in range(k0, k0 + n):
+            o = plant.outputs()
+            ctrl.step(k * Ts, Ts, (o[0], o[1], o[4], o[5], o[2], o[3], o[6], 100.0, 0.95, 5.0, 0.0))
+            c = ctrl.outputs()
+            out.append(tuple(c))
+            plant.step(k * Ts, Ts, (c[0], c[1], 5.0))
+        return out
+
+    steps(0, 500)  # the flux set-point on its way down
+    s_ctrl, s_plant = ctrl.drive.get_state(), plant.get_state()
+    first = steps(500, 50)
+    ctrl.drive.set_state(s_ctrl)
+    plant.set_state(s_plant)
+    assert steps(500, 50) == first
+    assert len(s_ctrl) == len(ControllerUnit({}).drive.get_state()) + 1  # one state more: the set-point
