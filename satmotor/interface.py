@@ -18,6 +18,7 @@ from typing import NamedTuple
 from satmotor.control.backstepping import LOAD_MODES, BacksteppingGains, ControllerConfig
 from satmotor.control.deadtime import compensate
 from satmotor.control.drive import (
+    FLUX_MODES,
     FLUX_SOURCES,
     HOST_DELAY_MAX,
     OBSERVERS,
@@ -372,6 +373,18 @@ CONTROLLER_PARAMETERS = _in_struct("controller", (
     _v("max_samples", "parameter", MAX_STEP_SAMPLES, "1", "most samples one doStep may run, >= 1: a longer "
        "step is discarded naming the step size and this limit (bounds the work per call; the default is "
        "about 1 s of the pythonfmu controller, under 0.1 s of the native one)", "Integer"),
+    # issue 35, the loss-minimizing flux (last: the earlier variables keep their value references)
+    _v("flux_mode", "parameter", _D.flux_mode, "", "rotor-flux set-point: nominal (psi_ref, lowered by the "
+       "field weakening) or loss_minimizing (the flux of the least modelled stator and rotor copper and core "
+       "loss at the present torque and speed on the magnetizing curve, at most that set-point, at least "
+       "flux_floor, rate limited by flux_rate_max)", "String", FLUX_MODES, fills=("drive_config",)),
+    _v("flux_floor", "parameter", _D.flux_floor, "Wb", "loss_minimizing: the lowest rotor-flux set-point, "
+       "> 0", fills=("drive_config",)),
+    _v("flux_rate_max", "parameter", _D.flux_rate_max, "V s/s", "loss_minimizing: the largest rate of change "
+       "of the rotor-flux set-point (V s/s = Wb/s), > 0", fills=("drive_config",)),
+    _v("loss_R_fe", "parameter", _D.loss_R_fe, "Ohm", "loss_minimizing: core-loss resistance of the loss "
+       "model, across the stator emf (the plant's R_fe placement), >= 0; 0: copper loss only",
+       fills=("drive_config",)),
 ))
 
 

@@ -76,7 +76,8 @@ CONTRACT = {
         "c1", "c2", "d1", "d2", "Ts", "mode", "load_mode", "V_dc", "ref_bandwidth", "g_theta", "theta_max",
         "I_max", "use_stator_flux", "c0", "d0", "flux_source", "delay_samples", "observer",
         "speed_source", "field_weakening", "fw_voltage_ratio") + PREMAG_PARAMS + MOTOR
-        + ("current_limit_gain", "host_delay_samples", "deadtime_comp_voltage", "max_samples")},
+        + ("current_limit_gain", "host_delay_samples", "deadtime_comp_voltage", "max_samples", "flux_mode",
+           "flux_floor", "flux_rate_max", "loss_R_fe")},
 }
 UNITS = {"V": "v_s_alpha v_s_beta v_sd v_sq V_dc v_warn v_dc V_grid V_chop_on V_chop_off V_dc_max "
               "v_avg_alpha v_avg_beta v_on deadtime_comp_voltage",
@@ -84,7 +85,7 @@ UNITS = {"V": "v_s_alpha v_s_beta v_sd v_sq V_dc v_warn v_dc V_grid V_chop_on V_
          "J": "E_regen E_chop", "F": "C_dc", "Hz": "f_grid f_sw",
          "Wb": "psi_s_alpha psi_s_beta psi_r_alpha psi_r_beta psi_ref psi_r0 e1 psi_r_hat_alpha "
                "psi_r_hat_beta "
-               "psi_ref_shaped", "Wb/s": "e2",
+               "psi_ref_shaped flux_floor", "Wb/s": "e2", "V s/s": "flux_rate_max",
          "rad/s": "omega_m omega_ref omega_m0 z1 ref_bandwidth omega_ref_shaped omega_m_hat premag_speed_tol "
                   "omega_warn",
          "rad": "theta_m",
@@ -98,7 +99,7 @@ UNITS = {"V": "v_s_alpha v_s_beta v_sd v_sq V_dc v_warn v_dc V_grid V_chop_on V_
          "1/s2": "g_theta c0 d0", "N m s2/rad2": "B_2",
          "W": "P_fe", "K": "T_s T_r T_amb T_s0 T_r0 T_ref", "1/K": "alpha_s alpha_r", "J/K": "C_th_s C_th_r",
          "K/W": "R_th_s R_th_r R_th_sr"}
-UNITS["Ohm"] += " R_fe"
+UNITS["Ohm"] += " R_fe loss_R_fe"
 UNIT_OF = {name: unit for unit, names in UNITS.items() for name in names.split()}
 
 
@@ -118,6 +119,8 @@ def _defaults():
         + PREMAG_PARAMS} | {"deadtime_comp_voltage": 0.0}
     # bounded work per doStep: 10^5 samples (10 s at the default Ts), as the plant's max_substeps
     ctrl |= {"max_samples": 100000}
+    # the nominal flux set-point (today's); the loss minimizer's floor 0.25 Wb, rate 5 V s/s, copper only
+    ctrl |= {"flux_mode": "nominal", "flux_floor": 0.25, "flux_rate_max": 5.0, "loss_R_fe": 0.0}
     # at rest, unmagnetized (closed_loop's x0); one RK4 step per sample (closed_loop's n_sub = 1)
     plant = motor | {"B_2": 0.0, "omega_m0": 0.0, "psi_r0": 0.0, "h_int": c.Ts}
     # bounded work per doStep and the plausibility bounds: 4 V_dc, 10 I_max, about 10 x 157 rad/s

@@ -18,7 +18,7 @@ TABLES = {
 # SI dimensions written out by hand (kg m s A K mol cd rad), independent of the build's table:
 # V = W/A = kg m2 s-3 A-1, Wb = V s, Ohm = V/A, H = Wb/A, N m = kg m2 s-2, "1" dimensionless
 DIMENSIONS = {
-    "V": "kg m2 s-3 A-1", "Wb/s": "kg m2 s-3 A-1", "Wb": "kg m2 s-2 A-1", "A": "A",
+    "V": "kg m2 s-3 A-1", "Wb/s": "kg m2 s-3 A-1", "V s/s": "kg m2 s-3 A-1", "Wb": "kg m2 s-2 A-1", "A": "A",
     "Ohm": "kg m2 s-3 A-2", "H": "kg m2 s-2 A-2", "N m": "kg m2 s-2", "N m s": "kg m2 s-1",
     "kg m2": "kg m2", "rad": "rad", "rad/s": "rad s-1", "rad/s2": "rad s-2", "s": "s", "1/s": "s-1",
     "Hz": "s-1",

@@ -95,6 +95,15 @@ CASES = {
     "measured-current limiter, IFOC PI": ({"I_max": 12.0, "mode": "pi"}, {"L_m0": 0.166}),
     "estimated load at the voltage limit": (
         {"V_dc": 250.0, "field_weakening": False, "load_mode": "estimated", "c0": 1e4, "d0": 2500.0}, {}),
+    "loss minimizing": ({"flux_mode": "loss_minimizing"}, {}),
+    "loss minimizing, core loss, fast rate, current limit": (
+        {"flux_mode": "loss_minimizing", "loss_R_fe": 600.0, "flux_rate_max": 50.0, "flux_floor": 0.4,
+         "I_max": 14.0}, {}),
+    "loss minimizing, field weakening (V_dc 250 V), observer, delay": (
+        {"flux_mode": "loss_minimizing", "V_dc": 250.0, "flux_source": "observer", "delay_samples": 1}, {}),
+    "loss minimizing, field weakening off, constant m": (
+        {"flux_mode": "loss_minimizing", "field_weakening": False, "mode": "constant_m"}, {}),
+    "loss minimizing, IFOC PI": ({"flux_mode": "loss_minimizing", "mode": "pi"}, {}),
     "start-up tolerances": ({"premag_fraction": 0.8, "premag_min_fraction": 0.3, "premag_speed_tol": 0.5,
                              "premag_time_max": 0.05, "premag_boost": 2.0, "premag_gain": 30.0}, {}),
 }
@@ -135,7 +144,10 @@ BAD = [({"mode": "fuzzy"}, "mode"), ({"flux_source": "estimated"}, "flux_source"
        ({"premag_boost": 0.5}, "premag_boost"), ({"premag_gain": math.inf}, "premag_gain"),
        ({"host_delay_samples": 4}, "host_delay_samples"), ({"host_delay_samples": -1}, "host_delay_samples"),
        ({"current_limit_gain": -1.0}, "current_limit_gain"), ({"current_limit_gain": math.nan},
-                                                               "current_limit_gain")]
+                                                               "current_limit_gain"),
+       ({"flux_mode": "minimal"}, "flux_mode"), ({"flux_floor": 0.0}, "flux_floor"),
+       ({"flux_rate_max": -1.0}, "flux_rate_max"), ({"flux_rate_max": math.inf}, "flux_rate_max"),
+       ({"loss_R_fe": -1.0}, "loss_R_fe")]
 
 
 @pytest.mark.parametrize("values, field", BAD)

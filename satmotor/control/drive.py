@@ -22,7 +22,9 @@ Start from standstill (the backstepping law is singular at Phi_rd = 0; steps 1 a
 
 3. *Run*: with ``field_weakening`` the flux shaper's input is the set-point of
    :class:`satmotor.control.field_weakening.FieldWeakening` (``psi_ref`` itself while the steady
-   voltage at ``psi_ref`` fits in ``fw_voltage_ratio V_dc/sqrt(3)``; lower above base speed); references
+   voltage at ``psi_ref`` fits in ``fw_voltage_ratio V_dc/sqrt(3)``; lower above base speed), with
+   ``flux_mode = loss_minimizing`` the rate-limited least-loss flux of
+   :class:`satmotor.control.loss_min.LossMinimizer` at most that (the same torque and speed); references
    from the shapers (third-order, exact derivatives), the control law, and
    in the estimated-load mode ``theta_hat <- clip(theta_hat + Ts theta_hat', +-theta_max)``
    (forward Euler over the hold).  In the known-load mode the load torque input is taken as
@@ -42,6 +44,7 @@ from satmotor.control.backstepping import BacksteppingGains, ControllerConfig, c
 from satmotor.control.current_limit import CurrentLimiter
 from satmotor.control.delay import DelayCompensator
 from satmotor.control.drive_config import (  # re-exported: the drive's callers import them from here
+    FLUX_MODES,
     FLUX_SOURCES,
     HOST_DELAY_MAX,
     OBSERVERS,
@@ -54,6 +57,7 @@ from satmotor.control.drive_config import (  # re-exported: the drive's callers 
 from satmotor.control.field_weakening import FieldWeakening
 from satmotor.control.flux_observer import ClosedLoopObserver
 from satmotor.control.ifoc import IFOCController, IFOCGains
+from satmotor.control.loss_min import LossMinimizer
 from satmotor.control.measurements import (
     MEAS_I_S_A,
     MEAS_I_S_B,
@@ -66,8 +70,8 @@ from satmotor.control.references import REF_RATE, REF_VALUE, ReferenceShaper
 from satmotor.control.startup import premag_output, switch_now, switch_state
 from satmotor.errors import ParameterError, require_number
 
-__all__ = ["PREMAG", "RUN", "FLUX_SOURCES", "OBSERVERS", "SPEED_SOURCES", "HOST_DELAY_MAX", "DriveConfig",
-           "DriveOutput", "BacksteppingDrive", "IFOCDrive"]
+__all__ = ["PREMAG", "RUN", "FLUX_MODES", "FLUX_SOURCES", "OBSERVERS", "SPEED_SOURCES", "HOST_DELAY_MAX",
+           "DriveConfig", "DriveOutput", "BacksteppingDrive", "IFOCDrive"]
 
 _SQRT3 = math.sqrt(3.0)
 
@@ -98,6 +102,12 @@ class _Drive:
         self._delay = DelayCompensator(params, Ts, n_samples=n_delay) if n_delay else None
         self._fw = (FieldWeakening(params, self._V_max, drive_cfg.fw_voltage_ratio, drive_cfg.ref_bandwidth)
                     if drive_cfg.field_weakening else None)
+        self._lm = self._lm_fw = None
+        if drive_cfg.flux_mode == "loss_minimizing":  # its torque and speed: the field weakening's
+            self._lm = LossMinimizer(params, Ts, drive_cfg.flux_floor, drive_cfg.flux_rate_max,
+                                     drive_cfg.loss_R_fe)
+            self._lm_fw = self._fw if self._fw is not None else FieldWeakening(
+                params, self._V_max, drive_cfg.fw_voltage_ratio, drive_cfg.ref_bandwidth)
         self._i_lim = drive_cfg.I_max  # [A] the law's current bound this sample (lower beyond breakdown)
         self._limiter = CurrentLimiter(drive_cfg.I_max, drive_cfg.current_limit_gain, Ts)
         self.warnings = self._limiter.warnings  # messages for the host's log (the FMU glue takes them)
@@ -122,6 +132,8 @@ class _Drive:
         self._phase = PREMAG
         self._n = 0
         self._limiter.reset()
+        if self._lm is not None:
+            self._lm.reset()
         self._flux.reset(0.0)
         self._speed.reset(0.0)
         if self._observer is not None:
@@ -186,7 +198,13 @@ class _Drive:
             self._switch(meas)
         i_meas = math.hypot(meas[MEAS_I_S_A], meas[MEAS_I_S_B])  # the measured current (never predicted)
         self._i_lim = self._limiter.bound(i_meas)
-        if self._fw is not None:  # the nominal flux, or lower where the voltage does not suffice
+        if self._lm is not None:  # the least loss within the nominal (or field-weakening) flux
+            fw = self._lm_fw
+            T, w = fw.torque(meas), meas[MEAS_OMEGA_M] + fw.lead * self._speed.value[REF_RATE]
+            if self._fw is not None:
+                psi_ref, self._i_lim = fw.set_points(T, w, psi_ref, self._i_lim)
+            psi_ref = self._lm.set_point(T, w, psi_ref, self._i_lim)
+        elif self._fw is not None:  # the nominal flux, or lower where the voltage does not suffice
             psi_ref, self._i_lim = self._fw.flux_reference(meas, self._speed.value[REF_RATE], psi_ref,
                                                            self._i_lim)
         if self._delay is None:
@@ -225,6 +243,8 @@ class _Drive:
     def _switch(self, meas):
         flux_state, ms = switch_state(self.params, meas)
         self._flux.set_state(flux_state)
+        if self._lm is not None:  # the loss minimizer's rate limit starts at the measured flux
+            self._lm.reset(flux_state[0])
         self._speed.reset(meas[MEAS_OMEGA_M])
         self._phase = RUN
         self._on_switch(ms)
@@ -237,16 +257,19 @@ class _Drive:
         """Every internal state as a flat tuple of floats: phase, pre-magnetization sample count,
         the flux and speed shapers' (r, r', r''), the observer's and the delay's states (when
         configured), the law's own states, then the measured-current limiter's reduction [A] and whether
-        its warning was logged."""
+        its warning was logged, then (flux_mode loss_minimizing) the rate-limited flux set-point [Wb]."""
         obs = () if self._observer is None else self._observer.get_state()
         dly = () if self._delay is None else self._delay.get_state()
+        lm = () if self._lm is None else (self._lm.psi,)
         return (float(self._phase), float(self._n)) + self._flux.get_state() + \
             self._speed.get_state() + tuple(obs) + tuple(dly) + self._law_state() + \
-            self._limiter.get_state()
+            self._limiter.get_state() + lm
 
     def set_state(self, state):
         """Restore a tuple from :meth:`get_state`."""
         s = tuple(float(v) for v in state)
+        if self._lm is not None:
+            self._lm.psi, s = s[-1], s[:-1]
         self._phase, self._n = int(s[0]), int(s[1])
         self._flux.set_state(s[2:5])
         self._speed.set_state(s[5:8])

@@ -14,6 +14,7 @@ from satmotor.errors import ParameterError, require_choice, require_number
 FLUX_SOURCES = ("measured", "observer")
 OBSERVERS = ("closed_loop", "current_model")
 SPEED_SOURCES = ("measured", "estimated")
+FLUX_MODES = ("nominal", "loss_minimizing")
 HOST_DELAY_MAX = 3  # [samples] most coupling delay a host may add (a Jacobi master adds 1)
 
 
@@ -40,7 +41,11 @@ class DriveConfig:
     measured-current limiter (0: off, the law's model currents alone are bounded;
     :mod:`satmotor.control.current_limit`); field_weakening: the flux set-point psi_ref is the nominal flux,
     lowered where the steady stator voltage would exceed fw_voltage_ratio [1] of V_dc/sqrt(3)
-    (:mod:`satmotor.control.field_weakening`); False: psi_ref as it is (the drive before it).
+    (:mod:`satmotor.control.field_weakening`); False: psi_ref as it is (the drive before it);
+    flux_mode 'nominal' (the set-point above) or 'loss_minimizing' (:mod:`satmotor.control.loss_min`: the
+    flux of the least modelled copper and core loss at the present torque and speed, at most the nominal
+    or field-weakening set-point, at least flux_floor [Wb], moving at most flux_rate_max [Wb/s = V s/s];
+    loss_R_fe [Ohm] the core-loss resistance of its loss model, 0: copper loss only).
     """
 
     ref_bandwidth: float = 40.0
@@ -60,6 +65,10 @@ class DriveConfig:
     fw_voltage_ratio: float = 0.95
     current_limit_gain: float = 200.0
     host_delay_samples: int = 0
+    flux_mode: str = "nominal"
+    flux_floor: float = 0.25
+    flux_rate_max: float = 5.0
+    loss_R_fe: float = 0.0
 
     def __post_init__(self):
         require_number("ref_bandwidth", self.ref_bandwidth, 0)
@@ -88,6 +97,10 @@ class DriveConfig:
                 or not 0 <= self.host_delay_samples <= HOST_DELAY_MAX):
             raise ParameterError("host_delay_samples", self.host_delay_samples,
                                  f"must be an integer from 0 to {HOST_DELAY_MAX}")
+        require_choice("flux_mode", self.flux_mode, FLUX_MODES)
+        require_number("flux_floor", self.flux_floor, 0)
+        require_number("flux_rate_max", self.flux_rate_max, 0)
+        require_number("loss_R_fe", self.loss_R_fe, 0, inclusive=True)
 
 
 class DriveOutput(NamedTuple):

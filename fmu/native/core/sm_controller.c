@@ -48,6 +48,9 @@ int sm_controller_init(sm_controller *u, const sm_controller_params *v, const sm
     if ((st = sm_choice_parse(SM_CHOICE_PARAM_speed_source, v->speed_source, &k, msg, msg_len))) {
         return st;
     }
+    if ((st = sm_choice_parse(SM_CHOICE_PARAM_flux_mode, v->flux_mode, &k, msg, msg_len))) {
+        return st;
+    }
     if (flux_source == SM_CHOICE_flux_source_observer && v->use_stator_flux) {
         return sm_param_error(msg, msg_len, NULL, "use_stator_flux", "True",
                               "needs measured fluxes: not with flux_source = observer");

@@ -79,6 +79,15 @@ static int check_config(const sm_drive_config *c, char *msg, size_t len)
         (void)snprintf(reason, sizeof reason, "must be an integer from 0 to %d", SM_HOST_DELAY_MAX);
         return sm_param_error(msg, len, NULL, "host_delay_samples", repr, reason);
     }
+    if (c->loss_minimizing != 0 && c->loss_minimizing != 1) {
+        return range_error(msg, len, "flux_mode", (double)c->loss_minimizing,
+                           "must be one of nominal, loss_minimizing");
+    }
+    if (sm_require_number("flux_floor", c->flux_floor, 1, 0.0, 0, msg, len) ||
+        sm_require_number("flux_rate_max", c->flux_rate_max, 1, 0.0, 0, msg, len) ||
+        sm_require_number("loss_R_fe", c->loss_R_fe, 1, 0.0, 1, msg, len)) {
+        return SM_ERR_PARAM;
+    }
     return SM_CORE_OK;
 }
 
@@ -151,8 +160,11 @@ int sm_drive_init(sm_drive *d, sm_mode mode, const sm_motor *p, const sm_gains *
         return st;
     }
     sm_current_limit_init(&d->limiter, dc->I_max, dc->current_limit_gain, d->Ts);
-    if (dc->field_weakening) {
+    if (dc->field_weakening || dc->loss_minimizing) {
         sm_fw_init(&d->fw, &d->p, d->V_max, dc->fw_voltage_ratio, dc->ref_bandwidth);
+    }
+    if (dc->loss_minimizing) {
+        sm_lm_init(&d->lm, d->Ts, dc->flux_floor, dc->flux_rate_max, dc->loss_R_fe);
     }
     sm_drive_reset(d);
     return SM_CORE_OK;
@@ -188,6 +200,7 @@ void sm_drive_reset(sm_drive *d)
         sm_delay_reset(&d->delay);
     }
     sm_current_limit_reset(&d->limiter);
+    d->lm.psi = 0.0;
     d->theta_hat = d->e0 = d->z0 = 0.0;
     if (d->mode == SM_CHOICE_mode_pi) {
         (void)sm_ifoc_reset(&d->ifoc, 0.0, 0.0, NULL, 0);
@@ -292,6 +305,7 @@ static int do_switch(sm_drive *d, const double meas[SM_MEAS_LEN])
         return st;
     }
     d->phase = SM_RUN;
+    d->lm.psi = z[0]; /* the loss minimizer's rate limit starts at the measured flux */
     if (d->mode == SM_CHOICE_mode_pi) { /* IFOCDrive._on_switch: L_m at the raw set-point of this sample */
         if (sm_ifoc_set_inductance(&d->ifoc, d->checked_psi / d->p.k / d->checked_I, NULL, 0)) {
             return SM_ERR_PARAM;
@@ -476,7 +490,21 @@ static int step(sm_drive *d, const double meas_in[SM_MEAS_LEN], double omega_ref
     }
     i_meas = sm_hypot(meas[SM_MEAS_I_S_A], meas[SM_MEAS_I_S_B]); /* the measured current (never predicted) */
     d->i_lim = sm_current_limit_bound(&d->limiter, i_meas, &warn);
-    if (d->dc.field_weakening) { /* the nominal flux, or lower where the voltage does not suffice */
+    if (d->dc.loss_minimizing) { /* the least loss within the nominal (or field-weakening) flux */
+        double z[3], T, w;
+        sm_shaper_get_state(&d->speed, z);
+        if ((st = sm_fw_torque(&d->fw, &d->p, meas, &T))) {
+            return st;
+        }
+        w = meas[SM_MEAS_OMEGA_M] + d->fw.lead * z[1];
+        if (d->dc.field_weakening &&
+            (st = sm_fw_set_points(&d->fw, &d->p, T, w, psi_ref, d->i_lim, &psi_ref, &d->i_lim))) {
+            return st;
+        }
+        if ((st = sm_lm_set_point(&d->lm, &d->p, T, w, psi_ref, d->i_lim, &psi_ref))) {
+            return st;
+        }
+    } else if (d->dc.field_weakening) { /* the nominal flux, or lower where the voltage does not suffice */
         double z[3];
         sm_shaper_get_state(&d->speed, z);
         if ((st = sm_fw_flux_reference(&d->fw, &d->p, meas, z[1], psi_ref, d->i_lim, &psi_ref, &d->i_lim))) {

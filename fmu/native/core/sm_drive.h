@@ -13,6 +13,7 @@
 #include "sm_fieldweak.h"
 #include "sm_ifoc.h"
 #include "sm_law.h"
+#include "sm_lossmin.h"
 #include "sm_observer.h"
 #include "sm_params.h" /* generated: sm_mode_choice */
 #include "sm_references.h"
@@ -33,6 +34,10 @@ typedef struct {
     double fw_voltage_ratio; /* [1] in (0, 1] */
     double current_limit_gain; /* [1/s] of the measured-current limiter (sm_current_limit.h), >= 0; 0: off */
     int host_delay_samples;    /* 0..SM_HOST_DELAY_MAX: the host's coupling delay, compensated with delay_samples */
+    int loss_minimizing;       /* flux_mode: 0 nominal, 1 loss_minimizing (sm_lossmin.h) */
+    double flux_floor;         /* [Wb] loss_minimizing: the lowest set-point, > 0 */
+    double flux_rate_max;      /* [V s/s] loss_minimizing: the set-point's largest rate, > 0 */
+    double loss_R_fe;          /* [Ohm] loss_minimizing: the loss model's core-loss resistance, >= 0 */
 } sm_drive_config;
 
 #define SM_HOST_DELAY_MAX 3 /* drive.HOST_DELAY_MAX */
@@ -68,7 +73,8 @@ typedef struct {
     sm_observer obs;
     sm_cl_observer clo; /* the closed-loop observer (dc.observer && dc.closed_loop) */
     sm_delay delay; /* dc.delay_samples + dc.host_delay_samples > 0 */
-    sm_fieldweak fw;
+    sm_fieldweak fw; /* dc.field_weakening or dc.loss_minimizing (its torque and speed) */
+    sm_lossmin lm;   /* dc.loss_minimizing */
     sm_current_limit limiter;
     double i_lim; /* [A] the law's current bound this sample (below I_max beyond the breakdown torque) */
     /* state */

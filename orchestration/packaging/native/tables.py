@@ -73,7 +73,8 @@ DATACLASS_STRUCTS = {
                                                 "true_i_mu": None}),  # a design-comparison setting
     "drive_config": (itf.SETTINGS["drive_config"], {"flux_source": ("observer", "observer"),
                                                     "observer": ("closed_loop", "closed_loop"),
-                                                    "speed_source": ("speed_estimated", "estimated")}),
+                                                    "speed_source": ("speed_estimated", "estimated"),
+                                                    "flux_mode": ("loss_minimizing", "loss_minimizing")}),
     "ifoc_gains": (itf.SETTINGS["ifoc_gains"], {}),
 }
 if list(DATACLASS_STRUCTS) != list(itf.SETTINGS):
