@@ -109,6 +109,7 @@ def _finish(family, params, i, psi, res=None, model=None):
         sig = float(np.max(band(np.linspace(float(i.min()), float(i.max()), 200))))
         T = np.array(_SOLVER_TO_PARAMS[family])
         cov = T @ _covariance(res.jac) @ T.T
+        cov = 0.5 * (cov + cov.T)  # symmetric to the last bit (a prior's matrix is checked so)
     return Fit(family, params, float(math.sqrt(np.mean(r * r))), float(np.max(np.abs(r))), curve, chi2, sig,
                band, _NAMES[family], cov)
 
