@@ -1,5 +1,8 @@
 """The ``sweep:`` section of a scenario file: one scenario becomes many variants, expanded before
-anything runs.  Pure: parsed YAML in, variants (parsed YAML again) and problems out; no file is read.
+anything runs.  Parsed YAML in, variants (parsed YAML again) and problems out; the one file read is a
+parameter's prior, ``{from: fit.yaml}`` (:mod:`orchestration.scenario.priors`, relative to the scenario
+file; drawn normal from its value and 1-sigma, jointly with its covariance), and ``correlation:`` /
+``covariance:`` correlate normal parameters (:mod:`orchestration.scenario.correlation`).
 
 Two kinds, told apart by the key ``samples``::
 
