@@ -208,7 +208,7 @@ PLANT_PARAMETERS = MOTOR_PARAMETERS + _in_struct("plant", (
        "(< V_chop_on: the hysteresis)"),
     _v("R_chop", "parameter", _L.R_chop, "Ohm", "brake chopper resistor, >= 0 (0: no chopper)"),
     _v("V_dc_max", "parameter", _L.V_dc_max, "V", "over-voltage: v_dc above it sets dc_fault and logs a "
-       "warning once (the physics goes on), >= 0 (0: no check)"),
+       "warning once (the physics goes on), >= 0 (0: no check); above V_chop_on with a chopper (R_chop > 0)"),
 )) + _in_struct("plant", (
     # issue 19, core loss and temperature (last: the earlier variables keep their value references);
     # plant only: the controller keeps its own R_s, R_r (cold) and knows no core loss

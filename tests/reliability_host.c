@@ -1,7 +1,10 @@
 /* tests/reliability_host.c - a C host for tests/test_reliability_native.py: the FMI glue and one native
  * model (plant, controller or ScenarioSignals) linked in, FMI 2.0 or (-DHOST_FMI3) FMI 3.0, built under
  * -fsanitize=address,undefined.  The model's own variable table (FG_MODEL_VARIABLES, fg_model.h) tells the
- * host which variables exist.  Modes (each prints one result line; a sanitizer report ends the process):
+ * host which variables exist.  -DHOST_ME: the model-exchange build of a model (fg_model_me.h), instantiated
+ * for model exchange; initialization ends in continuous-time mode, a "step" is an explicit Euler step of
+ * the FMU's own derivatives (set time, get states and derivatives, set states, completed integrator
+ * step), and the fuzz also calls the model-exchange functions in any phase with any sizes.  Modes (each prints one result line; a sanitizer report ends the process):
  *   corrupt TRIALS SEED   serialized states corrupted four ways (random data region behind an intact
  *                         header, one flipped bit, truncated, wrong size), TRIALS of each
  *   leak                  FMU states left to freeInstance; foreign, freed and made-up state handles
@@ -9,7 +12,8 @@
  *   doublefree            freeInstance twice on the same pointer
  *   misuse                wrong-phase calls, NULL and non-finite arguments, discard and recovery
  *   bench N               ns per doStep with the plant's plausibility checks on and off (build it -O2)
- *   fuzz SEQS SEED        random FMI call sequences
+ *   fuzz SEQS SEED [NAME=VALUE]   random FMI call sequences (a String parameter NAME set to VALUE after
+ *                         most instantiations: the profiles FMU's profiles file)
  *   file PARAM NAME=VALUE|- PATH...   each file as the String parameter PARAM (NAME=VALUE set first):
  *                         instantiate, initialize, a few steps, free */
 #include <limits.h>
@@ -21,6 +25,10 @@
 #include <time.h>
 
 #include "fg_model.h"
+#ifdef HOST_ME
+#include "fg_model_me.h"
+#define NX_MAX 64 /* the host's state arrays; the plant has 11 */
+#endif
 #ifdef HOST_FMI3
 #include "fmi3Functions.h"
 #else
@@ -51,20 +59,55 @@ static void logger(fmi3InstanceEnvironment env, fmi3Status s, fmi3String cat, fm
     if (s >= fmi3Error) n_errors++;
     if (!quiet) printf("[%d %s] %s\n", (int)s, cat, msg);
 }
+#ifdef HOST_ME
+static inst_t h_new(const char *name, const char *token)
+{
+    return fmi3InstantiateModelExchange(name, token, NULL, fmi3False, fmi3False, NULL, logger);
+}
+static int me_event(inst_t c, int which)
+{
+    fmi3Boolean a, b, d, e, f;
+    fmi3Float64 next;
+    if (which == 0) return fmi3EnterEventMode(c);
+    if (which == 1) return fmi3UpdateDiscreteStates(c, &a, &b, &d, &e, &f, &next);
+    return fmi3EnterContinuousTimeMode(c);
+}
+static int me_time(inst_t c, double t) { return fmi3SetTime(c, t); }
+static int me_set_states(inst_t c, const double *x, size_t n) { return fmi3SetContinuousStates(c, x, n); }
+static int me_get_states(inst_t c, double *x, size_t n) { return fmi3GetContinuousStates(c, x, n); }
+static int me_derivatives(inst_t c, double *dx, size_t n) { return fmi3GetContinuousStateDerivatives(c, dx, n); }
+static int me_nominals(inst_t c, double *x, size_t n) { return fmi3GetNominalsOfContinuousStates(c, x, n); }
+static int me_indicators(inst_t c, double *z, size_t n) { return fmi3GetEventIndicators(c, z, n); }
+static int me_completed(inst_t c, int null_out)
+{
+    fmi3Boolean ev, term;
+    return null_out ? fmi3CompletedIntegratorStep(c, fmi3True, NULL, NULL)
+                    : fmi3CompletedIntegratorStep(c, fmi3True, &ev, &term);
+}
+static int me_counts(inst_t c)
+{
+    size_t n = 0, z = 0;
+    return fmi3GetNumberOfContinuousStates(c, &n) + fmi3GetNumberOfEventIndicators(c, &z) +
+           fmi3GetNumberOfContinuousStates(c, NULL);
+}
+#else
 static inst_t h_new(const char *name, const char *token)
 {
     return fmi3InstantiateCoSimulation(name, token, NULL, fmi3False, fmi3False, fmi3False, fmi3False, NULL, 0, NULL,
                                        logger, NULL);
 }
+#endif
 static void h_free(inst_t c) { fmi3FreeInstance(c); }
 static int h_enter(inst_t c, double t0) { return fmi3EnterInitializationMode(c, fmi3False, 0, t0, fmi3False, 0); }
-static int h_exit(inst_t c) { return fmi3ExitInitializationMode(c); }
+static int h_exit_init(inst_t c) { return fmi3ExitInitializationMode(c); }
+#ifndef HOST_ME
 static int h_step(inst_t c, double t, double h)
 {
     fmi3Boolean ev, term, early;
     fmi3Float64 last;
     return fmi3DoStep(c, t, h, fmi3True, &ev, &term, &early, &last);
 }
+#endif
 static int h_terminate(inst_t c) { return fmi3Terminate(c); }
 static int h_reset(inst_t c) { return fmi3Reset(c); }
 static int h_set_real(inst_t c, unsigned vr, double v) { return fmi3SetFloat64(c, &vr, 1, &v, 1); }
@@ -123,18 +166,47 @@ static void logger(fmi2ComponentEnvironment env, fmi2String name, fmi2Status s, 
     if (!quiet) printf("[%d %s] %s\n", (int)s, cat, msg);
 }
 static const fmi2CallbackFunctions callbacks = {logger, calloc, free, NULL, NULL};
+#ifdef HOST_ME
+static inst_t h_new(const char *name, const char *token)
+{
+    return fmi2Instantiate(name, fmi2ModelExchange, token, NULL, &callbacks, fmi2False, fmi2False);
+}
+static int me_event(inst_t c, int which)
+{
+    fmi2EventInfo info;
+    if (which == 0) return fmi2EnterEventMode(c);
+    if (which == 1) return fmi2NewDiscreteStates(c, &info);
+    return fmi2EnterContinuousTimeMode(c);
+}
+static int me_time(inst_t c, double t) { return fmi2SetTime(c, t); }
+static int me_set_states(inst_t c, const double *x, size_t n) { return fmi2SetContinuousStates(c, x, n); }
+static int me_get_states(inst_t c, double *x, size_t n) { return fmi2GetContinuousStates(c, x, n); }
+static int me_derivatives(inst_t c, double *dx, size_t n) { return fmi2GetDerivatives(c, dx, n); }
+static int me_nominals(inst_t c, double *x, size_t n) { return fmi2GetNominalsOfContinuousStates(c, x, n); }
+static int me_indicators(inst_t c, double *z, size_t n) { return fmi2GetEventIndicators(c, z, n); }
+static int me_completed(inst_t c, int null_out)
+{
+    fmi2Boolean ev, term;
+    return null_out ? fmi2CompletedIntegratorStep(c, fmi2True, NULL, NULL)
+                    : fmi2CompletedIntegratorStep(c, fmi2True, &ev, &term);
+}
+static int me_counts(inst_t c) { return fmi2NewDiscreteStates(c, NULL); }
+#else
 static inst_t h_new(const char *name, const char *token)
 {
     return fmi2Instantiate(name, fmi2CoSimulation, token, NULL, &callbacks, fmi2False, fmi2False);
 }
+#endif
 static void h_free(inst_t c) { fmi2FreeInstance(c); }
 static int h_enter(inst_t c, double t0)
 {
     int s = fmi2SetupExperiment(c, fmi2False, 0, t0, fmi2False, 0);
     return s > (int)fmi2Warning ? s : (int)fmi2EnterInitializationMode(c);
 }
-static int h_exit(inst_t c) { return fmi2ExitInitializationMode(c); }
+static int h_exit_init(inst_t c) { return fmi2ExitInitializationMode(c); }
+#ifndef HOST_ME
 static int h_step(inst_t c, double t, double h) { return fmi2DoStep(c, t, h, fmi2True); }
+#endif
 static int h_terminate(inst_t c) { return fmi2Terminate(c); }
 static int h_reset(inst_t c) { return fmi2Reset(c); }
 static int h_set_real(inst_t c, unsigned vr, double v) { return fmi2SetReal(c, &vr, 1, &v); }
@@ -167,6 +239,40 @@ static int h_deserialize(inst_t c, const unsigned char *b, size_t n, void **s)
 }
 static int h_logging(inst_t c, int on) { return fmi2SetDebugLogging(c, on, 0, NULL); }
 #define ST_ERROR fmi2Error
+#endif
+
+#ifdef HOST_ME
+static int worse(int a, int b) { return a > b ? a : b; }
+
+/* the end of initialization as a model-exchange importer does it: on to continuous-time mode */
+static int h_exit(inst_t c)
+{
+    int s = h_exit_init(c);
+    if (s > 1) return s;
+    s = worse(s, me_event(c, 1));
+    return s > 1 ? s : worse(s, me_event(c, 2));
+}
+/* one explicit Euler step of the FMU's derivatives from t to t + h: the worst status of the calls */
+static int h_step(inst_t c, double t, double h)
+{
+    double x[NX_MAX], dx[NX_MAX];
+    size_t i, n = FG_MODEL_N_STATES;
+    int s = me_time(c, t);
+    if (s > 1) return s;
+    s = worse(s, me_get_states(c, x, n));
+    if (s > 1) return s;
+    s = worse(s, me_derivatives(c, dx, n));
+    if (s > 1) return s;
+    for (i = 0; i < n; i++) x[i] += h * dx[i];
+    s = worse(s, me_time(c, t + h));
+    if (s > 1) return s;
+    s = worse(s, me_set_states(c, x, n));
+    if (s > 1) return s;
+    s = worse(s, me_derivatives(c, dx, n)); /* the outputs and the derivatives at the new states */
+    return s > 1 ? s : worse(s, me_completed(c, 0));
+}
+#else
+static int h_exit(inst_t c) { return h_exit_init(c); }
 #endif
 
 #define CHECK(cond)                                                              \
@@ -472,6 +578,8 @@ static void tock(void)
 #define SLOTS 3
 #define SSLOTS 4
 static long n_calls, n_slow, n_steps_ok, n_states_set, n_deserialized;
+static const fg_variable *init_var; /* fuzz NAME=VALUE: set after most instantiations */
+static const char *init_value;
 
 static void fuzz_one(int len)
 {
@@ -494,6 +602,7 @@ static void fuzz_one(int len)
         if (c[i] == NULL && rndn(4)) {
             static const char *const names[] = {"f", "", "fuzz instance"};
             c[i] = h_new(rndn(8) ? names[rndn(3)] : NULL, rndn(10) ? INSTANTIATION_TOKEN : "{bad}");
+            if (c[i] != NULL && init_var != NULL && rndn(8)) (void)h_set_string(c[i], init_var->vr, init_value);
             memset(st[i], 0, sizeof st[i]);
             t[i] = 0.0;
             n_calls++;
@@ -503,7 +612,11 @@ static void fuzz_one(int len)
         n_calls++;
         before = max_call;
         tick();
+#ifdef HOST_ME
+        switch (rndn(26)) {
+#else
         switch (rndn(20)) {
+#endif
         case 0: {
             inst_t dead = c[i];
             h_free(dead);
@@ -588,6 +701,36 @@ static void fuzz_one(int len)
         case 14: (void)h_reset(c[i]); t[i] = 0.0; break;
         case 15: (void)h_null_calls(c[i]); break;
         case 16: (void)h_logging(c[i], (int)rndn(2)); break;
+#ifdef HOST_ME
+        case 20: (void)me_event(c[i], (int)rndn(3)); break; /* event mode, discrete states, continuous time */
+        case 21: (void)me_time(c[i], rndn(3) ? t[i] + 1e-4 * rndn(4) : rnd_real()); break;
+        case 22:
+        case 23: { /* states: the FMU's own, some made random (NaN, inf, huge), or a wrong count, or NULL */
+            double xs[NX_MAX];
+            static const size_t counts[] = {0, 1, 10, 12, 63};
+            size_t n = rndn(6) ? FG_MODEL_N_STATES : counts[rndn(5)], j;
+            for (j = 0; j < NX_MAX; j++) xs[j] = 0.0;
+            (void)me_get_states(c[i], xs, FG_MODEL_N_STATES);
+            for (j = 0; j < n && rndn(2); j++) xs[rndn((unsigned)FG_MODEL_N_STATES)] = rnd_real();
+            (void)me_set_states(c[i], rndn(20) ? xs : NULL, n);
+            break;
+        }
+        case 24: { /* derivatives, states, nominals, event indicators: any count, NULL arrays */
+            double out[NX_MAX];
+            static const size_t counts[] = {0, 1, 10, 12, 63};
+            size_t n = rndn(3) ? FG_MODEL_N_STATES : counts[rndn(5)];
+            double *a = rndn(15) ? out : NULL;
+            switch (rndn(5)) {
+            case 0: (void)me_derivatives(c[i], a, n); break;
+            case 1: (void)me_get_states(c[i], a, n); break;
+            case 2: (void)me_nominals(c[i], a, n); break;
+            case 3: (void)me_indicators(c[i], a, rndn(2) ? 0 : n); break;
+            default: (void)me_counts(c[i]); break;
+            }
+            break;
+        }
+        case 25: (void)me_completed(c[i], rndn(6) == 0); break;
+#endif
         default: {
             /* a plausible run: initialize and step a few times */
             double h;
@@ -684,6 +827,15 @@ int main(int argc, char **argv)
     if (argc >= 3 && strcmp(argv[1], "bench") == 0) return mode_bench(atol(argv[2]));
     if (argc >= 4 && strcmp(argv[1], "fuzz") == 0) {
         rng ^= strtoull(argv[3], NULL, 10) * 0x9E3779B97F4A7C15ULL;
+        if (argc >= 5) {
+            static char name[64];
+            const char *eq = strchr(argv[4], '=');
+            CHECK(eq != NULL && (size_t)(eq - argv[4]) < sizeof name);
+            memcpy(name, argv[4], (size_t)(eq - argv[4]));
+            name[eq - argv[4]] = '\0';
+            CHECK((init_var = var_named(name)) != NULL && init_var->type == FG_STRING);
+            init_value = eq + 1;
+        }
         return mode_fuzz(atol(argv[2]));
     }
     if (argc >= 4 && strcmp(argv[1], "file") == 0) return mode_file(argv[2], argv[3], argc - 4, argv + 4);

@@ -101,6 +101,69 @@ def test_linear_family_sigma_is_the_weighted_slope_variance():
     sigma_L = 1.0 / math.sqrt(np.sum(dr * dr))
     assert lin.sigma_rel == pytest.approx(sigma_L / L, rel=1e-5)
     assert lin.chi2 == pytest.approx(np.sum((L * i - psi) ** 2 / var), rel=1e-9)
+    assert lin.names == ("L_m0",) and lin.sigma["L_m0"] == pytest.approx(sigma_L, rel=1e-5)
+
+
+def _flux_only_points():
+    """Points of an arctan curve with a little scatter and a 1 % flux uncertainty only (no current
+    uncertainty: every point's weight is then a constant 1 / sigma_psi)."""
+    i = np.array([0.4, 0.8, 1.3, 2.0, 2.8, 3.7, 4.8, 6.0, 7.5, 9.0])
+    L0, Linf, Ip = 0.28, 0.012, 2.6
+    psi = Linf * i + (L0 - Linf) * Ip * np.arctan(i / Ip)
+    psi = psi * (1.0 + 0.004 * np.sin(7.0 * i))
+    cov = np.zeros((i.size, 2, 2))
+    cov[:, 1, 1] = (0.01 * psi) ** 2
+    return i, psi, cov
+
+
+def test_the_linear_slopes_sigma_is_that_of_weighted_least_squares():
+    """psi = L i with flux errors only: ordinary weighted least squares, the design matrix X = i / sigma
+    (one column), the slope's variance (X^T X)^-1 = 1 / sum(i^2 / sigma^2), written here."""
+    from scipy.optimize import least_squares
+
+    from satmotor.identify.curve_fit import fit_all
+
+    i, psi, cov = _flux_only_points()
+    lin = fit_all(i, psi, least_squares, cov)[0]["linear"]
+    X = (i / np.sqrt(cov[:, 1, 1]))[:, None]
+    assert lin.params["L_m0"] == pytest.approx(float(np.linalg.lstsq(X, psi / np.sqrt(cov[:, 1, 1]),
+                                                                     rcond=None)[0][0]), rel=1e-9)
+    assert lin.cov[0][0] == pytest.approx(float(np.linalg.inv(X.T @ X)[0, 0]), rel=1e-6)
+
+
+def test_the_arctan_parameters_covariance_is_that_of_the_linearized_fit():
+    """The arctan family with flux errors only: the covariance of (L_m0, L_m_inf, I_par) is (J^T J)^-1
+    of the weighted model's Jacobian in these parameters, taken here by central differences of the
+    curve's closed form (not the fit's own parameterization, nor its Jacobian); the sigmas are its
+    diagonal, and fit-curve's prior writes them with the same matrix."""
+    from scipy.optimize import least_squares
+
+    from orchestration.tools.fit_curve import prior
+    from satmotor.identify.curve_fit import fit_all
+
+    i, psi, cov = _flux_only_points()
+    fit = fit_all(i, psi, least_squares, cov)[0]["arctan"]
+    p = np.array([fit.params[n] for n in ("L_m0", "L_m_inf", "I_par")])
+
+    def model(q):
+        return q[1] * i + (q[0] - q[1]) * q[2] * np.arctan(i / q[2])
+
+    J = np.empty((i.size, 3))
+    for k in range(3):
+        h = 1e-6 * p[k]
+        up, dn = p.copy(), p.copy()
+        up[k] += h
+        dn[k] -= h
+        J[:, k] = (model(up) - model(dn)) / (2.0 * h) / np.sqrt(cov[:, 1, 1])
+    C = np.linalg.inv(J.T @ J)
+    assert fit.names == ("L_m0", "L_m_inf", "I_par")
+    np.testing.assert_allclose(fit.cov, C, rtol=1e-5)  # 1.3e-7 seen
+    for k, n in enumerate(fit.names):
+        assert fit.sigma[n] == pytest.approx(math.sqrt(C[k, k]), rel=1e-5)
+    written = prior(fit)
+    assert written["family"] == "arctan" and written["covariance"]["parameters"] == list(fit.names)
+    assert written["parameters"]["I_par"] == {"value": fit.params["I_par"], "sigma": fit.sigma["I_par"]}
+    np.testing.assert_array_equal(np.array(written["covariance"]["matrix"]), fit.cov)
 
 
 def test_points_with_p_in_are_those_of_magnetizing_points():

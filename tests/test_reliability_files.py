@@ -155,6 +155,103 @@ def test_a_full_disk_before_the_summary_refuses_the_batch_cleanly(tmp_path, smal
     assert "no space left on device" in r.stderr
 
 
+def _fill(d):
+    """Fill the filesystem of ``d`` to the last byte (4 kB files, then single bytes); returns the bytes."""
+    n = 0
+    for size in (4096, 1):
+        while True:
+            try:
+                with open(d / f"filler-{uuid.uuid4().hex}", "wb") as f:
+                    f.write(b"\1" * size)
+                n += size
+            except OSError:
+                break
+    return n
+
+
+def _sweep_file(d, name, count, stop_time, record="metrics"):
+    f = d / f"{name}.yaml"
+    f.write_text(f"name: {name}\nstop_time: {stop_time}\nrecord: {{level: {record}}}\n{PROFILES}"
+                 f"sweep:\n  parameters:\n    motor.J: {{start: 0.01, stop: 0.05, num: {count}}}\n")
+    return f
+
+
+def _final_tables(out, name, count, stdout, stderr):
+    """summary.csv and the sweep's table: whole, one row per variant, each with a final status; a failed
+    one names the full disk.  Returns the summary table."""
+    assert "Traceback" not in stdout + stderr, stderr
+    table = pd.read_csv(out / "summary.csv")
+    sweep = pd.read_csv(out / name / "sweep.csv")
+    names = [f"{name}-{i:02d}" for i in range(count)]
+    assert sorted(table["scenario"]) == names and sorted(sweep["variant"]) == names
+    for t in (table, sweep):
+        assert set(t["status"]) <= {"ok", "failed"}, t["status"].tolist()  # never running, never invalid
+        failed = t[t["status"] == "failed"]
+        assert failed["message"].str.contains("no space left on device").all(), failed["message"].tolist()
+    assert dict(zip(table["scenario"], table["status"])) == dict(zip(sweep["variant"], sweep["status"]))
+    return table
+
+
+def test_a_sweep_that_fills_the_disk_names_the_cause_for_every_variant(tmp_path, small_disk, fmu_dir):
+    """20 variants recording their time series (each 0.3 s: more than the 300 kB disk): the variants
+    that met the full disk, early (its directory) or late (its metrics.json), are failed rows naming it
+    in summary.csv and sweep.csv; none says ``running``, ``invalid`` or "the child process ended"
+    (before: one variant invalid, its child's later variants "not run: the child process ended (exit 2)
+    before this variant", the batch's exit code 2)."""
+    f = _sweep_file(tmp_path, "full", 20, 0.3, record="full")
+    out = small_disk / "out"
+    r = _cli("batch", f, "--out", out, "--fmus", fmu_dir, "--variant", "native", "--no-plot", "--jobs", 2)
+    table = _final_tables(out, "full", 20, r.stdout, r.stderr)
+    assert (table["status"] == "failed").sum() >= 10 and not table["message"].str.contains("child").any()
+    assert r.returncode == 1, r.stderr
+    assert not (out / ".satmotor-reserve").exists()
+
+
+def test_a_disk_filled_by_another_writer_during_a_sweep_leaves_whole_final_tables(tmp_path, small_disk,
+                                                                                  fmu_dir):
+    """Another process fills the disk to its last byte once the batch has written its first summary:
+    the batch's runs fail naming the full disk, and the final summary.csv and sweep table are written
+    whole all the same, from the room the batch kept (orchestration.results.reserve) (before: the
+    summary on disk kept every row ``running``, the final one on stderr only, and no sweep table)."""
+    f = _sweep_file(tmp_path, "filled", 12, 0.5)
+    out = small_disk / "out"
+    p = subprocess.Popen([sys.executable, "-m", "orchestration", "batch", str(f), "--out", str(out), "--fmus",
+                          str(fmu_dir), "--variant", "native", "--no-plot", "--jobs", "1"], cwd=ROOT,
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        _wait(lambda: (out / "summary.csv").exists(), p, what="first summary")
+        assert _fill(small_disk) > 0
+        stdout, stderr = p.communicate(timeout=300)
+    finally:
+        p.kill()
+    table = _final_tables(out, "filled", 12, stdout, stderr)
+    assert (table["status"] == "failed").sum() >= 1, table
+    assert p.returncode == 1 and "summary: " + str(out / "summary.csv") in stdout, stderr
+
+
+def test_a_variant_without_its_metrics_json_is_the_row_its_child_reported(tmp_path):
+    """The rows of a child's variants whose metrics.json could not be written: from the child's report
+    lines (``run --batch-rows``), a --out that could not be written a failed run (not an invalid file)."""
+    from orchestration.cli import batch
+    from orchestration.results.batch_summary import report_line
+
+    msg = "--out /x: cannot write the results: no space left on device"
+    stdout = "\n".join([report_line({"scenario": "s-0", "status": "invalid", "message": msg,
+                                      "write_failed": True}),
+                        report_line({"scenario": "s-1", "status": "failed", "message": "no space left on "
+                                     "device writing /x/s-1/metrics.json: the results are not complete"}),
+                        report_line({"scenario": "s-2", "status": "invalid", "message": "motor.J: bad"}),
+                        "satmotor-batch-row {cut"])
+    (tmp_path / "s-1").mkdir()
+    (tmp_path / "s-1" / "metrics.json").write_text(json.dumps({"status": "running", "pid": 1}))
+    rows = [batch._variant_row("s.yaml", n, 2, stdout, "", tmp_path / n / "metrics.json", False)
+            for n in ("s-0", "s-1", "s-2", "s-3")]
+    assert [(r["status"], r["exit_code"]) for r in rows] == [("failed", 1), ("failed", 1), ("invalid", 2),
+                                                             ("failed", 2)]
+    assert rows[0]["message"] == msg and "metrics.json: the results are not complete" in rows[1]["message"]
+    assert rows[3]["message"] == "not run: the child process ended (exit 2) before this variant"
+
+
 # --- a fault injector in a child process: RLIMIT_FSIZE ------------------------------------------------------
 
 def _file_size_limit(limit):

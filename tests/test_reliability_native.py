@@ -30,6 +30,7 @@ from fmpy.fmi3 import FMU3Slave
 from orchestration.packaging import signals_fmu
 from orchestration.packaging.native import compiler as native_build
 from orchestration.packaging.native import fmus as native_fmus
+from orchestration.packaging.native import model_exchange
 from orchestration.packaging.native import tables as native_tables
 from satmotor.interface import MAX_STEP_SAMPLES, MAX_SUBSTEPS, PlantUnit
 
@@ -38,6 +39,14 @@ pytestmark = pytest.mark.skipif(shutil.which("gcc") is None, reason="needs gcc")
 HOST_C = Path(__file__).with_name("reliability_host.c")
 VERSIONS = ("2.0", "3.0")
 PLANT, CONTROLLER, SIGNALS = "SaturatedInductionMotor", "BacksteppingController", signals_fmu.MODEL_NAME
+ME = model_exchange.NAME  # the plant built for model exchange (the host's -DHOST_ME)
+#: the native FMU kinds the random call sequences cover: co-simulation plant, controller and profiles
+#: FMU, the model-exchange plant (each FMI 2.0 and 3.0)
+KINDS = (PLANT, CONTROLLER, SIGNALS, ME)
+#: sequences per kind and FMI version in the default run (make test-slow: the sanitizers' build); the
+#: environment variable asks for more (e.g. 20000 for a night)
+FUZZ_SEQUENCES = 300
+FUZZ_MANY = int(os.environ.get("SATMOTOR_FUZZ_SEQUENCES", "3000"))
 SANITIZER_ENV = {"ASAN_OPTIONS": "detect_leaks=1:abort_on_error=0:halt_on_error=1",
                  "UBSAN_OPTIONS": "print_stacktrace=1:halt_on_error=1", "PATH": os.environ.get("PATH", "")}
 REPORT = re.compile(r"ERROR: (AddressSanitizer|LeakSanitizer)|runtime error:")
@@ -54,9 +63,14 @@ def host(tmp_path_factory):
             d = root / f"{model}-{version}"
             gen = d / "gen"
             gen.mkdir(parents=True)
+            extra, glue = [], [*native_build.glue_files(version)]
             if model == SIGNALS:
                 files = [*signals_fmu.sources(),
                          *native_tables.model_files(model, gen, signals_fmu.VARIABLES)]
+            elif model == ME:
+                files = [*model_exchange.sources(), *model_exchange.generated(gen)]
+                extra = [*model_exchange.EXTRA_CFLAGS, "-DHOST_ME"]
+                glue.append(model_exchange._glue(version))
             else:
                 files = [*native_fmus.sources(model), *native_fmus.generated(model, gen)]
             incs = sorted({f"-I{Path(f).parent}" for f in files})
@@ -65,8 +79,8 @@ def host(tmp_path_factory):
                    "-fsanitize=address,undefined", "-fno-sanitize-recover=all", "-fno-omit-frame-pointer",
                    f"-I{native_build.fmi_headers_dir()}", f"-I{native_build.GLUE_DIR}", *incs,
                    f"-DMODEL_IDENTIFIER={model}", '-DINSTANTIATION_TOKEN="{reliability}"',
-                   *(["-DHOST_FMI3"] if version == "3.0" else []), str(HOST_C),
-                   *[str(f) for f in native_build.glue_files(version) if f.suffix == ".c"],
+                   *(["-DHOST_FMI3"] if version == "3.0" else []), *extra, str(HOST_C),
+                   *[str(f) for f in glue if f.suffix == ".c"],
                    *[str(f) for f in files if str(f).endswith(".c")], "-o", str(exe), "-lm"]
             r = subprocess.run(cmd, capture_output=True, text=True)
             assert r.returncode == 0, r.stderr[-4000:]
@@ -137,27 +151,47 @@ def test_fmi_misuse_is_refused_and_the_instance_recovers(host, model, version):
 
 # --- random FMI call sequences ---------------------------------------------------------------------------
 
-def fuzz(host, model, version, sequences, seed):
-    out, _ = run(host(model, version), "fuzz", sequences, seed, timeout=3600)
+def fuzz(host, model, version, sequences, seed, tmp_path):
+    """The profiles FMU gets a valid profiles file after most instantiations (else it never steps)."""
+    extra = []
+    if model == SIGNALS:
+        (tmp_path / "profiles.txt").write_bytes(PROFILES)
+        extra = [f"profiles_file={tmp_path / 'profiles.txt'}"]
+    out, _ = run(host(model, version), "fuzz", sequences, seed, *extra, timeout=3600)
     c = counts(out.splitlines()[-1])
     assert c["sequences"] == sequences and c["calls_over_2s"] == 0, c
+    assert c["steps_ok"] > 10 * sequences, c  # the sequences reach the stepping, not only the refusals
     return c
 
 
 @pytest.mark.parametrize("version", VERSIONS)
-@pytest.mark.parametrize("model", (PLANT, CONTROLLER))
-def test_random_call_sequences_under_sanitizers(host, model, version):
+@pytest.mark.parametrize("model", KINDS)
+def test_random_call_sequences_under_sanitizers(host, model, version, tmp_path):
     """300 random sequences of 20-200 calls (instantiate with good and bad tokens, free and double free,
     wrong-phase calls, NaN/inf/huge values, unknown value references, NULL arguments, FMU states own,
-    foreign, freed and corrupted): no crash, no sanitizer report, no call over 2 s."""
-    fuzz(host, model, version, 300, 1)
+    foreign, freed and corrupted; for model exchange also event and continuous-time mode, time, states
+    and derivatives in any phase, with wrong sizes, NULL arrays and non-finite states): no crash, no
+    sanitizer report, no call over 2 s."""
+    fuzz(host, model, version, FUZZ_SEQUENCES, 1, tmp_path)
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("version", VERSIONS)
-@pytest.mark.parametrize("model", (PLANT, CONTROLLER))
-def test_random_call_sequences_many(host, model, version):
-    fuzz(host, model, version, 3000, 2)
+@pytest.mark.parametrize("model", KINDS)
+def test_random_call_sequences_many_under_sanitizers(host, model, version, tmp_path):
+    """SATMOTOR_FUZZ_SEQUENCES sequences (default 3000) of another seed."""
+    fuzz(host, model, version, FUZZ_MANY, 2, tmp_path)
+
+
+@pytest.mark.parametrize("version", VERSIONS)
+def test_model_exchange_states_corrupted_leaked_and_freed_twice_under_sanitizers(host, version):
+    """The model-exchange plant's FMU states as the co-simulation ones': every corrupted blob refused
+    with a message, states left to freeInstance freed (LeakSanitizer), a second freeInstance harmless."""
+    c = counts(run(host(ME, version), "corrupt", 300, 23)[0].splitlines()[-1])
+    assert c["random_data_accepted"] == c["bitflip_accepted"] == c["truncated_accepted"] == 0, c
+    assert c["wrong_size_accepted"] == 0 and c["unlogged"] == 0, c
+    run(host(ME, version), "leak")
+    run(host(ME, version), "doublefree")
 
 
 # --- the readers of user files ---------------------------------------------------------------------------

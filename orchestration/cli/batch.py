@@ -26,8 +26,12 @@
 5. Files (:mod:`orchestration.results.atomic`, :mod:`orchestration.results.batch_summary`):
    ``summary.csv`` is written whole before the first run (the unfinished rows ``running`` with the
    batch's pid) and again as each scenario finishes, so a batch killed even by SIGKILL leaves a
-   complete table; when it cannot be written (a full disk) it is printed on standard error at the
-   end and the exit code is at least 1.  A child that dies (a signal, or an exit without results)
+   complete table; room for the final table and the sweeps' is kept from the start
+   (:mod:`orchestration.results.reserve`), so a disk filled by the runs still gets them; when it
+   cannot be written even so, it is printed on standard error at the end and the exit code is at
+   least 1.  A variant whose ``metrics.json`` could not be written is the row its child reported
+   (``run --batch-rows``: :func:`orchestration.results.batch_summary.reported`), naming the cause.
+   A child that dies (a signal, or an exit without results)
    leaving its ``metrics.json`` at ``running`` gets it rewritten ``failed`` (``interrupted`` when the
    batch stopped it) with the reason, e.g. ``killed (SIGKILL)``, and its ``.part`` files removed.
 
@@ -60,7 +64,7 @@ from orchestration.cli.scheduler import SchedulerUnreachable
 from orchestration.packaging import fmus
 from orchestration.process.interrupts import PARENT_ENV, SIGNALS, StopRequest, signal_name
 from orchestration.results.atomic import describe, owner, settle_abandoned
-from orchestration.results.batch_summary import SummaryFile, running_row
+from orchestration.results.batch_summary import REPORT_PREFIX, SummaryFile, reported, running_row
 
 SUMMARY_METRICS = ("iae_speed", "iae_flux", "ss_speed", "ss_flux", "overshoot_speed", "settling_time_speed",
                    "peak_current", "peak_voltage", "min_W")
@@ -195,7 +199,7 @@ def run_variants(path, out, fmu_dir, algorithm=None, names=(), indexes=None, sho
     files = [out / n / "metrics.json" for n in names]
     for f in files:
         f.unlink(missing_ok=True)  # a child that dies early must not leave an old row to read
-    argv = ["run", str(path), "--out", str(out), "--fmus", str(fmu_dir), "--no-build"]
+    argv = ["run", str(path), "--out", str(out), "--fmus", str(fmu_dir), "--no-build", "--batch-rows"]
     if algorithm:
         argv += ["--algorithm", algorithm]
     argv += ["--variant", variant]
@@ -238,9 +242,12 @@ def run_variants(path, out, fmu_dir, algorithm=None, names=(), indexes=None, sho
 def _variant_row(path, name, rc, stdout, stderr, metrics, stopped):
     """The row of one of several variants a child ran: from its own results when it finished
     (its exit code from its status), else as :func:`_child_row` says of the child, or not started."""
+    said = reported(stdout).get(name)
     try:
         summary = json.loads(metrics.read_text())
     except FileNotFoundError:
+        if said is not None:  # it ran, and could not write its metrics.json (a full disk): as it said
+            return _reported_row(path, name, said, rc, stopped)
         if stopped or rc in STOPPED_CODES:  # the batch stopped the child, or Ctrl-C reached it first
             return _row(path, name, "interrupted", 0, "not started: the batch was interrupted")
         if rc == INVALID:  # the child refused the scenario (its message names file, field, value)
@@ -252,6 +259,10 @@ def _variant_row(path, name, rc, stdout, stderr, metrics, stopped):
     except (OSError, ValueError):
         summary = None
     if summary is None or summary.get("status") in ("running", "invalid"):
+        if said is not None:
+            settle_abandoned(metrics, "interrupted" if said["status"] == "interrupted" else "failed",
+                             said.get("message", ""))
+            return _reported_row(path, name, said, rc, stopped)
         return _child_row(path, name, rc if rc else 1, stdout, stderr, metrics, stopped)
     status = summary.get("status")
     code = (NOT_ACCEPTED if summary.get("accepted") is False else 0) if status == "ok" else (
@@ -290,9 +301,26 @@ class _FreshChild:
         return self._output
 
 
+def _reported_row(path, name, said, rc, stopped):
+    """The row of a run whose ``metrics.json`` is missing or unfinished, from what its child printed
+    (:func:`orchestration.results.batch_summary.reported`): ``--out`` that could not be written is a
+    failed run (not an invalid file), the message the run's own (e.g. ``no space left on device
+    writing ...``)."""
+    status, message = said["status"], said.get("message", "")
+    if status == "invalid" and not said.get("write_failed"):
+        return _row(path, name, "invalid", INVALID, message)
+    if status == "interrupted" or (stopped and status != "ok"):
+        return _row(path, name, "interrupted", rc if rc in STOPPED_CODES else 0, message)
+    if status == "ok":  # finished, yet nothing on disk says so (its metrics.json was removed since)
+        status, message = "failed", "its metrics.json is missing"
+    return _row(path, name, "failed", 1, message or f"exit {rc} without results")
+
+
 def _child_row(path, name, rc, stdout, stderr, metrics, stopped):
-    lines = (stderr or stdout or "").strip().splitlines()
+    lines = [line for line in (stderr or stdout or "").strip().splitlines()
+             if not line.startswith(REPORT_PREFIX)]
     tail = " | ".join(lines[-6:])
+    said = reported(stdout).get(name)
     try:
         summary = json.loads(metrics.read_text())
     except (OSError, ValueError):
@@ -304,9 +332,12 @@ def _child_row(path, name, rc, stdout, stderr, metrics, stopped):
         return _row(path, name, status, 128 - rc, f"the child process was killed by {sig}" + (
             f"; {tail}" if tail else ""))
     if rc == INVALID:
-        return _row(path, name, "invalid", rc, tail)
+        return _reported_row(path, name, said, rc, stopped) if said else _row(path, name, "invalid", rc, tail)
     if summary is not None and summary.get("status") == "interrupted":  # stopped by a signal: it wrote
         return _interrupted_row(path, name, rc, summary, metrics)      # its partial results
+    if (summary is None or summary.get("status") == "running") and said is not None:
+        settle_abandoned(metrics, "interrupted" if stopped else "failed", said.get("message", ""))
+        return _reported_row(path, name, said, rc, stopped)
     if summary is None or summary.get("status") == "running":
         message = f"exit {rc} without results" + (f": {tail}" if tail else "")
         settle_abandoned(metrics, "interrupted" if stopped else "failed", message)
@@ -447,16 +478,21 @@ def run_batch(items, out, fmu_dir, jobs=2, scheduler=None, algorithm=None, stop=
     except OSError as exc:
         print(f"--out {out}: cannot write the results: {describe(exc)}", file=sys.stderr)
         return INVALID
+    from orchestration.results.reserve import Reserve, size_for
+
+    reserve = Reserve(out, size_for(len(rows) + len(running)))  # room for the final tables (a full disk)
     try:
         return _run_locked(rows, running, runnable, summary, out, fmu_dir, jobs, scheduler, algorithm, stop,
-                           variant, command, plot, sweeps)
+                           variant, command, plot, sweeps, reserve)
     finally:
+        reserve.release()
         out_lock.release(lock)
 
 
 def _run_locked(rows, running, runnable, summary, out, fmu_dir, jobs, scheduler, algorithm, stop, variant,
-                command, plot, sweeps):
-    """The body of :func:`run_batch` once ``out`` is locked."""
+                command, plot, sweeps, reserve=None):
+    """The body of :func:`run_batch` once ``out`` is locked; ``reserve`` (a
+    :class:`~orchestration.results.reserve.Reserve`) is given back before the final tables."""
     if not summary.write([*rows, *running.values()]):  # --out is writable before anything runs
         print(f"--out {out}: cannot write the results: {describe(summary.error)}", file=sys.stderr)
         return INVALID
@@ -492,6 +528,8 @@ def _run_locked(rows, running, runnable, summary, out, fmu_dir, jobs, scheduler,
                     rows.append(_row(job.file, name, "failed", 1, error) if error and not stop.signum else
                                 _row(job.file, name, "interrupted", 0,
                                      "no result: the batch was interrupted"))
+        if reserve is not None:  # every run has ended: the room kept goes to the final tables
+            reserve.release()
         written = _write_summary(rows, out, summary, sweeps)
         _write_sweeps(sweeps, rows, out, plot)
     if stop.signum:

@@ -140,8 +140,9 @@ def run_file(path, out, fmu_dir, algorithm=None, build=True, plot=True, stop=Non
     from orchestration.scenario.load import ScenarioError, load_scenario
     from orchestration.scenario.variants import load_variant
 
-    def refused(message, name=Path(path).stem):
-        return INVALID, {"scenario": name, "file": str(path), "status": "invalid", "message": message}
+    def refused(message, name=Path(path).stem, write_failed=False):
+        said = {"write_failed": True} if write_failed else {}  # --out not writable: not the file's fault
+        return INVALID, {"scenario": name, "file": str(path), "status": "invalid", "message": message, **said}
 
     try:
         if build:
@@ -181,12 +182,12 @@ def run_file(path, out, fmu_dir, algorithm=None, build=True, plot=True, stop=Non
     except out_lock.OutInUse as exc:
         return refused(f"--out {out}: {exc}", sc.name)
     except OSError as exc:
-        return refused(f"--out {out}: cannot write the results: {describe(exc)}", sc.name)
+        return refused(f"--out {out}: cannot write the results: {describe(exc)}", sc.name, True)
     try:
         try:
             directory = prepare_dir(out, sc)
         except OSError as exc:
-            return refused(f"--out {out}: cannot write the results: {describe(exc)}", sc.name)
+            return refused(f"--out {out}: cannot write the results: {describe(exc)}", sc.name, True)
         plant, ctrl = fmus.paths(fmu_dir, variant)
         helper = None
         plot = plot and sc.record.level != "metrics"  # no time series: no figure
@@ -296,6 +297,10 @@ def cmd_run(args):
                                 figure_process=not several, sweep_index=index, shared=shared)
                 code = max(code, c) if not stop.signum else stop.exit_code
                 _say(s, args.out)
+                if args.batch_rows:  # the batch's row of this run even when its metrics.json is not on disk
+                    from orchestration.results.batch_summary import report_line
+
+                    print(report_line(s), flush=True)
         finally:
             if shared is not None:
                 shared.close()
@@ -445,6 +450,7 @@ def parser(prog="satmotor-cosim"):
     common(r)
     r.add_argument("--no-build", action="store_true", help="do not build the FMUs, use them as they are")
     r.add_argument("--no-plot", action="store_true", help="skip the figure")
+    r.add_argument("--batch-rows", action="store_true", help=argparse.SUPPRESS)  # batch's children only
     r.add_argument("--sweep-variant", type=indexes, metavar="I[,J,...]",
                    help="run variant I (from 0) of the file's sweep: section, or variants I, J, ... one "
                    "after the other in this process (batch runs them all); without it, run runs the "

@@ -14,4 +14,5 @@
 * :mod:`~orchestration.results.atomic` -- every result file written whole or not at all (temporary
   name, rename), the ``running`` status's owner (pid, host, start), the one line of an OSError.
 * :mod:`~orchestration.results.batch_summary` -- a batch's ``summary.csv``, whole at every moment.
+* :mod:`~orchestration.results.reserve` -- room kept on the disk for a batch's final tables.
 """

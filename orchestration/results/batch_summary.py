@@ -7,11 +7,17 @@ file is written again, under a temporary name renamed onto ``summary.csv``
 (:mod:`orchestration.results.atomic`): a batch killed at any moment (even by SIGKILL) leaves a
 complete table where each row is either a result or ``running`` with a pid that a later reader finds
 gone (:func:`orchestration.results.atomic.stale_reason`).  When even that cannot be written (a full
-disk), the batch goes on; at the end it prints the table on standard error instead, and says why.
+disk), the batch goes on; at the end it prints the table on standard error instead, and says why
+(the batch keeps room for the final table: :mod:`orchestration.results.reserve`).
+
+A child of the batch (``run --batch-rows``) also prints one :func:`report_line` per run on its standard
+output: the run's status and message, read by :func:`reported` when the run's ``metrics.json`` could
+not be written (a full disk), so that its row still names the cause.
 """
 
 from __future__ import annotations
 
+import json
 import sys
 
 from orchestration.results import atomic
@@ -61,3 +67,28 @@ class SummaryFile:
         stream.write(csv_text(rows))
         stream.flush()
         return False
+
+
+REPORT_PREFIX = "satmotor-batch-row "  # a line a batch's child prints per run (``run --batch-rows``)
+_REPORTED = ("scenario", "status", "message", "write_failed")
+
+
+def report_line(summary):
+    """The line ``run --batch-rows`` prints for a run's ``summary`` (:func:`reported` reads it back)."""
+    return REPORT_PREFIX + json.dumps({k: summary[k] for k in _REPORTED if k in summary})
+
+
+def reported(stdout):
+    """``{scenario name: {status, message[, write_failed]}}`` of the :func:`report_line` lines in a
+    child's standard output (a line cut or garbled is skipped)."""
+    out = {}
+    for line in (stdout or "").splitlines():
+        if not line.startswith(REPORT_PREFIX):
+            continue
+        try:
+            d = json.loads(line[len(REPORT_PREFIX):])
+        except ValueError:
+            continue
+        if isinstance(d, dict) and isinstance(d.get("scenario"), str) and isinstance(d.get("status"), str):
+            out[d["scenario"]] = d
+    return out

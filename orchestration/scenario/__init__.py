@@ -9,7 +9,9 @@
 * :mod:`~orchestration.scenario.profiles` -- the time profiles of the set-points and the load.
 * :mod:`~orchestration.scenario.sweep` -- the ``sweep:`` section: a grid or Monte Carlo draws of
   variants, expanded before anything runs; :mod:`~orchestration.scenario.variants` -- a sweep file
-  read and every variant checked (``load_sweep``), or one variant (``load_variant``).
+  read and every variant checked (``load_sweep``), or one variant (``load_variant``);
+  :mod:`~orchestration.scenario.priors` -- a parameter's prior ``{from: fit.yaml}`` read and checked;
+  :mod:`~orchestration.scenario.correlation` -- the correlated draws of the normal parameters.
 * :mod:`~orchestration.scenario.plausibility` -- notes for inputs far outside the motor's range.
 * :mod:`~orchestration.scenario.system` -- the system a scenario runs: units, connections, the
   measured signals and the ``measurements:`` section.

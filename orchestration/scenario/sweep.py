@@ -1,5 +1,8 @@
 """The ``sweep:`` section of a scenario file: one scenario becomes many variants, expanded before
-anything runs.  Pure: parsed YAML in, variants (parsed YAML again) and problems out; no file is read.
+anything runs.  Parsed YAML in, variants (parsed YAML again) and problems out; the one file read is a
+parameter's prior, ``{from: fit.yaml}`` (:mod:`orchestration.scenario.priors`, relative to the scenario
+file; drawn normal from its value and 1-sigma, jointly with its covariance), and ``correlation:`` /
+``covariance:`` correlate normal parameters (:mod:`orchestration.scenario.correlation`).
 
 Two kinds, told apart by the key ``samples``::
 
@@ -48,6 +51,7 @@ import re
 from dataclasses import dataclass
 
 from orchestration.scenario import presets
+from orchestration.scenario.correlation import JOINT
 from orchestration.scenario.problems import MISSING, Checker
 
 __all__ = ["Sweep", "Variant", "expand", "parse_sweep", "MAX_VARIANTS", "SECTIONS"]
@@ -55,6 +59,7 @@ __all__ = ["Sweep", "Variant", "expand", "parse_sweep", "MAX_VARIANTS", "SECTION
 MAX_VARIANTS = 10_000  # a grid beyond this is refused (a typo in a range, not a study)
 SECTIONS = ("motor", "plant", "controller", "profiles")
 DISTRIBUTIONS = ("uniform", "normal", "tolerance")
+CURVE_PARAMETERS = ("L_m0", "L_m_inf", "I_par", "poly_b")  # a prior's curve family must be the unit's
 RANGE_KEYS = ("start", "stop", "num", "step")
 _PROFILE_PATH = re.compile(r"profiles\.([A-Za-z_]\w*)(?:\[(\d+)\])?\.([A-Za-z_]\w*)")
 _REL = 1e-9  # a range's stop is reached when within this relative tolerance
@@ -138,7 +143,7 @@ def _grid_values(chk, spec, where):
             chk.add(where, spec, "an empty list varies nothing")
             return None
         return list(spec)
-    if isinstance(spec, dict) and any(k in spec for k in DISTRIBUTIONS):
+    if isinstance(spec, dict) and any(k in spec for k in (*DISTRIBUTIONS, "from")):
         chk.add(where, spec, "a distribution needs sweep.samples (a Monte Carlo sweep); a grid takes a list "
                 "or a range {start, stop, num | step}")
         return None
@@ -243,7 +248,7 @@ def parse_sweep(raw, data, file, tables=None, only=None):
     mapping (``data`` None: the run of one variant copies the file's mapping once, not per variant)."""
     chk = Checker(file)
     tables = tables if tables is not None else _unit_tables()
-    if not chk.mapping(raw, "sweep", ("parameters",), ("samples", "seed", "analysis", "levels")):
+    if not chk.mapping(raw, "sweep", ("parameters",), ("samples", "seed", "analysis", "levels", *JOINT)):
         return None, chk.problems
     params = raw["parameters"]
     if not isinstance(params, dict) or not params:
@@ -263,20 +268,32 @@ def parse_sweep(raw, data, file, tables=None, only=None):
                     "the same seed, the same draws")
     elif "seed" in raw:
         chk.add("sweep.seed", raw["seed"], "a seed needs sweep.samples (a Monte Carlo sweep)")
-    located, specs = {}, {}
+    located, specs, sources, cache = {}, {}, {}, {}
     for path, spec in params.items():
         where = f"sweep.parameters.{path}"
         found = _locate(chk, data, path, tables, spec)
         if found is None:
             continue
         located[path] = found
-        specs[path] = (_distribution(chk, spec, where, found[1]) if montecarlo
-                       else _grid_values(chk, spec, where))
+        if montecarlo and isinstance(spec, dict) and "from" in spec:
+            specs[path], sources[path] = _from_prior(chk, spec, where, path, file, cache, data, tables)
+        else:
+            specs[path] = (_distribution(chk, spec, where, found[1]) if montecarlo
+                           else _grid_values(chk, spec, where))
         if analysis == "morris" and specs[path] and specs[path][0] == "normal":
-            chk.add(f"{where}.normal", spec["normal"], "Morris moves on a grid of the unit cube, whose ends "
+            key = "normal" if "normal" in spec else "from"
+            chk.add(f"{where}.{key}", spec[key], "Morris moves on a grid of the unit cube, whose ends "
                     "a "
                     "normal distribution maps to infinity: give {uniform: [low, high]} or {tolerance: r}")
     paths = tuple(params)
+    joint = None
+    if any(k in raw for k in JOINT) and not montecarlo:
+        chk.add("sweep", {k: raw[k] for k in JOINT if k in raw}, "correlated draws need a Monte Carlo "
+                "sweep (sweep.samples)")
+    elif montecarlo and not chk.problems:
+        from orchestration.scenario.correlation import joint_normal
+
+        joint = joint_normal(chk, raw, paths, specs, sources, analysis)
     if analysis is not None and not chk.problems and samples is not None:
         from orchestration.scenario.designs import variant_count
 
@@ -292,6 +309,10 @@ def parse_sweep(raw, data, file, tables=None, only=None):
         from orchestration.scenario.designs import draw
 
         rows, design = draw(analysis, paths, specs, samples, seed, raw.get("levels", 4))
+    elif montecarlo and joint is not None:
+        from orchestration.scenario.correlation import draws
+
+        rows = draws(paths, specs, joint, samples, seed)
     elif montecarlo:
         import numpy as np
 
@@ -371,3 +392,44 @@ def expand(data, file, tables=None, only=None):
     if not isinstance(data, dict) or "sweep" not in data:
         return None, []
     return parse_sweep(data["sweep"], data, file, tables, only)
+
+
+def _from_prior(chk, spec, where, path, file, cache, data, tables):
+    """``((kind, mean, std), (prior file, name, Prior))`` of ``{from: FILE[, parameter: NAME]}`` (NAME
+    defaults to the path's last part), or ``(None, None)`` after recording why
+    (:mod:`orchestration.scenario.priors` reads and checks the file)."""
+    from pathlib import Path
+
+    from orchestration.scenario import priors
+
+    if not chk.mapping(spec, where, ("from",), ("parameter",)):
+        return None, None
+    src, name = spec["from"], spec.get("parameter", path.rpartition(".")[2])
+    if not isinstance(src, str) or not src:
+        chk.add(f"{where}.from", src, "must be the path of a prior file (fit-curve's fit.yaml), relative "
+                "to the scenario file")
+        return None, None
+    if not isinstance(name, str):
+        chk.add(f"{where}.parameter", name, "must be the name of a parameter of the prior file")
+        return None, None
+    full = Path(src) if Path(src).is_absolute() else Path(file).parent / src
+    if full not in cache:
+        cache[full] = priors.read(full, f"{where}.from", chk, src)
+    prior = cache[full]
+    if prior is None:
+        return None, None
+    if name not in prior.values:
+        chk.add(f"{where}.from", src, f"{full} has no uncertainty.parameters.{name} (it has: "
+                f"{', '.join(prior.values) or 'none'})")
+        return None, None
+    section = path.partition(".")[0]
+    if prior.family is not None and name in CURVE_PARAMETERS and section in ("motor", "plant", "controller"):
+        found = _locate(Checker("-"), data, f"{section}.curve", tables)
+        curve = found[1] if found is not None else None
+        if curve is not None and curve != prior.family:
+            chk.add(where, spec, f"{full} holds the {prior.family} curve's {name}; the scenario's "
+                    f"{section} curve is {curve!r}: set {section}: {{curve: {prior.family}}} (fit.yaml's "
+                    "plant: section)")
+            return None, None
+    return ("normal", prior.values[name], prior.sigma[name]), (full, name, prior)
+

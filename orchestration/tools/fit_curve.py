@@ -35,8 +35,10 @@ refused.  The no-load loss ``P_in - 3 R_s I_rms^2`` is split into core loss (``R
 ``--rel-sigma V,I,F,P`` (default 1 % each): the relative standard uncertainty of the columns.  The
 fits weight each point by its uncertainty carried from the readings (errors in both i_mu and psi_m,
 :mod:`satmotor.identify.uncertainty`); ``fit.yaml`` gives each family's chi-square and, under
-``uncertainty``, the chosen curve's 1-sigma relative uncertainty over the measured current range
-and the families the data cannot tell from it (``rivals``, with their largest difference).
+``uncertainty``, the chosen curve's 1-sigma relative uncertainty over the measured current range,
+the families the data cannot tell from it (``rivals``, with their largest difference), and the
+curve's parameters with their 1-sigma values and covariance (``family``, ``parameters: {NAME: {value,
+sigma}}``, ``covariance: {parameters, matrix}``): the prior a sweep takes with ``{from: fit.yaml}``.
 
 Exit codes: 0 written; 2 an input problem (the message names the file, the line and the value) or
 ``--out`` cannot be written.
@@ -264,6 +266,17 @@ def write_outputs(out, source, pts, has_p, fits, failures, best, table, R_s, l_s
     figure(out / "fit.png", source, pts, fits, best)
 
 
+def prior(fit):
+    """The chosen fit's parameters as a sweep's prior (``from: fit.yaml``, docs/scenarios.md): ``family``,
+    ``parameters`` ``{name: {value, sigma}}`` [SI] and their ``covariance`` ``{parameters, matrix}``."""
+    if fit.cov is None:
+        return {}
+    return {"family": fit.family,
+            "parameters": {n: {"value": float(fit.params[n]), "sigma": s} for n, s in fit.sigma.items()},
+            "covariance": {"parameters": list(fit.names),
+                           "matrix": [[float(x) for x in row] for row in fit.cov]}}
+
+
 def _rel_sigma_option(raw):
     from satmotor.identify.uncertainty import REL_SIGMA
 
@@ -391,7 +404,7 @@ def run(path, R_s, l_s, out=DEFAULT_OUT, stream=None, copper_tol=None, motor_yam
     best = choose(fits)
     rv = rivals(fits, best, float(pts.i_mu.min()), float(pts.i_mu.max()))
     unc = {"rel_sigma": dict(zip(("V_ll_rms", "I_rms", "f", "P_in"), sig)), "sigma_rel": best.sigma_rel,
-           "rivals": rv}
+           "rivals": rv, **prior(best)}
     try:
         Path(out).mkdir(parents=True, exist_ok=True)
         write_outputs(out, path, pts, has_p, fits, failures, best, table, R_s, l_s, losses, rb, unc)

@@ -30,7 +30,9 @@ data).  Every fitted curve is built through ``make_curve``, so it satisfies the 
 With ``cov`` each fit also carries ``sigma_rel``, the largest 1-sigma relative uncertainty of
 ``psi_fit`` over the points' current range from the parameters' covariance ``(J^T J)^-1`` (the
 Cramer-Rao bound of the fit, for the stated uncertainty), and :func:`rivals` names the families the
-data cannot tell from the chosen one (chi-square within ``RIVAL_CHI2``).
+data cannot tell from the chosen one (chi-square within ``RIVAL_CHI2``), and ``cov``, the covariance of
+its continuous parameters ``names`` (``L_m0, L_m_inf, I_par``; ``L_m0, poly_b``; ``L_m0``: the same
+``(J^T J)^-1`` carried from the solver's parameters), ``sigma`` their 1-sigma values.
 
 :func:`monotone_table` turns noisy points into a table the ``table`` curve accepts (isotonic
 regression by pool-adjacent-violators, see there).
@@ -62,6 +64,15 @@ class Fit(NamedTuple):
     chi2: float | None = None  # [1] sum of squared weighted residuals (None: fitted unweighted)
     sigma_rel: float | None = None  # [1] largest 1-sigma relative uncertainty of psi_fit over the range
     band: object = None  # band(x): the 1-sigma relative uncertainty [1] of psi_fit at currents x [A]
+    names: tuple = ()  # the continuous parameters of ``params`` that ``cov`` covers, in its order
+    cov: object = None  # their covariance matrix [SI units squared] (None: fitted unweighted)
+
+    @property
+    def sigma(self):
+        """``{name: 1-sigma}`` of the continuous parameters (empty when fitted unweighted)."""
+        if self.cov is None:
+            return {}
+        return {n: float(math.sqrt(max(self.cov[k][k], 0.0))) for k, n in enumerate(self.names)}
 
     @property
     def n_params(self):
@@ -77,25 +88,43 @@ def _psi(curve, i):
     return np.array([curve.psi(float(v)) for v in i])
 
 
+#: the continuous parameters of each family, and the matrix T that makes them of the solver's (``T p``)
+_NAMES = {"arctan": ("L_m0", "L_m_inf", "I_par"), "exponential": ("L_m0", "L_m_inf", "I_par"),
+          "polynomial": ("L_m0", "poly_b"), "linear": ("L_m0",)}
+_SOLVER_TO_PARAMS = {"arctan": ((1.0, 1.0, 0.0), (1.0, 0.0, 0.0), (0.0, 0.0, 1.0)),  # (L_m_inf, d, I_par)
+                     "exponential": ((1.0, 1.0, 0.0), (1.0, 0.0, 0.0), (0.0, 0.0, 1.0)),
+                     "polynomial": ((1.0, 0.0), (0.0, 1.0)), "linear": ((1.0,),)}
+
+
 def _finish(family, params, i, psi, res=None, model=None):
     """The Fit; with the solver result ``res`` of a weighted fit and ``model(p, x)`` the fitted
-    psi(x) in the solver's parameters, also ``chi2``, ``band`` and ``sigma_rel``."""
+    psi(x) in the solver's parameters, also ``chi2``, ``band``, ``sigma_rel`` and the parameters'
+    covariance ``cov`` (the solver's ``(J^T J)^-1`` carried to the curve's parameters)."""
     curve = make_curve(family, **params)
     r = _psi(curve, i) - psi
-    chi2 = sig = band = None
+    chi2 = sig = band = cov = None
     if res is not None:
         chi2 = float(2.0 * res.cost)
         band = _band(model, np.asarray(res.x, dtype=float), res.jac)
         sig = float(np.max(band(np.linspace(float(i.min()), float(i.max()), 200))))
+        T = np.array(_SOLVER_TO_PARAMS[family])
+        cov = T @ _covariance(res.jac) @ T.T
+        cov = 0.5 * (cov + cov.T)  # symmetric to the last bit (a prior's matrix is checked so)
     return Fit(family, params, float(math.sqrt(np.mean(r * r))), float(np.max(np.abs(r))), curve, chi2, sig,
-               band)
+               band, _NAMES[family], cov)
+
+
+def _covariance(jac):
+    """The parameters' covariance ``(J^T J)^-1`` of a weighted fit (J the weighted residuals' Jacobian):
+    the Cramer-Rao bound for the stated uncertainty of the points, not scaled by the chi-square."""
+    J = np.asarray(jac, dtype=float)
+    return np.linalg.pinv(J.T @ J)
 
 
 def _band(model, p, jac):
     """``band(x)``: the 1-sigma relative uncertainty of ``model(p, x)``, the parameters' covariance
     ``(J^T J)^-1`` (J the weighted residuals' Jacobian) carried to psi by central differences."""
-    J = np.asarray(jac, dtype=float)
-    C = np.linalg.pinv(J.T @ J)
+    C = _covariance(jac)
     floor = 1e-3 * float(np.max(np.abs(p)))  # a parameter at its bound (near 0) still gets a usable step
 
     def band(x):

@@ -72,7 +72,7 @@ class DCLinkParams:
     average of a six-pulse bridge on a 400 V grid).  ``C_dc`` [F] > 0, ``R_src`` [Ohm] > 0,
     ``V_grid`` [V] > 0 (line-to-line rms), ``f_grid`` [Hz] > 0, ``R_chop`` [Ohm] >= 0 (0: no chopper),
     ``V_chop_off`` [V] < ``V_chop_on`` [V] (both > 0, checked also without a chopper), ``V_dc_max`` [V]
-    >= 0 (0: no over-voltage check).
+    >= 0 (0: no over-voltage check), above ``V_chop_on`` when both the chopper and the check are on.
     """
 
     dc_link: str = "ideal"
@@ -102,10 +102,17 @@ class DCLinkParams:
             raise ParameterError("V_chop_off", self.V_chop_off,
                                  f"must be below V_chop_on = {self.V_chop_on!r} V (the hysteresis: the "
                                  "chopper switches on above V_chop_on and off below V_chop_off)")
+        if self.R_chop > 0.0 and self.V_dc_max > 0.0 and not self.V_chop_on < self.V_dc_max:
+            raise ParameterError("V_dc_max", self.V_dc_max, CHOPPER_BELOW_FAULT.format(self.V_chop_on))
 
     @property
     def capacitor(self):
         return is_capacitor(self.dc_link)
+
+
+#: the reason of a fault level at or below the chopper's (C: sm_dclink.c, the same text)
+CHOPPER_BELOW_FAULT = ("must be above V_chop_on = {!r} V with a brake chopper (R_chop > 0): the chopper "
+                       "switches on below the over-voltage fault's level (V_dc_max = 0: no fault check)")
 
 
 def over_voltage_message(t, v_dc, V_dc_max):

@@ -40,6 +40,14 @@ int sm_dclink_init(sm_dclink *l, const sm_dclink_params *pp, char *msg, size_t m
         return sm_param_error(msg, msg_len, NULL, "V_chop_off", sm_repr_double(pp->V_chop_off, v, sizeof v),
                               reason);
     }
+    /* with the chopper and the fault check both on, the chopper acts first (dc_link.py CHOPPER_BELOW_FAULT) */
+    if (pp->R_chop > 0.0 && pp->V_dc_max > 0.0 && !(pp->V_chop_on < pp->V_dc_max)) {
+        char v[40], on[40], reason[200];
+        snprintf(reason, sizeof reason, "must be above V_chop_on = %s V with a brake chopper (R_chop > 0): the "
+                 "chopper switches on below the over-voltage fault's level (V_dc_max = 0: no fault check)",
+                 sm_repr_double(pp->V_chop_on, on, sizeof on));
+        return sm_param_error(msg, msg_len, NULL, "V_dc_max", sm_repr_double(pp->V_dc_max, v, sizeof v), reason);
+    }
     q.V_dc = pp->V_dc;
     q.C_dc = pp->C_dc;
     q.R_src = pp->R_src;
