@@ -11,6 +11,7 @@ import pytest
 from native_core import ControllerParams, MotorParams, build, declare, params
 
 from satmotor.interface import CONTROLLER_OUTPUTS, ControllerUnit, PlantUnit
+from satmotor.machine.library import preset
 
 
 @pytest.fixture(scope="module", params=["plain", "sanitized"])
@@ -61,6 +62,7 @@ def _load(t):
     return 20.0 if t >= 0.35 else 0.0
 
 
+QU = {**preset("qu2012_2kw2").values, **preset("qu2012_2kw2").controller}  # the Gamma form: l_s = 0
 EXP = {"curve": "exponential", "k": 0.9, "l_r": 5.839e-3 * 0.81, "R_r": 1.395 * 0.81}
 CASES = {
     "saturated known": ({}, {}),
@@ -76,6 +78,9 @@ CASES = {
     "sensorless": ({"flux_source": "observer", "speed_source": "estimated"}, {}),
     "sensorless, delay, estimated load": ({"flux_source": "observer", "speed_source": "estimated",
                                            "delay_samples": 1, "load_mode": "estimated"}, {}),
+    "sensorless, Gamma form (qu2012_2kw2, l_s = 0)": (
+        {**QU, "flux_source": "observer", "speed_source": "estimated"}, QU),
+    "closed-loop observer, Gamma form, delay": ({**QU, "flux_source": "observer", "delay_samples": 1}, QU),
     "stator flux (H1)": ({"use_stator_flux": True}, {}),
     "current limit binding": ({"I_max": 12.0, "ref_bandwidth": 400.0}, {}),
     "exponential curve, k = 0.9": (EXP, EXP),

@@ -105,7 +105,11 @@ def test_the_closed_loop_observer_does_not_inherit_a_hot_rotors_resistance(fmu_d
 
 
 @pytest.mark.parametrize("name, speed, flux", [("sensorless_start", 5e-3, 3e-2),
-                                               ("sensorless_low_speed", 2e-2, 5e-2)])
+                                               ("sensorless_low_speed", 2e-2, 5e-2),
+                                               # the Gamma form (l_s = 0) held as the default motor
+                                               ("qu2012_sensorless_start", 5e-3, 3e-2),
+                                               ("qu2012_sensorless_low_speed", 2e-2, 5e-2),
+                                               ("qu2012_sensorless_reversal", 1e-2, 3e-2)])
 def test_sensorless_targets_through_the_fmus(fmu_dir, name, speed, flux):
     sc, df, m = _cosim(fmu_dir, name)
     t = df["time"].to_numpy()

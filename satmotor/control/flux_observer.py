@@ -55,6 +55,12 @@ stator frequency (``w_s = 0``: standstill without load, or the slip cancelling t
 regeneration) d carries no speed information; in low-speed regeneration the estimate can drift
 (documented in docs/controller.md).
 
+The Gamma form (``l_s = 0``, e.g. the ``qu2012_2kw2`` preset) is exact here: l_s enters only as a
+product (``psi_s = l_s i_s + psi_m``, ``psi_m = psi_s - l_s i_s``), never as a divisor, so l_s = 0 gives
+``psi_s = psi_m``: the Gamma model's stator flux is its magnetizing flux, ``psi_r = k psi_m + (l_r/k)
+(i_mu - i_s)`` its rotor flux with L_sigma = l_r/k^2 (derivation in docs/controller.md, "The Gamma form
+in the observer").  What the observer needs: R_s > 0, l_s >= 0, l_r > 0, k > 0.
+
 Discretization over [t_{k-1}, t_k] (Ts [s]): i_s linear between its samples (as in the current
 model), v_s the voltage the controller applied over the interval (zero-order hold, exact), the
 speed linear (measured) or held (estimated).  Current model: the RK4 step of
@@ -103,6 +109,8 @@ class ClosedLoopObserver:
                 raise ParameterError("params", params, f"has no {name}; a MotorParams is needed")
         self.Ts = require_number("Ts", Ts, 0)
         self.alpha_w = require_number("alpha_w", alpha_w, 0)
+        require_number("R_s", params.R_s, 0)
+        require_number("l_s", params.l_s, 0, inclusive=True)  # 0: the Gamma form, exact
         if not isinstance(estimate_speed, bool):
             raise ParameterError("estimate_speed", estimate_speed, "must be a Boolean")
         self.estimate_speed = estimate_speed

@@ -26,7 +26,7 @@ int sm_cl_observer_init(sm_cl_observer *o, double R_s, double R_r, double l_s, d
     }
     if (sm_require_number("alpha_w", alpha_w, 1, 0.0, 0, msg, msg_len) != SM_CORE_OK ||
         sm_require_number("R_s", R_s, 1, 0.0, 0, msg, msg_len) != SM_CORE_OK ||
-        sm_require_number("l_s", l_s, 1, 0.0, 0, msg, msg_len) != SM_CORE_OK) {
+        sm_require_number("l_s", l_s, 1, 0.0, 1, msg, msg_len) != SM_CORE_OK) { /* l_s = 0: the Gamma form */
         return SM_ERR_PARAM;
     }
     o->Ts = Ts;

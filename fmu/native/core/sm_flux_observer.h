@@ -22,7 +22,7 @@ typedef struct {
     int has_prev;
 } sm_cl_observer;
 
-/* The controller's model (R_s, R_r [Ohm], l_s, l_r [H], k, n_p), Ts [s] > 0, estimate_speed 0/1, alpha_w
+/* The controller's model (R_s, R_r [Ohm] > 0, l_s [H] >= 0 (0: the Gamma form, exact), l_r [H] > 0, k, n_p), Ts [s] > 0, estimate_speed 0/1, alpha_w
  * [rad/s] > 0.  SM_CORE_OK or SM_ERR_PARAM with the message. */
 int sm_cl_observer_init(sm_cl_observer *o, double R_s, double R_r, double l_s, double l_r, double k, int n_p,
                         double Ts, int estimate_speed, double alpha_w, char *msg, size_t msg_len);
