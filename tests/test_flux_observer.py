@@ -145,20 +145,24 @@ def _c_curve(lib, c, msg):
     return buf
 
 
+@pytest.mark.parametrize("tracking", [False, True], ids=["as given", "R_s adapted, R_r tracked"])
 @pytest.mark.parametrize("p", [P, GAMMA], ids=["default (T form)", "qu2012_2kw2 (Gamma form, l_s = 0)"])
 @pytest.mark.parametrize("estimate_speed", [False, True])
-def test_c_observer_is_the_python_one_bit_for_bit(lib, estimate_speed, p):
+def test_c_observer_is_the_python_one_bit_for_bit(lib, estimate_speed, p, tracking):
     msg = ctypes.create_string_buffer(256)
     curve = _c_curve(lib, p.curve, msg)
     obs = ctypes.create_string_buffer(lib.sm_cl_observer_size())
     assert lib.sm_cl_observer_init(obs, p.R_s, p.R_r, p.l_s, p.l_r, p.k, p.n_p, TS, int(estimate_speed),
                                    200.0, msg, 256) == 0, msg.value
+    assert lib.sm_cl_observer_set_tracking(obs, int(tracking), int(tracking), msg, 256) == 0
     assert lib.sm_cl_observer_reset(obs, 0.5, -0.2, 3.0, msg, 256) == 0
-    py = ClosedLoopObserver(p, TS, estimate_speed)
+    py = ClosedLoopObserver(p, TS, estimate_speed, 200.0, tracking, tracking)
     py.reset(0.5, -0.2, 3.0)
     rng = np.random.default_rng(5)
     pa, pb, w = D(), D(), D()
-    for j, r in enumerate(plant_run(p, 70.0, 0.1, settle=0.05)):
+    state = (D * N_STATE)()
+    hot = replace(p, R_s=1.3 * p.R_s, R_r=1.3 * p.R_r) if tracking else p  # a warm plant
+    for j, r in enumerate(plant_run(hot, 70.0, 0.1, settle=0.05)):
         isa, isb = r[0] + rng.normal(0, 0.3), r[1] + rng.normal(0, 0.3)
         want = py.update(isa, isb, r[6] + rng.normal(0, 1.0))
         assert lib.sm_cl_observer_update(obs, curve, isa, isb, r[6] + 0.0 if estimate_speed else want[2],
@@ -166,6 +170,15 @@ def test_c_observer_is_the_python_one_bit_for_bit(lib, estimate_speed, p):
         assert (pa.value, pb.value, w.value) == want, j
         py.applied(r[2], r[3])
         lib.sm_cl_observer_applied(obs, r[2], r[3])
+        if tracking:
+            py.adapt_resistance()
+            lib.sm_cl_observer_adapt_resistance(obs)
+        lib.sm_cl_observer_get_state(obs, state)
+        assert tuple(state) == py.get_state(), j
+    if tracking:  # the adaptation ran (and, with the speed measured, toward the plant's)
+        rs, rr = py.resistances
+        assert rs != p.R_s and rr == p.R_r * (1.0 + 4.03e-3 / 3.93e-3 * (rs / p.R_s - 1.0))
+        assert estimate_speed or (rs > 1.05 * p.R_s and rr > 1.05 * p.R_r)
 
 
 def test_c_observer_refuses_bad_arguments_by_name(lib):

@@ -81,6 +81,13 @@ CASES = {
     "sensorless, Gamma form (qu2012_2kw2, l_s = 0)": (
         {**QU, "flux_source": "observer", "speed_source": "estimated"}, QU),
     "closed-loop observer, Gamma form, delay": ({**QU, "flux_source": "observer", "delay_samples": 1}, QU),
+    "R_s adaptation, R_r tracking, warm plant": ({"flux_source": "observer", "rs_adaptation": True,
+                                                  "rr_tracking": True}, {"R_s": 1.8467, "R_r": 1.8448}),
+    "R_s adaptation, delay, estimated load": ({"flux_source": "observer", "rs_adaptation": True,
+                                               "delay_samples": 1, "load_mode": "estimated"}, {"R_s": 1.7}),
+    "sensorless, R_s adaptation, R_r tracking, Gamma form": (
+        {**QU, "flux_source": "observer", "speed_source": "estimated", "rs_adaptation": True,
+         "rr_tracking": True}, {**QU, "R_s": 4.2, "R_r": 2.9}),
     "stator flux (H1)": ({"use_stator_flux": True}, {}),
     "current limit binding": ({"I_max": 12.0, "ref_bandwidth": 400.0}, {}),
     "exponential curve, k = 0.9": (EXP, EXP),
@@ -139,6 +146,8 @@ BAD = [({"mode": "fuzzy"}, "mode"), ({"flux_source": "estimated"}, "flux_source"
        ({"premag_speed_tol": 0.0}, "premag_speed_tol"), ({"premag_time_max": -1.0}, "premag_time_max"),
        ({"premag_boost": 0.5}, "premag_boost"), ({"premag_gain": math.inf}, "premag_gain"),
        ({"host_delay_samples": 4}, "host_delay_samples"), ({"host_delay_samples": -1}, "host_delay_samples"),
+       ({"rs_adaptation": True}, "rs_adaptation"),
+       ({"flux_source": "observer", "rr_tracking": True}, "rr_tracking"),
        ({"current_limit_gain": -1.0}, "current_limit_gain"), ({"current_limit_gain": math.nan},
                                                                "current_limit_gain")]
 

@@ -40,7 +40,10 @@ class DriveConfig:
     measured-current limiter (0: off, the law's model currents alone are bounded;
     :mod:`satmotor.control.current_limit`); field_weakening: the flux set-point psi_ref is the nominal flux,
     lowered where the steady stator voltage would exceed fw_voltage_ratio [1] of V_dc/sqrt(3)
-    (:mod:`satmotor.control.field_weakening`); False: psi_ref as it is (the drive before it).
+    (:mod:`satmotor.control.field_weakening`); False: psi_ref as it is (the drive before it);
+    rs_adaptation: the closed-loop observer adapts R_s, and the law uses the estimate; rr_tracking: R_r
+    from the temperature R_s_hat implies, in the observer and the law (needs rs_adaptation); both need
+    flux_source 'observer', observer 'closed_loop' (:mod:`satmotor.control.resistance`).
     """
 
     ref_bandwidth: float = 40.0
@@ -60,6 +63,8 @@ class DriveConfig:
     fw_voltage_ratio: float = 0.95
     current_limit_gain: float = 200.0
     host_delay_samples: int = 0
+    rs_adaptation: bool = False
+    rr_tracking: bool = False
 
     def __post_init__(self):
         require_number("ref_bandwidth", self.ref_bandwidth, 0)
@@ -80,6 +85,15 @@ class DriveConfig:
         if self.speed_source == "estimated" and not closed_loop:
             raise ParameterError("speed_source", self.speed_source, "needs flux_source = observer and "
                                  "observer = closed_loop (the speed estimate is the closed-loop observer's)")
+        for name in ("rs_adaptation", "rr_tracking"):
+            if not isinstance(getattr(self, name), bool):
+                raise ParameterError(name, getattr(self, name), "must be a bool")
+        if self.rs_adaptation and not closed_loop:
+            raise ParameterError("rs_adaptation", True, "needs flux_source = observer and observer = "
+                                 "closed_loop (the estimate is the closed-loop observer's)")
+        if self.rr_tracking and not self.rs_adaptation:
+            raise ParameterError("rr_tracking", True,
+                                 "needs rs_adaptation (the temperature comes from R_s_hat)")
         if not isinstance(self.field_weakening, bool):
             raise ParameterError("field_weakening", self.field_weakening, "must be a bool")
         require_number("fw_voltage_ratio", self.fw_voltage_ratio, 0, upper=1)
