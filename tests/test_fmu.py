@@ -265,7 +265,7 @@ def test_model_description_matches_the_contract(fmus, name):
                                     if name == "BacksteppingController" else {"max_substeps"})
     assert {v.name for v in md.modelVariables if v.type == "Integer"} == integers
     booleans = {"use_stator_flux", "voltage_limited", "current_limited", "singular_limited",
-                "field_weakening"}
+                "field_weakening", "rs_adaptation", "rr_tracking"}
     assert {v.name for v in md.modelVariables if v.type == "Boolean"} == (
         booleans if name == "BacksteppingController" else {"thermal"})
     cs = md.coSimulation

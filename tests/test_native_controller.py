@@ -1,6 +1,6 @@
 """The controller unit in C (fmu/native/core/sm_controller.c, sm_drive.c, sm_delay.c, ...) against
 satmotor.interface.ControllerUnit: a plain-Python closed loop (PlantUnit + ControllerUnit) runs a
-scenario; the C controller receives the same inputs at every sample and must give the same 19
+scenario; the C controller receives the same inputs at every sample and must give the same
 outputs.  Every mode and option of the drive: the Python is the specification."""
 
 import ctypes
