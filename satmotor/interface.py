@@ -293,7 +293,14 @@ CONTROLLER_OUTPUTS = (
        "(flux below phi_min or det Lambda floored)", "Boolean"),
     _v("omega_m_hat", "output", 0.0, "rad/s", "mechanical speed the drive uses: the observer's estimate "
        "(speed_source = estimated) or the omega_m input (measured)"),
+    # issue 33 (last: the earlier variables keep their value references)
+    _v("R_s_hat", "output", 0.0, "Ohm", "stator resistance of the law's model after the sample: the "
+       "observer's estimate (rs_adaptation) or the parameter R_s"),
+    _v("R_r_hat", "output", 0.0, "Ohm", "rotor resistance of the law's model after the sample: from the "
+       "temperature R_s_hat implies (rr_tracking) or the parameter R_r"),
 )
+# the outputs after DriveOutput's fields: properties of the drive (C: members of sm_drive_output)
+DRIVE_PROPERTY_OUTPUTS = ("omega_m_hat", "R_s_hat", "R_r_hat")
 CONTROLLER_PARAMETERS = _in_struct("controller", (
     _v("c1", "parameter", _G.c1, "1/s", "flux error gain", fills=("gains",)),
     _v("c2", "parameter", _G.c2, "1/s", "flux virtual-control gain", fills=("gains",)),
@@ -385,6 +392,14 @@ CONTROLLER_PARAMETERS = _in_struct("controller", (
     _v("loss_R_fe", "parameter", _D.loss_R_fe, "Ohm", "loss_minimizing: core-loss resistance of the loss "
        "model, across the stator emf (the plant's R_fe placement), >= 0; 0: copper loss only",
        fills=("drive_config",)),
+    # issue 33 (last: the earlier variables keep their value references)
+    _v("rs_adaptation", "parameter", _D.rs_adaptation, "", "stator-resistance adaptation in the closed-loop "
+       "observer (the law uses the estimate, output R_s_hat); held before the law runs, while a limit is "
+       "active and at low excitation; needs flux_source = observer, observer = closed_loop; false: R_s as "
+       "given", "Boolean", fills=("drive_config",)),
+    _v("rr_tracking", "parameter", _D.rr_tracking, "", "rotor-resistance (temperature) tracking: R_r from "
+       "the temperature R_s_hat implies, rotor at the stator's temperature, in the observer and the law "
+       "(output R_r_hat); needs rs_adaptation; false: R_r as given", "Boolean", fills=("drive_config",)),
 ))
 
 
@@ -409,14 +424,16 @@ FILLED = _filled()  # setting -> the names of the parameters that fill its field
 
 def _sample_outputs():
     """The getter of a sample's outputs in the order of CONTROLLER_OUTPUTS from the drive's output: each
-    output the field of its name of :class:`DriveOutput` but the last, ``omega_m_hat``, the drive's
+    output the field of its name of :class:`DriveOutput` but the last, ``DRIVE_PROPERTY_OUTPUTS``, the drive's
     property (C: each the member of its name of ``sm_drive_output``, copied by the generated
     ``sm_controller_outputs_of``)."""
     names = tuple(v.name for v in CONTROLLER_OUTPUTS)
-    if names[-1] != "omega_m_hat" or not set(names[:-1]) <= set(DriveOutput._fields):
+    n = len(DRIVE_PROPERTY_OUTPUTS)
+    if names[-n:] != DRIVE_PROPERTY_OUTPUTS or not set(names[:-n]) <= set(DriveOutput._fields):
         raise ValueError(f"CONTROLLER_OUTPUTS {names}: each must be a field of DriveOutput "
-                         f"({', '.join(DriveOutput._fields)}) but the last, omega_m_hat")
-    return operator.itemgetter(*(DriveOutput._fields.index(n) for n in names[:-1]))  # by position: fastest
+                         f"({', '.join(DriveOutput._fields)}) but the last: "
+                         f"{', '.join(DRIVE_PROPERTY_OUTPUTS)}")
+    return operator.itemgetter(*(DriveOutput._fields.index(n) for n in names[:-n]))  # by position: fastest
 
 
 _SAMPLE_OUTPUTS = _sample_outputs()
@@ -786,7 +803,8 @@ class ControllerUnit:
         if self._comp > 0.0:  # dead-time compensation from the measured currents (0: off, as before)
             va, vb = compensate(d.v_s_alpha, d.v_s_beta, inputs[MEAS_I_S_A], inputs[MEAS_I_S_B], self._comp)
             d = d._replace(v_s_alpha=va, v_s_beta=vb)
-        self._out = _SAMPLE_OUTPUTS(d) + (self.drive.omega_m_hat,)  # in the order of CONTROLLER_OUTPUTS
+        # in the order of CONTROLLER_OUTPUTS (DRIVE_PROPERTY_OUTPUTS last)
+        self._out = _SAMPLE_OUTPUTS(d) + (self.drive.omega_m_hat,) + self.drive.resistances
 
     def outputs(self):
         """Output values in the order of :attr:`OUTPUTS` (zeros before the first sample)."""

@@ -19,7 +19,8 @@ RECORDED = ("t", "v_s_alpha", "v_s_beta", "v_sd", "v_sq", "T_load", "omega_ref",
             "omega_ref_shaped", "psi_ref_shaped", "i_s_alpha", "i_s_beta", "psi_s_alpha", "psi_s_beta",
             "psi_r_alpha", "psi_r_beta", "omega_m", "theta_m", "T_e", "i_mu", "psi_r_mag",
             "e1", "e2", "z1", "z2", "V", "W", "T_load_est", "phase", "voltage_limited",
-            "singular_limited", "current_limited", "psi_r_hat_alpha", "psi_r_hat_beta", "omega_m_hat")
+            "singular_limited", "current_limited", "psi_r_hat_alpha", "psi_r_hat_beta", "omega_m_hat",
+            "R_s_hat", "R_r_hat")
 
 
 def _as_profile(v):
@@ -77,7 +78,7 @@ def closed_loop(plant_params, drive, t_end, omega_ref, psi_ref, T_load=0.0, n_su
                    o.i_s_alpha, o.i_s_beta, psa, psb, pra, prb, w, x[THETA_M], o.T_e, o.i_mu,
                    (pra * pra + prb * prb) ** 0.5, d.e1, d.e2, d.z1, d.z2, d.V, d.W,
                    d.T_load_est, d.phase, d.voltage_limited, d.singular_limited, d.current_limited,
-                   d.psi_r_hat_alpha, d.psi_r_hat_beta, drive.omega_m_hat)
+                   d.psi_r_hat_alpha, d.psi_r_hat_beta, drive.omega_m_hat, *drive.resistances)
             for key, v in zip(RECORDED, row):
                 rec[key][r] = v
             r += 1

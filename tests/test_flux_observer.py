@@ -19,11 +19,13 @@ from native_core import build, declare
 from satmotor.control.flux_observer import N_STATE, ClosedLoopObserver
 from satmotor.control.observer import RotorFluxObserver
 from satmotor.errors import ParameterError
+from satmotor.machine.library import preset
 from satmotor.machine.magnetics import LinearCurve
 from satmotor.machine.params import MotorParams
 from satmotor.machine.plant import OMEGA_M, PSI_R_A, PSI_R_B, Plant, initial_state
 
 P = MotorParams()
+GAMMA = preset("qu2012_2kw2").params()  # the Gamma form: l_s = 0, k = 1, the polynomial curve
 TS = 1e-4
 
 
@@ -56,9 +58,10 @@ def observe(obs, rows, w_input=None):
     return est
 
 
+@pytest.mark.parametrize("l_s", [5.839e-3, 0.0], ids=["T form", "Gamma form"])
 @pytest.mark.parametrize("omega", [0.0, 10.0, 50.0, 100.0])
-def test_error_decays_at_the_rotor_rate_without_turning_on_a_linear_curve(omega):
-    p = MotorParams(curve=LinearCurve(0.2772))
+def test_error_decays_at_the_rotor_rate_without_turning_on_a_linear_curve(omega, l_s):
+    p = MotorParams(l_s=l_s, curve=LinearCurve(0.2772))
     rows = plant_run(p, omega, 0.06)
     obs = ClosedLoopObserver(p, TS)
     obs.reset(rows[0][4] + 0.2, rows[0][5] - 0.1)  # a wrong start: error (-0.2, +0.1) Wb
@@ -95,10 +98,11 @@ def test_a_wrong_rotor_resistance_leaves_far_less_flux_error_than_the_current_mo
     assert errs["closed"] < {10.0: 0.02, 50.0: 5e-3, 100.0: 2e-3}[omega]  # [Wb] of about 0.9
 
 
+@pytest.mark.parametrize("p", [P, GAMMA], ids=["default (T form)", "qu2012_2kw2 (Gamma form, l_s = 0)"])
 @pytest.mark.parametrize("omega", [-60.0, 20.0, 100.0])
-def test_the_speed_estimate_converges_to_the_plants_speed_without_reading_it(omega):
-    rows = plant_run(P, omega, 0.4)
-    obs = ClosedLoopObserver(P, TS, estimate_speed=True)
+def test_the_speed_estimate_converges_to_the_plants_speed_without_reading_it(omega, p):
+    rows = plant_run(p, omega, 0.4)
+    obs = ClosedLoopObserver(p, TS, estimate_speed=True)
     obs.reset(rows[0][4], rows[0][5], 0.0)
     est = observe(obs, rows, w_input=math.nan)  # the speed argument is not read
     w_hat = np.array([q[2] for q in est[-1000:]])
@@ -133,22 +137,32 @@ def lib():
     return declare(ctypes.CDLL(str(build())))  # the signatures read from the headers
 
 
+def _c_curve(lib, c, msg):
+    buf = ctypes.create_string_buffer(lib.sm_curve_size())
+    defaults = (("L_m0", 0.2772), ("L_m_inf", 0.01), ("I_par", 3.31), ("poly_b", 2.46))
+    args = [getattr(c, n, d) for n, d in defaults]
+    assert lib.sm_curve_init(buf, c.name.encode(), *args, int(getattr(c, "poly_n", 7)), b"", msg, 256) == 0
+    return buf
+
+
+@pytest.mark.parametrize("tracking", [False, True], ids=["as given", "R_s adapted, R_r tracked"])
+@pytest.mark.parametrize("p", [P, GAMMA], ids=["default (T form)", "qu2012_2kw2 (Gamma form, l_s = 0)"])
 @pytest.mark.parametrize("estimate_speed", [False, True])
-def test_c_observer_is_the_python_one_bit_for_bit(lib, estimate_speed):
-    p = MotorParams()
-    curve = ctypes.create_string_buffer(lib.sm_curve_size())
+def test_c_observer_is_the_python_one_bit_for_bit(lib, estimate_speed, p, tracking):
     msg = ctypes.create_string_buffer(256)
-    c = p.curve
-    assert lib.sm_curve_init(curve, b"arctan", c.L_m0, c.L_m_inf, c.I_par, 2.46, 7, b"", msg, 256) == 0
+    curve = _c_curve(lib, p.curve, msg)
     obs = ctypes.create_string_buffer(lib.sm_cl_observer_size())
     assert lib.sm_cl_observer_init(obs, p.R_s, p.R_r, p.l_s, p.l_r, p.k, p.n_p, TS, int(estimate_speed),
                                    200.0, msg, 256) == 0, msg.value
+    assert lib.sm_cl_observer_set_tracking(obs, int(tracking), int(tracking), msg, 256) == 0
     assert lib.sm_cl_observer_reset(obs, 0.5, -0.2, 3.0, msg, 256) == 0
-    py = ClosedLoopObserver(p, TS, estimate_speed)
+    py = ClosedLoopObserver(p, TS, estimate_speed, 200.0, tracking, tracking)
     py.reset(0.5, -0.2, 3.0)
     rng = np.random.default_rng(5)
     pa, pb, w = D(), D(), D()
-    for j, r in enumerate(plant_run(p, 70.0, 0.1, settle=0.05)):
+    state = (D * N_STATE)()
+    hot = replace(p, R_s=1.3 * p.R_s, R_r=1.3 * p.R_r) if tracking else p  # a warm plant
+    for j, r in enumerate(plant_run(hot, 70.0, 0.1, settle=0.05)):
         isa, isb = r[0] + rng.normal(0, 0.3), r[1] + rng.normal(0, 0.3)
         want = py.update(isa, isb, r[6] + rng.normal(0, 1.0))
         assert lib.sm_cl_observer_update(obs, curve, isa, isb, r[6] + 0.0 if estimate_speed else want[2],
@@ -156,6 +170,15 @@ def test_c_observer_is_the_python_one_bit_for_bit(lib, estimate_speed):
         assert (pa.value, pb.value, w.value) == want, j
         py.applied(r[2], r[3])
         lib.sm_cl_observer_applied(obs, r[2], r[3])
+        if tracking:
+            py.adapt_resistance()
+            lib.sm_cl_observer_adapt_resistance(obs)
+        lib.sm_cl_observer_get_state(obs, state)
+        assert tuple(state) == py.get_state(), j
+    if tracking:  # the adaptation ran (and, with the speed measured, toward the plant's)
+        rs, rr = py.resistances
+        assert rs != p.R_s and rr == p.R_r * (1.0 + 4.03e-3 / 3.93e-3 * (rs / p.R_s - 1.0))
+        assert estimate_speed or (rs > 1.05 * p.R_s and rr > 1.05 * p.R_r)
 
 
 def test_c_observer_refuses_bad_arguments_by_name(lib):
@@ -165,3 +188,8 @@ def test_c_observer_refuses_bad_arguments_by_name(lib):
     assert msg.value.decode().startswith("alpha_w = ")
     assert lib.sm_cl_observer_init(obs, math.nan, 1.4, 6e-3, 6e-3, 1.0, 2, TS, 1, 200.0, msg, 256) != 0
     assert msg.value.decode().startswith("R_s = ")
+    assert lib.sm_cl_observer_init(obs, 1.4, 1.4, -1e-9, 6e-3, 1.0, 2, TS, 1, 200.0, msg, 256) != 0
+    assert msg.value.decode() == "l_s = -1e-09: must be a finite number >= 0"
+    assert lib.sm_cl_observer_init(obs, 1.4, 1.4, 0.0, 0.0, 1.0, 2, TS, 1, 200.0, msg, 256) != 0
+    assert msg.value.decode().startswith("l_r = ")
+    assert lib.sm_cl_observer_init(obs, 1.4, 1.4, 0.0, 6e-3, 1.0, 2, TS, 1, 200.0, msg, 256) == 0  # Gamma

@@ -64,7 +64,7 @@ CTRL_IN = ("i_s_alpha", "i_s_beta", "psi_r_alpha", "psi_r_beta", "psi_s_alpha", 
            "omega_ref", "psi_ref", "T_load", "v_dc")
 CTRL_OUT = ("v_s_alpha", "v_s_beta", "v_sd", "v_sq", "e1", "e2", "z1", "z2", "W", "T_load_est",
             "psi_r_hat_alpha", "psi_r_hat_beta", "omega_ref_shaped", "psi_ref_shaped", "phase",
-            "voltage_limited", "current_limited", "singular_limited", "omega_m_hat")
+            "voltage_limited", "current_limited", "singular_limited", "omega_m_hat", "R_s_hat", "R_r_hat")
 PREMAG_PARAMS = ("premag_fraction", "premag_min_fraction", "premag_speed_tol", "premag_time_max",
                  "premag_boost", "premag_gain")
 CONTRACT = {
@@ -77,7 +77,7 @@ CONTRACT = {
         "I_max", "use_stator_flux", "c0", "d0", "flux_source", "delay_samples", "observer",
         "speed_source", "field_weakening", "fw_voltage_ratio") + PREMAG_PARAMS + MOTOR
         + ("current_limit_gain", "host_delay_samples", "deadtime_comp_voltage", "max_samples", "flux_mode",
-           "flux_floor", "flux_rate_max", "loss_R_fe")},
+           "flux_floor", "flux_rate_max", "loss_R_fe", "rs_adaptation", "rr_tracking")},
 }
 UNITS = {"V": "v_s_alpha v_s_beta v_sd v_sq V_dc v_warn v_dc V_grid V_chop_on V_chop_off V_dc_max "
               "v_avg_alpha v_avg_beta v_on deadtime_comp_voltage",
@@ -90,7 +90,7 @@ UNITS = {"V": "v_s_alpha v_s_beta v_sd v_sq V_dc v_warn v_dc V_grid V_chop_on V_
                   "omega_warn",
          "rad": "theta_m",
          "rad/s2": "z2 theta_max",
-         "N m": "T_load T_e T_load_est", "Ohm": "R_s R_r premag_gain R_src R_chop",
+         "N m": "T_load T_e T_load_est", "Ohm": "R_s R_r premag_gain R_src R_chop R_s_hat R_r_hat",
          "H": "l_s l_r L_m0 L_m_inf",
          "1": "k W delay_samples max_samples fw_voltage_ratio premag_fraction premag_min_fraction "
               "premag_boost host_delay_samples dc_fault",
@@ -115,8 +115,9 @@ def _defaults():
         "use_stator_flux": c.use_stator_flux, "flux_source": d.flux_source, "delay_samples": d.delay_samples,
         "observer": d.observer, "speed_source": d.speed_source,
         "field_weakening": d.field_weakening} | {
-        n: getattr(d, n) for n in ("fw_voltage_ratio", "current_limit_gain", "host_delay_samples")
-        + PREMAG_PARAMS} | {"deadtime_comp_voltage": 0.0}
+        n: getattr(d, n) for n in ("fw_voltage_ratio", "current_limit_gain", "host_delay_samples",
+                                   "rs_adaptation", "rr_tracking") + PREMAG_PARAMS} | {
+        "deadtime_comp_voltage": 0.0}
     # bounded work per doStep: 10^5 samples (10 s at the default Ts), as the plant's max_substeps
     ctrl |= {"max_samples": 100000}
     # the nominal flux set-point (today's); the loss minimizer's floor 0.25 Wb, rate 5 V s/s, copper only
@@ -266,7 +267,7 @@ def test_model_description_matches_the_contract(fmus, name):
                                     if name == "BacksteppingController" else {"max_substeps"})
     assert {v.name for v in md.modelVariables if v.type == "Integer"} == integers
     booleans = {"use_stator_flux", "voltage_limited", "current_limited", "singular_limited",
-                "field_weakening"}
+                "field_weakening", "rs_adaptation", "rr_tracking"}
     assert {v.name for v in md.modelVariables if v.type == "Boolean"} == (
         booleans if name == "BacksteppingController" else {"thermal"})
     cs = md.coSimulation

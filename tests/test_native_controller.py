@@ -1,6 +1,6 @@
 """The controller unit in C (fmu/native/core/sm_controller.c, sm_drive.c, sm_delay.c, ...) against
 satmotor.interface.ControllerUnit: a plain-Python closed loop (PlantUnit + ControllerUnit) runs a
-scenario; the C controller receives the same inputs at every sample and must give the same 19
+scenario; the C controller receives the same inputs at every sample and must give the same
 outputs.  Every mode and option of the drive: the Python is the specification."""
 
 import ctypes
@@ -11,6 +11,7 @@ import pytest
 from native_core import ControllerParams, MotorParams, build, declare, params
 
 from satmotor.interface import CONTROLLER_OUTPUTS, ControllerUnit, PlantUnit
+from satmotor.machine.library import preset
 
 
 @pytest.fixture(scope="module", params=["plain", "sanitized"])
@@ -61,6 +62,7 @@ def _load(t):
     return 20.0 if t >= 0.35 else 0.0
 
 
+QU = {**preset("qu2012_2kw2").values, **preset("qu2012_2kw2").controller}  # the Gamma form: l_s = 0
 EXP = {"curve": "exponential", "k": 0.9, "l_r": 5.839e-3 * 0.81, "R_r": 1.395 * 0.81}
 CASES = {
     "saturated known": ({}, {}),
@@ -76,6 +78,16 @@ CASES = {
     "sensorless": ({"flux_source": "observer", "speed_source": "estimated"}, {}),
     "sensorless, delay, estimated load": ({"flux_source": "observer", "speed_source": "estimated",
                                            "delay_samples": 1, "load_mode": "estimated"}, {}),
+    "sensorless, Gamma form (qu2012_2kw2, l_s = 0)": (
+        {**QU, "flux_source": "observer", "speed_source": "estimated"}, QU),
+    "closed-loop observer, Gamma form, delay": ({**QU, "flux_source": "observer", "delay_samples": 1}, QU),
+    "R_s adaptation, R_r tracking, warm plant": ({"flux_source": "observer", "rs_adaptation": True,
+                                                  "rr_tracking": True}, {"R_s": 1.8467, "R_r": 1.8448}),
+    "R_s adaptation, delay, estimated load": ({"flux_source": "observer", "rs_adaptation": True,
+                                               "delay_samples": 1, "load_mode": "estimated"}, {"R_s": 1.7}),
+    "sensorless, R_s adaptation, R_r tracking, Gamma form": (
+        {**QU, "flux_source": "observer", "speed_source": "estimated", "rs_adaptation": True,
+         "rr_tracking": True}, {**QU, "R_s": 4.2, "R_r": 2.9}),
     "stator flux (H1)": ({"use_stator_flux": True}, {}),
     "current limit binding": ({"I_max": 12.0, "ref_bandwidth": 400.0}, {}),
     "exponential curve, k = 0.9": (EXP, EXP),
@@ -143,6 +155,8 @@ BAD = [({"mode": "fuzzy"}, "mode"), ({"flux_source": "estimated"}, "flux_source"
        ({"premag_speed_tol": 0.0}, "premag_speed_tol"), ({"premag_time_max": -1.0}, "premag_time_max"),
        ({"premag_boost": 0.5}, "premag_boost"), ({"premag_gain": math.inf}, "premag_gain"),
        ({"host_delay_samples": 4}, "host_delay_samples"), ({"host_delay_samples": -1}, "host_delay_samples"),
+       ({"rs_adaptation": True}, "rs_adaptation"),
+       ({"flux_source": "observer", "rr_tracking": True}, "rr_tracking"),
        ({"current_limit_gain": -1.0}, "current_limit_gain"), ({"current_limit_gain": math.nan},
                                                                "current_limit_gain"),
        ({"flux_mode": "minimal"}, "flux_mode"), ({"flux_floor": 0.0}, "flux_floor"),

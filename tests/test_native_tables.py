@@ -64,30 +64,29 @@ def test_the_c_defaults_of_the_settings_structs_are_the_python_dataclass_default
                            ("sm_ifoc_gains_default", _IFOCGains, IFOCGains())):
         c = struct()
         getattr(lib, fn)(ctypes.byref(c))
-        want = dataclasses.asdict(py)
-        want.pop("true_i_mu", None)
-        if "load_mode" in want:
-            want["load_estimated"] = int(want.pop("load_mode") == "estimated")
-        if "flux_source" in want:
-            want["closed_loop"] = int(want.pop("observer") == "closed_loop")
-            want["observer"] = int(want.pop("flux_source") == "observer")
-            want["speed_estimated"] = int(want.pop("speed_source") == "estimated")
         got = {n: getattr(c, n) for n, _ in struct._fields_}
-        assert got == {k: (int(v) if isinstance(v, bool) else v) for k, v in want.items()}, fn
+        assert got == _coded(dataclasses.asdict(py)), fn
+
+
+def _coded(fields):
+    """A settings dataclass's fields as the C struct's members: the strings coded as DATACLASS_STRUCTS
+    says (written out here), booleans as 0/1."""
+    fields.pop("true_i_mu", None)
+    if "load_mode" in fields:
+        fields["load_estimated"] = int(fields.pop("load_mode") == "estimated")
+    if "flux_source" in fields:
+        fields["closed_loop"] = int(fields.pop("observer") == "closed_loop")
+        fields["observer"] = int(fields.pop("flux_source") == "observer")
+        fields["speed_estimated"] = int(fields.pop("speed_source") == "estimated")
+    if "flux_mode" in fields:
+        fields["loss_minimizing"] = int(fields.pop("flux_mode") == "loss_minimizing")
+    return {k: (int(v) if isinstance(v, bool) else v) for k, v in fields.items()}
 
 
 def _python_setting(setting, values):
     """The Python dataclass of ``setting`` as ControllerUnit fills it from the flat ``values``, as the C
     struct's members (coded as DATACLASS_STRUCTS says: written out here)."""
-    got = dataclasses.asdict(itf.SETTINGS[setting](**{n: values[n] for n in itf.FILLED[setting]}))
-    got.pop("true_i_mu", None)
-    if "load_mode" in got:
-        got["load_estimated"] = int(got.pop("load_mode") == "estimated")
-    if "flux_source" in got:
-        got["closed_loop"] = int(got.pop("observer") == "closed_loop")
-        got["observer"] = int(got.pop("flux_source") == "observer")
-        got["speed_estimated"] = int(got.pop("speed_source") == "estimated")
-    return {k: (int(v) if isinstance(v, bool) else v) for k, v in got.items()}
+    return _coded(dataclasses.asdict(itf.SETTINGS[setting](**{n: values[n] for n in itf.FILLED[setting]})))
 
 
 @pytest.mark.parametrize("seed", range(4))
@@ -238,7 +237,7 @@ SM_ERR_PARAM, SM_ERR_ARG = 1, 4  # sm_common.h
 def test_every_string_parameter_but_the_file_name_has_choices_and_its_description_names_them():
     assert {n for n, v in STRING_PARAMETERS.items() if not v.choices} == {"table_file"}  # any path
     assert set(CHOICES) == {"curve", "dc_link", "dc_source", "inverter", "mode", "load_mode", "flux_source",
-                            "observer", "speed_source"}
+                            "observer", "speed_source", "flux_mode"}
     for name, choices in CHOICES.items():
         words = set(re.findall(r"[A-Za-z_]+", STRING_PARAMETERS[name].description))
         assert set(choices) <= words, (name, choices)

@@ -102,7 +102,7 @@ def test_installed_package_runs_build_validate_run_and_batch_outside_a_checkout(
     assert (work / "res_batch" / "summary.csv").exists()
     # check finds the reference results in the installed package (no --reference, no checkout)
     r = cli("check", "build/fmus/BacksteppingController.fmu")
-    assert re.search(r"^PASS .* reference: 19 outputs over \d+ rows", r.stdout, re.M), r.stdout + r.stderr
+    assert re.search(r"^PASS .* reference: 21 outputs over \d+ rows", r.stdout, re.M), r.stdout + r.stderr
 
 
 def test_a_change_to_any_build_input_makes_the_fmus_stale(fmu_dir, tmp_path, monkeypatch):

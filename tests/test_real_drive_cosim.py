@@ -105,7 +105,11 @@ def test_the_closed_loop_observer_does_not_inherit_a_hot_rotors_resistance(fmu_d
 
 
 @pytest.mark.parametrize("name, speed, flux", [("sensorless_start", 5e-3, 3e-2),
-                                               ("sensorless_low_speed", 2e-2, 5e-2)])
+                                               ("sensorless_low_speed", 2e-2, 5e-2),
+                                               # the Gamma form (l_s = 0) held as the default motor
+                                               ("qu2012_sensorless_start", 5e-3, 3e-2),
+                                               ("qu2012_sensorless_low_speed", 2e-2, 5e-2),
+                                               ("qu2012_sensorless_reversal", 1e-2, 3e-2)])
 def test_sensorless_targets_through_the_fmus(fmu_dir, name, speed, flux):
     sc, df, m = _cosim(fmu_dir, name)
     t = df["time"].to_numpy()
@@ -118,3 +122,30 @@ def test_sensorless_targets_through_the_fmus(fmu_dir, name, speed, flux):
     # the speed the drive used is its estimate, and it follows the plant's
     w_hat = df["controller.omega_m_hat"].to_numpy()[win]
     assert np.max(np.abs(w_hat - w)) < 0.01 * max(abs(np.mean(w)), 1.0)
+
+
+def test_resistance_tracking_removes_a_warm_motors_speed_error_through_the_fmus(fmu_dir):
+    # warm_motor without integral action (the paper's law) leaves the speed 3.6 % low; the closed-loop
+    # observer with rs_adaptation and rr_tracking: within 0.5 % (the target), the estimates near
+    # the plant's warm resistances (R_s(T), R_r(T) of the thermal model, written out here)
+    _, _, before = _cosim(fmu_dir, "warm_motor", c0=0.0, d0=0.0)
+    assert before["ss_speed"] > 0.03
+    sc, df, m = _cosim(fmu_dir, "warm_motor_tracking")
+    assert m["ss_speed"] <= 5e-3 and m["ss_flux"] <= 5e-3
+    t = df["time"].to_numpy()
+    win = (t >= 1.3) & (t <= 1.5)
+    rs_true = 1.405 * (1.0 + 3.93e-3 * (373.1 - 293.15))  # the plant at about 373.1 K in the window
+    rr_true = 1.395 * (1.0 + 4.03e-3 * (373.1 - 293.15))
+    assert abs(df["controller.R_s_hat"].to_numpy()[win].mean() / rs_true - 1.0) < 0.06  # core loss biases it
+    assert abs(df["controller.R_r_hat"].to_numpy()[win].mean() / rr_true - 1.0) < 0.06
+
+
+def test_stator_resistance_adaptation_sensorless_through_the_fmus(fmu_dir):
+    sc, df, m = _cosim(fmu_dir, "sensorless_rs_tracking")
+    assert m["ss_speed"] <= 1e-3 and m["ss_flux"] <= 2e-3
+    t = df["time"].to_numpy()
+    win = (t >= 1.8) & (t <= 2.0)
+    assert abs(df["controller.R_s_hat"].to_numpy()[win].mean() / sc.plant["R_s"] - 1.0) < 0.01
+    assert np.all(df["controller.R_r_hat"].to_numpy() == 1.395)  # rr_tracking off: R_r as given
+    _, _, before = _cosim(fmu_dir, "sensorless_rs_tracking", rs_adaptation=False)
+    assert before["ss_speed"] > 2e-3 and before["ss_flux"] > 5e-3

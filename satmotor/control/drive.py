@@ -93,7 +93,8 @@ class _Drive:
         if drive_cfg.flux_source == "observer":
             if drive_cfg.observer == "closed_loop":
                 sensorless = drive_cfg.speed_source == "estimated"
-                self._cl = ClosedLoopObserver(params, Ts, sensorless, drive_cfg.speed_bandwidth)
+                self._cl = ClosedLoopObserver(params, Ts, sensorless, drive_cfg.speed_bandwidth,
+                                              drive_cfg.rs_adaptation, drive_cfg.rr_tracking)
                 self._observer = self._cl
             else:
                 self._observer = RotorFluxObserver(params, Ts)
@@ -110,6 +111,7 @@ class _Drive:
                 params, self._V_max, drive_cfg.fw_voltage_ratio, drive_cfg.ref_bandwidth)
         self._i_lim = drive_cfg.I_max  # [A] the law's current bound this sample (lower beyond breakdown)
         self._limiter = CurrentLimiter(drive_cfg.I_max, drive_cfg.current_limit_gain, Ts)
+        self._p_hat = params  # the law's model with the tracked resistances (_law_params)
         self.warnings = self._limiter.warnings  # messages for the host's log (the FMU glue takes them)
         self.reset()
 
@@ -162,10 +164,27 @@ class _Drive:
     def step(self, meas, omega_ref, psi_ref, T_load):
         """One sample (see :meth:`_step`); the closed-loop observer learns the voltage applied next."""
         out = self._step(meas, omega_ref, psi_ref, T_load)
+        if self.dcfg.rs_adaptation and not (out.phase != RUN or out.voltage_limited or out.current_limited):
+            self._cl.adapt_resistance()  # held while a limit is active or before the law runs
         if self._cl is not None:  # the voltage over the coming sample: with a delay, the queue's first
             v = (out.v_s_alpha, out.v_s_beta) if self._delay is None else self._delay.applied_now
             self._cl.applied(*v)
         return out
+
+    @property
+    def resistances(self):
+        """(R_s_hat, R_r_hat) [Ohm]: the closed-loop observer's estimates after the last sample, the model's
+        R_s, R_r where not adapted (C: ``sm_drive_output.R_s_hat``, ``R_r_hat``)."""
+        return (self.params.R_s, self.params.R_r) if self._cl is None else self._cl.resistances
+
+    def _law_params(self):
+        """The model the law uses: the given one, or with the tracked R_s, R_r (rs_adaptation)."""
+        if not self.dcfg.rs_adaptation:
+            return self.params
+        rs, rr = self._cl.resistances
+        if self._p_hat.R_s != rs or self._p_hat.R_r != rr:
+            self._p_hat = dataclasses.replace(self.params, R_s=rs, R_r=rr)
+        return self._p_hat
 
     @property
     def omega_m_hat(self):
@@ -329,7 +348,7 @@ class BacksteppingDrive(_Drive):
         return self._theta_hat * self.params.J if self.cfg.load_mode == "estimated" else T_load
 
     def _run(self, meas, psi_ref_shaped, omega_ref_shaped, T_load):
-        cfg, p = self.cfg, self.params
+        cfg, p = self.cfg, self._law_params()
         o = control(meas, psi_ref_shaped + omega_ref_shaped, (T_load, 0.0), p, self.gains, cfg,
                     self._theta_hat, (self._e0, self._z0), self._i_lim)
         if cfg.load_mode == "estimated":

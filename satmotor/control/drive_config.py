@@ -46,6 +46,9 @@ class DriveConfig:
     flux of the least modelled copper and core loss at the present torque and speed, at most the nominal
     or field-weakening set-point, at least flux_floor [Wb], moving at most flux_rate_max [Wb/s = V s/s];
     loss_R_fe [Ohm] the core-loss resistance of its loss model, 0: copper loss only).
+    rs_adaptation: the closed-loop observer adapts R_s, and the law uses the estimate; rr_tracking: R_r
+    from the temperature R_s_hat implies, in the observer and the law (needs rs_adaptation); both need
+    flux_source 'observer', observer 'closed_loop' (:mod:`satmotor.control.resistance`).
     """
 
     ref_bandwidth: float = 40.0
@@ -69,6 +72,8 @@ class DriveConfig:
     flux_floor: float = 0.25
     flux_rate_max: float = 5.0
     loss_R_fe: float = 0.0
+    rs_adaptation: bool = False
+    rr_tracking: bool = False
 
     def __post_init__(self):
         require_number("ref_bandwidth", self.ref_bandwidth, 0)
@@ -89,6 +94,15 @@ class DriveConfig:
         if self.speed_source == "estimated" and not closed_loop:
             raise ParameterError("speed_source", self.speed_source, "needs flux_source = observer and "
                                  "observer = closed_loop (the speed estimate is the closed-loop observer's)")
+        for name in ("rs_adaptation", "rr_tracking"):
+            if not isinstance(getattr(self, name), bool):
+                raise ParameterError(name, getattr(self, name), "must be a bool")
+        if self.rs_adaptation and not closed_loop:
+            raise ParameterError("rs_adaptation", True, "needs flux_source = observer and observer = "
+                                 "closed_loop (the estimate is the closed-loop observer's)")
+        if self.rr_tracking and not self.rs_adaptation:
+            raise ParameterError("rr_tracking", True,
+                                 "needs rs_adaptation (the temperature comes from R_s_hat)")
         if not isinstance(self.field_weakening, bool):
             raise ParameterError("field_weakening", self.field_weakening, "must be a bool")
         require_number("fw_voltage_ratio", self.fw_voltage_ratio, 0, upper=1)

@@ -55,6 +55,12 @@ stator frequency (``w_s = 0``: standstill without load, or the slip cancelling t
 regeneration) d carries no speed information; in low-speed regeneration the estimate can drift
 (documented in docs/controller.md).
 
+The Gamma form (``l_s = 0``, e.g. the ``qu2012_2kw2`` preset) is exact here: l_s enters only as a
+product (``psi_s = l_s i_s + psi_m``, ``psi_m = psi_s - l_s i_s``), never as a divisor, so l_s = 0 gives
+``psi_s = psi_m``: the Gamma model's stator flux is its magnetizing flux, ``psi_r = k psi_m + (l_r/k)
+(i_mu - i_s)`` its rotor flux with L_sigma = l_r/k^2 (derivation in docs/controller.md, "The Gamma form
+in the observer").  What the observer needs: R_s > 0, l_s >= 0, l_r > 0, k > 0.
+
 Discretization over [t_{k-1}, t_k] (Ts [s]): i_s linear between its samples (as in the current
 model), v_s the voltage the controller applied over the interval (zero-order hold, exact), the
 speed linear (measured) or held (estimated).  Current model: the RK4 step of
@@ -69,6 +75,7 @@ from __future__ import annotations
 import math
 
 from satmotor.control.observer import RotorFluxObserver
+from satmotor.control.resistance import adapt_stator_resistance, rotor_resistance
 from satmotor.errors import ParameterError, require_number
 
 POLE_FACTOR_MEASURED = 1.0  # [1] b/a with the speed measured: the current model alone at standstill
@@ -91,21 +98,36 @@ class ClosedLoopObserver:
         Ignore the speed input and adapt a speed estimate (sensorless).
     alpha_w : float
         Bandwidth of the speed adaptation [rad/s], > 0.
+    adapt_rs : bool
+        Adapt the stator resistance (:mod:`satmotor.control.resistance`); False: R_s as given.
+    track_rr : bool
+        The rotor resistance from the temperature R_s_hat implies (needs ``adapt_rs``).
+
+    With ``adapt_rs`` the drive calls :meth:`adapt_resistance` after a sample in which no limit held
+    (the freezing conditions of :mod:`satmotor.control.resistance`).
     """
 
     __slots__ = ("params", "Ts", "estimate_speed", "alpha_w", "_cm", "_curve", "_k", "_ls", "_lr", "_Rs",
                  "_Rr", "_np", "_lr_k", "_a_solve", "_k_lr", "_pa", "_pb", "_isa", "_isb", "_w", "_va", "_vb",
-                 "_w_hat", "_has_prev", "_pole")
+                 "_w_hat", "_has_prev", "_pole", "adapt_rs", "track_rr", "_Rs0", "_Rr0", "_res")
 
-    def __init__(self, params, Ts, estimate_speed=False, alpha_w=200.0):
+    def __init__(self, params, Ts, estimate_speed=False, alpha_w=200.0, adapt_rs=False, track_rr=False):
         for name in ("R_s", "R_r", "l_s", "l_r", "k", "n_p", "curve"):
             if not hasattr(params, name):
                 raise ParameterError("params", params, f"has no {name}; a MotorParams is needed")
         self.Ts = require_number("Ts", Ts, 0)
         self.alpha_w = require_number("alpha_w", alpha_w, 0)
+        require_number("R_s", params.R_s, 0)
+        require_number("l_s", params.l_s, 0, inclusive=True)  # 0: the Gamma form, exact
         if not isinstance(estimate_speed, bool):
             raise ParameterError("estimate_speed", estimate_speed, "must be a Boolean")
         self.estimate_speed = estimate_speed
+        for name, v in (("adapt_rs", adapt_rs), ("track_rr", track_rr)):
+            if not isinstance(v, bool):
+                raise ParameterError(name, v, "must be a Boolean")
+        if track_rr and not adapt_rs:
+            raise ParameterError("track_rr", track_rr, "needs adapt_rs (the temperature comes from R_s_hat)")
+        self.adapt_rs, self.track_rr = adapt_rs, track_rr
         self._pole = POLE_FACTOR_ESTIMATED if estimate_speed else POLE_FACTOR_MEASURED
         self.params = params
         self._cm = RotorFluxObserver(params, Ts)
@@ -113,8 +135,8 @@ class ClosedLoopObserver:
         self._k = float(params.k)
         self._ls = float(params.l_s)
         self._lr = float(params.l_r)
-        self._Rs = float(params.R_s)
-        self._Rr = float(params.R_r)
+        self._Rs = self._Rs0 = float(params.R_s)
+        self._Rr = self._Rr0 = float(params.R_r)
         self._np = float(params.n_p)
         self._lr_k = params.l_r / params.k
         self._k_lr = params.k / params.l_r
@@ -128,6 +150,32 @@ class ClosedLoopObserver:
         self._w_hat = require_number("omega_m_hat", omega_m_hat)
         self._isa = self._isb = self._w = self._va = self._vb = 0.0
         self._has_prev = False
+        self._res = None  # the last update's residual (not a state: used within its sample)
+        if self.adapt_rs:
+            self._set_resistance(self._Rs0)
+
+    def adapt_resistance(self):
+        """One step of the R_s adaptation (and R_r tracking) from the last update's residual, if it had
+        one (:mod:`satmotor.control.resistance`: held below PSI_ADAPT_MIN of flux, at low excitation)."""
+        r = self._res
+        self._res = None
+        if r is None or r[6] < PSI_ADAPT_MIN * PSI_ADAPT_MIN:
+            return
+        rs = adapt_stator_resistance(self._Rs, self._Rs0, self.Ts, *r, self.estimate_speed)
+        if rs != self._Rs:
+            self._set_resistance(rs)
+
+    def _set_resistance(self, R_s_hat):
+        """R_s_hat [Ohm] and, with track_rr, the R_r_hat it implies, in both models."""
+        self._Rs = R_s_hat
+        if self.track_rr:
+            self._Rr = rotor_resistance(R_s_hat, self._Rs0, self._Rr0)
+            self._cm.set_rotor_resistance(self._Rr)
+
+    @property
+    def resistances(self):
+        """(R_s_hat, R_r_hat) [Ohm]: the estimates (the given values where not adapted)."""
+        return (self._Rs, self._Rr)
 
     @property
     def estimate(self):
@@ -145,9 +193,9 @@ class ClosedLoopObserver:
 
     def get_state(self):
         """Flat tuple ``(psi_a, psi_b, i_sa_prev, i_sb_prev, omega_m_prev, v_sa, v_sb, omega_m_hat,
-        has_prev, 0)`` of floats (the last entry reserved)."""
+        has_prev, R_s_hat)`` of floats (the last entry 0 without adapt_rs)."""
         return (self._pa, self._pb, self._isa, self._isb, self._w, self._va, self._vb, self._w_hat,
-                1.0 if self._has_prev else 0.0, 0.0)
+                1.0 if self._has_prev else 0.0, self._Rs if self.adapt_rs else 0.0)
 
     def set_state(self, state):
         """Restore a tuple from :meth:`get_state`."""
@@ -156,6 +204,8 @@ class ClosedLoopObserver:
         s = tuple(require_number(f"state[{j}]", v) for j, v in enumerate(state))
         self._pa, self._pb, self._isa, self._isb, self._w, self._va, self._vb, self._w_hat = s[:8]
         self._has_prev = s[8] != 0.0
+        if self.adapt_rs:
+            self._set_resistance(s[9])
 
     def _stator_flux(self, pa, pb, isa, isb):
         """psi_s [Wb] and the magnetizing current magnitude I [A], psi_m(I) [Wb] at (psi_r, i_s)."""
@@ -214,6 +264,8 @@ class ClosedLoopObserver:
             eps = (db * pa - da * pb) / (self._np * Ts * n2)
             self._w_hat = w1 + Ts * self.alpha_w * eps
             w1 = self._w_hat
+        if self.adapt_rs:  # this sample's residual, for adapt_resistance
+            self._res = (da, db, pa, pb, 0.5 * (isa0 + isa1), 0.5 * (isb0 + isb1), n2)
         self._isa, self._isb, self._w = isa1, isb1, w1
         return (self._pa, self._pb, self.speed)
 

@@ -108,6 +108,10 @@ class RotorFluxObserver:
         self._pa, self._pb, self._isa, self._isb, self._w = pa, pb, isa, isb, w
         self._has_prev = flag != 0.0
 
+    def set_rotor_resistance(self, R_r):
+        """The model's R_r [Ohm] from now on (the tracked estimate; unchecked, per-sample path)."""
+        self._Rr_lr = R_r / self.params.l_r
+
     def restart(self, psi_r_alpha, psi_r_beta, i_s_alpha, i_s_beta, omega_m):
         """Set the estimate [Wb] and the previous sample (i_s [A], omega_m [rad/s]) unchecked (per-sample
         path of :class:`satmotor.control.flux_observer.ClosedLoopObserver`)."""

@@ -65,6 +65,20 @@ static int check_config(const sm_drive_config *c, char *msg, size_t len)
         return sm_param_error(msg, len, NULL, "speed_source", "'estimated'", "needs flux_source = observer and "
                               "observer = closed_loop (the speed estimate is the closed-loop observer's)");
     }
+    if (c->rs_adaptation != 0 && c->rs_adaptation != 1) {
+        return range_error(msg, len, "rs_adaptation", (double)c->rs_adaptation, "must be a bool");
+    }
+    if (c->rr_tracking != 0 && c->rr_tracking != 1) {
+        return range_error(msg, len, "rr_tracking", (double)c->rr_tracking, "must be a bool");
+    }
+    if (c->rs_adaptation && !(c->observer && c->closed_loop)) {
+        return sm_param_error(msg, len, NULL, "rs_adaptation", "True", "needs flux_source = observer and "
+                              "observer = closed_loop (the estimate is the closed-loop observer's)");
+    }
+    if (c->rr_tracking && !c->rs_adaptation) {
+        return sm_param_error(msg, len, NULL, "rr_tracking", "True",
+                              "needs rs_adaptation (the temperature comes from R_s_hat)");
+    }
     if (c->field_weakening != 0 && c->field_weakening != 1) {
         return range_error(msg, len, "field_weakening", (double)c->field_weakening, "must be a bool");
     }
@@ -149,6 +163,10 @@ int sm_drive_init(sm_drive *d, sm_mode mode, const sm_motor *p, const sm_gains *
     if (dc->observer && dc->closed_loop &&
         (st = sm_cl_observer_init(&d->clo, d->p.R_s, d->p.R_r, d->p.l_s, d->p.l_r, d->p.k, d->p.n_p, d->Ts,
                                   dc->speed_estimated, dc->speed_bandwidth, msg, msg_len))) {
+        return st;
+    }
+    if (dc->observer && dc->closed_loop &&
+        (st = sm_cl_observer_set_tracking(&d->clo, dc->rs_adaptation, dc->rr_tracking, msg, msg_len))) {
         return st;
     }
     if (dc->observer && !dc->closed_loop &&
@@ -347,6 +365,7 @@ static int run(sm_drive *d, const double meas[SM_MEAS_LEN], const double psi_ref
         o->current_limited = dg.current_limited;
     } else {
         double ref[6], load[2], integ[2], t_load;
+        const double R_s = d->p.R_s, R_r = d->p.R_r;
         sm_control_output c;
         int st;
         ref[0] = psi_ref_shaped[0];
@@ -359,7 +378,13 @@ static int run(sm_drive *d, const double meas[SM_MEAS_LEN], const double psi_ref
         load[1] = 0.0;
         integ[0] = d->e0;
         integ[1] = d->z0;
+        if (d->dc.rs_adaptation) { /* _Drive._law_params: the law's model with the tracked resistances */
+            d->p.R_s = d->clo.Rs;
+            d->p.R_r = d->clo.Rr;
+        }
         st = sm_control(meas, ref, load, &d->p, &d->g, &d->cfg, d->theta_hat, integ, d->i_lim, &c);
+        d->p.R_s = R_s; /* the given model again (the rest of the drive keeps it) */
+        d->p.R_r = R_r;
         if (st != SM_CORE_OK && st != SM_ERR_NONFINITE) {
             return st;
         }
@@ -438,7 +463,12 @@ int sm_drive_step(sm_drive *d, const double meas_in[SM_MEAS_LEN], double omega_r
             sm_cl_observer_applied(&d->clo, out->v_s_alpha, out->v_s_beta);
         }
     }
+    if (d->dc.rs_adaptation && !(out->phase != SM_RUN || out->voltage_limited || out->current_limited)) {
+        sm_cl_observer_adapt_resistance(&d->clo); /* held while a limit is active or before the law runs */
+    }
     out->omega_m_hat = w_used;
+    out->R_s_hat = d->dc.observer && d->dc.closed_loop ? d->clo.Rs : d->p.R_s; /* _Drive.resistances */
+    out->R_r_hat = d->dc.observer && d->dc.closed_loop ? d->clo.Rr : d->p.R_r;
     return SM_CORE_OK;
 }
 

@@ -38,6 +38,8 @@ typedef struct {
     double flux_floor;         /* [Wb] loss_minimizing: the lowest set-point, > 0 */
     double flux_rate_max;      /* [V s/s] loss_minimizing: the set-point's largest rate, > 0 */
     double loss_R_fe;          /* [Ohm] loss_minimizing: the loss model's core-loss resistance, >= 0 */
+    int rs_adaptation; /* 0/1: the closed-loop observer adapts R_s, the law uses it (resistance.py) */
+    int rr_tracking;   /* 0/1: R_r from the temperature R_s_hat implies (needs rs_adaptation) */
 } sm_drive_config;
 
 #define SM_HOST_DELAY_MAX 3 /* drive.HOST_DELAY_MAX */
@@ -56,6 +58,7 @@ typedef struct {
     int current_warning; /* 1 at the sample the current limit is found not to be held (Python: the drive's
                           * warnings list gets sm_current_warning's text, with i_s_meas) */
     double i_s_meas;     /* [A] the measured |i_s| of the run phase (0 before the law runs) */
+    double R_s_hat, R_r_hat; /* [Ohm] the law's model after the sample; Python: the drive's property resistances */
 } sm_drive_output;
 
 typedef struct {

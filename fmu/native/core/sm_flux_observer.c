@@ -2,12 +2,69 @@
 #include "sm_flux_observer.h"
 
 #include <math.h>
+#include <stdio.h>
 
 #include "sm_common.h"
 
 static const double PSI_ADAPT_MIN = 0.2;         /* flux_observer.PSI_ADAPT_MIN [Wb] */
 static const double POLE_FACTOR_MEASURED = 1.0;  /* flux_observer.POLE_FACTOR_MEASURED [1] */
 static const double POLE_FACTOR_ESTIMATED = 3.0; /* flux_observer.POLE_FACTOR_ESTIMATED [1] */
+static const double RS_RATE = 20.0;              /* resistance.RS_RATE [1/s] */
+static const double I_ADAPT_MIN = 0.5;           /* resistance.I_ADAPT_MIN [A] */
+static const double RS_MIN = 0.5, RS_MAX = 2.0;  /* resistance.RS_MIN, RS_MAX [1] */
+static const double LOAD_MIN = 0.5;              /* resistance.LOAD_MIN [1] */
+#define ALPHA_RATIO (4.03e-3 / 3.93e-3)          /* resistance.ALPHA_RATIO: thermal ALPHA_ALUMINIUM / ALPHA_COPPER */
+
+/* ClosedLoopObserver._set_resistance */
+static void set_resistance(sm_cl_observer *o, double R_s_hat)
+{
+    o->Rs = R_s_hat;
+    if (o->track_rr) {
+        o->Rr = o->Rr0 * (1.0 + ALPHA_RATIO * (R_s_hat / o->Rs0 - 1.0)); /* resistance.rotor_resistance */
+        o->cm.Rr_lr = o->Rr / o->lr;                                     /* RotorFluxObserver.set_rotor_resistance */
+    }
+}
+
+int sm_cl_observer_set_tracking(sm_cl_observer *o, int adapt_rs, int track_rr, char *msg, size_t msg_len)
+{
+    if (track_rr && !adapt_rs) {
+        if (msg != NULL && msg_len > 0) {
+            snprintf(msg, msg_len, "track_rr = True: needs adapt_rs (the temperature comes from R_s_hat)");
+        }
+        return SM_ERR_PARAM;
+    }
+    o->adapt_rs = adapt_rs ? 1 : 0;
+    o->track_rr = track_rr ? 1 : 0;
+    if (o->adapt_rs) {
+        set_resistance(o, o->Rs0);
+    }
+    return SM_CORE_OK;
+}
+
+void sm_cl_observer_adapt_resistance(sm_cl_observer *o)
+{
+    const double *r = o->res;
+    double q, x;
+    int had = o->has_res;
+    o->has_res = 0;
+    if (!had || r[6] < PSI_ADAPT_MIN * PSI_ADAPT_MIN) {
+        return;
+    }
+    /* resistance.adapt_stator_resistance(Rs, Rs0, Ts, da, db, pa, pb, ia, ib, n2, estimate_speed) */
+    q = r[4] * r[2] + r[5] * r[3];
+    if (q <= 0.0 || q * q < I_ADAPT_MIN * I_ADAPT_MIN * r[6]) {
+        return;
+    }
+    if (o->estimate_speed && fabs(r[5] * r[2] - r[4] * r[3]) < LOAD_MIN * q) { /* loaded_only: no load */
+        return;
+    }
+    x = o->Rs + o->Ts * RS_RATE * ((r[0] * r[2] + r[1] * r[3]) / (o->Ts * q));
+    x = x < RS_MIN * o->Rs0 ? RS_MIN * o->Rs0 : x; /* max(x, lo) */
+    x = x > RS_MAX * o->Rs0 ? RS_MAX * o->Rs0 : x; /* min(x, hi) */
+    if (x != o->Rs) {
+        set_resistance(o, x);
+    }
+}
 
 size_t sm_cl_observer_size(void)
 {
@@ -26,7 +83,7 @@ int sm_cl_observer_init(sm_cl_observer *o, double R_s, double R_r, double l_s, d
     }
     if (sm_require_number("alpha_w", alpha_w, 1, 0.0, 0, msg, msg_len) != SM_CORE_OK ||
         sm_require_number("R_s", R_s, 1, 0.0, 0, msg, msg_len) != SM_CORE_OK ||
-        sm_require_number("l_s", l_s, 1, 0.0, 0, msg, msg_len) != SM_CORE_OK) {
+        sm_require_number("l_s", l_s, 1, 0.0, 1, msg, msg_len) != SM_CORE_OK) { /* l_s = 0: the Gamma form */
         return SM_ERR_PARAM;
     }
     o->Ts = Ts;
@@ -36,8 +93,9 @@ int sm_cl_observer_init(sm_cl_observer *o, double R_s, double R_r, double l_s, d
     o->k = k;
     o->ls = l_s;
     o->lr = l_r;
-    o->Rs = R_s;
-    o->Rr = R_r;
+    o->Rs = o->Rs0 = R_s;
+    o->Rr = o->Rr0 = R_r;
+    o->adapt_rs = o->track_rr = 0;
     o->np = (double)n_p;
     o->lr_k = l_r / k;
     o->k_lr = k / l_r;
@@ -58,6 +116,10 @@ int sm_cl_observer_reset(sm_cl_observer *o, double psi_r_alpha, double psi_r_bet
     o->w_hat = omega_m_hat;
     o->isa = o->isb = o->w = o->va = o->vb = 0.0;
     o->has_prev = 0;
+    o->has_res = 0;
+    if (o->adapt_rs) {
+        set_resistance(o, o->Rs0);
+    }
     return SM_CORE_OK;
 }
 
@@ -78,7 +140,7 @@ void sm_cl_observer_get_state(const sm_cl_observer *o, double *s)
     s[6] = o->vb;
     s[7] = o->w_hat;
     s[8] = o->has_prev ? 1.0 : 0.0;
-    s[9] = 0.0;
+    s[9] = o->adapt_rs ? o->Rs : 0.0;
 }
 
 void sm_cl_observer_set_state(sm_cl_observer *o, const double *s)
@@ -92,6 +154,9 @@ void sm_cl_observer_set_state(sm_cl_observer *o, const double *s)
     o->vb = s[6];
     o->w_hat = s[7];
     o->has_prev = s[8] != 0.0;
+    if (o->adapt_rs) {
+        set_resistance(o, s[9]);
+    }
 }
 
 /* ClosedLoopObserver._stator_flux */
@@ -188,6 +253,16 @@ int sm_cl_observer_update(sm_cl_observer *o, const sm_curve *curve, double i_s_a
         double eps = (db * pa - da * pb) / (o->np * Ts * n2);
         o->w_hat = w1 + Ts * o->alpha_w * eps;
         w1 = o->w_hat;
+    }
+    if (o->adapt_rs) { /* this sample's residual, for sm_cl_observer_adapt_resistance */
+        o->res[0] = da;
+        o->res[1] = db;
+        o->res[2] = pa;
+        o->res[3] = pb;
+        o->res[4] = 0.5 * (isa0 + i_s_alpha);
+        o->res[5] = 0.5 * (isb0 + i_s_beta);
+        o->res[6] = n2;
+        o->has_res = 1;
     }
     o->isa = i_s_alpha;
     o->isb = i_s_beta;
