@@ -665,7 +665,7 @@ class PlantUnit:
             self._pwm_means = (e_cu / dt, e_fe / dt)
         else:
             va, vb = self._held()
-            Rs = self.plant._resistances(x0)[0]
+            Rs = self.plant.stator_resistance(x0)
             qa = (va * dt - (x1[PSI_S_A] - x0[PSI_S_A])) / Rs
             qb = (vb * dt - (x1[PSI_S_B] - x0[PSI_S_B])) / Rs
             p_term, p_inv = 1.5 * (va * qa + vb * qb) / dt, 0.0
@@ -718,8 +718,9 @@ class PlantUnit:
 
     def get_state(self):
         """The plant state, then the held stator voltage (the outputs' with R_fe and v_avg_alpha/beta;
-        pwm: the step average), then (pwm) the inverter's; with a capacitor link the states (motor,
-        thermal, link), the chopper, the fault, then the held voltage (then the inverter's)."""
+        pwm: the step average), the held load, the step's means (:meth:`_step_means`, then pwm's P_cu_s
+        and P_fe), then (pwm) the inverter's; with a capacitor link the states (motor, thermal, link), the
+        chopper, the fault, then the held voltage, load and means (then the inverter's)."""
         link = (float(self._chop), float(self._fault)) if self._link is not None else ()
         held = (*self._v, self._T_load, *self._means, *self._pwm_means)  # the held voltage, load, means
         if self.inverter is None:

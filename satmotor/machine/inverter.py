@@ -313,7 +313,7 @@ class PwmInverter:
         Q`` (the drops ``delta``, constant over it); with core loss the stator copper and core losses by
         the trapezoid over the interval at its voltage (the core branch's current follows the switched
         voltage at once: their means, not their values at the step's end)."""
-        Rs = plant._resistances(x0)[0]
+        Rs = plant.stator_resistance(x0)
         qa = (ia - (x1[0] - x0[0])) / Rs
         qb = (ib - (x1[1] - x0[1])) / Rs
         en[0] += 1.5 * (ia * qa + ib * qb) / L
@@ -325,7 +325,7 @@ class PwmInverter:
             return
         va, vb = ia / L, ib / L
         o0, o1 = plant.outputs(x0, va, vb), plant.outputs(x1, va, vb)
-        Rs1 = plant._resistances(x1)[0]
+        Rs1 = plant.stator_resistance(x1)
         en[3] += 0.75 * L * (Rs * (o0.i_s_alpha * o0.i_s_alpha + o0.i_s_beta * o0.i_s_beta)
                              + Rs1 * (o1.i_s_alpha * o1.i_s_alpha + o1.i_s_beta * o1.i_s_beta))
         en[4] += 0.5 * L * (o0.P_fe + o1.P_fe)

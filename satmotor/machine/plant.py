@@ -230,6 +230,10 @@ class Plant:
                     resistance(self.p.R_r, th.alpha_r, x[T_R], th.T_ref))
         return self._Rs, self._Rr
 
+    def stator_resistance(self, x):
+        """R_s [Ohm] at the stator temperature of ``x`` (thermal on), else the constant one."""
+        return self._resistances(x)[0]
+
     def _ext_terms(self, x, v_a, v_b, warm=None):
         """The general path's quantities at ``x`` and the voltage: ``(currents, R_s, R_r, e_a, e_b,
         i_fe_a, i_fe_b)`` with e_s = d psi_s/dt [V] and i_fe the core-loss current [A]."""
