@@ -39,8 +39,10 @@ from satmotor.machine.dc_link import (
     over_voltage_message,
 )
 from satmotor.machine.inverter import INVERTERS, InverterParams, PwmInverter
+from satmotor.machine.losses import LOSS_NAMES, LossParams, switching_power
 from satmotor.machine.magnetics import ArctanCurve, LinearCurve, PolynomialCurve
 from satmotor.machine.params import CURVE_NAMES, MotorParams, make_curve
+from satmotor.machine.phases import phase_currents
 from satmotor.machine.plant import (
     OMEGA_M,
     PSI_R_A,
@@ -111,6 +113,7 @@ AUTHOR = "satmotor"
 _M, _A, _P, _L, _TH = MotorParams(), ArctanCurve(), PolynomialCurve(), DCLinkParams(), ThermalParams()
 _G, _C, _D = BacksteppingGains(), ControllerConfig(), DriveConfig()
 _INV = InverterParams(V_dc=_L.V_dc)  # the plant's inverter: its link voltage the dclink V_dc
+_LP = LossParams()
 OMEGA_WARN = 1500.0  # [rad/s] omega_warn's default: about 10 x the default motor's synchronous speed
 MOTOR_PARAMETERS = _in_struct("motor", (
     _v("R_s", "parameter", _M.R_s, "Ohm", "stator resistance"),
@@ -167,7 +170,27 @@ PLANT_OUTPUTS = (
        "the last communication step (inverter = average: v_s_alpha)"),
     _v("v_avg_beta", "output", 0.0, "V", "stator voltage applied by the inverter, beta axis, averaged over "
        "the last communication step (inverter = average: v_s_beta)"),
+    # issue 35, every loss (satmotor.machine.losses; last: the earlier outputs keep their value references).
+    # At the step's end (like P_fe) but P_inv, P_chop and P_in: their means over the last communication step
+    # (model exchange: all at the instant)
+    _v("P_cu_s", "output", 0.0, "W", "stator copper loss 3/2 R_s(T_s) |i_s|^2 (the terminal current)"),
+    _v("P_cu_r", "output", 0.0, "W", "rotor copper loss 3/2 R_r(T_r) |i_r|^2"),
+    _v("P_fw", "output", 0.0, "W", "friction and windage loss (B omega_m + T_fric sign(omega_m) + k_wind "
+       "omega_m |omega_m|) omega_m"),
+    _v("P_stray", "output", 0.0, "W", "stray-load loss k_stray |i_s|^2 omega_m^2 (a braking torque)"),
+    _v("P_inv", "output", 0.0, "W", "inverter loss: on-state drops (pwm) and switching (E_sw), the mean over "
+       "the last communication step (average inverter: its switching loss at the step's end)"),
+    _v("P_chop", "output", 0.0, "W", "brake chopper loss v_dc i_chop, the mean over the last communication "
+       "step (dc_link = capacitor; else 0)"),
+    _v("P_in", "output", 0.0, "W", "power drawn from the DC link, 3/2 v_s.i_s + P_inv, the mean over the "
+       "last communication step"),
+    _v("P_mech", "output", 0.0, "W", "shaft power delivered to the load (T_load + B_2 omega_m |omega_m|) "
+       "omega_m"),
 )
+# the outputs of the communication step just ended in co-simulation: its means (P_inv, P_chop, P_in) and
+# P_mech with the load held over it (the model-exchange plant's: at the instant, with the input as it is;
+# PlantUnit.instant)
+STEP_MEAN_OUTPUTS = ("P_inv", "P_chop", "P_in", "P_mech")
 PLANT_PARAMETERS = MOTOR_PARAMETERS + _in_struct("plant", (
     _v("omega_m0", "parameter", 0.0, "rad/s", "initial mechanical speed"),
     _v("psi_r0", "parameter", 0.0, "Wb", "initial rotor flux (DC, on the alpha axis; 0: unmagnetized)"),
@@ -240,10 +263,24 @@ PLANT_PARAMETERS = MOTOR_PARAMETERS + _in_struct("plant", (
        "during it the phase current's sign sets the voltage"),
     _v("v_on", "parameter", _INV.v_on, "V", "pwm: on-state voltage drop of a conducting device or diode, "
        "0 <= v_on < V_dc/2"),
+)) + _in_struct("plant", (
+    # issue 35, the mechanical and inverter losses (satmotor.machine.losses; last: the earlier variables keep
+    # their value references); plant only, all off by default
+    _v("T_fric", "parameter", _LP.T_fric, "N m", "constant (Coulomb) friction torque T_fric sign(omega_m) "
+       "opposing motion, >= 0; 0: none"),
+    _v("k_wind", "parameter", _LP.k_wind, "N m s2/rad2", "windage: torque k_wind omega_m |omega_m| opposing "
+       "motion, >= 0; 0: none"),
+    _v("k_stray", "parameter", _LP.k_stray, "N m s/(A2 rad)", "stray-load loss: torque k_stray |i_s|^2 "
+       "omega_m opposing motion (loss k_stray |i_s|^2 omega_m^2), >= 0; 0: none"),
+    _v("E_sw", "parameter", _LP.E_sw, "J", "switching energy E_on + E_off of one device at V_sw_ref, "
+       "I_sw_ref (a datasheet's); an edge dissipates E_sw/2 (v_dc/V_sw_ref)(|i|/I_sw_ref), >= 0; 0: none"),
+    _v("V_sw_ref", "parameter", _LP.V_sw_ref, "V", "the link voltage at which E_sw is given, > 0"),
+    _v("I_sw_ref", "parameter", _LP.I_sw_ref, "A", "the current at which E_sw is given, > 0"),
 ))
 # the machine's data only the plant models: a scenario's motor: section and a preset may hold them (the
 # controller's model ignores them)
-PLANT_MOTOR_NAMES = ("R_fe", "T_ref", "alpha_s", "alpha_r", "C_th_s", "C_th_r", "R_th_s", "R_th_r", "R_th_sr")
+PLANT_MOTOR_NAMES = ("R_fe", "T_ref", "alpha_s", "alpha_r", "C_th_s", "C_th_r", "R_th_s", "R_th_r", "R_th_sr",
+                     "T_fric", "k_wind", "k_stray")
 THERMAL_NAMES = ("thermal", "T_amb", "T_s0", "T_r0", "T_ref", "alpha_s", "alpha_r", "C_th_s", "C_th_r",
                  "R_th_s", "R_th_r", "R_th_sr")
 
@@ -563,7 +600,8 @@ class PlantUnit:
         # the native core's order: B_2, R_fe, then the thermal parameters
         require_number("B_2", f["B_2"], 0, inclusive=True)
         require_number("R_fe", f["R_fe"], 0, inclusive=True)
-        self.plant = Plant(self.params, f["B_2"], f["R_fe"], ThermalParams(*(f[n] for n in THERMAL_NAMES)))
+        self.plant = Plant(self.params, f["B_2"], f["R_fe"], ThermalParams(*(f[n] for n in THERMAL_NAMES)),
+                           LossParams(*(f[n] for n in LOSS_NAMES)))
         self.x0 = initial_state(self.params, omega_m=w0, psi_r_alpha=psi0) + self.plant.thermal_state()
         # the stator voltage held over the last step (the outputs' with R_fe); pwm: its step average
         # (outputs v_avg_alpha/beta)
@@ -578,7 +616,16 @@ class PlantUnit:
         self._dt, self._n_sub = None, 1  # the last step size and its sub-step count
         # the inverter switches the link's V_dc (one parameter; a capacitor link: its voltage, a state)
         inv = InverterParams(self.link.V_dc, f["inverter"], f["f_sw"], f["t_dead"], f["v_on"])
-        self.inverter = PwmInverter(inv) if inv.inverter == "pwm" else None  # None: average-value
+        self.inverter = PwmInverter(inv, self.plant.lp) if inv.inverter == "pwm" else None  # None: average
+        self._f_sw = inv.f_sw
+        # the load held over the last step (P_mech) and the step's means [W]: into the terminals 3/2 v_s.i_s,
+        # the inverter's loss (pwm), the chopper's (a capacitor link)
+        self._T_load = 0.0
+        self._means = (0.0, 0.0, 0.0)
+        self._pwm_means = (0.0, 0.0)  # pwm: the step's means of P_cu_s, P_fe [W]
+        # the model-exchange plant's outputs (sm_plant_unit.instant): P_in, P_inv at the state and held
+        # voltage (3/2 v_s.i_s), not a step's means, and no chopper
+        self.instant = False
 
     def step(self, t, dt, inputs):
         """Advance over ``dt`` [s] with the inputs ``(v_s_alpha, v_s_beta, T_load)`` held;
@@ -625,15 +672,52 @@ class PlantUnit:
             self._chop, self._fault = chop, fault
             if t_fault is not None:
                 self.warnings.append(over_voltage_message(t_fault, x[self._link.iv], self.link.V_dc_max))
+        x0 = self.x
         self.x = x
         self._v = tuple(v_avg)
         self._o = None
+        self._T_load = T_load
+        self._means = self._step_means(x0, x, dt)
         if self._warn[1] > 0.0 and not self._warned[1]:
             o = self._o = self.plant.outputs(x, *self._held())  # kept for outputs(): no second computation
             self._plausible(1, t + dt, o.i_s_alpha, o.i_s_beta)
         if self._warn[2] > 0.0 and not self._warned[2] and abs(x[OMEGA_M]) > self._warn[2]:
             self._warned[2] = True
             self.warnings.append(plausibility_message(2, t + dt, abs(x[OMEGA_M]), self._warn[2]))
+
+    def _step_means(self, x0, x1, dt):
+        """``(P_term, P_inv, P_chop)`` [W], the means over the step from ``x0`` to ``x1`` of ``dt`` [s]: the
+        pwm inverter's energies (:attr:`PwmInverter.energies`), else the stator charge of the held voltage
+        ``Q = (v_s dt - delta psi_s) / R_s`` (:meth:`PwmInverter._account`) for ``3/2 v_s . Q``; the
+        chopper's from E_chop."""
+        if self.inverter is not None:
+            e_term, e_cond, e_sw, e_cu, e_fe = self.inverter.energies
+            p_term, p_inv = e_term / dt, (e_cond + e_sw) / dt
+            self._pwm_means = (e_cu / dt, e_fe / dt)
+        else:
+            va, vb = self._held()
+            Rs = self.plant.stator_resistance(x0)
+            qa = (va * dt - (x1[PSI_S_A] - x0[PSI_S_A])) / Rs
+            qb = (vb * dt - (x1[PSI_S_B] - x0[PSI_S_B])) / Rs
+            p_term, p_inv = 1.5 * (va * qa + vb * qb) / dt, 0.0
+        p_chop = 0.0 if self._link is None else (x1[self._link.iv + 2] - x0[self._link.iv + 2]) / dt
+        return p_term, p_inv, p_chop
+
+    def powers(self, o):
+        """``(P_cu_s, P_cu_r, P_fw, P_stray, P_inv, P_chop, P_in, P_mech)`` [W] at the state with its
+        outputs ``o``, in the order of the outputs (:mod:`satmotor.machine.losses`)."""
+        x = self.x
+        p_cu_s, p_cu_r, _, p_fw, p_stray, p_mech = self.plant.powers(x, o, self._T_load)
+        p_term, p_inv, p_chop = self._means
+        if self.instant:
+            va, vb = self._held()
+            p_term, p_inv, p_chop = 1.5 * (va * o.i_s_alpha + vb * o.i_s_beta), 0.0, 0.0
+        if self.inverter is not None and self.plant.R_fe > 0.0:  # pwm, core loss: P_cu_s's mean
+            p_cu_s = self._pwm_means[0]
+        if self.inverter is None and self.plant.lp.E_sw > 0.0:  # the average inverter's switching loss
+            v_dc = self.link.V_dc if self._link is None else x[self._link.iv]
+            p_inv = switching_power(self.plant.lp, self._f_sw, v_dc, phase_currents(o.i_s_alpha, o.i_s_beta))
+        return p_cu_s, p_cu_r, p_fw, p_stray, p_inv, p_chop, p_term + p_inv, p_mech
 
     def _plausible(self, k, t, a, b):
         """|(a, b)| above bound k: the squares compared first, as the native plant does."""
@@ -659,17 +743,20 @@ class PlantUnit:
         else:
             iv = self._link.iv  # V_DC, E_REGEN, E_CHOP, or two places later with the thermal model
             link = (x[iv], x[iv + 1], x[iv + 2], 1.0 if self._fault else 0.0)
+        p_fe = o.P_fe if self.inverter is None else self._pwm_means[1]  # pwm: its mean over the step (or 0)
         return (o.i_s_alpha, o.i_s_beta, x[PSI_S_A], x[PSI_S_B], x[PSI_R_A], x[PSI_R_B], x[OMEGA_M],
-                x[THETA_M], o.T_e, o.i_mu, *link, o.P_fe, o.T_s, o.T_r, *self._v)
+                x[THETA_M], o.T_e, o.i_mu, *link, p_fe, o.T_s, o.T_r, *self._v, *self.powers(o))
 
     def get_state(self):
         """The plant state, then the held stator voltage (the outputs' with R_fe and v_avg_alpha/beta;
-        pwm: the step average), then (pwm) the inverter's; with a capacitor link the states (motor,
-        thermal, link), the chopper, the fault, then the held voltage (then the inverter's)."""
+        pwm: the step average), the held load, the step's means (:meth:`_step_means`, then pwm's P_cu_s
+        and P_fe), then (pwm) the inverter's; with a capacitor link the states (motor, thermal, link), the
+        chopper, the fault, then the held voltage, load and means (then the inverter's)."""
         link = (float(self._chop), float(self._fault)) if self._link is not None else ()
+        held = (*self._v, self._T_load, *self._means, *self._pwm_means)  # the held voltage, load, means
         if self.inverter is None:
-            return (*self.x, *link, *self._v)
-        return (*self.x, *link, *self._v, *self.inverter.get_state())
+            return (*self.x, *link, *held)
+        return (*self.x, *link, *held, *self.inverter.get_state())
 
     def set_state(self, state):
         state = tuple(float(v) for v in state)
@@ -679,8 +766,11 @@ class PlantUnit:
             self._chop, self._fault = bool(state[n]), bool(state[n + 1])
             n += 2
         self._v = state[n:n + 2]
+        self._T_load = state[n + 2]
+        self._means = state[n + 3:n + 6]
+        self._pwm_means = state[n + 6:n + 8]
         if self.inverter is not None:
-            self.inverter.set_state(state[n + 2:])
+            self.inverter.set_state(state[n + 8:])
         self._o = None
 
 

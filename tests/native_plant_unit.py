@@ -15,7 +15,7 @@ from satmotor.interface import PLANT_INPUTS, PLANT_OUTPUTS
 N_IN, N_OUT = len(PLANT_INPUTS), len(PLANT_OUTPUTS)
 MSG_LEN = 256
 MAX_WARNINGS = 4
-STATE_MAX = 11 + 2 + 2 + 17  # SM_PLANT_STATE_MAX
+STATE_MAX = 11 + 2 + 2 + 6 + 17  # SM_PLANT_STATE_MAX
 
 
 class CUnitError(Exception):

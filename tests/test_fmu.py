@@ -51,13 +51,16 @@ PLANT_IN = ("v_s_alpha", "v_s_beta", "T_load")
 PLANT_OUT = ("i_s_alpha", "i_s_beta", "psi_s_alpha", "psi_s_beta", "psi_r_alpha", "psi_r_beta", "omega_m",
              "theta_m", "T_e", "i_mu", "v_dc", "E_regen", "E_chop", "dc_fault",  # the DC link
              "P_fe", "T_s", "T_r",  # then the losses
-             "v_avg_alpha", "v_avg_beta")  # then the inverter's
+             "v_avg_alpha", "v_avg_beta",  # then the inverter's
+             # issue 35: every loss
+             "P_cu_s", "P_cu_r", "P_fw", "P_stray", "P_inv", "P_chop", "P_in", "P_mech")
 DC_LINK = ("dc_link", "V_dc", "C_dc", "dc_source", "R_src", "V_grid", "f_grid", "V_chop_on", "V_chop_off",
            "R_chop", "V_dc_max")
 # issue 19: core loss and the thermal model (plant only)
 LOSS_THERMAL = ("R_fe", "thermal", "T_amb", "T_s0", "T_r0", "T_ref", "alpha_s", "alpha_r", "C_th_s", "C_th_r",
                 "R_th_s", "R_th_r", "R_th_sr")
 INVERTER = ("inverter", "f_sw", "t_dead", "v_on")  # the link voltage: the DC link's V_dc
+LOSSES = ("T_fric", "k_wind", "k_stray", "E_sw", "V_sw_ref", "I_sw_ref")  # issue 35
 MOTOR = ("R_s", "R_r", "l_s", "l_r", "k", "n_p", "J", "B", "curve", "L_m0", "L_m_inf", "I_par", "poly_b",
          "poly_n", "table_file")
 CTRL_IN = ("i_s_alpha", "i_s_beta", "psi_r_alpha", "psi_r_beta", "psi_s_alpha", "psi_s_beta", "omega_m",
@@ -71,7 +74,7 @@ CONTRACT = {
     "SaturatedInductionMotor": {"input": PLANT_IN, "output": PLANT_OUT,
                                 "parameter": MOTOR + ("B_2", "omega_m0", "psi_r0", "h_int", "max_substeps",
                                                       "v_warn", "i_warn", "omega_warn")
-                                 + DC_LINK + LOSS_THERMAL + INVERTER},
+                                 + DC_LINK + LOSS_THERMAL + INVERTER + LOSSES},
     "BacksteppingController": {"input": CTRL_IN, "output": CTRL_OUT, "parameter": (
         "c1", "c2", "d1", "d2", "Ts", "mode", "load_mode", "V_dc", "ref_bandwidth", "g_theta", "theta_max",
         "I_max", "use_stator_flux", "c0", "d0", "flux_source", "delay_samples", "observer",
@@ -100,6 +103,13 @@ UNITS = {"V": "v_s_alpha v_s_beta v_sd v_sq V_dc v_warn v_dc V_grid V_chop_on V_
          "W": "P_fe", "K": "T_s T_r T_amb T_s0 T_r0 T_ref", "1/K": "alpha_s alpha_r", "J/K": "C_th_s C_th_r",
          "K/W": "R_th_s R_th_r R_th_sr"}
 UNITS["Ohm"] += " R_fe loss_R_fe"
+UNITS["W"] += " P_cu_s P_cu_r P_fw P_stray P_inv P_chop P_in P_mech"  # issue 35
+UNITS["N m"] += " T_fric"
+UNITS["N m s2/rad2"] += " k_wind"
+UNITS["N m s/(A2 rad)"] = "k_stray"
+UNITS["J"] += " E_sw"
+UNITS["V"] += " V_sw_ref"
+UNITS["A"] += " I_sw_ref"
 UNIT_OF = {name: unit for unit, names in UNITS.items() for name in names.split()}
 
 
@@ -136,6 +146,8 @@ def _defaults():
               "R_th_r": 0.5, "R_th_sr": 0.15}
     # the average-value inverter (today's plant); the pwm settings' defaults: 5 kHz, no dead time or drops
     plant |= {"inverter": "average", "f_sw": 5000.0, "t_dead": 0.0, "v_on": 0.0}
+    # no friction, windage, stray or switching loss (issue 35); the switching references 600 V, 10 A
+    plant |= {"T_fric": 0.0, "k_wind": 0.0, "k_stray": 0.0, "E_sw": 0.0, "V_sw_ref": 600.0, "I_sw_ref": 10.0}
     return {"SaturatedInductionMotor": plant, "BacksteppingController": ctrl}
 
 
@@ -678,8 +690,11 @@ def test_a_valid_state_set_after_a_refusal_clears_it_and_the_run_goes_on_from_th
 FOREIGN_STATES = {  # attempt (tests/fmu_helpers.py _child_state): what its refusal must name
     "controller state": "BacksteppingController", "controller blob": "BacksteppingController",
     "truncated": "not valid", "garbled": "not valid", "empty": "not valid", "not an object": "list",
-    "non-numeric entry": "entry 0 = 'x'", "null entry": "entry 1 = None", "entry missing": "7 entries",
-    "entry missing, tag adjusted": "7 entries", "other build": "build", "other guid": "guid {0}",
+    "non-numeric entry": "entry 0 = 'x'", "null entry": "entry 1 = None",
+    # the default plant's state less one entry (PlantUnit.get_state)
+    "entry missing": f"{len(PlantUnit({}).get_state()) - 1} entries",
+    "entry missing, tag adjusted": f"{len(PlantUnit({}).get_state()) - 1} entries",
+    "other build": "build", "other guid": "guid {0}",
     "untagged": "untagged", "plant state": "SaturatedInductionMotor",
 }
 

@@ -25,6 +25,7 @@ DIMENSIONS = {
     "1/s2": "s-2", "1": "", "N m s2/rad2": "kg m2 rad-2",
     "J": "kg m2 s-2", "F": "kg-1 m-2 s4 A2",  # the DC link
     "W": "kg m2 s-3", "K": "K", "1/K": "K-1", "J/K": "kg m2 s-2 K-1", "K/W": "kg-1 m-2 s3 K",
+    "N m s/(A2 rad)": "kg m2 s-1 A-2 rad-1",  # issue 35: the stray-load coefficient
 }
 NO_DIMENSION = {"A/Wb^n"}  # poly_b: its dimension depends on the Integer poly_n
 BASE = ("kg", "m", "s", "A", "K", "mol", "cd", "rad")

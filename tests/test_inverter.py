@@ -29,6 +29,7 @@ import native_core as nc  # noqa: E402
 
 V_DC = 540.0
 SQ3 = math.sqrt(3.0)
+V_A, V_B = PlantUnit.OUTPUTS.index("v_avg_alpha"), PlantUnit.OUTPUTS.index("v_avg_beta")
 
 
 def _unit(**kw):
@@ -72,7 +73,7 @@ def test_step_average_equals_command(f_sw):
         va, vb = r * math.cos(ang), r * math.sin(ang)
         u.step(n * dt, dt, (va, vb, 0.0))
         o = u.outputs()
-        worst = max(worst, abs(o[-2] - va), abs(o[-1] - vb))
+        worst = max(worst, abs(o[V_A] - va), abs(o[V_B] - vb))
     print(f"f_sw = {f_sw} Hz: worst |v_avg - v_cmd| = {worst:.3g} V over 400 steps")
     assert worst <= 1e-12 * V_DC
 
@@ -84,7 +85,7 @@ def test_average_inverter_is_the_command():
         u.step(n * 1e-4, 1e-4, (100.0 + n, -20.0, 1.0))
         x = ref.step(0.0, x, 100.0 + n, -20.0, 1.0, 1e-4, 1)
         assert u.x == x  # today's plant, bit for bit
-        assert u.outputs()[-2:] == (100.0 + n, -20.0)
+        assert u.outputs()[V_A:V_B + 1] == (100.0 + n, -20.0)
 
 
 def _hand_levels(d, t, T_h):
@@ -174,8 +175,8 @@ def test_dead_time_and_drop_closed_form():
             ph = (i[0], -0.5 * i[0] + 0.5 * SQ3 * i[1], -0.5 * i[0] - 0.5 * SQ3 * i[1])
             assert ph[0] > 0 and ph[1] < 0 and ph[2] < 0
             o = u.outputs()
-            assert o[-2] == pytest.approx(cmd[0] - 4.0 * E / 3.0 - 4.0 * von / 3.0, abs=1e-9)
-            assert o[-1] == pytest.approx(0.0, abs=1e-9)
+            assert o[V_A] == pytest.approx(cmd[0] - 4.0 * E / 3.0 - 4.0 * von / 3.0, abs=1e-9)
+            assert o[V_B] == pytest.approx(0.0, abs=1e-9)
 
 
 def test_dead_time_first_order_on_a_slow_current():
@@ -201,7 +202,8 @@ def test_dead_time_first_order_on_a_slow_current():
         e = [-s * E for s in sa]
         ea, eb = (2 * e[0] - e[1] - e[2]) / 3.0, (e[1] - e[2]) / SQ3
         o = u.outputs()
-        assert o[-2] - va == pytest.approx(ea, abs=1e-3 * E) and o[-1] - vb == pytest.approx(eb, abs=1e-3 * E)
+        assert o[V_A] - va == pytest.approx(ea, abs=1e-3 * E)
+        assert o[V_B] - vb == pytest.approx(eb, abs=1e-3 * E)
         checked += 1
     assert checked > 1000 and R > 0
 

@@ -37,7 +37,7 @@ from orchestration.packaging import fmus, reference_results
 from orchestration.packaging.native import model_exchange as native_me
 from orchestration.run.master import run
 from orchestration.scenario.load import load_scenario
-from satmotor.interface import PLANT_PARAMETERS, PlantUnit
+from satmotor.interface import PLANT_PARAMETERS, STEP_MEAN_OUTPUTS, PlantUnit
 
 pytestmark = pytest.mark.slow
 ROOT = Path(__file__).resolve().parents[1]
@@ -48,7 +48,7 @@ NX = len(STATES)  # eleven, whatever the parameters (the extra ones' derivatives
 OUTPUTS = PlantUnit.OUTPUTS
 # the outputs a model-exchange integration is compared on: not v_avg_alpha/beta, which the ME plant gives as
 # the input itself (its average-value inverter) and the co-simulation plant as the last step's average
-COMPARED = tuple(o for o in OUTPUTS if o not in ("v_avg_alpha", "v_avg_beta"))
+COMPARED = tuple(o for o in OUTPUTS if o not in ("v_avg_alpha", "v_avg_beta", *STEP_MEAN_OUTPUTS))
 TARGET = 1e-6  # relative error of the ME plant under CVode (rtol 1e-10) against the co-simulation plant
 
 
@@ -156,8 +156,10 @@ def test_both_me_fmus_validate_and_are_model_exchange_only(fmu_dir):
             name = out.variable.name
             if name in ("v_avg_alpha", "v_avg_beta"):
                 assert deps == {name.replace("v_avg", "v_s")}
-            elif name in ("i_s_alpha", "i_s_beta", "P_fe"):
-                assert deps & inputs == {"v_s_alpha", "v_s_beta"}, name
+            elif name in ("i_s_alpha", "i_s_beta", "P_fe", "P_cu_s", "P_stray", "P_inv", "P_in"):
+                assert deps & inputs == {"v_s_alpha", "v_s_beta"}, name  # the terminal current (R_fe)
+            elif name == "P_mech":  # the load at the instant (issue 35)
+                assert deps & inputs == {"T_load"}, name
             else:
                 assert not deps & inputs, name
             if name in STATES:
@@ -240,7 +242,8 @@ def python_me(unit, t, xs, us):
     der = [0.0] * NX
     for j, v in zip(idx, d):
         der[j] = v
-    unit.set_state([*x, *((0.0, 0.0) if link is not None else ()), us[0], us[1]])
+    unit.instant = True  # the powers at the instant (P_in, P_inv), as the ME plant gives them
+    unit.set_state([*x, *((0.0, 0.0) if link is not None else ()), us[0], us[1], us[2], *(0.0,) * 5])
     out = dict(zip(OUTPUTS, unit.outputs()))
     out.update(zip(STATES, xs))
     return der, [out[n] for n in OUTPUTS]
@@ -431,9 +434,10 @@ def test_cvode_integrates_the_me_plant_to_the_reference(fmu_dir, version):
 
 
 # the ME plant's options against the co-simulation plant: the states and what depends on the states only
-# (the terminal current and P_fe read the voltage of the instant with R_fe: at a sample the co-simulation
-# plant gives them at the voltage held over the step that ended, the ME plant at the new input)
-OPTIONS_COMPARED = tuple(n for n in COMPARED if n not in ("i_s_alpha", "i_s_beta", "P_fe"))
+# (the terminal current, P_fe and P_cu_s read the voltage of the instant with R_fe: at a sample the
+# co-simulation plant gives them at the voltage held over the step that ended, the ME plant at the new
+# input)
+OPTIONS_COMPARED = tuple(n for n in COMPARED if n not in ("i_s_alpha", "i_s_beta", "P_fe", "P_cu_s"))
 OPTIONS_TARGET = 1e-6  # relative error (of each column's largest magnitude) under CVode at rtol 1e-10
 
 
@@ -795,7 +799,8 @@ def test_a_c_host_integrating_the_me_plant_with_rk4_gets_the_python_plant_bit_fo
     for k in range(HOST_STEPS):
         unit.step(k * HOST_H, HOST_H, u)
         x = rk4(cold.plant.derivatives, k * HOST_H, x, HOST_H, 1, u)  # every solve cold, as the host's
-    cold.set_state((*x, *u[:2]))  # the state, then the held stator voltage
+    cold.instant = unit.instant = True  # the powers at the instant (P_in, P_inv), as the ME plant's
+    cold.set_state((*x, *u, *(0.0,) * 5))  # the state, then the held stator voltage and load, no means
     assert got == list(cold.outputs())
     warm = list(unit.outputs())
     assert all(abs(g - w) <= 1e-12 * max(1.0, abs(w)) for g, w in zip(got, warm)), (got, warm)

@@ -178,6 +178,9 @@ class Metered:
     def outputs(self, x, v_a=0.0, v_b=0.0):
         return self.plant.outputs(x[:self.n], v_a, v_b)
 
+    def stator_resistance(self, x):  # the pwm inverter's loss accounting (satmotor.machine.losses)
+        return self.plant.stator_resistance(x[:self.n])
+
     def derivatives(self, t, x, v_a, v_b, T_load, warm=None):
         n, mp, th = self.n, self.mp, self.th
         xm = x[:n]

@@ -74,6 +74,7 @@ static void publish(plant_me_data *d)
     }
     d->u.v[0] = d->v.r[SM_VR_v_s_alpha]; /* the average-value inverter: the command as it is */
     d->u.v[1] = d->v.r[SM_VR_v_s_beta];
+    d->u.T_load = d->v.r[SM_VR_T_load]; /* P_mech at the instant */
     sm_plant_unit_publish(&d->u);
     memcpy(out, d->u.out, sizeof out);
     for (j = 0; j < ME_NX; ++j) { /* a state output is the state (also one the unit does not integrate) */
@@ -146,6 +147,7 @@ static fg_status init(fg_instance *inst, plant_me_data *d)
         fg_log(inst, FG_ERROR, "logStatusError", "%s", no);
         return FG_ERROR;
     }
+    d->u.instant = 1; /* the powers at the instant (P_in, P_inv), not a step's means */
     /* the unit's initial state; the states it does not integrate at their constant values */
     d->x[ME_T_S] = d->u.p.T_s0;
     d->x[ME_T_R] = d->u.p.T_r0;

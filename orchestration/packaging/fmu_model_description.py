@@ -83,6 +83,8 @@ SI_UNITS = {
     "1/K": {"K": -1},
     "J/K": {"kg": 1, "m": 2, "s": -2, "K": -1},
     "K/W": {"kg": -1, "m": -2, "s": 3, "K": 1},
+    # issue 35: the stray-load coefficient (torque k_stray |i_s|^2 omega_m)
+    "N m s/(A2 rad)": {"kg": 1, "m": 2, "s": -1, "A": -2, "rad": -1},
 }
 _BASE_ORDER = ("kg", "m", "s", "A", "K", "mol", "cd", "rad")
 

@@ -32,7 +32,7 @@ import argparse
 import math
 from pathlib import Path
 
-from satmotor.interface import ControllerUnit, PlantUnit
+from satmotor.interface import STEP_MEAN_OUTPUTS, ControllerUnit, PlantUnit
 from satmotor.machine.params import RatedData
 from satmotor.simulate import closed_loop
 
@@ -102,8 +102,10 @@ def write_me(out="reference"):
     d.mkdir(parents=True, exist_ok=True)
     inputs = plant_inputs()
     _held_csv(d / f"{ME_NAME}_in.csv", PlantUnit.INPUTS, inputs)
-    # not v_avg_alpha/beta: the ME plant gives the input itself, the co-simulation plant the step's average
-    keep = [j for j, n in enumerate(PlantUnit.OUTPUTS) if n not in ("v_avg_alpha", "v_avg_beta")]
+    # not v_avg_alpha/beta: the ME plant gives the input itself, the co-simulation plant the step's average;
+    # nor the other step means (P_in, ...: the ME plant's are at the instant)
+    keep = [j for j, n in enumerate(PlantUnit.OUTPUTS)
+            if n not in ("v_avg_alpha", "v_avg_beta", *STEP_MEAN_OUTPUTS)]
     rows = [tuple(r[j] for j in keep) for r in run_unit(PlantUnit({"h_int": ME_H_INT}), inputs)]
     _csv(d / f"{ME_NAME}_ref.csv", [PlantUnit.OUTPUTS[j] for j in keep], rows)
     opts = {"StartTime": 0.0, "StopTime": round(N * H, 12), "StepSize": H, "RelTol": ME_REL_TOL}

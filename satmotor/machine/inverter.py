@@ -151,12 +151,14 @@ class PwmInverter:
 
     N_STATE = 17
 
-    def __init__(self, params):
+    def __init__(self, params, losses=None):
         self.params = params
         self.f_sw, self.t_dead, self.v_on = params.f_sw, params.t_dead, params.v_on
         self.T_h = 0.5 / params.f_sw
         self.eps = MERGE_REL * self.T_h
         self._V_dc = params.V_dc
+        self.k_edge = 0.0 if losses is None else losses.k_edge  # [J/(V A)] an edge's energy per V and A
+        self.energies = (0.0,) * 5  # the last step's (E_term, E_cond, E_sw, E_cu_s, E_fe) [J] (:meth:`step`)
         self.reset()
 
     def reset(self):
@@ -197,7 +199,10 @@ class PwmInverter:
         constant interval integrated (on a capacitor link: its voltages at the interval's start).
         ``link``: None (the ideal link), or the :class:`~satmotor.machine.dc_link.DCLink` whose state
         ``x`` is (:mod:`~satmotor.machine.pwm_link`), with the chopper's state ``chop`` and the latched
-        ``fault``; then :attr:`link_out` is ``(chop, fault, t_fault)`` after the step."""
+        ``fault``; then :attr:`link_out` is ``(chop, fault, t_fault)`` after the step.  :attr:`energies`:
+        the step's ``(E_term, E_cond, E_sw, E_cu_s, E_fe)`` [J], the energy into the motor's terminals,
+        the on-state drops', the edges', the stator copper's and the core's (:meth:`_account`,
+        :mod:`satmotor.machine.losses`)."""
         T_h, eps, t_dead = self.T_h, self.eps, self.t_dead
         V = self.link_voltage() if link is None else x[link.iv]  # the modulator's link voltage
         if not V > 0.0:  # a collapsed link applies nothing (pwm_link); the duties then use V_dc
@@ -211,6 +216,8 @@ class PwmInverter:
         k = math.floor(start / T_h)
         evs, ei = [], 0
         tp = t0
+        en = [0.0] * 5  # E_term, E_cond, E_sw, E_cu_s, E_fe [J]
+        k_edge = self.k_edge
         cur = None  # the phase currents at tp, once computed
         legs = None  # the interval's legs (signs, drops: _legs), once computed
         sa = sb = 0.0
@@ -238,7 +245,9 @@ class PwmInverter:
             if tn - tp >= eps:
                 if legs is None:
                     legs, cur = self._legs(plant, x, cur)
-                x, ia, ib = self._advance(plant, lk, x, tp, tn - tp, legs, half, T_load, h_int, trace)
+                x1, ia, ib = self._advance(plant, lk, x, tp, tn - tp, legs, half, T_load, h_int, trace)
+                self._account(plant, x, x1, ia, ib, tn - tp, legs, en)
+                x = x1
                 sa += ia
                 sb += ib
                 tp, cur, legs = tn, None, None
@@ -248,6 +257,10 @@ class PwmInverter:
                 continue
             e, _, j, new = evs[ei]
             ei += 1
+            if k_edge > 0.0 and s[j] >= 0 and new != s[j] and e >= start:  # a switching edge's energy
+                if cur is None:
+                    cur = phase_currents(*plant.outputs(x)[:2])
+                en[2] += k_edge * (V if link is None else x[link.iv]) * abs(cur[j])
             if s[j] < 0 or e < start:  # unknown state, or an edge of the last step: no dead interval
                 s[j] = new
                 legs = None
@@ -265,9 +278,12 @@ class PwmInverter:
                 dead_v[j] = -half if i > 0.0 else half if i < 0.0 else (half if new else -half)
         if legs is None:
             legs, cur = self._legs(plant, x, cur)
-        x, ia, ib = self._advance(plant, lk, x, tp, t1 - tp, legs, half, T_load, h_int, trace)
+        x1, ia, ib = self._advance(plant, lk, x, tp, t1 - tp, legs, half, T_load, h_int, trace)
+        self._account(plant, x, x1, ia, ib, t1 - tp, legs, en)
+        x = x1
         sa += ia
         sb += ib
+        self.energies = tuple(en)
         if lk is not None:
             self.link_out = tuple(lk[1:])
         return x, sa / dt, sb / dt
@@ -287,6 +303,32 @@ class PwmInverter:
                 cur = phase_currents(*plant.outputs(x)[:2])
             dl = [-self.v_on if c > 0.0 else self.v_on if c < 0.0 else 0.0 for c in cur]
         return (sig, dl), cur
+
+    @staticmethod
+    def _account(plant, x0, x1, ia, ib, L, legs, en):
+        """Add one interval's energies to ``en`` = [E_term, E_cond, E_sw, E_cu_s, E_fe] [J]: its stator
+        charge ``Q = (int v_s dt - delta psi_s) / R_s`` [A s] (the stator equation ``v_s = R_s i_s + d
+        psi_s/dt`` with the terminal current, R_s at the interval's start), ``E_term = 3/2 v_mean . Q``
+        (exact on the ideal link, whose voltage is constant over the interval) and ``E_cond = -3/2 delta .
+        Q`` (the drops ``delta``, constant over it); with core loss the stator copper and core losses by
+        the trapezoid over the interval at its voltage (the core branch's current follows the switched
+        voltage at once: their means, not their values at the step's end)."""
+        Rs = plant.stator_resistance(x0)
+        qa = (ia - (x1[0] - x0[0])) / Rs
+        qb = (ib - (x1[1] - x0[1])) / Rs
+        en[0] += 1.5 * (ia * qa + ib * qb) / L
+        dl = legs[1]
+        if dl[0] != 0.0 or dl[1] != 0.0 or dl[2] != 0.0:
+            da, db = alpha_beta(dl[0], dl[1], dl[2])
+            en[1] -= 1.5 * (da * qa + db * qb)
+        if not plant.R_fe > 0.0:
+            return
+        va, vb = ia / L, ib / L
+        o0, o1 = plant.outputs(x0, va, vb), plant.outputs(x1, va, vb)
+        Rs1 = plant.stator_resistance(x1)
+        en[3] += 0.75 * L * (Rs * (o0.i_s_alpha * o0.i_s_alpha + o0.i_s_beta * o0.i_s_beta)
+                             + Rs1 * (o1.i_s_alpha * o1.i_s_alpha + o1.i_s_beta * o1.i_s_beta))
+        en[4] += 0.5 * L * (o0.P_fe + o1.P_fe)
 
     @staticmethod
     def _advance(plant, lk, x, t, L, legs, half, T_load, h_int, trace):

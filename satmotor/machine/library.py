@@ -20,7 +20,23 @@ qu2012_2kw2     2.2 kW, 400 V, 5 A, 50 Hz, 14.6 N m, measured: Z. Qu, M. Ranta, 
                 the motulator drive library's saturated 2.2-kW example).  In the seed's form: l_s = 0,
                 k = 1, l_r = 0.023 H, the polynomial curve I = psi/0.34 + (0.84^7/0.34) psi^8 (exact).
                 No friction is given (B = 0).
+msl_imc_18kw5   18.5 kW, 400 V delta, 32.85 A, 50 Hz, 1462.5 rpm, 120.79 N m: the machine of the
+                Modelica Standard Library's ``IMC_withLosses`` example (A. Haumer, C. Kral et al.,
+                "The AdvancedMachines library: loss models for electric machines", Modelica 2009),
+                with its published loss split; unsaturated (the linear curve), the star equivalent of
+                its delta data, R_s and R_r at 20 C (run at 90 C: T_s0 = T_r0 = 363.15 K)
+haumer_112m04   4 kW, IEC frame 112M, 400 V star, 8.493 A, 50 Hz, 1431.57 rpm, 26.682 N m: A. Haumer's
+                ``ElectricalMachines.ParameterRecords.IMCdata.Imc112M04`` record (friction 60 W, core
+                90 W, stray 20 W); unsaturated, R_s and R_r at 20 C (run at 95 C: 368.15 K)
 ==============  ==================================================================================
+
+The two Modelica machines carry their loss models in this project's terms (docs/motors.md): friction
+``P_ref (w/w_ref)^3`` (the library's ``power_w = 2``) as ``k_wind = P_ref / w_ref^3``; stray load
+``P_ref (I/I_ref)^2 (w/w_ref)^2`` (``power_w = 1``) as ``k_stray = P_ref / (|i_ref|^2 w_ref^2)`` with
+``|i_ref|`` the reference current's space-vector amplitude (sqrt 2 times the line rms); the core loss
+conductance ``P_ref / (3 V_ref^2)`` per phase at the reference inner voltage as ``R_fe = 3 V_ref^2 /
+P_ref`` (star phase voltage), the temperature coefficients the library's (copper 3.92e-3, aluminium
+4.0e-3 1/K at 20 C).
 """
 
 from __future__ import annotations
@@ -124,7 +140,59 @@ def _qu2012_2kw2():
         MappingProxyType(dict(C_th_s=4200.0, C_th_r=1600.0, R_th_s=0.25, R_th_r=0.7, R_th_sr=0.2)))
 
 
-MOTORS = MappingProxyType({m.name: m for m in (_default_4kw(), _qu2012_2kw2())})
+# the Modelica library's temperature coefficients at 20 C (Modelica.Electrical.Machines.Thermal.Constants)
+MSL_ALPHA_COPPER, MSL_ALPHA_ALUMINIUM = 3.92e-3, 4.0e-3
+
+
+def _modelica_motor(name, title, plate, phase, J, core, friction, stray, source, notes):
+    """A Modelica library machine (unsaturated): ``phase`` = (R_s, X_s_sigma, X_m, X_r_sigma, R_r) [Ohm]
+    of the star equivalent at f_n (resistances at 20 C), ``core`` = (P_ref [W], V_ref [V] star phase
+    rms), ``friction`` = P_ref [W] at the rated speed, ``stray`` = (P_ref [W], I_ref [A] line rms) at the
+    rated speed; the loss laws as the module docstring says."""
+    R_s, X_s, X_m, X_r, R_r = phase
+    w_e, w_n = plate.omega_e, plate.n_n * math.pi / 30.0
+    values = dict(R_s=R_s, R_r=R_r, l_s=X_s / w_e, l_r=X_r / w_e, k=1.0, n_p=plate.n_p, J=J, B=0.0,
+                  curve="linear", L_m0=X_m / w_e)
+    i_ref = math.sqrt(2.0) * stray[1]
+    plant = dict(R_fe=3.0 * core[1] ** 2 / core[0], alpha_s=MSL_ALPHA_COPPER, alpha_r=MSL_ALPHA_ALUMINIUM,
+                 k_wind=friction / w_n ** 3, k_stray=stray[0] / (i_ref * i_ref * w_n * w_n))
+    ctrl = dict(I_max=round(1.5 * plate.I_peak, 2))
+    return NamedMotor(name, title, plate, MappingProxyType(values), MappingProxyType(ctrl),
+                      plate.V_phase_peak / w_e, source, notes, MappingProxyType(plant))
+
+
+def _msl_imc_18kw5():
+    plate = Nameplate(P_n=18500.0, V_n=400.0, I_n=32.85, f_n=50.0, n_n=1462.5, T_n=120.79, n_p=2)
+    i_n = plate.I_n
+    return _modelica_motor(
+        "msl_imc_18kw5", "18.5 kW, 400 V delta, 32.85 A, 50 Hz, 1462.5 rpm (Modelica IMC_withLosses)", plate,
+        # the delta phase data divided by 3 (the star equivalent)
+        tuple(z / 3.0 for z in (0.56, 1.52, 66.40, 2.31, 0.42)), 0.12,
+        (410.0, 387.9 / math.sqrt(3.0)), 180.0,
+        (0.005 * math.sqrt(3.0) * 400.0 * i_n * 0.898, i_n),
+        "Modelica Standard Library, Modelica.Electrical.Machines.Examples.InductionMachines.IMC_withLosses "
+        "(and its quasi-static twin); A. Haumer, C. Kral, H. Kapeller, T. Baeuml, J. V. Gragger, \"The "
+        "AdvancedMachines library: loss models for electric machines\", 7th Modelica Conference, 2009",
+        "delta-connected machine as its star equivalent (impedances / 3, I_ref of the stray loss the line "
+        "current); published at 90 C: run with T_s0 = T_r0 = 363.15 K; core loss 410 W at the inner voltage "
+        "387.9 V (delta phase); stray 0.5 % of the rated input; gains the defaults (not tuned)")
+
+
+def _haumer_112m04():
+    plate = Nameplate(P_n=4000.0, V_n=400.0, I_n=8.493, f_n=50.0, n_n=1431.57, T_n=26.682, n_p=2)
+    return _modelica_motor(
+        "haumer_112m04", "4 kW, frame 112M, 400 V star, 8.493 A, 50 Hz, 1431.57 rpm (Haumer Imc112M04)",
+        plate,
+        (1.45, 2.25, 49.65, 2.75, 1.05), 0.008, (90.0, 400.0 / math.sqrt(3.0)), 60.0, (20.0, plate.I_n),
+        "A. Haumer, ElectricalMachines (github.com/AHaumer/ElectricalMachines), "
+        "ParameterRecords/IMCdata/Imc112M04.mo and Examples.IMC_NominalOperation",
+        "published at 95 C: run with T_s0 = T_r0 = 368.15 K; core loss 90 W at the reference inner voltage "
+        "V_sN = 400/sqrt 3 V (the record's default VRef), friction 60 W and stray 20 W at the rated speed "
+        "(and current); gains the defaults (not tuned)")
+
+
+MOTORS = MappingProxyType({m.name: m for m in (_default_4kw(), _qu2012_2kw2(), _msl_imc_18kw5(),
+                                               _haumer_112m04())})
 
 
 def preset_names():

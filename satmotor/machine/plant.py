@@ -14,14 +14,16 @@ Conventions
   model: the controller does not know the fan load and sees it as part of an unknown load.
 * Plant-only too: the core-loss resistance ``R_fe`` and the two-body thermal model (two more states
   ``T_s``, ``T_r`` when on), :mod:`satmotor.machine.thermal`; both off by default, then the equations
-  below exactly (the fast paths of :meth:`Plant.derivatives`).
+  below exactly (the fast paths of :meth:`Plant.derivatives`).  And the friction, windage and stray
+  torques of :mod:`satmotor.machine.losses` (``losses``; zero by default: none subtracted below).
 
 Equations (seed eqs 1, 4, 10-13 with the factor k of the errata)::
 
     psi_s = l_s i_s + m(I) i_mu,  psi_r = l_r i_r + k m(I) i_mu,  i_mu = i_s + k i_r
     d psi_s/dt = v_s - R_s i_s
     d psi_r/dt = -R_r i_r + n_p omega_m J2 psi_r          (J2 = rotation by +90 deg)
-    J d omega_m/dt = T_e - T_load - B omega_m - B_2 omega_m |omega_m|,   d theta_m/dt = omega_m
+    J d omega_m/dt = T_e - T_load - B omega_m - B_2 omega_m |omega_m| [- T_fw - T_stray]
+    d theta_m/dt = omega_m
     T_e = 3/2 n_p (psi_s_alpha i_s_beta - psi_s_beta i_s_alpha)
 
 Currents from fluxes: eliminating i_s and i_r gives
@@ -43,6 +45,7 @@ from typing import NamedTuple
 
 from satmotor.errors import require_number
 from satmotor.machine.integrate import rk4
+from satmotor.machine.losses import LossParams, friction_torque, loss_torque
 from satmotor.machine.thermal import ThermalParams, resistance
 
 PSI_S_A, PSI_S_B, PSI_R_A, PSI_R_B, OMEGA_M, THETA_M = range(6)
@@ -86,13 +89,18 @@ class Plant:
     thermal : satmotor.machine.thermal.ThermalParams or None
         The two-body thermal model (None: the defaults, off).  On, the state has two more entries,
         ``T_s``, ``T_r`` [K] (:data:`N_THERMAL_STATES`); off, the resistances are R_s(T_s0), R_r(T_r0).
+    losses : satmotor.machine.losses.LossParams or None
+        Friction, windage and stray torques and the inverter's switching loss (None: none).
     """
 
     __slots__ = ("p", "B_2", "_curve", "_inv_ls", "_k_lr", "_le", "_k", "_ls", "_lr", "_Rs", "_Rr",
-                 "_np", "_kappa", "_inv_J", "_B", "_B2", "_m0", "_gamma", "R_fe", "th", "_ext", "_th_on")
+                 "_np", "_kappa", "_inv_J", "_B", "_B2", "_m0", "_gamma", "R_fe", "th", "_ext", "_th_on",
+                 "lp", "_mech")
 
-    def __init__(self, params, B_2=0.0, R_fe=0.0, thermal=None):
+    def __init__(self, params, B_2=0.0, R_fe=0.0, thermal=None, losses=None):
         self.p = params
+        self.lp = LossParams() if losses is None else losses
+        self._mech = self.lp.mechanical  # a friction, windage or stray torque acts (_rates)
         self.B_2 = self._B2 = require_number("B_2", B_2, 0, inclusive=True)
         self.R_fe = require_number("R_fe", R_fe, 0, inclusive=True)
         self.th = th = ThermalParams() if thermal is None else thermal
@@ -191,6 +199,8 @@ class Plant:
         through the leakage), the fluxes [Wb], the speed [rad/s] and the load [N m]."""
         we = self._np * w
         te = self._kappa * (psa * isb - psb * isa)
+        if self._mech:  # the friction, windage and stray torques (losses.loss_torque; off: not a float more)
+            T_load = T_load + loss_torque(self.lp, w, isa * isa + isb * isb)
         return (
             ea,
             eb,
@@ -219,6 +229,10 @@ class Plant:
             return (resistance(self.p.R_s, th.alpha_s, x[T_S], th.T_ref),
                     resistance(self.p.R_r, th.alpha_r, x[T_R], th.T_ref))
         return self._Rs, self._Rr
+
+    def stator_resistance(self, x):
+        """R_s [Ohm] at the stator temperature of ``x`` (thermal on), else the constant one."""
+        return self._resistances(x)[0]
 
     def _ext_terms(self, x, v_a, v_b, warm=None):
         """The general path's quantities at ``x`` and the voltage: ``(currents, R_s, R_r, e_a, e_b,
@@ -273,6 +287,24 @@ class Plant:
         irb = (prb - km * imb) / self._lr
         te = self._kappa * (psa * isb - psb * isa)
         return PlantOutputs(isa, isb, ira, irb, ima, imb, I, psi, m, te, 0.0, ts, tr)
+
+    def powers(self, x, o, T_load):
+        """``(P_cu_s, P_cu_r, P_fe, P_fw, P_stray, P_mech)`` [W] at state ``x`` with its outputs ``o``
+        (:meth:`outputs` at the voltage applied) and the load ``T_load`` [N m]
+        (:mod:`satmotor.machine.losses`)."""
+        Rs, Rr = self._resistances(x)
+        isa, isb = o.i_s_alpha, o.i_s_beta
+        ira, irb = o.i_r_alpha, o.i_r_beta
+        w = x[OMEGA_M]
+        lp = self.lp
+        p_stray = 0.0
+        if lp.k_stray > 0.0:
+            if self.R_fe > 0.0:  # the current through the leakage, as the torque (_rates) takes it
+                isa, isb = self.currents(x[PSI_S_A], x[PSI_S_B], x[PSI_R_A], x[PSI_R_B])[:2]
+            p_stray = lp.k_stray * (isa * isa + isb * isb) * w * w
+            isa, isb = o.i_s_alpha, o.i_s_beta
+        return (1.5 * Rs * (isa * isa + isb * isb), 1.5 * Rr * (ira * ira + irb * irb), o.P_fe,
+                (self._B * w + friction_torque(lp, w)) * w, p_stray, (T_load + self._B2 * abs(w) * w) * w)
 
     def thermal_state(self):
         """The state's thermal entries at the start: ``(T_s0, T_r0)`` with the thermal model on, or ``()``."""

@@ -183,6 +183,34 @@ static int advance(const sm_motor *p, sm_solve_memo *memo, sm_pwm_link_run *lk, 
     return SM_CORE_OK;
 }
 
+/* PwmInverter._account: one interval's energies into en = [E_term, E_cond, E_sw, E_cu_s, E_fe] [J] from its
+ * states x0 -> x1, the integrals v_int [V s] of the applied voltage over L [s] and the drops dl */
+static int account(const sm_motor *p, sm_solve_memo *memo, const double *x0, const double *x1, const double v_int[2],
+                   double L, const double dl[3], double en[5])
+{
+    const double Rs = sm_plant_stator_resistance(p, x0);
+    const double qa = (v_int[0] - (x1[0] - x0[0])) / Rs, qb = (v_int[1] - (x1[1] - x0[1])) / Rs;
+    double va, vb, Rs1;
+    sm_plant_outputs o0, o1;
+    int st;
+    en[0] += 1.5 * (v_int[0] * qa + v_int[1] * qb) / L;
+    if (dl[0] != 0.0 || dl[1] != 0.0 || dl[2] != 0.0) {
+        double da, db;
+        sm_alpha_beta(dl[0], dl[1], dl[2], &da, &db);
+        en[1] -= 1.5 * (da * qa + db * qb);
+    }
+    if (!(p->R_fe > 0.0)) return SM_CORE_OK;
+    va = v_int[0] / L;
+    vb = v_int[1] / L;
+    if ((st = sm_plant_outputs_memo(p, memo, x0, va, vb, &o0)) != SM_CORE_OK) return st;
+    if ((st = sm_plant_outputs_memo(p, memo, x1, va, vb, &o1)) != SM_CORE_OK) return st;
+    Rs1 = sm_plant_stator_resistance(p, x1);
+    en[3] += 0.75 * L * (Rs * (o0.i_s_alpha * o0.i_s_alpha + o0.i_s_beta * o0.i_s_beta) +
+                         Rs1 * (o1.i_s_alpha * o1.i_s_alpha + o1.i_s_beta * o1.i_s_beta));
+    en[4] += 0.5 * L * (o0.P_fe + o1.P_fe);
+    return SM_CORE_OK;
+}
+
 /* PwmInverter.step on the ideal link (l NULL) or the capacitor link l (x then has p->n_states + 3 entries;
  * *chop, *fault, *t_fault: DCLink.step's) */
 static int step_any(sm_inverter *inv, const sm_motor *p, const sm_dclink *l, sm_solve_memo *memo, double *x,
@@ -194,6 +222,7 @@ static int step_any(sm_inverter *inv, const sm_motor *p, const sm_dclink *l, sm_
     sm_pwm_link_run lk;
     double xs[SM_N_LINK_STATES_MAX], T_h, eps, V, half, t1, end, start, tp, sa = 0.0, sb = 0.0;
     double cur[3] = {0.0, 0.0, 0.0}, sig[3] = {0.0, 0.0, 0.0}, dl[3] = {0.0, 0.0, 0.0}, vi[2], te, tn;
+    double x0[SM_N_LINK_STATES_MAX], en[5] = {0.0, 0.0, 0.0, 0.0, 0.0};
     long long k;
     int n_ev = 0, ei = 0, have_cur = 0, have_legs = 0, st, j, xd, nx;
     size_t n_local = 0;
@@ -253,9 +282,11 @@ static int step_any(sm_inverter *inv, const sm_motor *p, const sm_dclink *l, sm_
                 if ((st = legs(&q, p, memo, xs, cur, &have_cur, sig, dl)) != SM_CORE_OK) return st;
                 have_legs = 1;
             }
+            memcpy(x0, xs, (size_t)nx * sizeof xs[0]);
             st = advance(p, memo, l == NULL ? NULL : &lk, xs, tp, tn - tp, sig, dl, half, T_load, trace, trace_cap,
                          trace_n, vi);
             if (st != SM_CORE_OK) return st;
+            if ((st = account(p, memo, x0, xs, vi, tn - tp, dl, en)) != SM_CORE_OK) return st;
             sa += vi[0];
             sb += vi[1];
             tp = tn;
@@ -271,6 +302,15 @@ static int step_any(sm_inverter *inv, const sm_motor *p, const sm_dclink *l, sm_
             double e = evs[ei].t;
             int jj = evs[ei].phase, nw = evs[ei].state;
             ++ei;
+            if (q.k_edge > 0.0 && q.s[jj] >= 0 && nw != q.s[jj] && e >= start) { /* a switching edge's energy */
+                if (!have_cur) {
+                    sm_plant_outputs o;
+                    if ((st = sm_plant_outputs_memo(p, memo, xs, 0.0, 0.0, &o)) != SM_CORE_OK) return st;
+                    sm_phase_currents(o.i_s_alpha, o.i_s_beta, cur);
+                    have_cur = 1;
+                }
+                en[2] += q.k_edge * (l == NULL ? V : xs[sm_dclink_iv(p)]) * fabs(cur[jj]);
+            }
             if (q.s[jj] < 0 || e < start) { /* unknown state, or an edge of the last step: no dead interval */
                 q.s[jj] = nw;
                 have_legs = 0;
@@ -297,11 +337,14 @@ static int step_any(sm_inverter *inv, const sm_motor *p, const sm_dclink *l, sm_
     if (!have_legs) {
         if ((st = legs(&q, p, memo, xs, cur, &have_cur, sig, dl)) != SM_CORE_OK) return st;
     }
+    memcpy(x0, xs, (size_t)nx * sizeof xs[0]);
     st = advance(p, memo, l == NULL ? NULL : &lk, xs, tp, t1 - tp, sig, dl, half, T_load, trace, trace_cap, trace_n,
                  vi);
     if (st != SM_CORE_OK) return st;
+    if ((st = account(p, memo, x0, xs, vi, t1 - tp, dl, en)) != SM_CORE_OK) return st;
     sa += vi[0];
     sb += vi[1];
+    memcpy(q.energies, en, sizeof en);
     if (l != NULL) {
         *chop = lk.chop;
         *fault = lk.fault;

@@ -26,6 +26,10 @@ typedef struct {
     int s[3];    /* the legs' ideal states; -1 unknown (before the first step) */
     int dead[3];
     double dead_until[3], dead_v[3];
+    /* the losses (satmotor/machine/losses.py): an edge's energy per V and A (PwmInverter.k_edge, set by the
+     * plant unit from its sm_losses); the last step's E_term, E_cond, E_sw, E_cu_s, E_fe [J]
+     * (PwmInverter.energies) */
+    double k_edge, energies[5];
 } sm_inverter;
 
 /* InverterParams(V_dc, inverter, f_sw, t_dead, v_on) checks in their order (finiteness: the plant

@@ -86,6 +86,7 @@ int sm_motor_init(sm_motor *p, const sm_motor_params *m, const sm_plant_params *
     if (sm_require_number("B_2", pp->B_2, 1, 0.0, 1, msg, msg_len)) return SM_ERR_PARAM;
     if (sm_require_number("R_fe", pp->R_fe, 1, 0.0, 1, msg, msg_len)) return SM_ERR_PARAM;
     if ((st = thermal_check(pp, msg, msg_len)) != SM_CORE_OK) return st;
+    if ((st = sm_losses_init(&q.lp, pp, msg, msg_len)) != SM_CORE_OK) return st; /* LossParams */
     /* thermal off: the resistances at T_s0, T_r0 (T_s0 = T_ref: exactly R_s, R_s * 1.0) */
     q.R_s = resistance(m->R_s, pp->alpha_s, pp->T_s0, pp->T_ref);
     q.R_r = resistance(m->R_r, pp->alpha_r, pp->T_r0, pp->T_ref);
@@ -295,6 +296,7 @@ static int derivatives_ext(const sm_motor *p, const double *x, double v_a, doubl
     }
     we = (double)p->n_p * w;
     te = p->kappa * (x[SM_PSI_S_A] * e.c[1] - x[SM_PSI_S_B] * e.c[0]);
+    if (p->lp.mechanical) T_load = T_load + sm_loss_torque(&p->lp, w, e.c[0] * e.c[0] + e.c[1] * e.c[1]);
     dx[0] = e.ea;
     dx[1] = e.eb;
     dx[2] = -e.Rr * e.c[2] - we * x[SM_PSI_R_B];
@@ -353,6 +355,7 @@ int sm_plant_derivatives_from(const sm_motor *p, const double *x, double v_a, do
     }
     we = (double)p->n_p * w;
     te = p->kappa * (psa * isb - psb * isa);
+    if (p->lp.mechanical) T_load = T_load + sm_loss_torque(&p->lp, w, isa * isa + isb * isb);
     dx[0] = v_a - p->R_s * isa;
     dx[1] = v_b - p->R_s * isb;
     dx[2] = -p->R_r * ira - we * prb;
@@ -439,6 +442,44 @@ int sm_plant_outputs_memo(const sm_motor *p, sm_solve_memo *memo, const double *
     o->psi_m = psi;
     o->m = m;
     o->T_e = p->kappa * (psa * isb - psb * isa);
+    return SM_CORE_OK;
+}
+
+double sm_plant_stator_resistance(const sm_motor *p, const double *x)
+{
+    return p->thermal ? resistance(p->R_s_ref, p->alpha_s, x[SM_T_S], p->T_ref) : p->R_s;
+}
+
+int sm_plant_powers(const sm_motor *p, sm_solve_memo *memo, const double *x, const sm_plant_outputs *o,
+                    double T_load, double out[6])
+{
+    double Rs, Rr, isa = o->i_s_alpha, isb = o->i_s_beta, ira = o->i_r_alpha, irb = o->i_r_beta, w, p_stray = 0.0;
+    if (p->thermal) {
+        Rs = resistance(p->R_s_ref, p->alpha_s, x[SM_T_S], p->T_ref);
+        Rr = resistance(p->R_r_ref, p->alpha_r, x[SM_T_R], p->T_ref);
+    } else {
+        Rs = p->R_s;
+        Rr = p->R_r;
+    }
+    w = x[SM_OMEGA_M];
+    if (p->lp.k_stray > 0.0) {
+        if (p->R_fe > 0.0) { /* the current through the leakage, as the torque takes it */
+            double c[9];
+            int st = currents(p, x, NULL, memo, c);
+            if (st) return st;
+            isa = c[0];
+            isb = c[1];
+        }
+        p_stray = p->lp.k_stray * (isa * isa + isb * isb) * w * w;
+        isa = o->i_s_alpha;
+        isb = o->i_s_beta;
+    }
+    out[0] = 1.5 * Rs * (isa * isa + isb * isb);
+    out[1] = 1.5 * Rr * (ira * ira + irb * irb);
+    out[2] = o->P_fe;
+    out[3] = (p->B * w + sm_friction_torque(&p->lp, w)) * w;
+    out[4] = p_stray;
+    out[5] = (T_load + p->B_2 * fabs(w) * w) * w;
     return SM_CORE_OK;
 }
 

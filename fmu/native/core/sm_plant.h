@@ -8,6 +8,7 @@
 
 #include "sm_common.h"
 #include "sm_curves.h"
+#include "sm_losses.h"
 #include "sm_params.h" /* generated: sm_motor_params, sm_plant_params (orchestration/packaging/native/tables.py) */
 
 /* state x = [psi_s_alpha, psi_s_beta, psi_r_alpha, psi_r_beta, omega_m, theta_m], with the thermal model
@@ -29,6 +30,7 @@ typedef struct {
     double R_fe, R_s_ref, R_r_ref; /* R_s, R_r above: at T_s0, T_r0; R_s_ref, R_r_ref: at T_ref */
     double T_amb, T_s0, T_r0, T_ref, alpha_s, alpha_r, C_th_s, C_th_r, R_th_s, R_th_r, R_th_sr;
     int thermal, ext; /* ext: R_fe > 0 or thermal (Plant._ext: the general path) */
+    sm_losses lp;     /* the friction, windage, stray and switching losses (Plant.lp) */
     int n_states;     /* SM_N_STATES, or SM_N_STATES_MAX with the thermal model on */
     double x0[SM_N_STATES_MAX]; /* initial_state(params, omega_m0, psi_r_alpha = psi_r0) + (T_s0, T_r0) */
 } sm_motor;
@@ -94,6 +96,14 @@ int sm_plant_step(const sm_motor *p, double *x, double v_a, double v_b, double T
 /* sm_plant_step with a memo (NULL: none): the same results. */
 int sm_plant_step_memo(const sm_motor *p, sm_solve_memo *memo, double *x, double v_a, double v_b,
                        double T_load, double dt, int n_sub);
+
+/* Plant.powers(x, o, T_load): out = (P_cu_s, P_cu_r, P_fe, P_fw, P_stray, P_mech) [W] at x with its outputs
+ * o (sm_plant_outputs_memo at the voltage applied); memo as there.  Statuses of sm_plant_outputs_v. */
+int sm_plant_powers(const sm_motor *p, sm_solve_memo *memo, const double *x, const sm_plant_outputs *o,
+                    double T_load, double out[6]);
+
+/* Plant._resistances(x)[0]: R_s [Ohm] at x's stator temperature (thermal on), else the constant one */
+double sm_plant_stator_resistance(const sm_motor *p, const double *x);
 
 /* plant.initial_state(params, omega_m, theta_m, psi_r_alpha, psi_r_beta) into x.  SM_CORE_OK,
  * SM_ERR_NONFINITE, SM_ERR_NOCONV. */

@@ -7,6 +7,7 @@
 #include <string.h>
 
 #include "sm_common.h"
+#include "sm_phases.h"
 
 /* the plausibility warnings (PlantUnit.step, interface.plausibility_message): quantity k above its
  * bound v_warn / i_warn / omega_warn (> 0) is reported once per run; nothing else changes */
@@ -66,6 +67,7 @@ int sm_plant_unit_init(sm_plant_unit *u, const sm_motor_params *m, const sm_plan
     if ((st = sm_dclink_init(&u->link, lp, msg, msg_len))) return st;
     /* the inverter switches the link's V_dc (one parameter; a capacitor link: its voltage, a state) */
     if ((st = sm_inverter_init(&u->inv, pp, u->link.V_dc, msg, msg_len))) return st;
+    u->inv.k_edge = u->p.lp.k_edge; /* PwmInverter(inv, plant.lp) */
     u->max_substeps = pp->max_substeps;
     u->warn[0] = pp->v_warn;
     u->warn[1] = pp->i_warn;
@@ -114,6 +116,27 @@ static int check_step(const sm_plant_unit *u, double dt, const double in[SM_PLAN
     return SM_CORE_OK;
 }
 
+/* PlantUnit._step_means: u->means over the step from u->x to x1 of dt [s] (v_avg: the held voltage to be) */
+static void step_means(sm_plant_unit *u, const double *x1, double dt, const double v_avg[2])
+{
+    const double *x0 = u->x;
+    if (u->inv.pwm) {
+        u->means[0] = u->inv.energies[0] / dt;
+        u->means[1] = (u->inv.energies[1] + u->inv.energies[2]) / dt;
+        u->pwm_means[0] = u->inv.energies[3] / dt;
+        u->pwm_means[1] = u->inv.energies[4] / dt;
+    } else {
+        double va = v_avg[0], vb = v_avg[1], Rs, qa, qb;
+        if (u->link.capacitor) sm_dclink_applied(v_avg[0], v_avg[1], x1[sm_dclink_iv(&u->p)], &va, &vb);
+        Rs = sm_plant_stator_resistance(&u->p, x0);
+        qa = (va * dt - (x1[SM_PSI_S_A] - x0[SM_PSI_S_A])) / Rs;
+        qb = (vb * dt - (x1[SM_PSI_S_B] - x0[SM_PSI_S_B])) / Rs;
+        u->means[0] = 1.5 * (va * qa + vb * qb) / dt;
+        u->means[1] = 0.0;
+    }
+    u->means[2] = u->link.capacitor ? (x1[sm_dclink_iv(&u->p) + 2] - x0[sm_dclink_iv(&u->p) + 2]) / dt : 0.0;
+}
+
 int sm_plant_unit_step(sm_plant_unit *u, double t, double dt, const double in[SM_PLANT_N_IN], char *msg,
                        size_t msg_len)
 {
@@ -146,6 +169,8 @@ int sm_plant_unit_step(sm_plant_unit *u, double t, double dt, const double in[SM
         v_avg[0] = v_a;
         v_avg[1] = v_b;
     }
+    step_means(u, x, dt, v_avg);
+    u->T_load = T_load;
     memcpy(u->x, x, sizeof x);
     u->chop = chop;
     u->fault = fault;
@@ -173,8 +198,23 @@ void sm_plant_unit_publish(sm_plant_unit *u)
     double *r = u->out, v_a = u->v[0], v_b = u->v[1];
     if (u->link.capacitor && !u->inv.pwm) /* PlantUnit._held: the command as the link bounds it */
         sm_dclink_applied(u->v[0], u->v[1], u->x[sm_dclink_iv(&u->p)], &v_a, &v_b);
+    double pw[6], p_term = u->means[0], p_inv = u->means[1];
+    int j;
     if (sm_plant_outputs_memo(&u->p, &u->memo, u->x, v_a, v_b, &o) != 0) {
         o.i_s_alpha = o.i_s_beta = o.T_e = o.i_mu = o.P_fe = o.T_s = o.T_r = NAN;
+        for (j = 0; j < 6; ++j) pw[j] = NAN;
+    } else if (sm_plant_powers(&u->p, &u->memo, u->x, &o, u->T_load, pw) != 0) {
+        for (j = 0; j < 6; ++j) pw[j] = NAN;
+    }
+    if (u->instant) { /* model exchange: the power into the terminals at the instant */
+        p_term = 1.5 * (v_a * o.i_s_alpha + v_b * o.i_s_beta);
+        p_inv = 0.0;
+    }
+    if (!u->inv.pwm && u->p.lp.E_sw > 0.0) { /* the average inverter's switching loss (PlantUnit.powers) */
+        double cur[3];
+        sm_phase_currents(o.i_s_alpha, o.i_s_beta, cur);
+        p_inv = sm_switching_power(&u->p.lp, u->inv.f_sw, u->link.capacitor ? u->x[sm_dclink_iv(&u->p)]
+                                                                             : u->link.V_dc, cur);
     }
     r[SM_PLANT_OUT_i_s_alpha] = o.i_s_alpha;
     r[SM_PLANT_OUT_i_s_beta] = o.i_s_beta;
@@ -197,11 +237,19 @@ void sm_plant_unit_publish(sm_plant_unit *u)
         r[SM_PLANT_OUT_E_chop] = 0.0;
     }
     r[SM_PLANT_OUT_dc_fault] = u->fault ? 1.0 : 0.0;
-    r[SM_PLANT_OUT_P_fe] = o.P_fe;
+    r[SM_PLANT_OUT_P_fe] = u->inv.pwm ? u->pwm_means[1] : o.P_fe; /* pwm: its mean over the step (or 0) */
     r[SM_PLANT_OUT_T_s] = o.T_s;
     r[SM_PLANT_OUT_T_r] = o.T_r;
     r[SM_PLANT_OUT_v_avg_alpha] = u->v[0];
     r[SM_PLANT_OUT_v_avg_beta] = u->v[1];
+    r[SM_PLANT_OUT_P_cu_s] = u->inv.pwm && u->p.R_fe > 0.0 ? u->pwm_means[0] : pw[0]; /* pwm, core loss: mean */
+    r[SM_PLANT_OUT_P_cu_r] = pw[1];
+    r[SM_PLANT_OUT_P_fw] = pw[3];
+    r[SM_PLANT_OUT_P_stray] = pw[4];
+    r[SM_PLANT_OUT_P_inv] = p_inv;
+    r[SM_PLANT_OUT_P_chop] = u->instant ? 0.0 : u->means[2];
+    r[SM_PLANT_OUT_P_in] = p_term + p_inv;
+    r[SM_PLANT_OUT_P_mech] = pw[5];
 }
 
 int sm_plant_unit_derivatives(const sm_plant_unit *u, double t, const double *x, const double in[SM_PLANT_N_IN],
@@ -216,7 +264,7 @@ int sm_plant_unit_derivatives(const sm_plant_unit *u, double t, const double *x,
 
 size_t sm_plant_unit_state_size(const sm_plant_unit *u)
 {
-    return (size_t)u->n_x + (u->link.capacitor ? 2u : 0u) + 2u + (u->inv.pwm ? SM_PLANT_INVERTER_STATE : 0u);
+    return (size_t)u->n_x + (u->link.capacitor ? 2u : 0u) + 8u + (u->inv.pwm ? SM_PLANT_INVERTER_STATE : 0u);
 }
 
 size_t sm_plant_unit_get_state(const sm_plant_unit *u, double *s, size_t cap)
@@ -232,6 +280,9 @@ size_t sm_plant_unit_get_state(const sm_plant_unit *u, double *s, size_t cap)
     }
     s[n++] = u->v[0];
     s[n++] = u->v[1];
+    s[n++] = u->T_load;
+    for (j = 0; j < 3; ++j) s[n++] = u->means[j];
+    for (j = 0; j < 2; ++j) s[n++] = u->pwm_means[j];
     if (q->pwm) { /* PwmInverter.get_state */
         s[n++] = (double)q->have;
         s[n++] = (double)q->k;
@@ -263,6 +314,9 @@ int sm_plant_unit_set_state(sm_plant_unit *u, const double *s, size_t n)
     }
     u->v[0] = s[i++];
     u->v[1] = s[i++];
+    u->T_load = s[i++];
+    for (j = 0; j < 3; ++j) u->means[j] = s[i++];
+    for (j = 0; j < 2; ++j) u->pwm_means[j] = s[i++];
     if (q->pwm) { /* PwmInverter.set_state */
         q->have = s[i++] != 0.0;
         q->k = (long long)s[i++];

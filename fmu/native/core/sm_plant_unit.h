@@ -18,8 +18,9 @@
 
 #define SM_PLANT_MAX_WARNINGS 4 /* in one step at most: |v_s|, the over-voltage, |i_s|, |omega_m| */
 #define SM_PLANT_INVERTER_STATE 17 /* PwmInverter.get_state's length */
-/* PlantUnit.get_state's length at most: the states, chop and fault, the held voltage, the inverter's */
-#define SM_PLANT_STATE_MAX (SM_N_LINK_STATES_MAX + 2 + 2 + SM_PLANT_INVERTER_STATE)
+/* PlantUnit.get_state's length at most: the states, chop and fault, the held voltage, load and step means,
+ * the inverter's */
+#define SM_PLANT_STATE_MAX (SM_N_LINK_STATES_MAX + 2 + 2 + 6 + SM_PLANT_INVERTER_STATE)
 
 typedef struct {
     sm_motor p;
@@ -32,6 +33,12 @@ typedef struct {
     int n_x;
     int chop, fault; /* the chopper's state, the latched over-voltage fault */
     double v[2];     /* [V] the stator voltage held over the last step (pwm: its step average) */
+    double T_load;   /* [N m] the load held over the last step (P_mech) */
+    /* [W] the last step's means (PlantUnit._means): into the terminals, the inverter's loss (pwm), the
+     * chopper's; instant (the model-exchange plant): P_in and P_inv at the instant instead */
+    double means[3];
+    double pwm_means[2]; /* [W] pwm: the last step's means of P_cu_s, P_fe (PlantUnit._pwm_means) */
+    int instant;
     int max_substeps;
     double warn[3];  /* [V, A, rad/s] v_warn, i_warn, omega_warn (0: no check) */
     int warned[3];   /* that plausibility warning was given in this run */

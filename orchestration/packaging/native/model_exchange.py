@@ -56,8 +56,12 @@ STATOR = (*FLUXES, "T_s", "v_dc", "v_s_alpha", "v_s_beta")
 FEEDTHROUGH = {"v_avg_alpha": ("v_s_alpha",), "v_avg_beta": ("v_s_beta",)}
 # outputs through the terminal current (R_fe: on v_s at the same instant)
 STATOR_OUTPUTS = ("i_s_alpha", "i_s_beta", "P_fe")
-# outputs constant here (the over-voltage fault is not in model exchange): no dependency
-CONSTANT_OUTPUTS = ("dc_fault",)
+# outputs constant here (the over-voltage fault and the chopper are not in model exchange): no dependency
+CONSTANT_OUTPUTS = ("dc_fault", "P_chop")
+# the losses (satmotor.machine.losses), at the instant here: what each reads besides the parameters
+LOSS_DEPENDENCIES = {"P_cu_s": STATOR, "P_cu_r": (*FLUXES, "T_r"), "P_fw": ("omega_m",),
+                     "P_stray": (*STATOR, "omega_m"), "P_inv": STATOR, "P_in": STATOR,
+                     "P_mech": ("omega_m", "T_load")}
 
 
 def _output_dependencies(name):
@@ -69,11 +73,15 @@ def _output_dependencies(name):
         return STATOR
     if name in CONSTANT_OUTPUTS:
         return ()
+    if name in LOSS_DEPENDENCIES:
+        return LOSS_DEPENDENCIES[name]
     return FEEDTHROUGH.get(name, FLUXES)
 
 
 # the inputs an output's initial value reads besides the parameters
-INITIAL_INPUTS = {**FEEDTHROUGH, **{n: ("v_s_alpha", "v_s_beta") for n in STATOR_OUTPUTS}}
+INITIAL_INPUTS = {**FEEDTHROUGH, **{n: ("v_s_alpha", "v_s_beta") for n in STATOR_OUTPUTS},
+                  **{n: tuple(i for i in d if i in ("v_s_alpha", "v_s_beta", "T_load"))
+                     for n, d in LOSS_DEPENDENCIES.items() if set(d) & {"v_s_alpha", "v_s_beta", "T_load"}}}
 # what each derivative reads besides the parameters (sm_plant_unit_derivatives): every flux through the
 # magnetizing current; the stator side (STATOR); the speed; the load torque; the temperatures (R_s, R_r;
 # the heat flows); the link voltage (the source's and the inverter's current)
