@@ -17,6 +17,7 @@ from pathlib import Path
 
 import pandas as pd
 
+import satmotor.interface as itf
 from orchestration.results.plots import figure
 from orchestration.run.reference import COLUMNS
 from satmotor.control.backstepping import ControllerConfig
@@ -25,15 +26,10 @@ from satmotor.machine.params import MotorParams
 from satmotor.metrics import run_metrics
 from satmotor.simulate import RECORDED, RampScenario
 
-UNITS = {"t": "s", "v_s_alpha": "V", "v_s_beta": "V", "v_sd": "V", "v_sq": "V", "T_load": "N m",
-         "omega_ref": "rad/s", "psi_ref": "Wb", "omega_ref_shaped": "rad/s", "psi_ref_shaped": "Wb",
-         "i_s_alpha": "A",
-         "i_s_beta": "A", "psi_s_alpha": "Wb", "psi_s_beta": "Wb", "psi_r_alpha": "Wb",
-         "psi_r_beta": "Wb", "omega_m": "rad/s", "theta_m": "rad", "T_e": "N m", "i_mu": "A",
-         "psi_r_mag": "Wb", "e1": "Wb", "e2": "Wb/s", "z1": "rad/s", "z2": "rad/s^2", "V": "1",
-         "W": "1", "T_load_est": "N m", "phase": "1", "voltage_limited": "1", "singular_limited": "1",
-         "current_limited": "1", "psi_r_hat_alpha": "Wb", "psi_r_hat_beta": "Wb",
-         "omega_m_hat": "rad/s"}
+# the units from the FMUs' variable tables (no unit: "1"), and the three columns that are not FMU variables
+UNITS = {v.name: v.unit or "1" for table in (itf.PLANT_INPUTS, itf.PLANT_OUTPUTS, itf.CONTROLLER_INPUTS,
+                                             itf.CONTROLLER_OUTPUTS) for v in table} | {
+    "t": "s", "psi_r_mag": "Wb", "V": "1"}
 
 
 def plot(r, path, title):
