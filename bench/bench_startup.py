@@ -11,7 +11,9 @@ median of N (default 5), the load average before and after:
 * ``python -m orchestration run FILE --no-plot --no-build --engine c`` and ``--engine fmpy``, FILE the
   default scenario as the library has it (``record`` full: ``timeseries.csv`` and ``.parquet``
   written) and at ``record: metrics``;
-* ``python -c pass`` and ``python -c "import numpy"``: what any Python process with numpy pays.
+* ``python -c pass`` and ``python -c "import numpy"`` (also with ``OPENBLAS_NUM_THREADS=1``, as the
+  CLI sets it): what any Python process with numpy pays;
+* with ``--compare DIR``: the same commands run from the checkout ``DIR`` (before / after).
 
 The children run with bytecode caching on (``PYTHONDONTWRITEBYTECODE`` removed from their
 environment, one warm-up run first), as an installed package runs.  Then ``-X importtime`` of the
@@ -44,10 +46,11 @@ STEPS = 15_000  # the default scenario: 1.5 s at 100 us
 ENV = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
 
 
-def child_cpu(args):
-    """CPU [s] (user + system) of the child process ``args``; its stderr when it fails."""
+def child_cpu(args, cwd=ROOT, env=None):
+    """``(CPU [s] (user + system), stderr)`` of the child process ``args`` run in ``cwd`` (``python -m
+    orchestration`` there runs that checkout's package)."""
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
-    done = subprocess.run(args, cwd=ROOT, capture_output=True, text=True, env=ENV)
+    done = subprocess.run(args, cwd=cwd, capture_output=True, text=True, env={**ENV, **(env or {})})
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     if done.returncode not in (0, 3):  # 3: acceptance missed, still a complete run
         raise SystemExit(f"{' '.join(map(str, args))} failed ({done.returncode}): {done.stderr}")
@@ -76,6 +79,8 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--rounds", type=int, default=5)
     ap.add_argument("--fmus", default=str(ROOT / "build" / "fmus"))
+    ap.add_argument("--compare", metavar="DIR", help="also run the commands of the checkout DIR (its "
+                    "orchestration and satmotor packages, this environment): before / after side by side")
     ap.add_argument("--no-write", action="store_true", help="do not rewrite bench/RESULTS.md")
     a = ap.parse_args(argv)
     fmi2 = list(map(str, fmus.paths(a.fmus, "native")))
@@ -88,18 +93,22 @@ def main(argv=None):
         metrics = work / "ramp_rated_load_metrics.yaml"
         metrics.write_text(SCENARIO.read_text().replace("name: ramp_rated_load", "name: ramp_metrics")
                            .replace("record:", "record:\n  level: metrics", 1))
-        cases = {f"run --engine {e} --no-plot, record {lvl}": (f, e)
-                 for lvl, f in (("full", SCENARIO), ("metrics", metrics)) for e in ("c", "fmpy")}
-        for f, e in cases.values():  # warm-up: bytecode written, the engine compiled, the FMUs prepared
-            child_cpu(run_args(f, work / "out", a.fmus, e))
+        trees = {"": ROOT, **({f" ({Path(a.compare).name})": Path(a.compare).resolve()} if a.compare else {})}
+        cases = {f"run --engine {e} --no-plot, record {lvl}{tag}": (f, e, tree)
+                 for lvl, f in (("full", SCENARIO), ("metrics", metrics)) for e in ("c", "fmpy")
+                 for tag, tree in trees.items()}
+        for f, e, tree in cases.values():  # warm-up: bytecode written, the engine compiled, the FMUs prepared
+            child_cpu(run_args(f, work / "out", a.fmus, e), tree)
         for r in range(a.rounds):
             _, c, _ = run_floor(floor_args(floor_exe, *floor_units, STEPS, "floor"))
             cpu.setdefault("floor", []).append(c)
             cpu.setdefault("python -c pass", []).append(child_cpu([sys.executable, "-c", "pass"])[0])
             cpu.setdefault("python -c 'import numpy'", []).append(
                 child_cpu([sys.executable, "-c", "import numpy"])[0])
-            for name, (f, e) in cases.items():
-                cpu.setdefault(name, []).append(child_cpu(run_args(f, work / "out", a.fmus, e))[0])
+            cpu.setdefault("OPENBLAS_NUM_THREADS=1 python -c 'import numpy'", []).append(
+                child_cpu([sys.executable, "-c", "import numpy"], env={"OPENBLAS_NUM_THREADS": "1"})[0])
+            for name, (f, e, tree) in cases.items():
+                cpu.setdefault(name, []).append(child_cpu(run_args(f, work / "out", a.fmus, e), tree)[0])
             print(f"round {r + 1}/{a.rounds}: " + ", ".join(f"{k} {min(v):.3f}" for k, v in cpu.items())
                   + " s CPU (best so far)", flush=True)
         _, err = child_cpu(run_args(metrics, work / "out", a.fmus, "c", "-X", "importtime"))
