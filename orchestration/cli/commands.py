@@ -204,6 +204,10 @@ def run_file(path, out, fmu_dir, algorithm=None, build=True, plot=True, stop=Non
         try:
             extra = ({"unzip_dirs": shared.dirs, "descriptions": shared.descriptions}
                      if shared is not None and engine in ("fmpy", "c") else {})
+            if shared is None and engine == "fmpy":  # the descriptions parsed once per FMU content
+                from orchestration.run.c_engine.prepared import description
+
+                extra["descriptions"] = (description(plant), description(ctrl))
             if shared is not None and engine == "c":  # the FMUs instantiated once, reset per variant
                 extra["pool"] = shared.pool
             result = run(sc, str(plant), str(ctrl), algorithm=algorithm, stop=stop, recorder=make, **extra)
