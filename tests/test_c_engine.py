@@ -256,3 +256,29 @@ def test_the_fmus_are_extracted_and_read_once_per_content(tmp_path, monkeypatch,
     assert not any(p.name.startswith(".part-") for p in (tmp_path / "fmus").iterdir())
     (Path(d) / "marker").touch()
     assert prepared(plant)[0] == d and (Path(d) / "marker").is_file()  # the same copy, not made again
+
+
+def test_the_model_descriptions_are_parsed_once_per_content(tmp_path, monkeypatch, fmu_dir):
+    import importlib
+
+    from fmpy import read_model_description
+
+    from orchestration.cli.commands import unit_variables
+
+    prep = importlib.import_module("orchestration.run.c_engine.prepared")  # the package names its function
+
+    monkeypatch.setenv("SATMOTOR_ENGINE_CACHE", str(tmp_path))
+    paths = fmus.paths(fmu_dir)  # the default (pythonfmu) FMUs: the scenario checks read these
+    fresh = [read_model_description(str(p)) for p in paths]
+    for path, md in zip(paths, fresh):
+        got = prep.description(path)
+        assert unit_variables(got) == unit_variables(md) and got.guid == md.guid
+    kept = sorted((tmp_path / "descriptions").iterdir())
+    assert len(kept) == 2 and not any(p.name.startswith(".part-") for p in kept)
+    with monkeypatch.context() as m:  # the second time from the cache, not parsed
+        m.setattr(prep, "read_model_description", lambda *a: pytest.fail("parsed again"))
+        assert [prep.description(p).guid for p in paths] == [md.guid for md in fresh]
+    blocked = tmp_path / "a_file"
+    blocked.write_text("")
+    monkeypatch.setenv("SATMOTOR_ENGINE_CACHE", str(blocked))  # no cache to write: read from the FMU
+    assert unit_variables(prep.description(paths[1])) == unit_variables(fresh[1])

@@ -48,9 +48,9 @@ def model_variables(fmu_dir):
     plant, ctrl = fmus.paths(fmu_dir)
     if not (plant.exists() and ctrl.exists()):
         return None
-    from fmpy import read_model_description
+    from orchestration.run.c_engine.prepared import description  # parsed once per FMU content
 
-    return {unit: unit_variables(read_model_description(str(path)))
+    return {unit: unit_variables(description(path))
             for unit, path in (("plant", plant), ("controller", ctrl))}
 
 
@@ -205,6 +205,10 @@ def run_file(path, out, fmu_dir, algorithm=None, build=True, plot=True, stop=Non
         try:
             extra = ({"unzip_dirs": shared.dirs, "descriptions": shared.descriptions}
                      if shared is not None and engine in ("fmpy", "c") else {})
+            if shared is None and engine == "fmpy":  # the descriptions parsed once per FMU content
+                from orchestration.run.c_engine.prepared import description
+
+                extra["descriptions"] = (description(plant), description(ctrl))
             if shared is not None and engine == "c":  # the FMUs instantiated once, reset per variant
                 extra["pool"] = shared.pool
             result = run(sc, str(plant), str(ctrl), algorithm=algorithm, stop=stop, recorder=make, **extra)
@@ -538,7 +542,18 @@ def parser(prog="satmotor-cosim"):
 BROKEN_PIPE = 141
 
 
+def single_threaded_blas():
+    """Before numpy is first imported: OpenBLAS limited to one thread (``OPENBLAS_NUM_THREADS=1``,
+    unless the environment says otherwise), for this process and the children it starts.  A command's
+    numpy does no linear algebra large enough for threads (OpenBLAS runs the small products of the
+    curve fits on one thread whatever the setting), and starting its pool of threads costs about 50 ms
+    CPU of every process that imports numpy (``bench/bench_startup.py``)."""
+    if "numpy" not in sys.modules:
+        os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+
+
 def main(argv=None):
+    single_threaded_blas()
     args = parser(prog_name() if argv is None else "satmotor-cosim").parse_args(argv)
     try:
         code = args.func(args)

@@ -19,7 +19,6 @@ from __future__ import annotations
 import errno
 import json
 import os
-import socket
 import tempfile
 import time
 from contextlib import contextmanager
@@ -34,6 +33,15 @@ PARTIAL_GLOB = ".*" + PARTIAL_SUFFIX
 _WORDS = {errno.ENOSPC: "no space left on device", errno.EDQUOT: "disk quota exceeded",
           errno.EROFS: "read-only file system", errno.EACCES: "permission denied",
           errno.EFBIG: "file too large", errno.EIO: "input/output error"}
+
+
+def _hostname():
+    """This machine's name (``gethostname``: on POSIX the kernel's node name, without importing socket)."""
+    if hasattr(os, "uname"):
+        return os.uname().nodename
+    import socket
+
+    return socket.gethostname()
 
 
 def describe(exc, path=None):
@@ -151,7 +159,7 @@ def owner(pid=None):
     """``{"pid", "host", "pid_start", "started"}`` of this process (or ``pid``): who writes a
     ``running`` status, and since when (``started``: UTC, ISO 8601)."""
     pid = os.getpid() if pid is None else pid
-    return {"pid": pid, "host": socket.gethostname(), "pid_start": _start_ticks(pid),
+    return {"pid": pid, "host": _hostname(), "pid_start": _start_ticks(pid),
             "started": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())}
 
 
@@ -159,7 +167,7 @@ def writer_alive(status):
     """True when the process named by ``status`` (a dict with :func:`owner`'s keys) still runs,
     False when it is gone, None when this cannot be told (another host, no pid recorded)."""
     pid = status.get("pid")
-    if not isinstance(pid, int) or status.get("host") != socket.gethostname():
+    if not isinstance(pid, int) or status.get("host") != _hostname():
         return None
     ticks = _start_ticks(pid)
     if ticks is not None:  # a process of that pid runs: the writer if it started when the writer did

@@ -18,7 +18,8 @@ from __future__ import annotations
 from orchestration.scenario.plausibility import plausibility_notes
 from orchestration.scenario.problems import Note, Problem
 
-#: Largest number of recorded values (rows x columns) a run may produce.  The recorder streams
+#: Largest number of recorded values (rows x columns) a run may keep (:func:`kept_size`: what its
+#: record level writes, not what it computes: level ``metrics`` keeps none).  The recorder streams
 #: its rows to disk in chunks, so the run itself holds one chunk; the bound keeps the files and
 #: their post-processing (metrics, figure: the columns read back, 8 bytes a value) finite:
 #: 1e8 values are about 0.8 GB in memory and 2 GB of CSV.
@@ -90,12 +91,15 @@ def physics_check(sc, fields=None):
             problems.append(Problem(file, "profiles.psi_ref", hi, f"unreachable: the highest set-point "
                                     f"{exc.reason} (raise controller.I_max or lower the set-point)"))
     if sc.record is not None:
-        rows, cols = recorded_size(sc)
+        rows, cols = kept_size(sc)
         if rows * cols > MAX_RECORDED_VALUES:
+            decimated = sc.record.level == "decimated"
+            every = f", one row of record.every = {sc.record.every} kept" if decimated else ""
             problems.append(Problem(file, "stop_time", sc.stop_time, (
                 f"would record {rows:.4g} rows x {cols} columns = {rows * cols:.3g} values (every "
-                f"record.interval = {sc.record.interval!r} s); the limit is {MAX_RECORDED_VALUES:.0e} "
-                "values: shorten stop_time, raise record.interval or list fewer record.outputs")))
+                f"record.interval = {sc.record.interval!r} s{every}); the limit is {MAX_RECORDED_VALUES:.0e} "
+                "values: shorten stop_time, raise record.interval or record.every, list fewer "
+                "record.outputs, or record: metrics")))
     load = sc.profiles.get("T_load")
     if reachable and plant is not None and load is not None:
 
@@ -149,3 +153,17 @@ def recorded_size(sc):
                                sorted(sc.profiles), measured)
     rows = int(sc.stop_time / sc.record.interval + 1e-9) + 1
     return rows, len(recorded_selection(sc, columns))
+
+
+def kept_size(sc):
+    """(rows, columns) the record level of ``sc`` keeps of :func:`recorded_size`: every row
+    (``full``), one of ``record.every`` from the first (``decimated``), none (``metrics``: the rows
+    are folded into the metrics chunk by chunk and dropped,
+    :class:`orchestration.results.recorder.MetricsOnly`)."""
+    rows, cols = recorded_size(sc)
+    level = sc.record.level
+    if level == "metrics":
+        return 0, cols
+    if level == "decimated":
+        return -(-rows // max(1, sc.record.every)), cols
+    return rows, cols

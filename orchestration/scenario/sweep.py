@@ -54,7 +54,8 @@ from orchestration.scenario import presets
 from orchestration.scenario.correlation import JOINT
 from orchestration.scenario.problems import MISSING, Checker
 
-__all__ = ["Sweep", "Variant", "expand", "parse_sweep", "MAX_VARIANTS", "SECTIONS"]
+__all__ = ["Plan", "Sweep", "Variant", "expand", "plan", "parse_sweep", "plan_sweep", "MAX_VARIANTS",
+           "SECTIONS"]
 
 MAX_VARIANTS = 10_000  # a grid beyond this is refused (a typo in a range, not a study)
 SECTIONS = ("motor", "plant", "controller", "profiles")
@@ -246,6 +247,13 @@ def parse_sweep(raw, data, file, tables=None, only=None):
     ``data`` (from ``file``).  ``tables``: ``{section: {parameter name: default}}`` of the paths
     allowed (default: the FMUs' variable tables).  ``only``: an index; the other variants get no
     mapping (``data`` None: the run of one variant copies the file's mapping once, not per variant)."""
+    plan, problems = plan_sweep(raw, data, file, tables)
+    return (None, problems) if plan is None else (plan.sweep(only), [])
+
+
+def plan_sweep(raw, data, file, tables=None):
+    """``(Plan or None, problems)`` of the ``sweep:`` mapping ``raw`` of the scenario mapping ``data``
+    (as :func:`parse_sweep`): the design drawn, no variant's mapping built yet."""
     chk = Checker(file)
     tables = tables if tables is not None else _unit_tables()
     if not chk.mapping(raw, "sweep", ("parameters",), ("samples", "seed", "analysis", "levels", *JOINT)):
@@ -330,25 +338,45 @@ def parse_sweep(raw, data, file, tables=None, only=None):
 
         rows = list(itertools.product(*(specs[p] for p in paths)))
     base = {k: v for k, v in data.items() if k != "sweep"}
-    width = len(str(len(rows) - 1))
-    variants = []
-    for i, values in enumerate(rows):
-        name = f"{data.get('name')}-{i:0{width}d}"
-        if only is not None and i != only:
-            variants.append(Variant(i, name, tuple(zip(paths, values)), None))
-            continue
-        d = copy.deepcopy(base)
+    kind = analysis or ("montecarlo" if montecarlo else "grid")
+    return Plan(kind, paths, rows, tuple(located[p][0] for p in paths), base, seed, design), []
+
+
+class Plan:
+    """A sweep's design drawn once: the varied ``paths``, the ``rows`` of values (one tuple per
+    variant), the setters writing them, and the file's mapping without ``sweep:`` (``base``).
+    :meth:`variant` builds the mapping of one variant (its cost does not grow with the number of
+    variants); :meth:`sweep` the :class:`Sweep` of them all."""
+
+    def __init__(self, kind, paths, rows, setters, base, seed=None, design=None):
+        self.kind, self.paths, self.rows, self.setters = kind, paths, rows, setters
+        self.base, self.seed, self.design = base, seed, design
+        self._width = len(str(len(rows) - 1))
+
+    def __len__(self):
+        return len(self.rows)
+
+    def variant(self, i, with_data=True):
+        """Variant ``i`` (0 <= i < len(self)); ``with_data`` False: without its mapping (``data`` None)."""
+        values = self.rows[i]
+        name = f"{self.base.get('name')}-{i:0{self._width}d}"
+        if not with_data:
+            return Variant(i, name, tuple(zip(self.paths, values)), None)
+        d = copy.deepcopy(self.base)
         d["name"] = name
-        for p, v in zip(paths, values):
-            located[p][0](d, v)
+        for setter, v in zip(self.setters, values):
+            setter(d, v)
         record = d.get("record")
         if record is None:
             d["record"] = {"level": "metrics"}
         elif isinstance(record, dict) and "level" not in record:
             d["record"] = {**record, "level": "metrics"}
-        variants.append(Variant(i, name, tuple(zip(paths, values)), d))
-    kind = analysis or ("montecarlo" if montecarlo else "grid")
-    return Sweep(kind, paths, tuple(variants), seed, design), []
+        return Variant(i, name, tuple(zip(self.paths, values)), d)
+
+    def sweep(self, only=None):
+        """The :class:`Sweep`; ``only``: as for :func:`parse_sweep`."""
+        variants = tuple(self.variant(i, only is None or i == only) for i in range(len(self.rows)))
+        return Sweep(self.kind, self.paths, variants, self.seed, self.design)
 
 
 def _analysis(chk, raw):
@@ -433,3 +461,10 @@ def _from_prior(chk, spec, where, path, file, cache, data, tables):
             return None, None
     return ("normal", prior.values[name], prior.sigma[name]), (full, name, prior)
 
+
+def plan(data, file, tables=None):
+    """``(Plan or None, problems)`` of the scenario mapping ``data``: None without a ``sweep:``
+    section (and no problem)."""
+    if not isinstance(data, dict) or "sweep" not in data:
+        return None, []
+    return plan_sweep(data["sweep"], data, file, tables)

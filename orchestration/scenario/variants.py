@@ -5,9 +5,15 @@ before anything runs; the run of one variant (``run FILE --sweep-variant I``) bu
 
 from __future__ import annotations
 
-from orchestration.scenario.load import ScenarioError, _check, _read
+import functools
+from pathlib import Path
+
+import yaml
+
+from orchestration.scenario.load import ScenarioError, _check, _parse, _read
 from orchestration.scenario.problems import Problem
 from orchestration.scenario.sweep import expand
+from orchestration.scenario.sweep import plan as plan_sweep
 
 __all__ = ["check_sweep", "load_sweep", "load_variant"]
 
@@ -47,15 +53,40 @@ def load_sweep(path, variables=None):
 def load_variant(path, index, variables=None):
     """The :class:`Scenario` of variant ``index`` of the sweep of the scenario file ``path`` (only
     that variant checked: the batch that runs it has checked them all); raises
-    :class:`ScenarioError` (a file without a sweep, an index out of range: one problem)."""
-    data, problems = _read(path)
+    :class:`ScenarioError` (a file without a sweep, an index out of range: one problem).
+
+    The file is read every time; its parsed YAML and its sweep's design are kept per process for
+    the last few texts read (:func:`_planned`): the variants after the first of a batch child cost
+    the same whatever the size of the study."""
+    file = str(path)
+    try:
+        text = Path(path).read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError):
+        text = None
+    if text is None:
+        data, problems, plan = None, _read(path)[1], None
+    else:
+        data, problems, plan = _planned(file, text)
     if not problems:
-        sweep, problems = expand(data, str(path), only=index)
-        if not problems and (sweep is None or not 0 <= index < len(sweep.variants)):
-            count = len(sweep.variants) if sweep else 0
-            problems = [Problem(str(path), "sweep", index, f"no variant {index}: the file has {count}")]
-        if not problems:
-            sc, problems = _check(sweep.variants[index].data, str(path), variables)
+        if plan is None or not 0 <= index < len(plan):
+            count = len(plan) if plan is not None else 0
+            problems = [Problem(file, "sweep", index, f"no variant {index}: the file has {count}")]
+        else:
+            sc, problems = _check(plan.variant(index).data, file, variables)
     if problems:
-        raise ScenarioError(problems, str(path))
+        raise ScenarioError(problems, file)
     return sc
+
+
+@functools.lru_cache(maxsize=4)
+def _planned(file, text):
+    """``(data, problems, Plan or None)`` of the scenario file ``file`` whose text is ``text``: the
+    YAML parsed and the sweep's design drawn once per text (the callers copy what they change)."""
+    try:
+        data, problems = _parse(text, file)
+    except yaml.YAMLError:
+        data, problems = _read(file)  # says the syntax problem as the loader does
+    if problems:
+        return data, problems, None
+    plan, problems = plan_sweep(data, file)
+    return data, problems, plan

@@ -33,7 +33,6 @@ from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-from orchestration.packaging.native import source_fmu
 from orchestration.packaging.sources import fmu_sources
 
 GLUE_DIR = fmu_sources() / "native" / "fmi"
@@ -249,6 +248,8 @@ def build_native_fmu(model_identifier: str, sources: Iterable[str | Path], model
     ``{"index.html": ...}``). ``extra_files``: ``{path in the FMU: bytes}`` (e.g. FMI 3.0's
     ``terminalsAndIcons/terminalsAndIcons.xml``). Raises :class:`NativeBuildError` on any failure.
     """
+    from orchestration.packaging.native import source_fmu  # here: its xml.sax imports urllib, http, ssl
+
     major = _major(fmi_version)
     if not re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", model_identifier):
         raise NativeBuildError(f"model identifier {model_identifier!r} is not a C identifier")

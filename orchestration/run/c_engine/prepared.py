@@ -24,7 +24,7 @@ from fmpy import read_model_description
 from orchestration.run.c_engine.build import cache_dir
 from orchestration.run.fmu_instance import needed_to_run
 
-__all__ = ["prepared"]
+__all__ = ["prepared", "description"]
 
 DESCRIPTION = "modelDescription.pickle"
 
@@ -51,3 +51,31 @@ def prepared(path):
             shutil.rmtree(tmp, ignore_errors=True)
     # the cache is this user's own directory, written above from the FMU whose bytes name it
     return str(entry), pickle.loads((entry / DESCRIPTION).read_bytes())  # noqa: S301
+
+
+def description(path):
+    """The model description of the FMU ``path`` as fmpy reads it, parsed once per content and kept in
+    the engine's cache (``descriptions/``; the same key as :func:`prepared`): the checks of a scenario
+    read the FMUs' variables without parsing their XML each run.  Where the cache cannot be written,
+    the description is read from the FMU."""
+    data = Path(path).read_bytes()
+    key = hashlib.sha256(data + fmpy.__version__.encode()).hexdigest()[:24]
+    kept = cache_dir() / "descriptions" / f"{key}.pickle"
+    try:
+        # the cache is this user's own directory, written below from the FMU whose bytes name it
+        return pickle.loads(kept.read_bytes())  # noqa: S301
+    except (OSError, EOFError, pickle.UnpicklingError):
+        pass
+    md = read_model_description(str(path))
+    try:
+        kept.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(prefix=".part-", dir=kept.parent)
+        try:
+            with os.fdopen(fd, "wb") as f:
+                f.write(pickle.dumps(md))
+            os.replace(tmp, kept)
+        finally:
+            Path(tmp).unlink(missing_ok=True)
+    except OSError:
+        pass
+    return md
