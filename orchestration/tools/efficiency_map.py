@@ -20,7 +20,8 @@ what missed (``holds_setpoints`` of the run's ``metrics.json``) or how the run e
 
 Efficiency: motoring (``P_mech > 0``, ``P_in > 0``) ``P_mech / P_in``; generating (both negative)
 ``P_in / P_mech`` (electric power returned over shaft power taken); else (no shaft power, or the losses
-exceed the power regenerated) NaN.
+exceed the power regenerated) NaN; NaN too at a point not reachable (its other columns are the means of
+the run's window as it was).
 
 Exit codes: 0 the map written (unreachable points included), 2 a bad argument or scenario (nothing run),
 1 a point's run failed or the table could not be written, ``128 + signum`` interrupted (what finished
@@ -207,6 +208,8 @@ def gather(runs, modes, speeds, torques, stop_time, window):
                     status, summary = "failed", {"message": f"its time series cannot be read: {exc}"}
             held = summary.get("holds_setpoints")
             row["reachable"] = bool(status == "ok" and held is True)
+            if not row["reachable"]:  # the means of a run that did not hold its point: no efficiency of it
+                row["efficiency"] = float("nan")
             row["why"] = ("" if row["reachable"] else summary.get("setpoints") or summary.get("message")
                           or f"run {status}")
             rows.append(row)
