@@ -49,6 +49,9 @@ COLUMNS = ("speed", "torque", "flux_mode", "omega_m", "T_e", "psi_r", "i_s", "i_
 LOAD_RAMP = (0.2, 0.4)  # [1] of the run time: T_load from 0 to the point's torque
 WINDOW = 0.1  # [1] of the run time: the default averaging window
 WINDOW_ROWS = 100  # recorded rows the window holds at least (record.interval chosen so)
+#: the result of a point without metrics.json: {interrupted: ...}
+NOT_RUN = {True: {"status": "interrupted", "message": "not run: the map was interrupted"},
+           False: {"status": "not run", "message": "no results: its run did not start"}}
 
 
 class ArgumentError(ValueError):
@@ -180,9 +183,9 @@ def window_means(frame, t_from):
     return row
 
 
-def gather(runs, modes, speeds, torques, stop_time, window):
+def gather(runs, modes, speeds, torques, stop_time, window, interrupted=False):
     """The rows of the map from the runs under ``runs`` (``OUT/runs``): a row per point and mode, a
-    point without results saying why."""
+    point without results saying why (``interrupted``: the map was stopped before it ran)."""
     import json
 
     import pandas as pd
@@ -198,7 +201,7 @@ def gather(runs, modes, speeds, torques, stop_time, window):
             try:
                 summary = json.loads((run / "metrics.json").read_text())
             except (OSError, ValueError):
-                summary = {"status": "not run", "message": "no results (interrupted before it ran?)"}
+                summary = NOT_RUN[bool(interrupted)]
             status = summary.get("status", "unknown")
             row["status"] = status
             if status in ("ok", "interrupted"):
@@ -236,7 +239,7 @@ def run_map(scenario, out, speeds, torques, modes, fmu_dir, jobs=2, stop=None, s
     if code == 2 and not (out / "runs" / "summary.csv").exists():  # refused before anything ran
         print(screen.getvalue(), end="")
         return 2
-    table = gather(out / "runs", modes, speeds, torques, stop_time, window)
+    table = gather(out / "runs", modes, speeds, torques, stop_time, window, bool(stop.signum))
     try:
         table.to_csv(out / "efficiency_map.csv", index=False)
         table.to_parquet(out / "efficiency_map.parquet", index=False)

@@ -49,8 +49,9 @@ def _loss_panel(ax, d, losses):
         v = ok[name].fillna(0.0).to_numpy()
         ax.bar(x, v, bottom=bottom, label=name)
         bottom += v
-    ax.set_xticks(x, [f"{s:g}/{t:g}\n{m[:4]}" for s, t, m in zip(ok["speed"], ok["torque"], ok["flux_mode"])],
-                  fontsize=6)
+    every = max(1, -(-len(ok) // 20))  # at most 20 labels
+    labels = [f"{s:g}/{t:g} {m[:4]}" for s, t, m in zip(ok["speed"], ok["torque"], ok["flux_mode"])]
+    ax.set_xticks(x[::every], labels[::every], fontsize=6, rotation=60, ha="right")
     ax.set(ylabel="loss [W]", title="loss breakdown (reachable points: speed/torque, mode)")
     ax.legend(fontsize=7, ncol=2)
 
