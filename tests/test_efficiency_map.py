@@ -104,3 +104,15 @@ def test_interrupted_map_writes_what_it_has(tmp_path, fmu_dir):
     assert len(table) == 4 and not table["reachable"].any()
     assert set(table["status"]) == {"interrupted"}
     assert table["why"].str.contains("interrupted").all()
+
+
+def test_invalid_scenario_refused_before_running(tmp_path, capsys):
+    bad = tmp_path / "bad.yaml"
+    bad.write_text(yaml.safe_dump({"name": "bad", "stop_time": 1.0, "step": 1e-4, "motor": {"R_r": -1.0},
+                                   "profiles": {"psi_ref": {"type": "constant", "value": 0.95}}}))
+    code = main(["efficiency-map", str(bad), "--speed", "50:100:2", "--torque", "0:10:2",
+                 "--out", str(tmp_path / "m")])
+    assert code == 2
+    err = capsys.readouterr().err
+    assert "R_r" in err and "-1" in err
+    assert not (tmp_path / "m" / "runs").exists()

@@ -232,12 +232,22 @@ def run_map(scenario, out, speeds, torques, modes, fmu_dir, jobs=2, stop=None, s
     except OSError as exc:
         print(f"--out {out}: cannot write the results: {exc}", file=sys.stderr)
         return 2
+    from orchestration.scenario.load import ScenarioError
+    from orchestration.scenario.variants import load_sweep
+
+    for f in files:  # every point checked before any runs (as batch would, but refusing the map)
+        try:
+            load_sweep(f)
+        except ScenarioError as exc:
+            print(f"efficiency-map: SCENARIO {str(scenario)!r}: its points are invalid:", file=sys.stderr)
+            for p in exc.problems:
+                print(f"  {p}", file=sys.stderr)
+            return 2
     screen = io.StringIO()  # batch's table of every point: the map's own table replaces it
     with contextlib.redirect_stdout(screen):
         code = run_batch([str(f) for f in files], out / "runs", fmu_dir, jobs=jobs, stop=stop,
                          variant=variant, command=command, plot=False)
-    if code == 2 and not (out / "runs" / "summary.csv").exists():  # refused before anything ran
-        print(screen.getvalue(), end="")
+    if code == 2 and not (out / "runs" / "summary.csv").exists():  # refused before anything ran (--out)
         return 2
     table = gather(out / "runs", modes, speeds, torques, stop_time, window, bool(stop.signum))
     try:
