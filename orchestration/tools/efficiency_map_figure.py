@@ -22,15 +22,16 @@ def _envelope(ax, d):
     ax.plot(env["speed"], env["min"], "k-", lw=1.5)
 
 
-def _efficiency_panel(ax, d, mode):
+def _efficiency_panel(ax, d, mode, levels):
     grid = d.pivot_table(index="torque", columns="speed", values="efficiency", dropna=False)
     reach = d.pivot_table(index="torque", columns="speed", values="reachable", aggfunc="max", dropna=False)
     z = np.where(reach.to_numpy(dtype=float) > 0, grid.to_numpy(dtype=float), np.nan)
     if z.shape[0] >= 2 and z.shape[1] >= 2 and np.isfinite(z).sum() >= 4:
-        cs = ax.contourf(grid.columns, grid.index, np.ma.masked_invalid(z), levels=12, cmap="viridis")
-        ax.figure.colorbar(cs, ax=ax, label="efficiency [1]")
+        cs = ax.contourf(grid.columns, grid.index, np.ma.masked_invalid(z), levels=levels, cmap="viridis")
+        ax.figure.colorbar(cs, ax=ax, label="efficiency [1]", format="%.3g")
     ok = d[d["reachable"]]
-    sc = ax.scatter(ok["speed"], ok["torque"], c=ok["efficiency"], cmap="viridis", edgecolor="k", s=25)
+    sc = ax.scatter(ok["speed"], ok["torque"], c=ok["efficiency"], cmap="viridis", edgecolor="k", s=25,
+                    vmin=levels[0], vmax=levels[-1])
     if z.shape[0] < 2 or z.shape[1] < 2:
         ax.figure.colorbar(sc, ax=ax, label="efficiency [1]")
     bad = d[~d["reachable"]]
@@ -79,8 +80,11 @@ def draw(table, path):
 
     modes = list(dict.fromkeys(table["flux_mode"]))
     fig, axes = plt.subplots(2, max(2, len(modes)), figsize=(6 * max(2, len(modes)), 9), squeeze=False)
+    eff = table.loc[table["reachable"], "efficiency"].dropna()
+    lo, hi = (float(eff.min()), float(eff.max())) if len(eff) else (0.0, 1.0)
+    levels = np.linspace(lo, hi if hi > lo else lo + 1e-3, 13)  # one scale for every mode
     for ax, mode in zip(axes[0], modes):
-        _efficiency_panel(ax, table[table["flux_mode"] == mode], mode)
+        _efficiency_panel(ax, table[table["flux_mode"] == mode], mode, levels)
     for ax in axes[0][len(modes):]:
         ax.set_axis_off()
     _loss_panel(axes[1][0], table, LOSSES)
