@@ -71,6 +71,6 @@ def test_every_command_of_the_help_is_on_the_readme():
     usage = _help()
     commands = re.search(r"\{([a-z,-]+)\}", usage).group(1).split(",")
     readme = (ROOT / "README.md").read_text(encoding="utf-8")
-    assert len(commands) == 7
+    assert len(commands) == 8
     for c in commands:
         assert f"satmotor-cosim {c} " in readme, c

@@ -1,4 +1,4 @@
-"""Command line: ``satmotor-cosim {build,run,batch,validate,check,export-ssp,fit-curve}`` (also
+"""Command line: ``satmotor-cosim {build,run,batch,validate,check,export-ssp,fit-curve,efficiency-map}`` (also
 ``python -m orchestration``; the usage lines name the command as it was typed).
 
 Exit codes: 0 success; 1 a run failed (FMI discard/error/fatal, or setup); 2 a scenario file is
@@ -405,6 +405,32 @@ def cmd_fit_curve(args):
     return OK
 
 
+def cmd_efficiency_map(args):
+    """``efficiency-map SCENARIO --speed FROM:TO:N --torque FROM:TO:N --out DIR [--flux-mode ...]``:
+    :mod:`orchestration.tools.efficiency_map` (exit 2: a bad argument, naming it and its value)."""
+    from orchestration.process.interrupts import catch
+    from orchestration.tools.efficiency_map import ArgumentError, parse_grid, parse_modes, run_map
+
+    try:
+        speeds, torques = parse_grid(args.speed, "--speed"), parse_grid(args.torque, "--torque")
+        modes = parse_modes(args.flux_mode)
+        if args.jobs < 1:
+            raise ArgumentError(f"--jobs {args.jobs}: must be >= 1")
+        if not Path(args.scenario).is_file():
+            raise ArgumentError(f"SCENARIO {args.scenario!r}: no such file")
+    except ArgumentError as exc:
+        print(f"efficiency-map: {exc}", file=sys.stderr)
+        return INVALID
+    with catch() as stop:
+        try:
+            return run_map(args.scenario, args.out, speeds, torques, modes, args.fmus, jobs=args.jobs,
+                           stop=stop, stop_time=args.time, window=args.window, plot=not args.no_plot,
+                           variant=args.variant or "native", command=main)
+        except ArgumentError as exc:
+            print(f"efficiency-map: {exc}", file=sys.stderr)
+            return INVALID
+
+
 def prog_name(argv0=None):
     """The command as the user typed it, for the usage lines: ``python -m orchestration`` when run as
     the module, else the name of the script (``satmotor-cosim``)."""
@@ -534,6 +560,27 @@ def parser(prog="satmotor-cosim"):
         fc.add_argument(opt, dest=dest, default=None, metavar=unit,
                         help=f"{what} [{unit.replace('_', ' ')}], written into --motor-yaml")
     fc.set_defaults(func=cmd_fit_curve)
+    em = sub.add_parser("efficiency-map", help="steady-state efficiency over a torque-speed grid",
+                        description="Run the steady state of SCENARIO's drive at every point of a speed x "
+                        "torque grid (negative torque: generating) and flux mode, in parallel; write "
+                        "efficiency_map.csv, .parquet and .png into OUT (docs/scenarios.md).")
+    em.add_argument("scenario", help="scenario YAML file: its motor, plant, controller, step and psi_ref")
+    em.add_argument("--speed", required=True, metavar="FROM:TO:N", help="speed set-points [rad/s], N values")
+    em.add_argument("--torque", required=True, metavar="FROM:TO:N", help="load torques [N m], N values")
+    em.add_argument("--out", required=True, help="output directory")
+    em.add_argument("--flux-mode", dest="flux_mode", default="nominal", metavar="M[,M]",
+                    help="controller flux_mode(s): nominal, loss_minimizing or both (default nominal)")
+    em.add_argument("--time", type=float, default=None, metavar="S",
+                    help="run time per point [s] (default the scenario's stop_time)")
+    em.add_argument("--window", type=float, default=None, metavar="S",
+                    help="final averaging window [s] (default 10 %% of --time)")
+    em.add_argument("--jobs", type=int, default=2, help="parallel processes (default 2)")
+    em.add_argument("--fmus", default=str(fmus.DEFAULT_DIR),
+                    help="FMU directory, built there when missing or stale (default build/fmus)")
+    em.add_argument("--variant", choices=tuple(fmus.VARIANTS),
+                    help="which FMUs (default native: the compiled engine)")
+    em.add_argument("--no-plot", action="store_true", help="no efficiency_map.png")
+    em.set_defaults(func=cmd_efficiency_map)
     return ap
 
 
@@ -552,15 +599,30 @@ def single_threaded_blas():
         os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 
+def joined_grids(argv):
+    """``--speed -150:150:5`` read as ``--speed=-150:150:5``: argparse takes a value starting with ``-``
+    (a generating torque's) for an option unless it is a plain number."""
+    out, argv = [], list(argv)
+    for i, a in enumerate(argv):
+        grid = i and argv[i - 1] in ("--speed", "--torque") and out and out[-1] == argv[i - 1]
+        if grid and a.startswith("-"):
+            out[-1] = f"{argv[i - 1]}={a}"
+        else:
+            out.append(a)
+    return out
+
+
 def main(argv=None):
     single_threaded_blas()
-    args = parser(prog_name() if argv is None else "satmotor-cosim").parse_args(argv)
+    own = argv is None  # this process's own command line
+    argv = joined_grids(sys.argv[1:] if own else argv)
+    args = parser(prog_name() if own else "satmotor-cosim").parse_args(argv)
     try:
         code = args.func(args)
     except BrokenPipeError:  # the reader closed the pipe: no traceback, nothing more to print
         devnull = os.open(os.devnull, os.O_WRONLY)
         os.dup2(devnull, sys.stdout.fileno())  # the final flush must not fail again
         code = BROKEN_PIPE
-    if argv is None:  # this process's own command line (python -m orchestration, satmotor-cosim):
+    if own:  # this process's own command line (python -m orchestration, satmotor-cosim):
         exit_now(code)  # end it here, before native exit code runs (see orchestration/process/clean_exit.py)
     return code
