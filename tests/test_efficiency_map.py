@@ -92,12 +92,13 @@ def test_interrupted_map_writes_what_it_has(tmp_path, fmu_dir):
     """A stop (SIGTERM) before any point ran: the table is still written, every row saying so, exit 143."""
     import signal
 
+    from orchestration.cli.batch import run_batch
     from orchestration.process.interrupts import StopRequest
     from orchestration.tools.efficiency_map import run_map
 
     stop = StopRequest()
     stop.request(signal.SIGTERM)
-    code = run_map("scenarios/rated_point.yaml", tmp_path, [50.0, 100.0], [5.0],
+    code = run_map(run_batch, "scenarios/rated_point.yaml", tmp_path, [50.0, 100.0], [5.0],
                    ["nominal", "loss_minimizing"], fmu_dir, stop=stop, stop_time=0.2, plot=False)
     assert code == 128 + signal.SIGTERM
     table = pd.read_csv(tmp_path / "efficiency_map.csv")

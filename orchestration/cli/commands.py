@@ -408,6 +408,7 @@ def cmd_fit_curve(args):
 def cmd_efficiency_map(args):
     """``efficiency-map SCENARIO --speed FROM:TO:N --torque FROM:TO:N --out DIR [--flux-mode ...]``:
     :mod:`orchestration.tools.efficiency_map` (exit 2: a bad argument, naming it and its value)."""
+    from orchestration.cli.batch import run_batch
     from orchestration.process.interrupts import catch
     from orchestration.tools.efficiency_map import ArgumentError, parse_grid, parse_modes, run_map
 
@@ -423,9 +424,9 @@ def cmd_efficiency_map(args):
         return INVALID
     with catch() as stop:
         try:
-            return run_map(args.scenario, args.out, speeds, torques, modes, args.fmus, jobs=args.jobs,
-                           stop=stop, stop_time=args.time, window=args.window, plot=not args.no_plot,
-                           variant=args.variant or "native", command=main)
+            return run_map(run_batch, args.scenario, args.out, speeds, torques, modes, args.fmus,
+                           jobs=args.jobs, stop=stop, stop_time=args.time, window=args.window,
+                           plot=not args.no_plot, variant=args.variant or "native", command=main)
         except ArgumentError as exc:
             print(f"efficiency-map: {exc}", file=sys.stderr)
             return INVALID

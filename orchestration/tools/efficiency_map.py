@@ -219,10 +219,11 @@ def gather(runs, modes, speeds, torques, stop_time, window, interrupted=False):
     return pd.DataFrame(rows, columns=list(COLUMNS))
 
 
-def run_map(scenario, out, speeds, torques, modes, fmu_dir, jobs=2, stop=None, stop_time=None, window=None,
-            plot=True, variant="native", command=None):
-    """Run the map; write the table and figure; returns the exit code (module docstring)."""
-    from orchestration.cli.batch import run_batch
+def run_map(run_batch, scenario, out, speeds, torques, modes, fmu_dir, jobs=2, stop=None, stop_time=None,
+            window=None, plot=True, variant="native", command=None):
+    """Run the map; write the table and figure; returns the exit code (module docstring).
+    ``run_batch``: the batch that runs the points (:func:`orchestration.cli.batch.run_batch`, given by
+    the command line above this package)."""
     from orchestration.process.interrupts import StopRequest
 
     stop = stop or StopRequest()
@@ -260,7 +261,7 @@ def run_map(scenario, out, speeds, torques, modes, fmu_dir, jobs=2, stop=None, s
     if plot and len(table):
         from orchestration.tools.efficiency_map_figure import draw
 
-        written.append(draw(table, out / "efficiency_map.png"))
+        written.append(draw(table, out / "efficiency_map.png", LOSSES))
     n_ok = int(table["reachable"].sum())
     print(f"efficiency map: {len(table)} points, {n_ok} reachable, {len(table) - n_ok} not")
     for p in written:

@@ -69,14 +69,13 @@ def _gain_panel(ax, d):
     ax.set(xlabel="speed set-point [rad/s]", ylabel="load torque [N m]", title="loss-minimizing gain")
 
 
-def draw(table, path):
-    """Draw the figure of the map ``table`` (its DataFrame) to ``path``; returns ``path``."""
+def draw(table, path, losses):
+    """Draw the figure of the map ``table`` (its DataFrame) to ``path``, ``losses`` the loss columns
+    stacked in the breakdown; returns ``path``."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-
-    from orchestration.tools.efficiency_map import LOSSES
 
     modes = list(dict.fromkeys(table["flux_mode"]))
     fig, axes = plt.subplots(2, max(2, len(modes)), figsize=(6 * max(2, len(modes)), 9), squeeze=False)
@@ -87,7 +86,7 @@ def draw(table, path):
         _efficiency_panel(ax, table[table["flux_mode"] == mode], mode, levels)
     for ax in axes[0][len(modes):]:
         ax.set_axis_off()
-    _loss_panel(axes[1][0], table, LOSSES)
+    _loss_panel(axes[1][0], table, losses)
     _gain_panel(axes[1][1], table)
     for ax in axes[1][2:]:
         ax.set_axis_off()
