@@ -51,6 +51,9 @@ def split(argv):
 def main(argv=None):
     argv = sys.argv[1:] if argv is None else list(argv)
     known = names()
+    if argv in (["-h"], ["--help"]):
+        print(__doc__.strip())
+        return 0
     picked, own, rest = split(argv)
     if own.get("list"):
         width = max(map(len, known))
@@ -58,7 +61,7 @@ def main(argv=None):
             print(f"{n:<{width}}  {summary(n)}")
         return 0
     if not picked:
-        print("usage: python -m bench NAME... [OPTIONS] | all | --list", file=sys.stderr)
+        print("usage: python -m bench NAME... [OPTIONS] | all | --list | --help", file=sys.stderr)
         return 2
     if picked == ["all"]:
         picked = known
