@@ -55,19 +55,7 @@ system-packages:
 
 bench: $(STAMP)
 	$(PY) -m pip install --quiet -e ".[dev,bench]"
-	$(PY) bench/bench_plant.py
-	$(PY) bench/bench_controller_step.py
-	$(PY) bench/bench_observer.py
-	$(PY) bench/bench_floor.py
-	$(PY) bench/bench_atan.py
-	$(PY) bench/bench_forms.py
-	$(PY) bench/bench_cosim.py
-	$(PY) bench/bench_native.py
-	$(PY) bench/bench_engines.py
-	$(PY) bench/bench_batch.py
-	$(PY) bench/bench_sweep.py
-	$(PY) bench/bench_memory.py
-	$(PY) bench/bench_peers.py
+	$(PY) -m bench all
 
 clean:
 	rm -rf $(VENV) results build

@@ -12,7 +12,8 @@ host's cc (``-std=c99 -O2 -ffp-contract=off``, as the FMUs), two loops per funct
 Python: ``satmotor.machine.atan.atan`` against ``math.atan`` (timeit, one argument in the table's
 range), and ``ArctanCurve.solve`` per call on a spread of equations.
 
-Run ``python bench/bench_atan.py``; it prints a table (RESULTS.md is not written).
+Run ``python -m bench atan``; it prints a table and rewrites its section of ``bench/RESULTS.md``
+(``--no-write``: leave it).
 """
 
 from __future__ import annotations
@@ -29,6 +30,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
+from bench.common import measured, write_section  # noqa: E402
 from orchestration.packaging.native import atan_tables  # noqa: E402
 from satmotor.machine.atan import atan  # noqa: E402
 from satmotor.machine.magnetics import ArctanCurve  # noqa: E402
@@ -108,6 +110,7 @@ def py_time(stmt, glob, number=200_000, repeat=5):
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--rounds", type=int, default=20)
+    ap.add_argument("--no-write", action="store_true", help="do not rewrite bench/RESULTS.md")
     a = ap.parse_args(argv)
     load0 = os.getloadavg()[0]
     lib_lat, own_lat, loop_lat, lib_thr, own_thr = c_times(a.rounds)
@@ -120,14 +123,20 @@ def main(argv=None):
         for p, q in eqs:
             curve.solve(p, q)
     solve_us = min(timeit.repeat(solves, number=1, repeat=3)) / len(eqs) * 1e6
-    print(f"load average {load0:.2f} -> {os.getloadavg()[0]:.2f}; C best of {a.rounds} rounds of 2e6 calls\n")
-    print("| | own atan | libm atan |")
-    print("|---|---|---|")
-    print(f"| C, latency (dependent chain, loop's {loop_lat:.2f} ns taken off) [ns] | "
-          f"{own_lat - loop_lat:.2f} | {lib_lat - loop_lat:.2f} |")
-    print(f"| C, throughput [ns per call] | {own_thr:.2f} | {lib_thr:.2f} |")
-    print(f"| Python, one call [us] | {py_own:.3f} | {py_lib:.3f} |")
-    print(f"\nArctanCurve.solve (Python, own atan): {solve_us:.2f} us per call")
+    lines = [f"load average {load0:.2f} -> {os.getloadavg()[0]:.2f}; "
+             f"C best of {a.rounds} rounds of 2e6 calls\n",
+             "| | own atan | libm atan |",
+             "|---|---|---|",
+             f"| C, latency (dependent chain, loop's {loop_lat:.2f} ns taken off) [ns] | "
+             f"{own_lat - loop_lat:.2f} | {lib_lat - loop_lat:.2f} |",
+             f"| C, throughput [ns per call] | {own_thr:.2f} | {lib_thr:.2f} |",
+             f"| Python, one call [us] | {py_own:.3f} | {py_lib:.3f} |",
+             f"\nArctanCurve.solve (Python, own atan): {solve_us:.2f} us per call"]
+    print("\n".join(lines))
+    if not a.no_write:
+        title = "## The curve's own atan against libm's (`python -m bench atan`)"
+        write_section("atan", "\n".join([title, "", measured(load0) + f" C: best of {a.rounds} rounds.", "",
+                                          *lines[1:]]))
     return 0
 
 

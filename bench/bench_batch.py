@@ -1,7 +1,7 @@
 """Benchmark of ``batch`` on the scenario library: scenarios per minute with 1 and 2 jobs, and the
 overhead a scenario pays for running in its own process, with its parts.
 
-Run ``python bench/bench_batch.py``; prints the numbers and replaces its own section of
+Run ``python -m bench batch``; prints the numbers and replaces its own section of
 ``bench/RESULTS.md`` (between ``<!-- batch:start -->`` and ``<!-- batch:end -->``).
 ``--compare DIR`` also measures another checkout (its ``.venv``, its ``scenarios/`` and its FMUs
 in ``DIR/build/fmus``) in the same rounds, alternating, so "before" and "after" see the same load;
@@ -36,7 +36,8 @@ import time
 from pathlib import Path
 
 import pandas as pd
-from bench_plant import cpu_model, git_head, interpreter, write_section
+
+from bench.common import cpu_model, git_head, interpreter, write_section
 
 ROOT = Path(__file__).resolve().parents[1]
 IMPORTS = ("import orchestration.cli.commands, orchestration.run.master, orchestration.results.writer, "
@@ -202,7 +203,7 @@ def main(argv=None):
         + " (every metric of the summary, every `timeseries.csv` byte for byte): "
         + ("yes." if identical else "NO."),
         "",
-        "Rerun with `python bench/bench_batch.py` (or `make bench`; `--compare DIR` adds another checkout); "
+        "Rerun with `python -m bench batch` (or `make bench`; `--compare DIR` adds another checkout); "
         "it rewrites this section.",
     ]
     text = "\n".join(lines)

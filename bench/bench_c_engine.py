@@ -1,6 +1,6 @@
 """The compiled stepping engine (``run --engine c``) against the fmpy master and the C floor, side by side.
 
-Run ``python bench/bench_c_engine.py [--rounds N] [--no-write]``; prints a table and rewrites its
+Run ``python -m bench c_engine [--rounds N] [--no-write]``; prints a table and rewrites its
 section of ``bench/RESULTS.md`` (between ``<!-- c_engine:start -->`` and ``<!-- c_engine:end -->``)
 unless ``--no-write``.  The default scenario (``scenarios/ramp_rated_load.yaml``: 1.5 s at h = Ts =
 100 us, 15 000 steps) with ``record: metrics``, one process, rounds alternating, best of N (default 5)
@@ -33,10 +33,9 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from bench_engines import command, metrics_of, timed  # noqa: E402
-from bench_floor import build_floor, floor_args, run_floor, unit  # noqa: E402
-from bench_plant import cpu_model, git_head, write_section  # noqa: E402
-
+from bench.bench_engines import command, metrics_of, timed  # noqa: E402
+from bench.common import cpu_model, git_head, write_section  # noqa: E402
+from bench.floor_host import build_floor, floor_args, run_floor, unit  # noqa: E402
 from orchestration.packaging import fmus  # noqa: E402
 from orchestration.results.writer import streaming_recorder  # noqa: E402
 from orchestration.run import c_engine  # noqa: E402

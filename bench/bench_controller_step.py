@@ -2,8 +2,9 @@
 (``sm_controller_step`` of the native core, called through ctypes), on recorded inputs; optionally
 against another checkout in the same rounds.
 
-Run ``python bench/bench_controller_step.py [--compare DIR]``; prints a table (RESULTS.md is not
-written).  ``DIR`` is another checkout of this project with its own ``.venv`` (e.g. ``git archive
+Run ``python -m bench controller_step [--compare DIR]``; prints a table and rewrites its section of
+RESULTS.md (``--no-write``: leave it).
+``DIR`` is another checkout of this project with its own ``.venv`` (e.g. ``git archive
 COMMIT | tar -x -C DIR`` and ``make .venv/.installed`` there).
 
 The inputs: the controller's inputs at every sample of closed loops of this checkout's
@@ -30,6 +31,8 @@ import subprocess
 import sys
 import tempfile
 from pathlib import Path
+
+from bench.common import measured, write_section
 
 ROOT = Path(__file__).resolve().parents[1]
 CASES = {"below base speed": ("ramp_rated_load", 1.0), "field weakening": ("field_weakening", 1.0),
@@ -116,7 +119,9 @@ def main(argv=None):
     ap.add_argument("--compare", metavar="DIR", help="another checkout to measure in the same rounds")
     ap.add_argument("--rounds", type=int, default=3, help="alternating rounds (default 3)")
     ap.add_argument("--repeats", type=int, default=2, help="passes per child, best kept (default 2)")
+    ap.add_argument("--no-write", action="store_true", help="do not rewrite bench/RESULTS.md")
     args = ap.parse_args(argv)
+    load0 = os.getloadavg()[0]
     checkouts = {"this": str(ROOT)}
     if args.compare:
         checkouts["compared"] = str(Path(args.compare).resolve())
@@ -130,14 +135,20 @@ def main(argv=None):
                     b = best.setdefault((label, case), dict(m))
                     b["python_us"] = min(b["python_us"], m["python_us"])
                     b["c_us"] = min(b["c_us"], m["c_us"])
-    print(f"| inputs | samples | {' | '.join(f'Python, {k} [us/step]' for k in checkouts)} | "
-          f"{' | '.join(f'C via ctypes, {k} [us/step]' for k in checkouts)} |")
-    print("|---|---|" + "---|" * (2 * len(checkouts)))
+    lines = [f"| inputs | samples | {' | '.join(f'Python, {k} [us/step]' for k in checkouts)} | "
+             f"{' | '.join(f'C via ctypes, {k} [us/step]' for k in checkouts)} |",
+             "|---|---|" + "---|" * (2 * len(checkouts))]
     for case in CASES:
         n = best[("this", case)]["n"]
         py = " | ".join(f"{best[(k, case)]['python_us']:.1f}" for k in checkouts)
         c = " | ".join(f"{best[(k, case)]['c_us']:.2f}" for k in checkouts)
-        print(f"| {case} | {n} | {py} | {c} |")
+        lines.append(f"| {case} | {n} | {py} | {c} |")
+    print("\n".join(lines))
+    if not args.no_write:
+        head = ["## The controller unit's cost per step (`python -m bench controller_step`)", "",
+                measured(load0) + f" Best of {args.rounds} rounds x {args.repeats} passes, CPU time"
+                + (f"; compared: `{args.compare}`." if args.compare else "."), ""]
+        write_section("controller_step", "\n".join(head + lines))
 
 
 if __name__ == "__main__":

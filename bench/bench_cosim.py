@@ -1,7 +1,7 @@
 """Benchmark of the co-simulation: both FMUs through the fmpy master against the plain-Python loop,
 and the whole ``run`` command with its parts.
 
-Run ``python bench/bench_cosim.py``; prints the numbers and replaces its own section of
+Run ``python -m bench cosim``; prints the numbers and replaces its own section of
 ``bench/RESULTS.md`` (the block between ``<!-- cosim:start -->`` and ``<!-- cosim:end -->``).
 
 (a) The default scenario (``scenarios/ramp_rated_load.yaml``: 1.5 s at h = Ts = 100 us, i.e. 15 000
@@ -52,9 +52,10 @@ import tempfile
 import time
 from pathlib import Path
 
-import floor_fmus
 import numpy as np
-from bench_plant import cpu_model, git_head, interpreter, write_section
+
+from bench import floor_fmus
+from bench.common import cpu_model, git_head, interpreter, write_section
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
@@ -370,7 +371,7 @@ def main(argv=None):
         *prof,
         "",
         *(compare_lines(before_after, steps) if before_after else []),
-        "Rerun with `python bench/bench_cosim.py` (or `make bench`; `--compare DIR` adds another "
+        "Rerun with `python -m bench cosim` (or `make bench`; `--compare DIR` adds another "
         "checkout to (a) and (b)); it rewrites this section.",
     ]
     text = "\n".join(lines)

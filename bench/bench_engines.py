@@ -1,6 +1,6 @@
 """The compiled engines (libcosim, Ecos) against the project's master and the C floor, side by side.
 
-Run ``python bench/bench_engines.py [--rounds N] [--no-write]``; prints a table and rewrites its
+Run ``python -m bench engines [--rounds N] [--no-write]``; prints a table and rewrites its
 section of ``bench/RESULTS.md`` (between ``<!-- engines:start -->`` and ``<!-- engines:end -->``)
 unless ``--no-write``.  The default scenario (``scenarios/ramp_rated_load.yaml``: 1.5 s at
 h = Ts = 100 us, 15 000 steps) with ``record: metrics`` (the metrics computed as the run goes from
@@ -53,9 +53,8 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from bench_floor import build_floor, floor_args, run_floor, unit  # noqa: E402
-from bench_plant import cpu_model, git_head, write_section  # noqa: E402
-
+from bench.common import cpu_model, git_head, write_section  # noqa: E402
+from bench.floor_host import build_floor, floor_args, run_floor, unit  # noqa: E402
 from orchestration.packaging import fmus  # noqa: E402
 from orchestration.packaging.native.recorder_fmu import recorder_fmu_for  # noqa: E402
 from orchestration.packaging.ssd import RESOURCES, ssd_xml  # noqa: E402
@@ -332,7 +331,7 @@ The floor master runs the same number of steps with constant set-points.
 Agreement: {'; '.join(agree)}. (The Gauss-Seidel master's metrics are another coupling:
 {same_gs} of {len(ref)} print the same.)
 
-Rerun with `python bench/bench_engines.py`; what each row measures is in the script's docstring.
+Rerun with `python -m bench engines`; what each row measures is in the script's docstring.
 """
     print(text)
     if not a.no_write:

@@ -10,7 +10,7 @@ times per step.  Last, the floor master times every ``doStep`` of each unit over
 steps (default 10^6, 100 s simulated) and prints the median, 99th, 99.99th percentile and maximum:
 what a real-time target's step budget must cover.
 
-Run ``python bench/bench_floor.py`` (after ``make``); it prints the numbers and replaces its section
+Run ``python -m bench floor`` (after ``make``); it prints the numbers and replaces its section
 of ``bench/RESULTS.md`` (``--no-write``: leave it).  CPU times: the floor's from ``getrusage`` of its
 process, the master's from ``time.process_time``; both are printed with the wall times and the load
 average, because on a shared machine the wall time includes waiting for a core.
@@ -28,19 +28,13 @@ import sys
 import tempfile
 from pathlib import Path
 
-from bench_plant import cpu_model, git_head, write_section
-
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from fmpy import extract, read_model_description  # noqa: E402
-
+from bench.common import cpu_model, git_head, write_section  # noqa: E402
+from bench.floor_host import SETPOINTS, H, build_floor, floor_args, run_floor, unit  # noqa: E402
 from orchestration.packaging import fmus  # noqa: E402
-from orchestration.packaging.native.compiler import fmi_headers_dir  # noqa: E402
-from orchestration.scenario.system import MEASUREMENTS  # noqa: E402
 
-H = 1e-4
-SETPOINTS = {"omega_ref": 100.0, "psi_ref": 0.95, "T_load": 10.0}  # [rad/s], [Wb], [N m]
 SCENARIO = f"""name: floor
 description: constant set-points, the C floor's scenario
 stop_time: {{stop}}
@@ -62,39 +56,6 @@ record:
 
 def loadavg():
     return os.getloadavg()[0]
-
-
-def build_floor(tmp):
-    exe = tmp / "floor_master"
-    cc = os.environ.get("CC", "cc")
-    subprocess.run([cc, "-std=c99", "-O2", "-Wall", "-Wextra", "-Werror", "-I", str(fmi_headers_dir()),
-                    str(ROOT / "bench" / "floor_master.c"), "-o", str(exe), "-ldl"], check=True)
-    return exe
-
-
-def unit(path, tmp):
-    md = read_model_description(str(path))
-    d = tmp / md.coSimulation.modelIdentifier
-    d.mkdir(parents=True, exist_ok=True)
-    d = Path(extract(str(path), unzipdir=str(d)))
-    lib = d / "binaries" / "linux64" / f"{md.coSimulation.modelIdentifier}.so"
-    return md, lib, {v.name: v.valueReference for v in md.modelVariables}
-
-
-def floor_args(exe, plant, ctrl, steps, mode):
-    (pmd, plib, pvr), (cmd_, clib, cvr) = plant, ctrl
-    spec = [f"P2C:{pvr[n]}:{cvr[n]}" for n in MEASUREMENTS]
-    spec += [f"C2P:{cvr[n]}:{pvr[n]}" for n in ("v_s_alpha", "v_s_beta")]
-    spec += [f"C:{cvr[n]}={v!r}" for n, v in SETPOINTS.items()]
-    spec += [f"P:{pvr['T_load']}={SETPOINTS['T_load']!r}"]
-    spec += [f"OUT:{v.valueReference}" for v in pmd.modelVariables if v.causality == "output"]
-    return [str(exe), str(plib), pmd.guid, str(clib), cmd_.guid, str(steps), repr(H), mode, *spec]
-
-
-def run_floor(args):
-    """The floor master's printout and its loop's (CPU, wall) time [s] (instantiation excluded)."""
-    got = json.loads(subprocess.run(args, check=True, capture_output=True, text=True).stdout)
-    return got, got["cpu_ns_per_step"] * got["steps"] * 1e-9, got["ns_per_step"] * got["steps"] * 1e-9
 
 
 CHILD = """
@@ -220,7 +181,7 @@ Latency of one `doStep` of the native FMI 2.0 FMUs in the floor master, {a.laten
 |---|---|---|---|---|
 {chr(10).join(lines)}
 
-Rerun with `python bench/bench_floor.py` (`--compare DIR`: another checkout in the same rounds); it
+Rerun with `python -m bench floor` (`--compare DIR`: another checkout in the same rounds); it
 rebuilds `bench/floor_master.c` with cc and rewrites this section.
 """
     print(text)

@@ -1,6 +1,6 @@
 """Per-step cost of the plant on the Gamma form (l_s = 0) against today's plant (issue 19, item 1).
 
-Run ``python bench/bench_forms.py [--fmus build/fmus]``; prints a table and replaces its own section of
+Run ``python -m bench forms [--fmus build/fmus]``; prints a table and replaces its own section of
 ``bench/RESULTS.md`` (between ``<!-- forms:start -->`` and ``<!-- forms:end -->``).
 
 Three motors, each stepped through a 1-s direct-on-line start (rated 400 V, 50 Hz, held over each step,
@@ -23,6 +23,7 @@ import sys
 import time
 from pathlib import Path
 
+from bench.common import write_section
 from satmotor.machine.library import preset
 from satmotor.machine.params import MotorParams
 from satmotor.machine.plant import N_STATES, Plant
@@ -84,18 +85,6 @@ def native_step(fmu, values, u):
     return best / N
 
 
-def write_section(text):
-    path = ROOT / "bench" / "RESULTS.md"
-    doc = path.read_text(encoding="utf-8")
-    start, end = "<!-- forms:start -->", "<!-- forms:end -->"
-    block = f"{start}\n{text}{end}"
-    if start in doc:
-        doc = doc[:doc.index(start)] + block + doc[doc.index(end) + len(end):]
-    else:
-        doc = doc.rstrip("\n") + "\n\n" + block + "\n"
-    path.write_text(doc, encoding="utf-8")
-
-
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--fmus", default=str(ROOT / "build" / "fmus"), help="FMU directory (default build/fmus)")
@@ -119,7 +108,7 @@ def main(argv=None):
     text = "\n".join(lines) + "\n\n" + (__doc__.split("\n\n", 2)[2].strip()) + "\n"
     print(text)
     if not args.no_write:
-        write_section(text)
+        write_section("forms", text)
     return 0
 
 

@@ -2,8 +2,9 @@
 (``satmotor.interface.ControllerUnit.step``) and C (``sm_controller_step`` of the native core, through
 ctypes, gcc -O2 by ``tests/native_core.build``).
 
-Run ``python bench/bench_loss_min.py [--rounds 3] [--repeats 2]``; prints a table (RESULTS.md is not
-written).  The inputs: the controller's inputs at every sample of plain-Python closed loops
+Run ``python -m bench loss_min [--rounds 3] [--repeats 2]``; prints a table and rewrites its section of
+RESULTS.md (``--no-write``: leave it).
+The inputs: the controller's inputs at every sample of plain-Python closed loops
 (PlantUnit + ControllerUnit, Ts = 100 us) in flux_mode loss_minimizing, recorded once:
 
 * ``light load, step``: ``scenarios/light_load_loss_min.yaml`` (qu2012_2kw2, 10 % load at 100 rad/s,
@@ -20,6 +21,7 @@ from __future__ import annotations
 
 import argparse
 import ctypes
+import os
 import sys
 import time
 from pathlib import Path
@@ -86,13 +88,18 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--rounds", type=int, default=3, help="rounds, the modes alternating (default 3)")
     ap.add_argument("--repeats", type=int, default=2, help="passes per mode and round, best kept (default 2)")
+    ap.add_argument("--no-write", action="store_true", help="do not rewrite bench/RESULTS.md")
     args = ap.parse_args(argv)
     from native_core import build, declare
 
+    from bench.common import measured, write_section
+
+    load0 = os.getloadavg()[0]
     lib = declare(ctypes.CDLL(str(build())))
-    print("| inputs | samples | Python nominal [us/step] | Python loss_minimizing [us/step] | ratio "
-          "| C nominal [us/step] | C loss_minimizing [us/step] | ratio |")
-    print("|---|---|---|---|---|---|---|---|")
+    lines = ["| inputs | samples | Python nominal [us/step] | Python loss_minimizing [us/step] | ratio "
+             "| C nominal [us/step] | C loss_minimizing [us/step] | ratio |",
+             "|---|---|---|---|---|---|---|---|"]
+    print("\n".join(lines))
     for case, name in CASES.items():
         values, rows, Ts = record(name)
         n_in = len(rows[0])
@@ -106,8 +113,15 @@ def main(argv=None):
                     best[("c", mode)] = min(best.get(("c", mode), float("inf")), _c(lib, v, arrs, Ts))
         us = {k: 1e6 * s / len(rows) for k, s in best.items()}
         py_n, py_l, c_n, c_l = (us[(lang, m)] for lang in ("py", "c") for m in MODES)
-        print(f"| {case} | {len(rows)} | {py_n:.1f} | {py_l:.1f} | {py_l / py_n:.2f} | {c_n:.2f} | {c_l:.2f} "
-              f"| {c_l / c_n:.2f} |")
+        lines.append(f"| {case} | {len(rows)} | {py_n:.1f} | {py_l:.1f} | {py_l / py_n:.2f} | {c_n:.2f} "
+                     f"| {c_l:.2f} | {c_l / c_n:.2f} |")
+        print(lines[-1], flush=True)
+    if not args.no_write:
+        head = ["## The loss-minimizing flux: per-step cost against the nominal set-point "
+                "(`python -m bench loss_min`)", "",
+                measured(load0) + f" {args.rounds} rounds of {args.repeats} passes, the modes alternating, "
+                "CPU time, best kept; the same recorded inputs for both modes.", ""]
+        write_section("loss_min", "\n".join(head + lines))
 
 
 if __name__ == "__main__":

@@ -1,7 +1,7 @@
 """Benchmark of memory against simulated time: the peak resident memory of ``run`` for the default
 scenario over 1.5 s and over 600 s, both recording every row to disk (``record: full``), side by side.
 
-Run ``python bench/bench_memory.py``; prints the numbers and replaces its own section of
+Run ``python -m bench memory``; prints the numbers and replaces its own section of
 ``bench/RESULTS.md`` (``--no-write`` leaves it alone).  ``--long`` sets the long run's simulated time
 (default 600 s), ``--variant`` the FMUs (default native), ``--compare DIR`` measures another checkout
 (its ``.venv``) in the same run, with this checkout's FMUs (``--no-build``).
@@ -28,7 +28,8 @@ from pathlib import Path
 
 import psutil
 import yaml
-from bench_plant import cpu_model, git_head, interpreter, write_section
+
+from bench.common import cpu_model, git_head, interpreter, write_section
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -112,7 +113,7 @@ def main(argv=None):
         a, b = res[name, 1.5], res[name, args.long]
         lines.append(f"* {name}: **{args.long:g} s / 1.5 s peak RSS: {b[0] / a[0]:.2f}x** (run + helper), "
                      f"{b[1] / a[1]:.2f}x (largest process); target at most 1.2x.")
-    lines += ["", "Rerun with `python bench/bench_memory.py`; it rewrites this section."]
+    lines += ["", "Rerun with `python -m bench memory`; it rewrites this section."]
     text = "\n".join(lines)
     print(text)
     if not args.no_write:

@@ -1,7 +1,7 @@
 """A Monte Carlo study of the default scenario on the compiled engine, FMUs instantiated once per worker,
 against the C floor's stepping of one variant, side by side in one run.
 
-Run ``python bench/bench_montecarlo.py [--samples N] [--jobs J] [--no-write]``; prints a table and
+Run ``python -m bench montecarlo [--samples N] [--jobs J] [--no-write]``; prints a table and
 rewrites its section of ``bench/RESULTS.md`` (between ``<!-- montecarlo:start -->`` and
 ``<!-- montecarlo:end -->``) unless ``--no-write``.  The study: the default scenario
 (``scenarios/ramp_rated_load.yaml``, 1.5 s, 15 000 steps) at ``record: metrics`` with four plant
@@ -37,10 +37,10 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from bench_floor import build_floor, floor_args, run_floor, unit  # noqa: E402
-from bench_plant import cpu_model, git_head, write_section  # noqa: E402
 from fmpy import read_model_description  # noqa: E402
 
+from bench.common import cpu_model, git_head, write_section  # noqa: E402
+from bench.floor_host import build_floor, floor_args, run_floor, unit  # noqa: E402
 from orchestration.packaging import fmus  # noqa: E402
 from orchestration.results.writer import streaming_recorder  # noqa: E402
 from orchestration.run import c_engine  # noqa: E402

@@ -1,7 +1,7 @@
 """Benchmark of the three FMU variants under the fmpy master, side by side in one run: pythonfmu
 (FMI 2.0), native C FMI 2.0 and native C FMI 3.0, on the default scenario.
 
-Run ``python bench/bench_native.py``; prints the numbers and replaces its own section of
+Run ``python -m bench native``; prints the numbers and replaces its own section of
 ``bench/RESULTS.md`` (between ``<!-- native:start -->`` and ``<!-- native:end -->``).
 ``--compare DIR`` also measures another checkout of this project (e.g. an older commit made with
 ``git worktree add DIR COMMIT``, with its own ``.venv`` and its FMUs built from its own sources in
@@ -33,7 +33,7 @@ import subprocess
 import sys
 from pathlib import Path
 
-from bench_plant import cpu_model, git_head, interpreter, write_section
+from bench.common import cpu_model, git_head, interpreter, write_section
 
 ROOT = Path(__file__).resolve().parents[1]
 VARIANTS = ("python", "native", "native-fmi3")
@@ -185,7 +185,7 @@ def main(argv=None):
         lines += [f"cProfile of one native FMI 2.0 run, {name} (`{heads[name]}`, {p['profile_total']:.2f} s "
                   "under the profiler; the FMI calls count in `master._loop`):", "",
                   *profile_table(p["profile"], p["profile_total"]), ""]
-    lines.append("Rerun with `python bench/bench_native.py` (or `make bench`; `--compare DIR` adds another "
+    lines.append("Rerun with `python -m bench native` (or `make bench`; `--compare DIR` adds another "
                  "checkout); it rewrites this section.")
     text = "\n".join(lines)
     print(text)

@@ -9,7 +9,7 @@ scenario (ramp to 100 rad/s, rated load from 1 s; 1.5 s, Ts = 100 us) with each 
 recorded and replayed into a fresh unit; the best of ``--repeats`` replays is kept.  CPU time of the
 process (``time.process_time``): on a shared machine the wall time also holds the waits for a core.
 
-Run ``python bench/bench_observer.py`` (needs gcc for the C core, as the tests do); prints a Markdown
+Run ``python -m bench observer`` (needs gcc for the C core, as the tests do); prints a Markdown
 table (us per step).
 """
 
@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import argparse
 import ctypes
+import os
 import sys
 import time
 from pathlib import Path
@@ -25,6 +26,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 
 from native_core import ControllerParams, MotorParams, build, params  # noqa: E402
 
+from bench.common import measured, write_section  # noqa: E402
 from satmotor.interface import ControllerUnit, PlantUnit  # noqa: E402
 
 TS = 1e-4
@@ -82,6 +84,7 @@ def time_c(lib, values, rows, repeats):
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--no-write", action="store_true", help="do not rewrite bench/RESULTS.md")
     args = ap.parse_args(argv)
     lib = ctypes.CDLL(str(build()))
     lib.sm_controller_size.restype = ctypes.c_size_t
@@ -89,12 +92,19 @@ def main(argv=None):
                                        ctypes.POINTER(MotorParams), ctypes.c_char_p, ctypes.c_size_t]
     lib.sm_controller_step.argtypes = [ctypes.c_void_p, ctypes.c_double, ctypes.c_double,
                                        ctypes.POINTER(ctypes.c_double), ctypes.c_char_p, ctypes.c_size_t]
-    print("| configuration | Python unit [us/step] | C unit via ctypes [us/step] |\n|---|---|---|")
+    load0 = os.getloadavg()[0]
+    lines = ["| configuration | Python unit [us/step] | C unit via ctypes [us/step] |", "|---|---|---|"]
+    print("\n".join(lines))
     for name, values in CONFIGS.items():
         rows = record(values)
         py = time_python(values, rows, args.repeats)
         c = time_c(lib, values, rows, args.repeats)
-        print(f"| {name} | {1e6 * py:.1f} | {1e6 * c:.2f} |", flush=True)
+        lines.append(f"| {name} | {1e6 * py:.1f} | {1e6 * c:.2f} |")
+        print(lines[-1], flush=True)
+    if not args.no_write:
+        head = ["## The flux observer's cost per controller step (`python -m bench observer`)", "",
+                measured(load0) + f" Best of {args.repeats} replays, CPU time.", ""]
+        write_section("observer", "\n".join(head + lines))
 
 
 if __name__ == "__main__":

@@ -2,7 +2,7 @@
 gym-electric-motor (its squirrel-cage induction motor environment) and motulator (its saturated
 2.2 kW induction-motor drive example), against our closed loop, in wall seconds per simulated second.
 
-Run ``python bench/bench_peers.py`` after ``pip install -e ".[bench]"`` (``make bench`` does both);
+Run ``python -m bench peers`` after ``pip install -e ".[bench]"`` (``make bench`` does both);
 prints the numbers and replaces its own section of ``bench/RESULTS.md`` (between
 ``<!-- peers:start -->`` and ``<!-- peers:end -->``); ``--no-write`` leaves the file alone.
 
@@ -57,7 +57,7 @@ import time
 from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 
-from bench_plant import cpu_model, write_section
+from bench.common import cpu_model, write_section
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
@@ -183,7 +183,8 @@ def child(key, runs=2):
 
 
 def measure(key):
-    r = subprocess.run([sys.executable, __file__, "--child", key], capture_output=True, text=True)
+    r = subprocess.run([sys.executable, "-m", "bench.bench_peers", "--child", key], capture_output=True,
+                       text=True, cwd=ROOT)
     if r.returncode != 0:
         raise SystemExit(f"{key}: the measuring child failed:\n{r.stderr[-3000:]}")
     return json.loads(r.stdout.strip().splitlines()[-1])
@@ -249,7 +250,7 @@ def main(argv=None):
         "closed-loop induction-motor drive, not the same computation. See the docstring of "
         "`bench/bench_peers.py`.",
         "",
-        "Rerun with `python bench/bench_peers.py` (needs `pip install -e \".[bench]\"`; `make bench` does "
+        "Rerun with `python -m bench peers` (needs `pip install -e \".[bench]\"`; `make bench` does "
         "both); it rewrites this section.",
     ]
     text = "\n".join(lines)

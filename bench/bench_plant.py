@@ -1,7 +1,7 @@
 """Benchmark of the plant: right-hand-side throughput and fixed-step RK4 vs scipy solve_ivp.
 
-Run ``python bench/bench_plant.py``; prints the numbers and replaces its own section of ``bench/RESULTS.md``
-(the block between ``<!-- plant:start -->`` and ``<!-- plant:end -->``; see :func:`write_section`).
+Run ``python -m bench plant``; prints the numbers and replaces its own section of ``bench/RESULTS.md``
+(the block between ``<!-- plant:start -->`` and ``<!-- plant:end -->``; see ``bench.common.write_section``).
 
 (a) ``Plant.derivatives`` calls per second on a running, loaded state of the default motor.
 (b) One simulated second of a DOL start (rated smooth voltage ``V cos(w t), V sin(w t)`` inside
@@ -13,17 +13,17 @@ Run ``python bench/bench_plant.py``; prints the numbers and replaces its own sec
 
 from __future__ import annotations
 
+import argparse
 import datetime
 import math
 import platform
-import subprocess
 import sys
 import time
-from pathlib import Path
 
 import numpy as np
 from scipy.integrate import solve_ivp
 
+from bench.common import cpu_model, write_section
 from satmotor.machine.integrate import rk4
 from satmotor.machine.params import MotorParams, RatedData
 from satmotor.machine.plant import N_STATES, OMEGA_M, PSI_R_A, PSI_R_B, PSI_S_A, PSI_S_B, THETA_M, Plant
@@ -106,29 +106,10 @@ def rhs_rate(x):
     return N_RHS / best_time(loop)[0]
 
 
-def interpreter(root):
-    """The checkout ``root``'s own ``.venv`` interpreter, else this one (``--compare DIR``)."""
-    venv = Path(root) / ".venv" / "bin" / "python"
-    return str(venv) if venv.exists() else sys.executable
-
-
-def git_head(root):
-    """The short commit of the checkout ``root`` ("?" outside git)."""
-    r = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=root, capture_output=True, text=True)
-    return r.stdout.strip() or "?"
-
-
-def cpu_model():
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor() or "unknown"
-
-
-def main():
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--no-write", action="store_true", help="do not rewrite bench/RESULTS.md")
+    a = ap.parse_args(argv)
     t0 = time.perf_counter()
     print("reference: solve_ivp DOP853 rtol=atol=1e-12 ...", flush=True)
     ref, ref_nfev = run_ivp("DOP853", REF_TOL)
@@ -163,8 +144,9 @@ def main():
     env = (f"{datetime.date.today().isoformat()}, Python {platform.python_version()}, "
            f"numpy {np.__version__}, scipy {__import__('scipy').__version__}, CPU: {cpu_model()}")
     print(f"environment: {env}; benchmark wall time {time.perf_counter() - t0:.1f} s")
-    write_results(env, rate, ref_nfev, (t_ivp, nfev_ivp, err_ivp), (chosen, t_rk4, nfev_rk4, err_rk4),
-                  t_step, ratio, scan)
+    if not a.no_write:
+        write_results(env, rate, ref_nfev, (t_ivp, nfev_ivp, err_ivp), (chosen, t_rk4, nfev_rk4, err_rk4),
+                      t_step, ratio, scan)
 
 
 def write_results(env, rate, ref_nfev, ivp, rk, t_step, ratio, scan):
@@ -199,32 +181,10 @@ exceed that of RK45, so both solvers are timed at (at least) equal accuracy; tim
 {REPEATS} runs with `time.perf_counter`, integration only (no output recording beyond what `solve_ivp`
 keeps internally). RK4 is `satmotor.machine.integrate.rk4` with the voltages computed at the stage times; the
 `Plant.step` row is the per-step loop used by the simulations (voltage held at its mid-step value),
-timed for the per-call overhead only. Rerun with `python bench/bench_plant.py` (or `make bench`);
+timed for the per-call overhead only. Rerun with `python -m bench plant` (or `make bench`);
 it prints the same numbers and rewrites this section.
 """
     write_section("plant", text)
-
-
-def write_section(name, text):
-    """Put ``text`` between ``<!-- name:start -->`` and ``<!-- name:end -->`` in RESULTS.md.
-
-    Each benchmark script owns one such block: an existing block is replaced in place, a missing one
-    is appended, and the rest of the file is kept.  A file without any block (the old single-section
-    format) is started afresh.
-    """
-    path = Path(__file__).with_name("RESULTS.md")
-    start, end = f"<!-- {name}:start -->", f"<!-- {name}:end -->"
-    block = f"{start}\n{text.strip()}\n{end}"
-    old = path.read_text() if path.exists() else ""
-    if ":start -->" not in old:
-        old = "# Benchmarks\n"
-    i, j = old.find(start), old.find(end)
-    if 0 <= i < j:
-        new = old[:i] + block + old[j + len(end):]
-    else:
-        new = old.rstrip("\n") + "\n\n" + block + "\n"
-    path.write_text(new)
-    print(f"wrote section '{name}' of {path}")
 
 
 if __name__ == "__main__":

@@ -3,7 +3,7 @@ thermal model, both, the capacitor DC link, the PWM inverter (with and without d
 native co-simulation FMU (C, FMI 2.0, through fmpy) and the Python plant
 (``satmotor.interface.PlantUnit``, what the pythonfmu FMU runs).
 
-Run ``python bench/bench_plant_options.py [--fmus build/fmus]`` (the FMUs built first:
+Run ``python -m bench plant_options [--fmus build/fmus]`` (the FMUs built first:
 ``satmotor-cosim build --out build/fmus``).  Prints, per option, the CPU and wall time per RK4 sub-step
 and the ratio to today's plant, and the load average before and after (a shared machine).
 
@@ -24,6 +24,8 @@ import math
 import os
 import time
 from pathlib import Path
+
+from bench.common import measured, write_section
 
 OPTIONS = [
     ("today (average-value, no core loss, thermal off)", {}),
@@ -107,11 +109,13 @@ def main(argv=None):
     ap.add_argument("--fmus", default="build/fmus", help="FMU directory (default build/fmus)")
     ap.add_argument("--rows", default="", help="comma-separated row numbers of OPTIONS to run (0, today's, "
                     "is always run: the ratios' base); default all")
+    ap.add_argument("--no-write", action="store_true", help="do not rewrite bench/RESULTS.md")
     args = ap.parse_args(argv)
     keep = set(range(len(OPTIONS)))
     if args.rows:
         keep = {0, *(int(i) for i in args.rows.split(",") if i.strip())}
     fmu = Path(args.fmus) / "native" / "SaturatedInductionMotor.fmu"
+    load0 = os.getloadavg()[0]
     print(f"load average before: {os.getloadavg()}")
     rows = []
     for i, (name, ov) in enumerate(OPTIONS):
@@ -125,11 +129,16 @@ def main(argv=None):
     print(f"load average after: {os.getloadavg()}")
     base_n, base_p = rows[0][1][0], rows[0][2][0]
     per_step = DT / H_INT  # today's RK4 sub-steps per doStep
-    print("per doStep of 1 ms [us], CPU (wall), ratio of CPU to today's; [per today's RK4 sub-step]")
-    print(f"{'option':64s} {'native':>26s} {'ratio':>6s} {'Python':>28s} {'ratio':>6s}")
+    lines = ["per doStep of 1 ms [us], CPU (wall), ratio of CPU to today's; [per today's RK4 sub-step]",
+             f"{'option':64s} {'native':>26s} {'ratio':>6s} {'Python':>28s} {'ratio':>6s}"]
     for name, (nc, nw), (pc, pw) in rows:
-        print(f"{name:64s} {nc * per_step:8.1f} ({nw * per_step:7.1f}) [{nc:6.3f}] {nc / base_n:6.2f} "
-              f"{pc * per_step:9.0f} ({pw * per_step:8.0f}) [{pc:6.2f}] {pc / base_p:6.2f}")
+        lines.append(f"{name:64s} {nc * per_step:8.1f} ({nw * per_step:7.1f}) [{nc:6.3f}] {nc / base_n:6.2f} "
+                     f"{pc * per_step:9.0f} ({pw * per_step:8.0f}) [{pc:6.2f}] {pc / base_p:6.2f}")
+    print("\n".join(lines))
+    if not args.no_write:
+        head = ["## The plant's options: per-step cost (`python -m bench plant_options`)", "",
+                measured(load0), "", "```"]
+        write_section("plant_options", "\n".join(head + lines + ["```"]))
 
 
 if __name__ == "__main__":

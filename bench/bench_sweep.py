@@ -1,7 +1,7 @@
 """Benchmark of a sweep: what ``batch`` costs for a 64-variant sweep recording the metrics only,
 against the pure stepping of the same 64 runs in the same engine, measured side by side in one run.
 
-Run ``python bench/bench_sweep.py``; prints the numbers and replaces its own section of
+Run ``python -m bench sweep``; prints the numbers and replaces its own section of
 ``bench/RESULTS.md`` (between ``<!-- sweep:start -->`` and ``<!-- sweep:end -->``; ``--no-write``
 leaves it alone).  ``--variant`` picks the FMUs (default native, the fastest shipped path),
 ``--side`` the grid's side (default 8: 8 x 8 = 64 variants), ``--jobs`` batch's processes
@@ -38,7 +38,8 @@ import time
 from pathlib import Path
 
 import yaml
-from bench_plant import cpu_model, git_head, interpreter, write_section
+
+from bench.common import cpu_model, git_head, interpreter, write_section
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -181,7 +182,7 @@ def main(argv=None):
         f"**Sweep / pure stepping (CPU): {ratio:.2f}x** (target: at most 1.3x); against the whole `run` "
         f"calls: {best['b_cpu'] / best['run']:.2f}x; with the figure: {best['f_cpu'] / best['loop']:.2f}x.",
         "",
-        "Rerun with `python bench/bench_sweep.py`; it rewrites this section.",
+        "Rerun with `python -m bench sweep`; it rewrites this section.",
     ]
     text = "\n".join(lines)
     print(text)

@@ -5,6 +5,7 @@ import fcntl
 import os
 import shutil
 import signal
+import sys
 import tempfile
 from pathlib import Path
 
@@ -12,6 +13,9 @@ import pytest
 
 from satmotor.machine.magnetics import ArctanCurve, ExponentialCurve, LinearCurve, PolynomialCurve
 from satmotor.machine.table_curve import TableCurve
+
+if str(Path(__file__).resolve().parents[1]) not in sys.path:  # the package bench/: its C hosts
+    sys.path.append(str(Path(__file__).resolve().parents[1]))
 
 
 def no_load_table():

@@ -29,7 +29,6 @@ from pathlib import Path
 
 import numpy
 import pytest
-from fmpy import __file__ as fmpy_file
 from fmpy import read_model_description
 
 from orchestration.packaging import fmus
@@ -52,11 +51,10 @@ CASES = {
 
 @pytest.fixture(scope="module")
 def host(tmp_path_factory):
+    from bench.floor_host import build_c_host
+
     exe = tmp_path_factory.mktemp("host") / "host"
-    headers = Path(fmpy_file).parent / "c-code"
-    subprocess.run(["gcc", "-std=c99", "-Wall", "-Wextra", "-Werror", f"-I{headers}",
-                    str(ROOT / "tests" / "native_c_host.c"), "-o", str(exe), "-ldl"], check=True)
-    return exe
+    return build_c_host(ROOT / "tests" / "native_c_host.c", exe, flags=())
 
 
 def libpython():

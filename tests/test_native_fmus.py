@@ -230,14 +230,10 @@ def test_a_c_host_without_python_loads_the_native_plant_and_gets_the_python_numb
     import subprocess
     import zipfile
 
-    from fmpy import __file__ as fmpy_file
-
+    from bench.floor_host import build_c_host
     from satmotor.interface import PlantUnit
 
-    host = tmp_path / "host"
-    headers = Path(fmpy_file).parent / "c-code"
-    subprocess.run(["gcc", "-std=c99", "-Wall", "-Wextra", "-Werror", f"-I{headers}",
-                    str(ROOT / "tests" / "native_c_host.c"), "-o", str(host), "-ldl"], check=True)
+    host = build_c_host(ROOT / "tests" / "native_c_host.c", tmp_path / "host", flags=())
     plant_path, _ = fmus.paths(fmu_dir, "native")
     unzipped = tmp_path / "plant"
     with zipfile.ZipFile(plant_path) as z:
