@@ -1,7 +1,7 @@
 """The cost of loading one variant of a sweep (``load_variant``: the scenario of one variant, what a
 batch child does before each variant it runs), per variant, at studies of several sizes.
 
-Run ``python bench/bench_load_variant.py [--sizes 200 1000 10000] [--per 60] [--no-write]``; prints a
+Run ``python -m bench load_variant [--sizes 200 1000 10000] [--per 60] [--no-write]``; prints a
 table and rewrites its section of ``bench/RESULTS.md`` (between ``<!-- load_variant:start -->`` and
 ``<!-- load_variant:end -->``) unless ``--no-write``.  The study: the Monte Carlo study of
 ``bench/bench_montecarlo.py`` (the default scenario, four plant parameters drawn) with ``samples: N``.
@@ -24,9 +24,8 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from bench_montecarlo import study_file  # noqa: E402
-from bench_plant import cpu_model, git_head, write_section  # noqa: E402
-
+from bench.bench_montecarlo import study_file  # noqa: E402
+from bench.common import cpu_model, git_head, write_section  # noqa: E402
 from orchestration.scenario.variants import load_variant  # noqa: E402
 
 
@@ -63,7 +62,7 @@ def main(argv=None):
              "|---:|---:|---:|"]
     lines += [f"| {n} | {1e3 * first:.2f} | {1e3 * per:.3f} |" for n, first, per in rows]
     text = "## load_variant: the cost of one variant's scenario\n\n" + "\n".join(lines) + "\n\n" + (
-        "`python bench/bench_load_variant.py`: the Monte Carlo study of bench_montecarlo.py with N "
+        "`python -m bench load_variant`: the Monte Carlo study of bench_montecarlo.py with N "
         "samples; CPU in this process, the mean over variants spread over the study.")
     print(text)
     if not args.no_write:

@@ -1,7 +1,7 @@
 """The whole ``run --no-plot`` command of the default scenario as a process (start-up, imports, checks,
 the run, the files) against the C floor's stepping of the same 15 000 steps, side by side.
 
-Run ``python bench/bench_startup.py [--rounds N] [--no-write]``; prints a table and rewrites its section
+Run ``python -m bench startup [--rounds N] [--no-write]``; prints a table and rewrites its section
 of ``bench/RESULTS.md`` (between ``<!-- startup:start -->`` and ``<!-- startup:end -->``) unless
 ``--no-write``.  Rounds alternate; CPU of each child (``RUSAGE_CHILDREN``: user + system), best and
 median of N (default 5), the load average before and after:
@@ -36,9 +36,8 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from bench_floor import build_floor, floor_args, run_floor, unit  # noqa: E402
-from bench_plant import cpu_model, git_head, write_section  # noqa: E402
-
+from bench.common import cpu_model, git_head, write_section  # noqa: E402
+from bench.floor_host import build_floor, floor_args, run_floor, unit  # noqa: E402
 from orchestration.packaging import fmus  # noqa: E402
 
 SCENARIO = ROOT / "scenarios" / "ramp_rated_load.yaml"
@@ -124,7 +123,7 @@ def main(argv=None):
     lines += ["", "Imports of `run --engine c --no-plot` at record metrics (`-X importtime`, self time "
               "summed by top package, ms): " + ", ".join(f"{k} {ms:.0f}" for ms, k in top) + "."]
     text = ("## startup: the whole `run --no-plot` process against the floor\n\n" + "\n".join(lines) + "\n\n"
-            "`python bench/bench_startup.py`: CPU of each child process (getrusage), rounds alternating, "
+            "`python -m bench startup`: CPU of each child process (getrusage), rounds alternating, "
             f"{a.rounds} rounds; bytecode caching on in the children.")
     print(text)
     if not a.no_write:
