@@ -194,7 +194,10 @@ def test_a_killed_child_and_an_interrupt_leave_a_row_per_variant(sig, code, tmp_
     while it runs (variant 1 failed, killed; the child's variants never run a separate row), then the
     batch is interrupted while the next child runs: every variant is a row of the table."""
     f = tmp_path / "long.yaml"
-    f.write_text("name: long\nstop_time: 3.0\nprofiles:\n  psi_ref: {type: constant, value: 0.9}\n"
+    # 40 s (400 000 steps, over a second a variant on the compiled engine) at record: metrics: each
+    # variant runs long enough to be caught running
+    f.write_text("name: long\nstop_time: 40.0\nrecord: metrics\n"
+                 "profiles:\n  psi_ref: {type: constant, value: 0.9}\n"
                  "  omega_ref: {type: step, time: 0.15, value: 50.0}\n"
                  "sweep:\n  parameters:\n    motor.J: [0.010, 0.011, 0.012, 0.013, 0.014]\n")
     out = tmp_path / "out"
