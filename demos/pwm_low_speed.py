@@ -4,7 +4,7 @@ scenarios/pwm_low_speed.yaml (10 rad/s, half the rated load from 1 s; a 5 kHz PW
 time and 1.5 V drops) run three times with the plain-Python units (satmotor.interface: the code both
 FMUs run, Gauss-Seidel as the master): the average-value inverter (the ideal), the PWM inverter without
 dead-time compensation, and with ``deadtime_comp_voltage = t_dead f_sw V_dc + v_on`` (12.3 V, the
-first-order error of satmotor/machine/inverter.py).  Over the steady window [1.3, 1.5] s it prints:
+first-order error of satmotor/converter/inverter.py).  Over the steady window [1.3, 1.5] s it prints:
 
 * the voltage error ``|v_avg - v_law|`` [V] rms: the step-average applied voltage (plant outputs
   v_avg_alpha/beta) against the law's voltage (the command less the compensation);

@@ -30,15 +30,15 @@ from satmotor.control.drive import (
 )
 from satmotor.control.ifoc import IFOCGains
 from satmotor.control.measurements import MEAS_I_S_A, MEAS_I_S_B, MEAS_LEN, MEAS_OMEGA_M
-from satmotor.errors import ParameterError, require_choice, require_integer, require_number
-from satmotor.machine.dc_link import (
+from satmotor.converter.dc_link import (
     DC_LINK_MODES,
     DC_SOURCES,
     DCLink,
     DCLinkParams,
     over_voltage_message,
 )
-from satmotor.machine.inverter import INVERTERS, InverterParams, PwmInverter
+from satmotor.converter.inverter import INVERTERS, InverterParams, PwmInverter
+from satmotor.errors import ParameterError, require_choice, require_integer, require_number
 from satmotor.machine.losses import LOSS_NAMES, LossParams, switching_power
 from satmotor.machine.magnetics import ArctanCurve, LinearCurve, PolynomialCurve
 from satmotor.machine.params import CURVE_NAMES, MotorParams, make_curve
@@ -151,7 +151,7 @@ PLANT_OUTPUTS = (
     _v("theta_m", "output", 0.0, "rad", "mechanical angle"),
     _v("T_e", "output", 0.0, "N m", "electromagnetic torque 3/2 n_p (psi_s x i_s)"),
     _v("i_mu", "output", 0.0, "A", "magnitude of the magnetizing current i_s + k i_r"),
-    # the DC link (satmotor.machine.dc_link), last
+    # the DC link (satmotor.converter.dc_link), last
     _v("v_dc", "output", _L.V_dc, "V", "DC-link voltage (dc_link = ideal: the parameter V_dc)"),
     _v("E_regen", "output", 0.0, "J", "energy the motor returned into the DC link, int max(0, -3/2 v_s.i_s) "
        "dt (dc_link = capacitor; ideal: 0)"),
@@ -165,7 +165,7 @@ PLANT_OUTPUTS = (
        "just ended; 0 without R_fe"),
     _v("T_s", "output", _TH.T_s0, "K", "stator temperature (thermal off: T_s0, constant)"),
     _v("T_r", "output", _TH.T_r0, "K", "rotor temperature (thermal off: T_r0, constant)"),
-    # last: the inverter's (satmotor.machine.inverter)
+    # last: the inverter's (satmotor.converter.inverter)
     _v("v_avg_alpha", "output", 0.0, "V", "stator voltage applied by the inverter, alpha axis, averaged over "
        "the last communication step (inverter = average: v_s_alpha)"),
     _v("v_avg_beta", "output", 0.0, "V", "stator voltage applied by the inverter, beta axis, averaged over "
@@ -212,7 +212,7 @@ PLANT_PARAMETERS = MOTOR_PARAMETERS + _in_struct("plant", (
     _v("omega_warn", "parameter", OMEGA_WARN, "rad/s", "mechanical speed |omega_m| (after a step) above "
        "which a warning is logged, once per run (default about 10 x the default motor's synchronous speed, "
        "157 rad/s); 0: no check"),
-)) + _in_struct("dclink", (  # the DC link (satmotor.machine.dc_link.DCLinkParams), last
+)) + _in_struct("dclink", (  # the DC link (satmotor.converter.dc_link.DCLinkParams), last
     _v("dc_link", "parameter", _L.dc_link, "", "DC link: " + ", ".join(DC_LINK_MODES) + " (ideal: a constant "
        "V_dc, the command applied as it is; capacitor: C_dc fed by dc_source, |v_s| bounded by v_dc/sqrt(3))",
        "String", DC_LINK_MODES),
@@ -251,7 +251,7 @@ PLANT_PARAMETERS = MOTOR_PARAMETERS + _in_struct("plant", (
     _v("R_th_r", "parameter", _TH.R_th_r, "K/W", "thermal resistance rotor to ambient, > 0"),
     _v("R_th_sr", "parameter", _TH.R_th_sr, "K/W", "thermal resistance stator to rotor (air gap), > 0"),
 )) + _in_struct("plant", (
-    # last: the inverter (satmotor.machine.inverter); the earlier variables keep their value references.
+    # last: the inverter (satmotor.converter.inverter); the earlier variables keep their value references.
     # Its link voltage is the dclink parameter V_dc (one parameter)
     _v("inverter", "parameter", _INV.inverter, "", "stator voltage source: average (the commanded voltage as "
        "it is, the average-value model) or pwm (carrier-comparison PWM inverter on the link voltage V_dc, "

@@ -1,4 +1,4 @@
-"""The DC link in the plant (satmotor/machine/dc_link.py, fmu/native/core/sm_dclink.c): the capacitor's
+"""The DC link in the plant (satmotor/converter/dc_link.py, fmu/native/core/sm_dclink.c): the capacitor's
 energy balance against an independent quadrature, the six-pulse rectifier's no-load voltage against its
 closed form, the chopper's hysteresis and energy, the over-voltage fault, ``ideal`` as today's plant bit
 for bit, and the C port against the Python bit for bit (ctypes)."""
@@ -15,9 +15,9 @@ import numpy as np
 import pytest
 
 from satmotor.control.backstepping import ControllerConfig
+from satmotor.converter.dc_link import E_CHOP, E_REGEN, V_DC, DCLinkParams
 from satmotor.errors import ParameterError
 from satmotor.interface import PlantUnit
-from satmotor.machine.dc_link import E_CHOP, E_REGEN, V_DC, DCLinkParams
 from satmotor.machine.params import MotorParams
 from satmotor.machine.plant import Plant, initial_state
 
@@ -291,7 +291,7 @@ def test_c_step_bit_for_bit(lib, values):
 
 @needs_gcc
 def test_c_source_and_clamp_bit_for_bit(lib):
-    from satmotor.machine.dc_link import DCLink
+    from satmotor.converter.dc_link import DCLink
 
     values = {"dc_link": "capacitor", "dc_source": "rectifier", "V_grid": 415.0, "f_grid": 60.0}
     u = PlantUnit(values)

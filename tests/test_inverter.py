@@ -1,5 +1,5 @@
-"""The plant's PWM inverter (satmotor/machine/inverter.py, fmu/native/core/sm_inverter.c) and the controller's
-dead-time compensation (satmotor/control/deadtime.py).
+"""The plant's PWM inverter (satmotor/converter/inverter.py, fmu/native/core/sm_inverter.c) and the
+controller's dead-time compensation (satmotor/control/deadtime.py).
 
 Expected values come from the command and from hand computations written here: the step average of the
 switched voltage against the commanded one (zero dead time and drops), the switching instants of one
@@ -18,9 +18,9 @@ import numpy as np
 import pytest
 
 from satmotor.control.deadtime import compensate
+from satmotor.converter.inverter import InverterParams, PwmInverter, duties
 from satmotor.errors import ParameterError
 from satmotor.interface import ControllerUnit, PlantUnit
-from satmotor.machine.inverter import InverterParams, PwmInverter, duties
 from satmotor.machine.params import MotorParams
 from satmotor.machine.plant import Plant, initial_state
 

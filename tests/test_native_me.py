@@ -292,7 +292,7 @@ def test_derivatives_and_outputs_at_random_states_are_the_python_plants_bit_for_
      "over-voltage fault (latched"),
 ])
 def test_the_capacitor_links_switching_parts_are_refused_with_their_reason(fmu_dir, version, params, want):
-    """What switches in the capacitor link (satmotor/machine/dc_link.py) needs events the ME plant does
+    """What switches in the capacitor link (satmotor/converter/dc_link.py) needs events the ME plant does
     not have: the brake chopper's hysteresis and the latched over-voltage fault are errors at
     initialization naming the parameter and what to set; without them the link is taken."""
     me = MEPlant(me_path(fmu_dir, version))

@@ -22,8 +22,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from satmotor.converter.dc_link import DCLink
 from satmotor.interface import PlantUnit
-from satmotor.machine.dc_link import DCLink
 from satmotor.machine.integrate import rk4
 from satmotor.machine.library import preset
 from satmotor.machine.plant import OMEGA_M
@@ -299,7 +299,7 @@ def test_energy_balance_pwm_ideal_link_with_core_loss_and_thermal_model():
 def test_options_off_pwm_ideal_link_is_unchanged():
     """The pwm plant with the thermal model off at T_ref and R_fe = 0 takes the six-state path: the same
     floats as the PwmInverter on the bare plant."""
-    from satmotor.machine.inverter import InverterParams, PwmInverter
+    from satmotor.converter.inverter import InverterParams, PwmInverter
     from satmotor.machine.plant import Plant
 
     values = dict(PWM, psi_r0=0.8)

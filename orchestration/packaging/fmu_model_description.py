@@ -72,7 +72,7 @@ SI_UNITS = {
     "N m s2/rad2": {"kg": 1, "m": 2, "rad": -2},
     "kg m2": {"kg": 1, "m": 2},
     "A/Wb^n": None,
-    # the DC link (satmotor.machine.dc_link)
+    # the DC link (satmotor.converter.dc_link)
     "J": {"kg": 1, "m": 2, "s": -2},
     "F": {"kg": -1, "m": -2, "s": 4, "A": 2},
     # issue 19: core loss and the thermal model

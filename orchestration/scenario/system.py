@@ -12,8 +12,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from satmotor.converter.dc_link import is_capacitor
 from satmotor.interface import CONTROLLER_INPUTS, PLANT_OUTPUTS
-from satmotor.machine.dc_link import is_capacitor
 
 __all__ = ["PLANT", "CONTROLLER", "PROFILE", "UNITS", "Connection", "MEASUREMENTS", "COLUMN_PREFIX",
            "DEFAULT_CONNECTIONS", "Measurements"]

@@ -1,7 +1,7 @@
 """Dead-time compensation of the voltage command (the controller's ``deadtime_comp_voltage``).
 
 An inverter's dead time costs each phase about ``t_dead f_sw V_dc`` of voltage against the sign of its
-current (:mod:`satmotor.machine.inverter`).  The compensation adds ``sign(i_x) V_comp`` [V] to each
+current (:mod:`satmotor.converter.inverter`).  The compensation adds ``sign(i_x) V_comp`` [V] to each
 phase ``x`` of the command, the signs from the measured stator current at the sample (amplitude-invariant
 Clarke: ``i_a = i_alpha``, ``i_b,c = -i_alpha/2 +- sqrt(3)/2 i_beta``; an exactly zero current adds
 nothing), and returns the alpha/beta command (the zero sequence of the added set removed, as the

@@ -5,9 +5,9 @@
 * :mod:`~satmotor.machine.params` -- motor parameters (frozen dataclasses) and the default motor.
 * :mod:`~satmotor.machine.plant` -- the stationary-frame plant model; :mod:`~satmotor.machine.integrate`
   -- its fixed-step RK4.
-* :mod:`~satmotor.machine.dc_link` -- the plant's optional DC link (capacitor, dc source or six-pulse
-  rectifier, brake chopper, over-voltage fault), integrated with the motor's states.
 * :mod:`~satmotor.machine.forms` -- the T, Gamma and inverse-Gamma forms and the no-load /
   locked-rotor tests turned into motor parameters; :mod:`~satmotor.machine.library` -- named motors
   (nameplate, source, controller settings), ``motor: {preset: ...}`` in a scenario.
+
+The inverter and the DC link the plant integrates with the motor: :mod:`satmotor.converter`.
 """

@@ -22,7 +22,7 @@ Inverter (``E_sw`` [J] the datasheet's ``E_on + E_off`` at ``V_sw_ref`` [V] and 
 ``E_sw / 2 (v_dc / V_sw_ref) (|i_j| / I_sw_ref)``, ``i_j`` the phase current at the edge: the pwm
 inverter adds it at every edge it switches; the average inverter dissipates the same per carrier
 period (two edges per leg) as a power ``f_sw E_sw (v_dc / V_sw_ref) sum_j |i_j| / I_sw_ref``.  The
-conduction loss is the on-state drops' (pwm): ``-3/2 delta . i_s`` (:mod:`satmotor.machine.pwm_link`).
+conduction loss is the on-state drops' (pwm): ``-3/2 delta . i_s`` (:mod:`satmotor.converter.pwm_link`).
 ``P_inv`` is conduction plus switching, ``P_in`` the power drawn from the DC link, ``3/2 v_s . i_s``
 plus ``P_inv``.
 """

@@ -1,6 +1,6 @@
 """Phase and alpha/beta quantities of a three-phase machine with a floating star point (amplitude-invariant
-Clarke transform), shared by the inverter (:mod:`satmotor.machine.inverter`), the pwm stage on the
-capacitor link (:mod:`satmotor.machine.pwm_link`) and the controller's dead-time compensation."""
+Clarke transform), shared by the inverter (:mod:`satmotor.converter.inverter`), the pwm stage on the
+capacitor link (:mod:`satmotor.converter.pwm_link`) and the controller's dead-time compensation."""
 
 from __future__ import annotations
 

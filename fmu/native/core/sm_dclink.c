@@ -1,4 +1,4 @@
-/* satmotor/machine/dc_link.py in C99 (see sm_dclink.h). */
+/* satmotor/converter/dc_link.py in C99 (see sm_dclink.h). */
 #include "sm_dclink.h"
 
 #include <math.h>

@@ -1,4 +1,4 @@
-/* The DC link inside the plant (satmotor/machine/dc_link.py), in C99: a capacitor fed by a DC source
+/* The DC link inside the plant (satmotor/converter/dc_link.py), in C99: a capacitor fed by a DC source
  * or a six-pulse diode rectifier through a diode and R_src, a lossless average-value inverter whose
  * voltage is bounded by v_dc/sqrt(3), a brake chopper with hysteresis switched at sub-step ends, and a
  * latched over-voltage fault.  The state is the motor's (sm_plant.h: p->n_states, six or eight with the

@@ -1,4 +1,4 @@
-/* satmotor/machine/inverter.py (InverterParams, duties, half_edges, PwmInverter) and
+/* satmotor/converter/inverter.py (InverterParams, duties, half_edges, PwmInverter) and
  * satmotor/control/deadtime.py in C99: the same operations in the same order. */
 #include "sm_inverter.h"
 

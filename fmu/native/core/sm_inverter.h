@@ -1,4 +1,4 @@
-/* The plant's inverter of satmotor/machine/inverter.py (its docstring is the specification): average-value
+/* The plant's inverter of satmotor/converter/inverter.py (its docstring is the specification): average-value
  * or carrier-comparison PWM with dead time and on-state drops, integrated to the exact switching instants;
  * and the controller's dead-time compensation of satmotor/control/deadtime.py.  The same floats as the
  * Python.  Plain struct (byte-copyable: part of the FMU state), no global mutable state. */
@@ -64,7 +64,7 @@ int sm_inverter_step_memo(sm_inverter *inv, const sm_motor *p, sm_solve_memo *me
                           double dt, double v_alpha, double v_beta, double T_load, double v_avg[2], double *trace,
                           size_t trace_cap, size_t *trace_n);
 
-/* PwmInverter.step on the capacitor link l (satmotor/machine/pwm_link.py): x has p->n_states + 3 entries
+/* PwmInverter.step on the capacitor link l (satmotor/converter/pwm_link.py): x has p->n_states + 3 entries
  * (the link's v_dc, E_regen, E_chop last); *chop, *fault as sm_dclink_step's, *t_fault the sub-step end
  * where the fault was set in this step (NAN otherwise).  On failure nothing is changed. */
 int sm_inverter_step_link(sm_inverter *inv, const sm_motor *p, const sm_dclink *l, sm_solve_memo *memo, double *x,

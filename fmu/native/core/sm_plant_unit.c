@@ -147,7 +147,7 @@ int sm_plant_unit_step(sm_plant_unit *u, double t, double dt, const double in[SM
     if ((st = check_step(u, dt, in, &n_sub, msg, msg_len))) return st;
     plausible(u, 0, t, v_a, v_b);
     memcpy(x, u->x, sizeof x);
-    if (u->inv.pwm && u->link.capacitor) { /* the switched stage on the link (satmotor/machine/pwm_link.py) */
+    if (u->inv.pwm && u->link.capacitor) { /* the switched stage on the link (satmotor/converter/pwm_link.py) */
         st = sm_inverter_step_link(&u->inv, &u->p, &u->link, &u->memo, x, t, dt, v_a, v_b, T_load, v_avg, &chop,
                                    &fault, &t_fault, NULL, 0, NULL);
     } else if (u->inv.pwm) { /* the switched voltages to the switching instants; u->inv changes only on success */

@@ -24,7 +24,7 @@
 
 typedef struct {
     sm_motor p;
-    sm_dclink link;  /* the DC link (satmotor/machine/dc_link.py); link.capacitor: its states in x */
+    sm_dclink link;  /* the DC link (satmotor/converter/dc_link.py); link.capacitor: its states in x */
     sm_inverter inv; /* the stator voltage source (average-value or pwm, with its switching state) */
     sm_solve_memo memo; /* the outputs' solve at x, reused by the next step's first stage */
     /* the motor's states (p.n_states: six, eight with the thermal model), then (capacitor) v_dc, E_regen,

@@ -1,4 +1,4 @@
-/* satmotor/machine/pwm_link.py in C99 (see sm_pwm_link.h). */
+/* satmotor/converter/pwm_link.py in C99 (see sm_pwm_link.h). */
 #include "sm_pwm_link.h"
 
 #include "sm_phases.h"

@@ -1,4 +1,4 @@
-/* The pwm inverter on the capacitor DC link (satmotor/machine/pwm_link.py, its docstring is the
+/* The pwm inverter on the capacitor DC link (satmotor/converter/pwm_link.py, its docstring is the
  * specification), in C99: one constant switching interval integrated with the link's voltage as a state,
  * the legs' voltages sigma_j v_dc / 2 + delta_j at every RK4 stage's own v_dc.  The same floats as the
  * Python; no global mutable state. */

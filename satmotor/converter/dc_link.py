@@ -175,7 +175,7 @@ class DCLink:
         """``(d v_dc/dt, d E_regen/dt, d E_chop/dt)`` [V/s, W, W] at link voltage ``v_dc`` [V] with the
         power ``p_inv`` [W] drawn by the inverter and the chopper state ``chop`` (bool): the link's
         equations of the module docstring, for the average inverter and the pwm one alike
-        (:mod:`satmotor.machine.pwm_link`)."""
+        (:mod:`satmotor.converter.pwm_link`)."""
         i_dc = p_inv / v_dc if v_dc > 0.0 else 0.0
         i_src = (self.source_voltage(t) - v_dc) * self._inv_R_src
         if not i_src > 0.0:

@@ -2,16 +2,16 @@
 
 Formulation (the switched stage draws its current from the link, whose voltage moves within a step):
 
-* Between two switching instants (one constant interval of :class:`~satmotor.machine.inverter.PwmInverter`)
+* Between two switching instants (one constant interval of :class:`~satmotor.converter.inverter.PwmInverter`)
   each leg ``j`` is fixed: its sign ``sigma_j`` (+1 upper device or upper diode, -1 lower) and its
   on-state drop term ``delta_j`` (``-v_on`` for a positive phase current, ``+v_on`` for a negative
   one, 0 without drops; the sign of the current at the interval's start, as on the ideal link: the
-  inverter's one rule, :meth:`~satmotor.machine.inverter.PwmInverter._legs`).  The
+  inverter's one rule, :meth:`~satmotor.converter.inverter.PwmInverter._legs`).  The
   phase voltage is ``v_j = sigma_j v_dc / 2 + delta_j`` with the link voltage ``v_dc`` **a state**:
   the motor, the thermal states and the link ``(v_dc, E_regen, E_chop)`` integrate together over the
   interval by RK4 (``max(1, ceil(L / h_int - 1e-9))`` sub-steps), every stage evaluating the voltages at
   its own ``v_dc``.  The chopper switches and the fault latches at the sub-step ends
-  (:class:`~satmotor.machine.dc_link.DCLink`'s rules).
+  (:class:`~satmotor.converter.dc_link.DCLink`'s rules).
 * The link's current: ``i_dc = p_dc / v_dc`` with ``p_dc = 3/2 g . i_s``, ``g`` the alpha/beta vector of
   the legs' ``sigma_j v_dc / 2`` (the current the upper devices carry; the floating star point makes
   the phase currents sum to zero).  ``p_dc - 3/2 v_s . i_s = -3/2 delta . i_s`` is the devices'
@@ -72,7 +72,7 @@ def step(link, t, x, sig, dl, T_load, h, n_sub, chop, fault):
 def interval(lk, x, t, L, sig, dl, T_load, n_sub):
     """One constant interval of ``L`` [s] of :meth:`PwmInverter.step` on the capacitor link from ``t`` in
     ``n_sub`` RK4 sub-steps, the legs' signs ``sig`` and drop terms ``dl`` [V] held (the inverter's rule,
-    :meth:`~satmotor.machine.inverter.PwmInverter._legs`); ``lk`` = ``[link, chop, fault, t_fault]``,
+    :meth:`~satmotor.converter.inverter.PwmInverter._legs`); ``lk`` = ``[link, chop, fault, t_fault]``,
     updated.  Returns ``(x, int_v_alpha, int_v_beta)``."""
     x, lk[1], fault, t_fault, ia, ib = step(lk[0], t, x, sig, dl, T_load, L, n_sub, lk[1], lk[2])
     if t_fault is not None and lk[3] is None:

@@ -47,7 +47,7 @@ each interval alike; the phase currents that choose the dead-interval diode and 
 plant's outputs at zero voltage, whose signs are those of the current through the stator leakage (the
 terminal current less the core branch's, which follows the voltage instantly: at zero voltage the
 terminal current is that current times R_fe / (R_fe + R_s)).  On a capacitor link (``link``) each
-interval integrates the link's voltage with the motor: :mod:`satmotor.machine.pwm_link`.
+interval integrates the link's voltage with the motor: :mod:`satmotor.converter.pwm_link`.
 
 The C core's ``fmu/native/core/sm_inverter.c`` is the same algorithm (the same floats).
 """
@@ -57,8 +57,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from satmotor.converter import pwm_link
 from satmotor.errors import ParameterError, require_choice, require_number
-from satmotor.machine import pwm_link
 from satmotor.machine.phases import SQRT3_2 as _SQRT3_2
 from satmotor.machine.phases import alpha_beta, phase_currents
 
@@ -197,8 +197,8 @@ class PwmInverter:
         ``(x, v_avg_alpha, v_avg_beta)``, the step averages [V] of the applied alpha/beta voltage.
         ``trace``: a list that receives ``(t_start, length, v_alpha, v_beta, v_a, v_b, v_c)`` of every
         constant interval integrated (on a capacitor link: its voltages at the interval's start).
-        ``link``: None (the ideal link), or the :class:`~satmotor.machine.dc_link.DCLink` whose state
-        ``x`` is (:mod:`~satmotor.machine.pwm_link`), with the chopper's state ``chop`` and the latched
+        ``link``: None (the ideal link), or the :class:`~satmotor.converter.dc_link.DCLink` whose state
+        ``x`` is (:mod:`~satmotor.converter.pwm_link`), with the chopper's state ``chop`` and the latched
         ``fault``; then :attr:`link_out` is ``(chop, fault, t_fault)`` after the step.  :attr:`energies`:
         the step's ``(E_term, E_cond, E_sw, E_cu_s, E_fe)`` [J], the energy into the motor's terminals,
         the on-state drops', the edges', the stator copper's and the core's (:meth:`_account`,
@@ -295,7 +295,7 @@ class PwmInverter:
         current, ``+v_on`` for a negative one, 0 for none or without drops); ``cur`` the phase currents
         [A] at ``x``, computed here when the drops need them and they are not given.  The phase voltage is
         ``sig[j] v_dc / 2 + dl[j]`` (:func:`leg_volts`; on the capacitor link at every RK4 stage's own
-        ``v_dc``, :mod:`~satmotor.machine.pwm_link`)."""
+        ``v_dc``, :mod:`~satmotor.converter.pwm_link`)."""
         sig = [1.0 if (self.dead_v[j] > 0.0 if self.dead[j] else self.s[j] == 1) else -1.0 for j in range(3)]
         dl = [0.0, 0.0, 0.0]
         if self.v_on > 0.0:
