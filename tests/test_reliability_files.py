@@ -462,7 +462,7 @@ def _alive(pid):
 def test_a_child_killed_by_sigkill_is_marked_failed_with_nothing_half_written(tmp_path, fmu_dir, variant):
     src = tmp_path / "scenarios"
     src.mkdir()
-    _scenario(src, "victim", 200.0)
+    _scenario(src, "victim", 150.0)
     _scenario(src, "tiny", 0.05)
     out = tmp_path / "out"
     p = subprocess.Popen([sys.executable, "-m", "orchestration", "batch", str(src), "--out", str(out),
@@ -489,8 +489,8 @@ def test_a_child_killed_by_sigkill_is_marked_failed_with_nothing_half_written(tm
 def test_a_batch_killed_by_sigkill_leaves_a_whole_summary_and_interrupted_runs(tmp_path, fmu_dir):
     src = tmp_path / "scenarios"
     src.mkdir()
-    _scenario(src, "long_a", 200.0)
-    _scenario(src, "long_b", 200.0)
+    _scenario(src, "long_a", 150.0)
+    _scenario(src, "long_b", 150.0)
     out = tmp_path / "out"
     p = subprocess.Popen([sys.executable, "-m", "orchestration", "batch", str(src), "--out", str(out),
                           "--fmus",
@@ -515,7 +515,7 @@ def test_a_batch_killed_by_sigkill_leaves_a_whole_summary_and_interrupted_runs(t
         assert reason and str(p.pid) in reason
     for name in ("long_a", "long_b"):
         s = check_scenario_dir(out / name)
-        assert s["status"] == "interrupted" and "SIGTERM" in s["message"] and 0 < s["t_end"] < 200.0, s
+        assert s["status"] == "interrupted" and "SIGTERM" in s["message"] and 0 < s["t_end"] < 150.0, s
 
 
 # --- the smaller items: export-ssp onto a directory, an unreachable scheduler, absurd inputs ----------------

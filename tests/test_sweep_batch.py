@@ -98,13 +98,14 @@ def test_a_sweep_on_the_fmi3_fmus_is_the_sweep_on_the_fmi2_ones(tmp_path, fmu_di
     assert a.drop(columns=["wall_time"]).equals(b.drop(columns=["wall_time"]))
 
 
-def test_a_variant_its_child_refused_says_why(tmp_path):
+def test_a_variant_its_child_never_ran_says_how_the_child_ended(tmp_path):
     from orchestration.cli.batch import _variant_row
 
-    message = "s.yaml: plant.R_r = -1.0: must be a finite number > 0"
+    message = "s.yaml: plant.R_r = -1.0: must be a finite number > 0"  # of an earlier variant of the child
     row = _variant_row(tmp_path / "s.yaml", "s-3", 2, "", f"s.yaml: 1 problem(s):\n  {message}\n",
                        tmp_path / "s-3" / "metrics.json", False)
-    assert row["status"] == "invalid" and row["exit_code"] == 2 and message in row["message"]
+    assert row["status"] == "failed" and row["exit_code"] == 2 and message in row["message"]
+    assert row["message"].startswith("not run: the child process ended (exit 2) before this variant")
     row = _variant_row(tmp_path / "s.yaml", "s-4", 1, "", "Traceback ...\nMemoryError\n",
                        tmp_path / "s-4" / "metrics.json", False)
     assert row["status"] == "failed" and "MemoryError" in row["message"]

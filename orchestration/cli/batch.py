@@ -250,10 +250,8 @@ def _variant_row(path, name, rc, stdout, stderr, metrics, stopped):
             return _reported_row(path, name, said, rc, stopped)
         if stopped or rc in STOPPED_CODES:  # the batch stopped the child, or Ctrl-C reached it first
             return _row(path, name, "interrupted", 0, "not started: the batch was interrupted")
-        if rc == INVALID:  # the child refused the scenario (its message names file, field, value)
-            return _child_row(path, name, rc, stdout, stderr, metrics, stopped)
         why = f"killed by {signal_name(-rc)}" if rc < 0 else f"ended (exit {rc})"
-        tail = " | ".join((stderr or stdout or "").strip().splitlines()[-6:])
+        tail = " | ".join((stderr or "").strip().splitlines()[-6:])  # why the child ended (its stdout: rows)
         return _row(path, name, "failed", 128 - rc if rc < 0 else max(rc, 1),
                     f"not run: the child process {why} before this variant" + (f": {tail}" if tail else ""))
     except (OSError, ValueError):
