@@ -407,7 +407,9 @@ def _run_dask(runnable, out, fmu_dir, scheduler, algorithm, stop, done, variant,
         event = Event(event_name, client=client)
         remaining = {client.submit(_dask_task, str(job.file), str(job.out(out)), str(fmu_dir), algorithm,
                                    job.names, event_name, variant, job.indexes, plot,
-                                   pure=False): job for job in runnable}
+                                   pure=False, retries=1): job for job in runnable}
+        # a chunk whose worker dies is run again on another one by the scheduler (allowed-failures);
+        # retries: once more after an exception in the task itself (run_variants never raises)
         while remaining:
             if stop.signum and not event.is_set():
                 event.set()  # every task still to start, or running, sees it and stops its child
