@@ -107,6 +107,10 @@ CASES = {
     "measured-current limiter, IFOC PI": ({"I_max": 12.0, "mode": "pi"}, {"L_m0": 0.166}),
     "estimated load at the voltage limit": (
         {"V_dc": 250.0, "field_weakening": False, "load_mode": "estimated", "c0": 1e4, "d0": 2500.0}, {}),
+    "overmodulation at the voltage limit": (
+        {"modulation": "overmodulation", "V_dc": 250.0, "field_weakening": False}, {}),
+    "overmodulation, field weakening (V_dc 250 V), estimated load": (
+        {"modulation": "overmodulation", "V_dc": 250.0, "load_mode": "estimated"}, {}),
     "loss minimizing": ({"flux_mode": "loss_minimizing"}, {}),
     "loss minimizing, core loss, fast rate, current limit": (
         {"flux_mode": "loss_minimizing", "loss_R_fe": 600.0, "flux_rate_max": 50.0, "flux_floor": 0.4,
