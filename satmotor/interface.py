@@ -30,6 +30,7 @@ from satmotor.control.drive import (
 )
 from satmotor.control.ifoc import IFOCGains
 from satmotor.control.measurements import MEAS_I_S_A, MEAS_I_S_B, MEAS_LEN, MEAS_OMEGA_M
+from satmotor.control.modulation import MODULATIONS
 from satmotor.converter.dc_link import (
     DC_LINK_MODES,
     DC_SOURCES,
@@ -357,6 +358,10 @@ CONTROLLER_PARAMETERS = _in_struct("controller", (
        LOAD_MODES, fills=("law_config",)),
     _v("V_dc", "parameter", _C.V_dc, "V", "DC-link voltage; |v_s| <= V_dc / sqrt(3)",
        fills=("law_config", "ifoc_gains")),
+    _v("modulation", "parameter", _C.modulation, "", "voltage limit of the backstepping law: linear "
+       "(|v_s| <= V_dc / sqrt(3)) or overmodulation (the command scaled, its direction kept, onto the "
+       "inverter's hexagon: V_dc / sqrt(3) at the flats up to 2 V_dc / 3 at the vertices)", "String",
+       MODULATIONS, fills=("law_config",)),
     _v("ref_bandwidth", "parameter", _D.ref_bandwidth, "rad/s", "reference shaper bandwidth",
        fills=("drive_config",)),
     _v("g_theta", "parameter", _C.g_theta, "1/s2", "adaptation gain of the load estimate",

@@ -80,7 +80,7 @@ CONTRACT = {
         "I_max", "use_stator_flux", "c0", "d0", "flux_source", "delay_samples", "observer",
         "speed_source", "field_weakening", "fw_voltage_ratio") + PREMAG_PARAMS + MOTOR
         + ("current_limit_gain", "host_delay_samples", "deadtime_comp_voltage", "max_samples", "flux_mode",
-           "flux_floor", "flux_rate_max", "loss_R_fe", "rs_adaptation", "rr_tracking")},
+           "flux_floor", "flux_rate_max", "loss_R_fe", "rs_adaptation", "rr_tracking", "modulation")},
 }
 UNITS = {"V": "v_s_alpha v_s_beta v_sd v_sq V_dc v_warn v_dc V_grid V_chop_on V_chop_off V_dc_max "
               "v_avg_alpha v_avg_beta v_on deadtime_comp_voltage",
@@ -132,6 +132,8 @@ def _defaults():
     ctrl |= {"max_samples": 100000}
     # the nominal flux set-point (today's); the loss minimizer's floor 0.25 Wb, rate 5 V s/s, copper only
     ctrl |= {"flux_mode": "nominal", "flux_floor": 0.25, "flux_rate_max": 5.0, "loss_R_fe": 0.0}
+    # the voltage limited to the modulator's linear range, |v_s| <= V_dc / sqrt(3) (today's)
+    ctrl |= {"modulation": "linear"}
     # at rest, unmagnetized (closed_loop's x0); one RK4 step per sample (closed_loop's n_sub = 1)
     plant = motor | {"B_2": 0.0, "omega_m0": 0.0, "psi_r0": 0.0, "h_int": c.Ts}
     # bounded work per doStep and the plausibility bounds: 4 V_dc, 10 I_max, about 10 x 157 rad/s
@@ -290,10 +292,10 @@ def test_model_description_matches_the_contract(fmus, name):
 @pytest.mark.slow
 def test_two_builds_are_byte_identical(fmus, fmu_dir, tmp_path):
     """Every FMU of a second build (pythonfmu, native FMI 2.0 and 3.0 co-simulation, the model-exchange
-    plant in both versions, for this machine, as the session's) has the same bytes as the first
-    build's.  (The cross-compiles: tests/test_native_glue.py.)"""
+    plant in both versions, the clocked FMI 3.0 controller, for this machine, as the session's) has the
+    same bytes as the first build's.  (The cross-compiles: tests/test_native_glue.py.)"""
     built = build_fmus.build_all(tmp_path / "again")
-    assert len(built) == 8
+    assert len(built) == 9
     for p in built:
         first = Path(fmu_dir) / p.relative_to(tmp_path / "again")
         with zipfile.ZipFile(p) as a, zipfile.ZipFile(first) as b:

@@ -107,6 +107,10 @@ CASES = {
     "measured-current limiter, IFOC PI": ({"I_max": 12.0, "mode": "pi"}, {"L_m0": 0.166}),
     "estimated load at the voltage limit": (
         {"V_dc": 250.0, "field_weakening": False, "load_mode": "estimated", "c0": 1e4, "d0": 2500.0}, {}),
+    "overmodulation at the voltage limit": (
+        {"modulation": "overmodulation", "V_dc": 250.0, "field_weakening": False}, {}),
+    "overmodulation, field weakening (V_dc 250 V), estimated load": (
+        {"modulation": "overmodulation", "V_dc": 250.0, "load_mode": "estimated"}, {}),
     "loss minimizing": ({"flux_mode": "loss_minimizing"}, {}),
     "loss minimizing, core loss, fast rate, current limit": (
         {"flux_mode": "loss_minimizing", "loss_R_fe": 600.0, "flux_rate_max": 50.0, "flux_floor": 0.4,
@@ -127,7 +131,7 @@ def test_c_controller_matches_python_sample_by_sample(lib, case):
     buf, status, msg = _c_controller(lib, values)
     assert status == 0, msg
     msgbuf = ctypes.create_string_buffer(256)
-    worst, n, phases = 0.0, 0, set()
+    worst, n, phases, v_top = 0.0, 0, set(), 0.0
     for t, inputs, want in _closed_loop(values, plant_values, 0.5, _ramp, lambda t: 0.95, _load):
         arr = (ctypes.c_double * 11)(*inputs)
         assert lib.sm_controller_step(buf, t, 1e-4, arr, msgbuf, 256) == 0, msgbuf.value
@@ -135,10 +139,14 @@ def test_c_controller_matches_python_sample_by_sample(lib, case):
         for g, w in zip(got, want):
             worst = max(worst, abs(g - float(w)) / max(abs(float(w)), 1e-9))
         phases.add(int(got[14]))
+        v_top = max(v_top, math.hypot(got[0], got[1]))
         n += 1
     print(f"{case}: {n} samples, worst relative difference {worst:.3g}")
     assert phases == {0, 1}  # pre-magnetization and the law
     assert worst <= 1e-12
+    if values.get("modulation") == "overmodulation" and values.get("field_weakening") is False:
+        # at the voltage limit without field weakening the law used the hexagon beyond the circle
+        assert v_top > 1.01 * values["V_dc"] / math.sqrt(3.0), v_top
 
 
 BAD = [({"mode": "fuzzy"}, "mode"), ({"flux_source": "estimated"}, "flux_source"),
@@ -161,7 +169,7 @@ BAD = [({"mode": "fuzzy"}, "mode"), ({"flux_source": "estimated"}, "flux_source"
                                                                "current_limit_gain"),
        ({"flux_mode": "minimal"}, "flux_mode"), ({"flux_floor": 0.0}, "flux_floor"),
        ({"flux_rate_max": -1.0}, "flux_rate_max"), ({"flux_rate_max": math.inf}, "flux_rate_max"),
-       ({"loss_R_fe": -1.0}, "loss_R_fe")]
+       ({"loss_R_fe": -1.0}, "loss_R_fe"), ({"modulation": "six_step"}, "modulation")]
 
 
 @pytest.mark.parametrize("values, field", BAD)

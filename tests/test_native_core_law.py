@@ -27,6 +27,7 @@ from native_core import MotorParams as CMotorParams
 from satmotor.control.backstepping import BacksteppingGains, ControllerConfig, control, error_system
 from satmotor.control.fo_model import ModelConstants, flux_rate, to_stationary, vector_fields
 from satmotor.control.measurements import from_magnetizing_current, from_rotor_flux, from_stator_flux
+from satmotor.control.modulation import limit_voltage
 from satmotor.control.references import RISE_TIME_PRODUCT, ReferenceShaper, transition_matrix
 from satmotor.errors import ParameterError
 from satmotor.machine.params import MotorParams, make_curve
@@ -317,6 +318,64 @@ def test_control(lib, motors):
     assert min(seen.values()) >= 50, seen
 
 
+def test_voltage_limit_random_vectors(lib):
+    """sm_voltage_limit against modulation.limit_voltage, both modes, at random commands (inside and
+    outside the circle and the hexagon, huge, infinite, NaN) in random frames: the same floats."""
+    rng = random.Random(35)
+    seen = {"lin": 0, "over": 0, "between": 0, "nonfinite": 0}
+    for _ in range(20000):
+        V_dc = rng.choice((540.0, rng.uniform(10, 2000)))
+        r = V_dc * rng.choice((rng.uniform(0, 1.2), rng.uniform(0.5, 0.7), 10 ** rng.uniform(-3, 300)))
+        ang, rho = rng.uniform(-math.pi, math.pi), rng.uniform(-10, 10)
+        vd, vq = r * math.cos(ang), r * math.sin(ang)
+        if rng.random() < 0.02:
+            vd, vq = rng.choice(((math.inf, 1.0), (-math.inf, math.inf), (math.nan, 2.0), (3.0, -math.inf)))
+            seen["nonfinite"] += 1
+        c, s = math.cos(rho), math.sin(rho)
+        for over in (0, 1):
+            py = limit_voltage(vd, vq, c, s, V_dc, bool(over))
+            cd, cq = D(vd), D(vq)
+            lim = lib.sm_voltage_limit(ctypes.byref(cd), ctypes.byref(cq), c, s, V_dc, over)
+            for a, b in ((cd.value, py[0]), (cq.value, py[1])):
+                assert a == b or (a != a and b != b), (vd, vq, c, s, V_dc, over, (cd.value, cq.value), py)
+            assert bool(lim) == py[2]
+            seen["over" if over else "lin"] += py[2]
+        if math.isfinite(vd) and V_dc / math.sqrt(3.0) < math.hypot(vd, vq) <= 2 * V_dc / 3:
+            seen["between"] += 1
+    print(f"[native law] voltage limit cases: {seen}")
+    assert min(seen.values()) >= 50, seen
+
+
+def test_control_overmodulation(lib, motors):
+    """sm_control with modulation = overmodulation against control(): the same floats."""
+    rng = random.Random(36)
+    w = Worst("control, overmodulation")
+    n_lim = 0
+    for label, p, buf in motors:
+        for _ in range(150):
+            g, cg = random_gains(rng)
+            cfg = ControllerConfig(V_dc=rng.choice((540.0, rng.uniform(50, 2000))),
+                                   Ts=rng.choice((0.0, 1e-4)), load_mode=rng.choice(("known", "estimated")),
+                                   modulation="overmodulation")
+            ccfg = LawConfig(cfg.V_dc, cfg.Ts, cfg.phi_min, cfg.load_mode == "estimated", cfg.g_theta,
+                             cfg.theta_max, cfg.use_stator_flux, 1)
+            meas, ref = random_meas(rng), random_ref(rng)
+            load = (rng.uniform(-30, 30), rng.uniform(-1e3, 1e3))
+            i_max = random_i_max(rng)
+            py = control(meas, ref, load, p, g, cfg, 0.0, (0.0, 0.0), i_max)
+            c = ControlOut()
+            assert lib.sm_control(arr(meas), arr(ref), arr(load), buf, ctypes.byref(cg), ctypes.byref(ccfg),
+                                  0.0, arr((0.0, 0.0)), i_max, ctypes.byref(c)) == 0
+            for name, v in zip(OUT_NAMES, py):
+                if name in OUT_FLAGS:
+                    assert bool(getattr(c, name)) == v, (name, label, meas, ref)
+                else:
+                    w.check(name, getattr(c, name), v, (label, meas, ref, cfg))
+            n_lim += py.voltage_limited
+    w.report()
+    assert n_lim >= 50
+
+
 def test_control_near_operating_points(lib, motors):
     """Measurements of consistent plant states near a flux and speed reference (the law's usual
     regime: small errors, no limit active), with psi_s for the stator-flux option."""
@@ -465,7 +524,7 @@ def test_config_check(lib, field, value):
         assert st == 1 and msg.value.decode() == expected
 
 
-@pytest.mark.parametrize("field", ["load_estimated", "use_stator_flux"])
+@pytest.mark.parametrize("field", ["load_estimated", "use_stator_flux", "overmodulation"])
 def test_config_flags(lib, field):
     cfg = LawConfig()
     lib.sm_law_config_default(ctypes.byref(cfg))
@@ -485,6 +544,7 @@ def test_defaults_are_pythons(lib):
     assert (cfg.V_dc, cfg.Ts, cfg.phi_min, cfg.load_estimated, cfg.g_theta, cfg.theta_max,
             cfg.use_stator_flux) == (pc.V_dc, pc.Ts, pc.phi_min, pc.load_mode == "estimated", pc.g_theta,
                                      pc.theta_max, pc.use_stator_flux)
+    assert cfg.overmodulation == (pc.modulation == "overmodulation") == 0
 
 
 # ------------------------------------------------------------------------------ the shaper

@@ -74,6 +74,8 @@ def _coded(fields):
     fields.pop("true_i_mu", None)
     if "load_mode" in fields:
         fields["load_estimated"] = int(fields.pop("load_mode") == "estimated")
+    if "modulation" in fields:
+        fields["overmodulation"] = int(fields.pop("modulation") == "overmodulation")
     if "flux_source" in fields:
         fields["closed_loop"] = int(fields.pop("observer") == "closed_loop")
         fields["observer"] = int(fields.pop("flux_source") == "observer")
@@ -237,7 +239,7 @@ SM_ERR_PARAM, SM_ERR_ARG = 1, 4  # sm_common.h
 def test_every_string_parameter_but_the_file_name_has_choices_and_its_description_names_them():
     assert {n for n, v in STRING_PARAMETERS.items() if not v.choices} == {"table_file"}  # any path
     assert set(CHOICES) == {"curve", "dc_link", "dc_source", "inverter", "mode", "load_mode", "flux_source",
-                            "observer", "speed_source", "flux_mode"}
+                            "observer", "speed_source", "flux_mode", "modulation"}
     for name, choices in CHOICES.items():
         words = set(re.findall(r"[A-Za-z_]+", STRING_PARAMETERS[name].description))
         assert set(choices) <= words, (name, choices)

@@ -89,6 +89,7 @@ from satmotor.control.measurements import (
     from_rotor_flux,
     from_stator_flux,
 )
+from satmotor.control.modulation import MODULATIONS, limit_voltage
 from satmotor.errors import ParameterError, require_choice, require_number
 
 _SQRT3 = math.sqrt(3.0)
@@ -127,8 +128,9 @@ class BacksteppingGains:
 class ControllerConfig:
     """Controller settings.
 
-    V_dc [V] (voltage vector limited to V_dc/sqrt(3)); Ts [s] sample period of the zero-order
-    hold (0: continuous, no mid-sample compensation); phi_min [Wb] flux floor of the
+    V_dc [V] (voltage vector limited to V_dc/sqrt(3), or with modulation 'overmodulation' to the
+    inverter's hexagon, up to 2 V_dc/3: :mod:`satmotor.control.modulation`); Ts [s] sample period
+    of the zero-order hold (0: continuous, no mid-sample compensation); phi_min [Wb] flux floor of the
     singularity guard; load_mode 'known' (uses T_L, dT_L/dt) or 'estimated' (adaptive theta_hat);
     g_theta [1/s^2] adaptation gain; theta_max [rad/s^2] bound on theta_hat = T_L/J;
     use_stator_flux: magnetizing state from psi_s as well (seed H1) instead of the curve;
@@ -149,12 +151,14 @@ class ControllerConfig:
     theta_max: float = 1.0e4
     use_stator_flux: bool = False
     true_i_mu: bool = False
+    modulation: str = "linear"
 
     def __post_init__(self):
         require_number("V_dc", self.V_dc, 0)
         require_number("Ts", self.Ts, 0, inclusive=True)
         require_number("phi_min", self.phi_min, 0)
         require_choice("load_mode", self.load_mode, LOAD_MODES)
+        require_choice("modulation", self.modulation, MODULATIONS)
         require_number("g_theta", self.g_theta, 0)
         require_number("theta_max", self.theta_max, 0)
         for name in ("use_stator_flux", "true_i_mu"):
@@ -369,17 +373,9 @@ def control(meas, ref, load, params, gains, cfg, theta_hat=0.0, integ=(0.0, 0.0)
     q2 = -gains.d2 * z2 - beta2 - (0.0 if q_lim else z1)
     vd = (L22 * q1 - L12 * q2) / W
     vq = (L11 * q2 - L21 * q1) / W
-    vmax = cfg.V_dc / _SQRT3
-    vn = math.hypot(vd, vq)
-    vlim = not vn <= vmax
-    if vlim:
-        if math.isfinite(vn):
-            f = vmax / vn
-            vd, vq = vd * f, vq * f
-        else:  # overflow: keep the direction where it is defined
-            vd, vq = (math.copysign(vmax, vd), 0.0) if abs(vd) >= abs(vq) else (0.0, math.copysign(vmax, vq))
     rho_out = ms.rho + 0.5 * ws * cfg.Ts
     c, s = math.cos(rho_out), math.sin(rho_out)
+    vd, vq, vlim = limit_voltage(vd, vq, c, s, cfg.V_dc, cfg.modulation == "overmodulation")
     e0, z0 = integ
     V = 0.5 * (e1 * e1 + e2 * e2 + z1 * z1 + z2 * z2 + gains.c0 * e0 * e0 + gains.d0 * z0 * z0)
     # anti-windup: an integral state stops while the voltage is limited, or while its virtual control

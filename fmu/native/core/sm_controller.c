@@ -70,6 +70,15 @@ int sm_controller_init(sm_controller *u, const sm_controller_params *v, const sm
             msg[0] = '\0';
         }
     }
+    /* modulation likewise (the backstepping law's; the pi baseline keeps the linear limit) */
+    if (sm_choice_parse(SM_CHOICE_PARAM_modulation, v->modulation, &k, msg, msg_len) != SM_CORE_OK) {
+        if (mode != SM_CHOICE_mode_pi) {
+            return SM_ERR_PARAM;
+        }
+        if (msg != NULL && msg_len > 0) {
+            msg[0] = '\0';
+        }
+    }
     /* the settings from the parameters (generated from Variable.fills: as ControllerUnit's dataclasses) */
     sm_controller_settings(v, &g, &cfg, &dc, &ig);
     if ((st = sm_drive_init(&u->drive, mode, &p, &g, &cfg, &ig, &dc, msg, msg_len))) {

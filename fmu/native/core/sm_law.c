@@ -208,6 +208,9 @@ int sm_law_config_check(const sm_law_config *cfg, char *msg, size_t msg_len)
     if ((st = require_flag("load_estimated", cfg->load_estimated,
                            "must be 0 ('known') or 1 ('estimated')", msg, msg_len)) != SM_CORE_OK)
         return st;
+    if ((st = require_flag("overmodulation", cfg->overmodulation,
+                           "must be 0 ('linear') or 1 ('overmodulation')", msg, msg_len)) != SM_CORE_OK)
+        return st;
     if ((st = sm_require_number("g_theta", cfg->g_theta, 1, 0.0, 0, msg, msg_len)) != SM_CORE_OK) return st;
     if ((st = sm_require_number("theta_max", cfg->theta_max, 1, 0.0, 0, msg, msg_len)) != SM_CORE_OK)
         return st;
@@ -221,6 +224,52 @@ int sm_law_config_check(const sm_law_config *cfg, char *msg, size_t msg_len)
 static double clip(double x, double lo, double hi)
 {
     return x < lo ? lo : x > hi ? hi : x;
+}
+
+/* modulation.phase_spread: the largest line-to-line voltage [V], max - min of the phase voltages */
+static double phase_spread(double v_alpha, double v_beta)
+{
+    double s32 = 0.5 * sqrt(3.0), v0 = v_alpha, v1, v2, hi, lo;
+    v1 = -0.5 * v_alpha + s32 * v_beta;
+    v2 = -0.5 * v_alpha - s32 * v_beta;
+    hi = v0 > v1 ? v0 : v1;
+    hi = hi > v2 ? hi : v2;
+    lo = v0 < v1 ? v0 : v1;
+    lo = lo < v2 ? lo : v2;
+    return hi - lo;
+}
+
+/* modulation.limit_voltage (sm_law.h) */
+int sm_voltage_limit(double *vd, double *vq, double c, double s, double V_dc, int overmodulation)
+{
+    double vmax = V_dc / sqrt(3.0), vn = sm_hypot(*vd, *vq);
+    int vlim;
+    if (overmodulation) {
+        double spread = phase_spread(c * *vd - s * *vq, s * *vd + c * *vq);
+        vlim = !(spread <= V_dc);
+        if (vlim && isfinite(spread)) {
+            double f = V_dc / spread;
+            *vd = *vd * f;
+            *vq = *vq * f;
+            return 1;
+        }
+    } else {
+        vlim = !(vn <= vmax);
+    }
+    if (vlim) {
+        if (isfinite(vn)) {
+            double f = vmax / vn;
+            *vd = *vd * f;
+            *vq = *vq * f;
+        } else if (fabs(*vd) >= fabs(*vq)) { /* overflow: keep the direction where it is defined */
+            *vd = copysign(vmax, *vd);
+            *vq = 0.0;
+        } else {
+            *vd = 0.0;
+            *vq = copysign(vmax, *vq);
+        }
+    }
+    return vlim;
 }
 
 /* backstepping._core; adapt NULL or (g_theta, theta_max). */
@@ -352,7 +401,7 @@ int sm_control(const double meas[SM_MEAS_LEN], const double ref[6], const double
     sm_magnetizing ms;
     sm_error_state es;
     double w, I, dm, theta, theta_dot, adapt[2] = {0.0, 0.0}, e0 = 0.0, z0 = 0.0, L11, L12, L21, L22, W;
-    double q1, q2, vd, vq, vmax, vn, rho_out, cr, sr, V;
+    double q1, q2, vd, vq, rho_out, cr, sr, V;
     int st, finite, vlim;
     if (out != NULL) memset(out, 0, sizeof *out);
     if (meas == NULL || ref == NULL || p == NULL || g == NULL || cfg == NULL || out == NULL
@@ -411,25 +460,10 @@ int sm_control(const double meas[SM_MEAS_LEN], const double ref[6], const double
     q2 = -g->d2 * es.z2 - es.beta2 - (es.torque_limited ? 0.0 : es.z1);
     vd = (L22 * q1 - L12 * q2) / W;
     vq = (L11 * q2 - L21 * q1) / W;
-    vmax = cfg->V_dc / sqrt(3.0);
-    vn = sm_hypot(vd, vq);
-    vlim = !(vn <= vmax);
-    if (vlim) {
-        if (isfinite(vn)) {
-            double f = vmax / vn;
-            vd = vd * f;
-            vq = vq * f;
-        } else if (fabs(vd) >= fabs(vq)) { /* overflow: keep the direction where it is defined */
-            vd = copysign(vmax, vd);
-            vq = 0.0;
-        } else {
-            vd = 0.0;
-            vq = copysign(vmax, vq);
-        }
-    }
     rho_out = ms.rho + 0.5 * es.omega_s * cfg->Ts;
     cr = cos(rho_out);
     sr = sin(rho_out);
+    vlim = sm_voltage_limit(&vd, &vq, cr, sr, cfg->V_dc, cfg->overmodulation);
     V = 0.5 * (es.e1 * es.e1 + es.e2 * es.e2 + es.z1 * es.z1 + es.z2 * es.z2 + g->c0 * e0 * e0
                + g->d0 * z0 * z0);
     out->v_s_alpha = cr * vd - sr * vq;

@@ -106,7 +106,8 @@ void sm_gains_default(sm_gains *g);
 int sm_gains_check(const sm_gains *g, char *msg, size_t msg_len);
 
 /* ControllerConfig without true_i_mu (a design-comparison setting of the plain Python loop).
- * load_estimated: 0 = 'known' (T_L, dT_L/dt given), 1 = 'estimated' (adaptive theta_hat). */
+ * load_estimated: 0 = 'known' (T_L, dT_L/dt given), 1 = 'estimated' (adaptive theta_hat);
+ * overmodulation: 0 = 'linear', 1 = 'overmodulation'. */
 typedef struct {
     double V_dc;         /* [V] > 0; |v_s| <= V_dc / sqrt(3) */
     double Ts;           /* [s] >= 0 (0: continuous, no mid-sample rotation) */
@@ -115,7 +116,14 @@ typedef struct {
     double g_theta;      /* [1/s^2] > 0 */
     double theta_max;    /* [rad/s^2] > 0 */
     int use_stator_flux; /* 0 or 1 */
+    int overmodulation;  /* modulation: 0 'linear' (|v_s| <= V_dc / sqrt(3)), 1 'overmodulation' (the
+                          * hexagon, direction kept: satmotor/control/modulation.py) */
 } sm_law_config;
+
+/* modulation.limit_voltage: the command (vd, vq) [V] in the frame at angle (cos c, sin s) limited in
+ * place, onto the circle V_dc / sqrt(3) (overmodulation 0) or the inverter's hexagon, its direction
+ * kept (1); returns 1 where it was limited.  vd, vq not NULL. */
+int sm_voltage_limit(double *vd, double *vq, double c, double s, double V_dc, int overmodulation);
 
 /* The Python defaults, ControllerConfig() (defined in the generated sm_params.c). */
 void sm_law_config_default(sm_law_config *cfg);

@@ -70,6 +70,7 @@ GENERATOR_FILES = (Path(__file__), Path(atan_tables.__file__), Path(atan_tables.
 DATACLASS_STRUCTS = {
     "gains": (itf.SETTINGS["gains"], {}),
     "law_config": (itf.SETTINGS["law_config"], {"load_mode": ("load_estimated", "estimated"),
+                                                "modulation": ("overmodulation", "overmodulation"),
                                                 "true_i_mu": None}),  # a design-comparison setting
     "drive_config": (itf.SETTINGS["drive_config"], {"flux_source": ("observer", "observer"),
                                                     "observer": ("closed_loop", "closed_loop"),
