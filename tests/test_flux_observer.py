@@ -1,4 +1,4 @@
-"""ClosedLoopObserver (satmotor.control.flux_observer) against the plant's true flux and speed and against
+"""ClosedLoopObserver (satmotor.estimation.flux_observer) against the plant's true flux and speed and against
 the closed form of its error dynamics; the C twin (fmu/native/core/sm_flux_observer.c) sample by sample.
 
 The plant (satmotor.machine.plant, its own equations and integrator) runs at a constant speed (a huge
@@ -16,9 +16,9 @@ import numpy as np
 import pytest
 from native_core import build, declare
 
-from satmotor.control.flux_observer import N_STATE, ClosedLoopObserver
-from satmotor.control.observer import RotorFluxObserver
 from satmotor.errors import ParameterError
+from satmotor.estimation.flux_observer import N_STATE, ClosedLoopObserver
+from satmotor.estimation.observer import RotorFluxObserver
 from satmotor.machine.library import preset
 from satmotor.machine.magnetics import LinearCurve
 from satmotor.machine.params import MotorParams

@@ -1,5 +1,5 @@
-"""The rotor-flux observer in C (fmu/native/core/sm_observer.c) against satmotor.control.observer, sample by
-sample over random input sequences, every curve family: the Python is the specification."""
+"""The rotor-flux observer in C (fmu/native/core/sm_observer.c) against satmotor.estimation.observer,
+sample by sample over random input sequences, every curve family: the Python is the specification."""
 
 import ctypes
 
@@ -8,7 +8,7 @@ import pytest
 from conftest import CURVES
 from native_core import build, declare
 
-from satmotor.control.observer import RotorFluxObserver
+from satmotor.estimation.observer import RotorFluxObserver
 from satmotor.machine.params import MotorParams
 
 D = ctypes.c_double

@@ -1,5 +1,5 @@
-"""RotorFluxObserver (satmotor.control.observer): against an independent ODE solve, against the plant, error
-decay from wrong initial estimates, R_r mismatch, state round trip and argument checks.
+"""RotorFluxObserver (satmotor.estimation.observer): against an independent ODE solve, against the plant,
+error decay from wrong initial estimates, R_r mismatch, state round trip and argument checks.
 
 Expected values come from scipy (solve_ivp, brentq, fsolve) on the equations written out here, from
 the plant's own state, or from the curve's closed forms; never from the observer itself.
@@ -12,8 +12,8 @@ import pytest
 from scipy.integrate import solve_ivp
 from scipy.optimize import brentq, fsolve
 
-from satmotor.control.observer import RotorFluxObserver
 from satmotor.errors import ParameterError
+from satmotor.estimation.observer import RotorFluxObserver
 from satmotor.machine.params import MotorParams, make_curve
 from satmotor.machine.plant import PSI_R_A, PSI_R_B, PSI_S_A, PSI_S_B, Plant, initial_state
 

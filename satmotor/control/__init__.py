@@ -6,7 +6,7 @@
 * :mod:`~satmotor.control.drive` -- the drive: pre-magnetization, current limit, integral action
   (its settings and output record in :mod:`~satmotor.control.drive_config`, the start from standstill
   in :mod:`~satmotor.control.startup`),
-  with :mod:`~satmotor.control.references` (shaped set-points), :mod:`~satmotor.control.observer`
+  with :mod:`~satmotor.control.references` (shaped set-points), :mod:`~satmotor.estimation.observer`
   (the open-loop flux observer), :mod:`~satmotor.control.measurements` (the magnetizing state
   from measured currents and fluxes) and :mod:`~satmotor.control.delay` (delay compensation).
 """

@@ -55,7 +55,6 @@ from satmotor.control.drive_config import (  # re-exported: the drive's callers 
     DriveOutput,
 )
 from satmotor.control.field_weakening import FieldWeakening
-from satmotor.control.flux_observer import ClosedLoopObserver
 from satmotor.control.ifoc import IFOCController, IFOCGains
 from satmotor.control.loss_min import LossMinimizer
 from satmotor.control.measurements import (
@@ -65,10 +64,11 @@ from satmotor.control.measurements import (
     MEAS_PSI_R_A,
     MEAS_PSI_R_B,
 )
-from satmotor.control.observer import RotorFluxObserver
 from satmotor.control.references import REF_RATE, REF_VALUE, ReferenceShaper
 from satmotor.control.startup import premag_output, switch_now, switch_state
 from satmotor.errors import ParameterError, require_number
+from satmotor.estimation.flux_observer import ClosedLoopObserver
+from satmotor.estimation.observer import RotorFluxObserver
 
 __all__ = ["PREMAG", "RUN", "FLUX_MODES", "FLUX_SOURCES", "OBSERVERS", "SPEED_SOURCES", "HOST_DELAY_MAX",
            "DriveConfig", "DriveOutput", "BacksteppingDrive", "IFOCDrive"]

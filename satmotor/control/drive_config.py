@@ -30,8 +30,8 @@ class DriveConfig:
     premag_boost [1]; premag_gain [Ohm] K_pm of the pre-magnetization current loop;
     flux_source 'measured' (the psi_r inputs, the seed's assumption) or 'observer'
     (from i_s, omega_m and the applied v_s); observer 'closed_loop'
-    (:class:`satmotor.control.flux_observer.ClosedLoopObserver`, current and voltage models blended) or
-    'current_model' (:class:`satmotor.control.observer.RotorFluxObserver`, open loop);
+    (:class:`satmotor.estimation.flux_observer.ClosedLoopObserver`, current and voltage models blended) or
+    'current_model' (:class:`satmotor.estimation.observer.RotorFluxObserver`, open loop);
     speed_source 'measured' (the omega_m input) or 'estimated' (the closed-loop observer's speed
     estimate; the omega_m input is not read; needs flux_source 'observer', observer 'closed_loop');
     speed_bandwidth [rad/s] of the speed estimate's adaptation; delay_samples 0 or 1
@@ -48,7 +48,7 @@ class DriveConfig:
     loss_R_fe [Ohm] the core-loss resistance of its loss model, 0: copper loss only).
     rs_adaptation: the closed-loop observer adapts R_s, and the law uses the estimate; rr_tracking: R_r
     from the temperature R_s_hat implies, in the observer and the law (needs rs_adaptation); both need
-    flux_source 'observer', observer 'closed_loop' (:mod:`satmotor.control.resistance`).
+    flux_source 'observer', observer 'closed_loop' (:mod:`satmotor.estimation.resistance`).
     """
 
     ref_bandwidth: float = 40.0

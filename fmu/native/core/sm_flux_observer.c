@@ -1,4 +1,4 @@
-/* satmotor/control/flux_observer.py in C: the same operations in the same order (see sm_flux_observer.h). */
+/* satmotor/estimation/flux_observer.py in C: the same operations in the same order (see sm_flux_observer.h). */
 #include "sm_flux_observer.h"
 
 #include <math.h>

@@ -1,5 +1,5 @@
 /* The closed-loop rotor-flux observer (current and voltage models blended by a speed-dependent gain, the
- * magnetizing curve inside; optionally speed-adaptive) of satmotor/control/flux_observer.py in C.  Its module
+ * magnetizing curve inside; optionally speed-adaptive) of satmotor/estimation/flux_observer.py in C.  Its module
  * docstring is the specification.  Plain struct (byte-copyable state).  C99, no global mutable state. */
 #ifndef SM_FLUX_OBSERVER_H
 #define SM_FLUX_OBSERVER_H

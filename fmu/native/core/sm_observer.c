@@ -1,4 +1,4 @@
-/* satmotor/control/observer.py in C: the same operations in the same order (see sm_observer.h). */
+/* satmotor/estimation/observer.py in C: the same operations in the same order (see sm_observer.h). */
 #include "sm_observer.h"
 
 #include <math.h>

@@ -1,4 +1,4 @@
-/* The rotor-flux observer (current model on the saturated machine) of satmotor/control/observer.py in C.
+/* The rotor-flux observer (current model on the saturated machine) of satmotor/estimation/observer.py in C.
  * Its module docstring is the specification: inputs linear between samples, the rotation by the
  * integrating factor (exact), the rest by RK4 in n_sub sub-steps.  Plain struct (byte-copyable
  * state).  C99, no global mutable state. */

@@ -1,7 +1,7 @@
 """On-line resistance tracking of the closed-loop observer (controller options ``rs_adaptation``,
 ``rr_tracking``; C: ``fmu/native/core/sm_flux_observer.c``, the same floats).
 
-Stator resistance.  Over one sample both models of :mod:`satmotor.control.flux_observer` start from the
+Stator resistance.  Over one sample both models of :mod:`satmotor.estimation.flux_observer` start from the
 same estimate; the voltage model integrates ``v_s - R_s_hat i_s``, so an R_s error adds
 ``Ts (R_s - R_s_hat) i_s`` to its stator flux and, through the algebra (``dpsi_r/dpsi_s`` about
 ``k + l_r/(k L)``, positive), about as much to its rotor flux: the residual ``d = psi_v - psi_i``

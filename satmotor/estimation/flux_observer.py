@@ -3,7 +3,7 @@
 Two models of the same rotor flux psi_r [Wb] (stationary frame, the plant's equations of
 :mod:`satmotor.machine.plant`, the controller's parameters):
 
-* the *current model* (:class:`satmotor.control.observer.RotorFluxObserver`)::
+* the *current model* (:class:`satmotor.estimation.observer.RotorFluxObserver`)::
 
       d psi_r/dt = -R_r i_r(psi_r, i_s) + n_p omega_m J2 psi_r = f_i(psi_r)
 
@@ -74,9 +74,9 @@ from __future__ import annotations
 
 import math
 
-from satmotor.control.observer import RotorFluxObserver
-from satmotor.control.resistance import adapt_stator_resistance, rotor_resistance
 from satmotor.errors import ParameterError, require_number
+from satmotor.estimation.observer import RotorFluxObserver
+from satmotor.estimation.resistance import adapt_stator_resistance, rotor_resistance
 
 POLE_FACTOR_MEASURED = 1.0  # [1] b/a with the speed measured: the current model alone at standstill
 POLE_FACTOR_ESTIMATED = 3.0  # [1] b/a with the speed estimated: the speed loop's damping (see the docstring)
@@ -99,12 +99,12 @@ class ClosedLoopObserver:
     alpha_w : float
         Bandwidth of the speed adaptation [rad/s], > 0.
     adapt_rs : bool
-        Adapt the stator resistance (:mod:`satmotor.control.resistance`); False: R_s as given.
+        Adapt the stator resistance (:mod:`satmotor.estimation.resistance`); False: R_s as given.
     track_rr : bool
         The rotor resistance from the temperature R_s_hat implies (needs ``adapt_rs``).
 
     With ``adapt_rs`` the drive calls :meth:`adapt_resistance` after a sample in which no limit held
-    (the freezing conditions of :mod:`satmotor.control.resistance`).
+    (the freezing conditions of :mod:`satmotor.estimation.resistance`).
     """
 
     __slots__ = ("params", "Ts", "estimate_speed", "alpha_w", "_cm", "_curve", "_k", "_ls", "_lr", "_Rs",
@@ -156,7 +156,7 @@ class ClosedLoopObserver:
 
     def adapt_resistance(self):
         """One step of the R_s adaptation (and R_r tracking) from the last update's residual, if it had
-        one (:mod:`satmotor.control.resistance`: held below PSI_ADAPT_MIN of flux, at low excitation)."""
+        one (:mod:`satmotor.estimation.resistance`: held below PSI_ADAPT_MIN of flux, at low excitation)."""
         r = self._res
         self._res = None
         if r is None or r[6] < PSI_ADAPT_MIN * PSI_ADAPT_MIN:

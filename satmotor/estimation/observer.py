@@ -114,7 +114,7 @@ class RotorFluxObserver:
 
     def restart(self, psi_r_alpha, psi_r_beta, i_s_alpha, i_s_beta, omega_m):
         """Set the estimate [Wb] and the previous sample (i_s [A], omega_m [rad/s]) unchecked (per-sample
-        path of :class:`satmotor.control.flux_observer.ClosedLoopObserver`)."""
+        path of :class:`satmotor.estimation.flux_observer.ClosedLoopObserver`)."""
         self._pa, self._pb, self._isa, self._isb = psi_r_alpha, psi_r_beta, i_s_alpha, i_s_beta
         self._w = omega_m
         self._has_prev = True
