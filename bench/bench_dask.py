@@ -17,16 +17,14 @@ from __future__ import annotations
 import argparse
 import os
 import resource
-import subprocess
 import sys
 import tempfile
-import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from bench.bench_montecarlo import study_file  # noqa: E402
+from bench.bench_montecarlo import batch, study_file  # noqa: E402
 from bench.common import measured, write_section  # noqa: E402
 
 
@@ -50,19 +48,6 @@ def _self_cpu():
     return r.ru_utime + r.ru_stime
 
 
-def _batch(path, out, fmu_dir, *args):
-    argv = [sys.executable, "-m", "orchestration", "batch", str(path), "--out", str(out), "--fmus",
-            str(fmu_dir), "--variant", "native", "--no-plot", *args]
-    before = resource.getrusage(resource.RUSAGE_CHILDREN)
-    w0 = time.perf_counter()
-    done = subprocess.run(argv, cwd=ROOT, capture_output=True, text=True)
-    wall = time.perf_counter() - w0
-    after = resource.getrusage(resource.RUSAGE_CHILDREN)
-    if done.returncode not in (0, 3):
-        raise SystemExit(f"batch failed ({done.returncode}): {done.stderr[-2000:]}")
-    return (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime), wall
-
-
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--samples", type=int, default=200, help="variants of the study (default 200)")
@@ -82,11 +67,11 @@ def main(argv=None):
         path = study_file(work, a.samples)
         pids = list(client.run(os.getpid).values())  # the worker processes (scheduler, nannies: here)
         for r in range(a.rounds):
-            c, w = _batch(path, work / f"local{r}", a.fmus, "--jobs", "2")
+            c, w = batch(path, work / f"local{r}", a.fmus, 2)
             cpu["local"] += c
             wall["local"] += w
             t0, s0 = _tree_cpu(pids), _self_cpu()
-            c, w = _batch(path, work / f"dask{r}", a.fmus, "--scheduler", cluster.scheduler_address)
+            c, w = batch(path, work / f"dask{r}", a.fmus, 2, "--scheduler", cluster.scheduler_address)
             cpu["dask"] += c + _tree_cpu(pids) - t0 + _self_cpu() - s0
             wall["dask"] += w
         client.close()

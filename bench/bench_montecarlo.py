@@ -146,9 +146,11 @@ def in_process(path, n, paths, work, engine):
             remove_extracted(d)
 
 
-def batch(path, out, fmu_dir, jobs):
+def batch(path, out, fmu_dir, jobs, *extra):
+    """``(CPU [s] of the whole process tree, wall [s])`` of ``batch`` on the study ``path``; ``extra``:
+    more options (``--scheduler ADDRESS``)."""
     args = [sys.executable, "-m", "orchestration", "batch", str(path), "--out", str(out),
-            "--fmus", str(fmu_dir), "--variant", "native", "--jobs", str(jobs), "--no-plot"]
+            "--fmus", str(fmu_dir), "--variant", "native", "--jobs", str(jobs), "--no-plot", *extra]
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     w0 = time.perf_counter()
     done = subprocess.run(args, cwd=ROOT, capture_output=True, text=True)
